@@ -1,0 +1,115 @@
+//! Per-frame cameras: the base camera with its animated tracks applied (the notes' "Animated
+//! Cameras"). Frame k is at t = k / fps seconds.
+//!
+//! | track | animates |
+//! |---|---|
+//! | observer | VRP |
+//! | look-around | VPN |
+//! | track | TP; VPN = TP − VRP |
+//! | zoom | the COP's n (along VPN) |
+//! | distort | the COP's (u, v) (orthogonal to VPN) |
+
+use glam::{DVec2, DVec3};
+
+use crate::camera::{Basis, BasisError, Camera};
+use crate::keyframes::{DirectionTrack, Track};
+
+/// Where the base camera points, when no track sets it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pointing {
+    /// A fixed view plane normal.
+    Vpn(DVec3),
+    /// A fixed target point (look-at): VPN = TP − VRP at every frame.
+    Target(DVec3),
+}
+
+/// A checked animation: the base camera, the tracks that override parts of it, and the timing.
+#[derive(Debug, Clone)]
+pub struct Animation {
+    /// Number of frames, ≥ 1.
+    pub frames: u64,
+    /// Frames per second, > 0.
+    pub fps: f64,
+    pub vrp: DVec3,
+    pub pointing: Pointing,
+    pub vuv: DVec3,
+    /// COP in view coordinates, n < 0.
+    pub cop: DVec3,
+    /// Window (width, height) in world units.
+    pub window: DVec2,
+    pub observer: Option<Track<DVec3>>,
+    pub look_around: Option<DirectionTrack>,
+    pub track: Option<Track<DVec3>>,
+    pub zoom: Option<Track<f64>>,
+    pub distort: Option<Track<DVec2>>,
+}
+
+/// The camera could not be formed at a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameError {
+    pub frame: u64,
+    /// Seconds.
+    pub time: f64,
+    pub cause: BasisError,
+}
+
+impl Animation {
+    /// Frame time in seconds.
+    pub fn time(&self, frame: u64) -> f64 {
+        frame as f64 / self.fps
+    }
+
+    /// The camera at `t` seconds, continuing from the previous frame's v (see
+    /// [`Basis::following`]).
+    pub fn camera_at(&self, t: f64, previous_v: Option<DVec3>) -> Result<Camera, BasisError> {
+        let vrp = self.observer.as_ref().map_or(self.vrp, |tr| tr.sample(t));
+        let vpn = if let Some(look) = &self.look_around {
+            look.sample(t)
+        } else if let Some(track) = &self.track {
+            track.sample(t) - vrp
+        } else {
+            match self.pointing {
+                Pointing::Vpn(vpn) => vpn,
+                Pointing::Target(tp) => tp - vrp,
+            }
+        };
+        let mut cop = self.cop;
+        if let Some(zoom) = &self.zoom {
+            cop.z = zoom.sample(t);
+        }
+        if let Some(distort) = &self.distort {
+            let uv = distort.sample(t);
+            cop.x = uv.x;
+            cop.y = uv.y;
+        }
+        Ok(Camera {
+            vrp_world: vrp,
+            basis: Basis::following(vpn, self.vuv, previous_v)?,
+            cop_view: cop,
+            window: self.window,
+        })
+    }
+
+    /// Every frame's camera, in order. The basis of each frame follows the one before it, so the
+    /// path is always evaluated from frame 0; this costs microseconds per frame.
+    pub fn cameras(&self) -> impl Iterator<Item = Result<(u64, Camera), FrameError>> + '_ {
+        let mut previous_v = None;
+        let mut failed = false;
+        (0..self.frames).map_while(move |frame| {
+            if failed {
+                return None;
+            }
+            let time = self.time(frame);
+            match self.camera_at(time, previous_v) {
+                Ok(cam) => {
+                    previous_v = Some(cam.basis.v);
+                    Some(Ok((frame, cam)))
+                }
+                Err(cause) => {
+                    failed = true;
+                    Some(Err(FrameError { frame, time, cause }))
+                }
+            }
+        })
+    }
+}

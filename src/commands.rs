@@ -1,0 +1,226 @@
+//! The command-line verbs, over a checked [`Document`]. Each writes its report to `out`; main.rs
+//! only parses arguments and maps errors to exit statuses.
+
+use std::io::Write;
+use std::ops::Range;
+use std::path::Path;
+use std::time::Instant;
+
+use crate::document::Document;
+use crate::error::{Error, Result};
+use crate::output::{frame_hash, frame_path, hash_line, parse_hashes, write_png};
+use crate::render::Renderer;
+
+/// Parses `A..B` (frames A to B − 1), `A..` (A to the end), `..B`, `A..=B` or a single `K`.
+pub fn parse_frames(spec: &str, frames: u64) -> Result<Range<u64>> {
+    let bad = |why: &str| Error::Usage(format!("--frames {spec:?}: {why}"));
+    let num = |s: &str| {
+        s.trim()
+            .parse::<u64>()
+            .map_err(|_| bad("expected A..B, A.., ..B, A..=B or K with whole numbers"))
+    };
+    let range = if let Some((a, b)) = spec.split_once("..=") {
+        let a = if a.is_empty() { 0 } else { num(a)? };
+        a..num(b)?.saturating_add(1)
+    } else if let Some((a, b)) = spec.split_once("..") {
+        let a = if a.is_empty() { 0 } else { num(a)? };
+        let b = if b.is_empty() { frames } else { num(b)? };
+        a..b
+    } else {
+        let k = num(spec)?;
+        k..k.saturating_add(1)
+    };
+    if range.start >= range.end {
+        return Err(bad("the range is empty"));
+    }
+    if range.end > frames {
+        return Err(bad(&format!("the animation has frames 0..{frames}")));
+    }
+    Ok(range)
+}
+
+/// Renders `frames` to PNGs in `dir` and writes `dir/hashes.txt`. The whole path is checked
+/// before anything is written.
+pub fn render(doc: &Document, dir: &Path, frames: Range<u64>, out: &mut dyn Write) -> Result<()> {
+    doc.check_path()?;
+    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let total = doc.animation.frames;
+    let started = Instant::now();
+    let mut lines = String::new();
+    for_each_frame(doc, frames.clone(), |frame, pixels| {
+        let hash = frame_hash(pixels);
+        write_png(&frame_path(dir, frame, total), pixels, doc.raster)?;
+        lines.push_str(&hash_line(frame, &hash));
+        lines.push('\n');
+        Ok(())
+    })?;
+    let manifest = dir.join("hashes.txt");
+    std::fs::write(&manifest, lines).map_err(|source| Error::Write {
+        path: manifest,
+        source,
+    })?;
+    let count = frames.end - frames.start;
+    let secs = started.elapsed().as_secs_f64();
+    let _ = writeln!(
+        out,
+        "rendered {count} frame(s) of {}×{} to {} in {secs:.2} s ({:.1} ms/frame)",
+        doc.raster.width,
+        doc.raster.height,
+        dir.display(),
+        secs * 1e3 / count as f64
+    );
+    Ok(())
+}
+
+/// Renders `frames` and calls `sink` with each frame's RGB8 pixels, in order.
+pub fn for_each_frame(
+    doc: &Document,
+    frames: Range<u64>,
+    mut sink: impl FnMut(u64, &[u8]) -> Result<()>,
+) -> Result<()> {
+    let mut renderer = Renderer::new();
+    for item in doc.cameras() {
+        let (frame, camera) = item?;
+        if frame >= frames.end {
+            break;
+        }
+        if frame < frames.start {
+            continue;
+        }
+        let pixels = renderer.render(&camera, &doc.scene, doc.raster);
+        sink(frame, &pixels)?;
+    }
+    Ok(())
+}
+
+/// The `<frame> <sha256>` lines of `frames`, without writing images.
+pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, String)>> {
+    let mut out = Vec::new();
+    for_each_frame(doc, frames, |frame, pixels| {
+        out.push((frame, frame_hash(pixels)));
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// Compares the frames listed in `golden` (a hashes.txt) with fresh renders. Returns whether all
+/// match, and writes one line per differing frame.
+pub fn verify(doc: &Document, golden: &Path, out: &mut dyn Write) -> Result<bool> {
+    let text = std::fs::read_to_string(golden).map_err(|source| Error::Read {
+        path: golden.to_path_buf(),
+        source,
+    })?;
+    let expected = parse_hashes(golden, &text)?;
+    let total = doc.animation.frames;
+    let Some(last) = expected.iter().map(|(f, _)| *f).max() else {
+        return Err(Error::Golden {
+            path: golden.to_path_buf(),
+            message: "lists no frames".into(),
+        });
+    };
+    let mut ok = true;
+    for (frame, _) in expected.iter().filter(|(f, _)| *f >= total) {
+        let _ = writeln!(
+            out,
+            "frame {frame}: in {} but the animation has only {total} frames",
+            golden.display()
+        );
+        ok = false;
+    }
+    let actual = hashes(doc, 0..(last + 1).min(total))?;
+    for (frame, want) in expected.iter().filter(|(f, _)| *f < total) {
+        let got = &actual[*frame as usize].1;
+        if got != want {
+            let _ = writeln!(out, "frame {frame}: expected {want}, got {got}");
+            ok = false;
+        }
+    }
+    if ok {
+        let _ = writeln!(
+            out,
+            "{} frame(s) match {}",
+            expected.len(),
+            golden.display()
+        );
+    }
+    Ok(ok)
+}
+
+/// The evaluated camera per frame as CSV: frame, time, VRP, u, v, n, COP in world, window.
+pub fn path_csv(doc: &Document, out: &mut dyn Write) -> Result<()> {
+    let mut text = String::from(
+        "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h\n",
+    );
+    for item in doc.cameras() {
+        let (frame, cam) = item?;
+        let b = cam.basis;
+        let cop = cam.cop_world();
+        let cols = [
+            doc.animation.time(frame),
+            cam.vrp_world.x,
+            cam.vrp_world.y,
+            cam.vrp_world.z,
+            b.u.x,
+            b.u.y,
+            b.u.z,
+            b.v.x,
+            b.v.y,
+            b.v.z,
+            b.n.x,
+            b.n.y,
+            b.n.z,
+            cop.x,
+            cop.y,
+            cop.z,
+            cam.window.x,
+            cam.window.y,
+        ];
+        text.push_str(&frame.to_string());
+        for c in cols {
+            text.push(',');
+            text.push_str(&c.to_string());
+        }
+        text.push('\n');
+    }
+    out.write_all(text.as_bytes())
+        .map_err(|source| Error::Write {
+            path: "<stdout>".into(),
+            source,
+        })
+}
+
+/// A one-line summary of a valid file, after evaluating every frame's camera.
+pub fn check(doc: &Document, out: &mut dyn Write) -> Result<()> {
+    doc.check_path()?;
+    let a = &doc.animation;
+    let mut tracks = Vec::new();
+    for (name, on) in [
+        ("Observer", a.observer.is_some()),
+        ("LookAround", a.look_around.is_some()),
+        ("Track", a.track.is_some()),
+        ("Zoom", a.zoom.is_some()),
+        ("Distort", a.distort.is_some()),
+    ] {
+        if on {
+            tracks.push(name);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "{}: ok: {} frame(s) at {} fps, {}×{} with {}×{} samples, {} sphere(s), {} light(s), tracks: {}",
+        doc.path.display(),
+        a.frames,
+        a.fps,
+        doc.raster.width,
+        doc.raster.height,
+        doc.raster.samples,
+        doc.raster.samples,
+        doc.scene.spheres.len(),
+        doc.scene.lights.len(),
+        if tracks.is_empty() { "none".to_string() } else { tracks.join(", ") }
+    );
+    Ok(())
+}

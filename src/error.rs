@@ -1,0 +1,104 @@
+//! Typed errors: each says where the problem is (file, line and column, field, frame time) and what
+//! is wrong. The binary prints the whole chain and maps [`Error::is_bad_input`] to exit status 2.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// One problem found while checking a keyframe file, named by the field it concerns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problem {
+    /// Dotted path of the field, e.g. `animate[1].keys[2].t`.
+    pub field: String,
+    /// What is wrong and, where it helps, what to do.
+    pub message: String,
+}
+
+impl Problem {
+    pub fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Problem {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.field, self.message)
+    }
+}
+
+/// The problems of one file, printed one per line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problems(pub Vec<Problem>);
+
+impl fmt::Display for Problems {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, p) in self.0.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "  {p}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Everything that can go wrong in campath.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}:{line}:{col}: {message}", path.display())]
+    Parse {
+        path: PathBuf,
+        /// 1-based line, as RON reports it.
+        line: usize,
+        /// 1-based column, as RON reports it.
+        col: usize,
+        message: String,
+    },
+    #[error("{}: {} problem(s):\n{problems}", path.display(), problems.0.len())]
+    Invalid { path: PathBuf, problems: Problems },
+    #[error("{}: frame {frame} (t = {time} s): {message}", path.display())]
+    Frame {
+        path: PathBuf,
+        frame: u64,
+        /// Frame time in seconds.
+        time: f64,
+        message: String,
+    },
+    #[error("{}: {message}", path.display())]
+    Golden { path: PathBuf, message: String },
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: cannot encode PNG: {source}", path.display())]
+    Encode {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+    #[error("{0}")]
+    Usage(String),
+}
+
+impl Error {
+    /// True when the user's input is at fault (exit status 2); false for I/O failures.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            Error::Parse { .. }
+                | Error::Invalid { .. }
+                | Error::Frame { .. }
+                | Error::Golden { .. }
+                | Error::Usage(_)
+        )
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

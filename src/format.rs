@@ -1,0 +1,151 @@
+//! The keyframe file as written: RON types that mirror the text, with every optional field an
+//! `Option`. Nothing here is checked; [`crate::document`] turns these into domain types. This is
+//! the only module that knows RON.
+
+use serde::Deserialize;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+/// `(x, y, z)` in world units (or linear RGB for colours).
+pub type Triple = (f64, f64, f64);
+/// `(a, b)`: a window's (width, height) or a COP's (u, v).
+pub type Pair = (f64, f64);
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FileSpec {
+    pub frames: Option<u64>,
+    pub fps: Option<f64>,
+    #[serde(default)]
+    pub image: ImageSpec,
+    pub camera: CameraSpec,
+    #[serde(default)]
+    pub animate: Vec<TrackSpec>,
+    #[serde(default)]
+    pub scene: SceneSpec,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageSpec {
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub samples: Option<u32>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub vrp: Option<Triple>,
+    pub vpn: Option<Triple>,
+    pub tp: Option<Triple>,
+    pub vuv: Option<Triple>,
+    pub cop: Option<Triple>,
+    pub window: Option<Pair>,
+    pub hfov: Option<f64>,
+    pub vfov: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+pub enum InterpolationSpec {
+    Step,
+    Linear,
+    Cosine,
+    CatmullRom,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KeySpec<V> {
+    pub t: f64,
+    pub value: V,
+    pub interpolation: Option<InterpolationSpec>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum TrackSpec {
+    Observer {
+        keys: Vec<KeySpec<Triple>>,
+        interpolation: Option<InterpolationSpec>,
+    },
+    LookAround {
+        keys: Vec<KeySpec<Triple>>,
+        interpolation: Option<InterpolationSpec>,
+    },
+    Track {
+        keys: Vec<KeySpec<Triple>>,
+        interpolation: Option<InterpolationSpec>,
+    },
+    Zoom {
+        keys: Vec<KeySpec<f64>>,
+        interpolation: Option<InterpolationSpec>,
+    },
+    Distort {
+        keys: Vec<KeySpec<Pair>>,
+        interpolation: Option<InterpolationSpec>,
+    },
+}
+
+impl TrackSpec {
+    /// The variant's name as written in the file.
+    pub fn name(&self) -> &'static str {
+        match self {
+            TrackSpec::Observer { .. } => "Observer",
+            TrackSpec::LookAround { .. } => "LookAround",
+            TrackSpec::Track { .. } => "Track",
+            TrackSpec::Zoom { .. } => "Zoom",
+            TrackSpec::Distort { .. } => "Distort",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    pub background: Option<Triple>,
+    pub ambient: Option<f64>,
+    #[serde(default)]
+    pub lights: Vec<LightSpec>,
+    #[serde(default)]
+    pub spheres: Vec<SphereSpec>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    pub direction: Triple,
+    pub color: Option<Triple>,
+    pub shadows: Option<bool>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    pub center: Triple,
+    pub radius: f64,
+    pub color: Option<Triple>,
+}
+
+/// Parses RON text. Optional fields may be written bare (`tp: (0.0, 0.0, 0.0)`), without `Some`.
+pub fn parse(path: &Path, text: &str) -> Result<FileSpec> {
+    ron::Options::default()
+        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+        .from_str(text)
+        .map_err(|e| Error::Parse {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            message: e.code.to_string(),
+        })
+}
+
+/// Reads and parses a keyframe file.
+pub fn read(path: &Path) -> Result<FileSpec> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse(path, &text)
+}

@@ -1,0 +1,292 @@
+//! Keyframe tracks: values at times, interpolated with the splines crate.
+//!
+//! A track holds its first value before its first key and its last value after its last key.
+//! Each key chooses how the segment that starts at it is interpolated. Catmull-Rom needs a key on
+//! either side of a segment, so the end segments get phantom keys mirrored through the end keys
+//! (time and value), which makes the end tangent the end segment's own slope.
+//!
+//! Direction tracks (VPN) are interpolated on the unit sphere: each segment is evaluated in the
+//! tangent plane of its start key (logarithmic map), then mapped back (exponential map), so a
+//! direction never passes through the zero vector and a key is hit exactly.
+
+use glam::{DVec2, DVec3};
+use splines::{Interpolate, Spline};
+use std::ops::{Add, Mul, Sub};
+
+/// How the segment from one key to the next is interpolated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interpolation {
+    /// Hold the key's value until the next key.
+    Step,
+    /// Straight line at constant rate.
+    Linear,
+    /// Ease in and out: the linear blend weighted by (1 − cos πs)/2.
+    Cosine,
+    /// Cubic through the neighbouring keys (non-uniform Catmull-Rom tangents, scaled by time).
+    CatmullRom,
+}
+
+/// One key: a value at a time in seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Key<V> {
+    /// Seconds.
+    pub t: f64,
+    pub value: V,
+    /// Interpolation of the segment from this key to the next.
+    pub interpolation: Interpolation,
+}
+
+/// A value a track can carry: scalars, pairs and triples of f64.
+pub trait Keyable:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f64, Output = Self> + std::fmt::Debug
+{
+}
+impl Keyable for f64 {}
+impl Keyable for DVec2 {}
+impl Keyable for DVec3 {}
+
+/// Wrapper that gives splines an [`Interpolate`] whose cosine goes through libm, so that results
+/// do not depend on the platform's math library.
+#[derive(Debug, Clone, Copy)]
+struct Knot<V>(V);
+
+impl<V: Keyable> Interpolate<f64> for Knot<V> {
+    fn step(t: f64, threshold: f64, a: Self, b: Self) -> Self {
+        if t < threshold {
+            a
+        } else {
+            b
+        }
+    }
+
+    fn lerp(t: f64, a: Self, b: Self) -> Self {
+        Knot(a.0 * (1.0 - t) + b.0 * t)
+    }
+
+    fn cosine(t: f64, a: Self, b: Self) -> Self {
+        let s = (1.0 - libm::cos(t * std::f64::consts::PI)) * 0.5;
+        Self::lerp(s, a, b)
+    }
+
+    fn cubic_hermite(
+        t: f64,
+        x: (f64, Self),
+        a: (f64, Self),
+        b: (f64, Self),
+        y: (f64, Self),
+    ) -> Self {
+        // Hermite basis with Catmull-Rom tangents scaled to the segment's duration.
+        let (t2, t3) = (t * t, t * t * t);
+        let span = b.0 - a.0;
+        let m0 = (b.1 .0 - x.1 .0) * (span / (b.0 - x.0));
+        let m1 = (y.1 .0 - a.1 .0) * (span / (y.0 - a.0));
+        Knot(
+            a.1 .0 * (2.0 * t3 - 3.0 * t2 + 1.0)
+                + m0 * (t3 - 2.0 * t2 + t)
+                + b.1 .0 * (3.0 * t2 - 2.0 * t3)
+                + m1 * (t3 - t2),
+        )
+    }
+
+    fn quadratic_bezier(t: f64, a: Self, u: Self, b: Self) -> Self {
+        let s = 1.0 - t;
+        Knot(a.0 * (s * s) + u.0 * (2.0 * s * t) + b.0 * (t * t))
+    }
+
+    fn cubic_bezier(t: f64, a: Self, u: Self, v: Self, b: Self) -> Self {
+        let s = 1.0 - t;
+        Knot(
+            a.0 * (s * s * s)
+                + u.0 * (3.0 * s * s * t)
+                + v.0 * (3.0 * s * t * t)
+                + b.0 * (t * t * t),
+        )
+    }
+
+    fn cubic_bezier_mirrored(t: f64, a: Self, u: Self, v: Self, b: Self) -> Self {
+        Self::cubic_bezier(t, a, u, Knot(b.0 + b.0 - v.0), b)
+    }
+}
+
+fn splines_interpolation<V>(i: Interpolation) -> splines::Interpolation<f64, Knot<V>> {
+    match i {
+        // The threshold 1 holds the value over the whole segment; the next key starts its own.
+        Interpolation::Step => splines::Interpolation::Step(1.0),
+        Interpolation::Linear => splines::Interpolation::Linear,
+        Interpolation::Cosine => splines::Interpolation::Cosine,
+        Interpolation::CatmullRom => splines::Interpolation::CatmullRom,
+    }
+}
+
+/// Builds a splines curve over `keys` with phantom keys mirrored through both ends.
+/// Needs at least two keys with strictly increasing times.
+fn spline_with_phantoms<V: Keyable>(keys: &[Key<V>]) -> Spline<f64, Knot<V>> {
+    let n = keys.len();
+    debug_assert!(n >= 2);
+    let mirror = |end: &Key<V>, inner: &Key<V>| {
+        splines::Key::new(
+            2.0 * end.t - inner.t,
+            Knot(end.value * 2.0 - inner.value),
+            splines::Interpolation::Linear,
+        )
+    };
+    let mut out = Vec::with_capacity(n + 2);
+    out.push(mirror(&keys[0], &keys[1]));
+    out.extend(
+        keys.iter()
+            .map(|k| splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation))),
+    );
+    out.push(mirror(&keys[n - 1], &keys[n - 2]));
+    Spline::from_vec(out)
+}
+
+/// A checked track: at least one key, times finite and strictly increasing.
+#[derive(Debug, Clone)]
+pub struct Track<V: Keyable> {
+    keys: Vec<Key<V>>,
+    spline: Option<Spline<f64, Knot<V>>>,
+}
+
+impl<V: Keyable> Track<V> {
+    /// `keys` must be non-empty with finite, strictly increasing times and finite values
+    /// ([`crate::document`] checks this before calling).
+    pub fn new(keys: Vec<Key<V>>) -> Self {
+        assert!(!keys.is_empty(), "a track needs a key");
+        debug_assert!(keys.windows(2).all(|w| w[0].t < w[1].t));
+        let spline = (keys.len() >= 2).then(|| spline_with_phantoms(&keys));
+        Track { keys, spline }
+    }
+
+    pub fn keys(&self) -> &[Key<V>] {
+        &self.keys
+    }
+
+    /// The value at `t` seconds; held constant before the first and after the last key.
+    pub fn sample(&self, t: f64) -> V {
+        let (first, last) = (&self.keys[0], &self.keys[self.keys.len() - 1]);
+        match &self.spline {
+            None => first.value,
+            Some(_) if t <= first.t => first.value,
+            Some(_) if t >= last.t => last.value,
+            Some(spline) => {
+                spline
+                    .sample(t)
+                    .expect("phantom keys give every inner segment its neighbours")
+                    .0
+            }
+        }
+    }
+}
+
+/// A track of unit directions, interpolated on the sphere.
+#[derive(Debug, Clone)]
+pub struct DirectionTrack {
+    keys: Vec<Key<DVec3>>,
+    /// Picks the way round for keys 180° apart: the turn is about this up vector.
+    up: DVec3,
+}
+
+impl DirectionTrack {
+    /// `keys` as for [`Track::new`], with non-zero values (normalised here). `up` picks the
+    /// rotation between opposite directions: about `up`, turning towards `direction × up`.
+    pub fn new(keys: Vec<Key<DVec3>>, up: DVec3) -> Self {
+        assert!(!keys.is_empty(), "a track needs a key");
+        let keys = keys
+            .into_iter()
+            .map(|k| Key {
+                value: k.value.normalize(),
+                ..k
+            })
+            .collect();
+        DirectionTrack { keys, up }
+    }
+
+    pub fn keys(&self) -> &[Key<DVec3>] {
+        &self.keys
+    }
+
+    /// The unit direction at `t` seconds, held before the first and after the last key.
+    pub fn sample(&self, t: f64) -> DVec3 {
+        let keys = &self.keys;
+        let n = keys.len();
+        if n == 1 || t <= keys[0].t {
+            return keys[0].value;
+        }
+        if t >= keys[n - 1].t {
+            return keys[n - 1].value;
+        }
+        // Segment i covers [t_i, t_{i+1}).
+        let i = keys.partition_point(|k| k.t <= t) - 1;
+        let base = keys[i].value;
+        let local = |j: usize| Key {
+            value: log_map(base, keys[j].value, self.up),
+            ..keys[j]
+        };
+        let mut window = Vec::with_capacity(4);
+        window.push(if i > 0 {
+            local(i - 1)
+        } else {
+            mirror(&local(i), &local(i + 1))
+        });
+        window.push(local(i));
+        window.push(local(i + 1));
+        window.push(if i + 2 < n {
+            local(i + 2)
+        } else {
+            mirror(&local(i + 1), &local(i))
+        });
+        let spline = Spline::from_vec(
+            window
+                .iter()
+                .map(|k| {
+                    splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation))
+                })
+                .collect(),
+        );
+        let w = spline
+            .sample(t)
+            .expect("the window holds the segment's neighbours")
+            .0;
+        exp_map(base, w)
+    }
+}
+
+fn mirror(end: &Key<DVec3>, inner: &Key<DVec3>) -> Key<DVec3> {
+    Key {
+        t: 2.0 * end.t - inner.t,
+        value: end.value * 2.0 - inner.value,
+        interpolation: Interpolation::Linear,
+    }
+}
+
+/// Logarithmic map of the unit sphere at `p`: the tangent vector at `p` whose direction points
+/// along the great circle to `q` and whose length is the angle in radians. For `q = −p` the
+/// great circle is the one about `up` (turning towards `p × up`), or any one if `up` ∥ `p`.
+pub fn log_map(p: DVec3, q: DVec3, up: DVec3) -> DVec3 {
+    let c = p.dot(q);
+    let w = q - p * c;
+    let s = w.length();
+    let angle = libm::atan2(s, c);
+    if s > 1e-300 && angle < std::f64::consts::PI - 1e-12 {
+        return w * (angle / s);
+    }
+    if c > 0.0 {
+        return DVec3::ZERO;
+    }
+    let side = p.cross(up);
+    let tangent = if side.length() > 1e-12 {
+        side.normalize()
+    } else {
+        p.any_orthonormal_vector()
+    };
+    tangent * angle
+}
+
+/// Exponential map of the unit sphere at `p`: walks `|w|` radians from `p` along `w`.
+pub fn exp_map(p: DVec3, w: DVec3) -> DVec3 {
+    let angle = w.length();
+    if angle == 0.0 {
+        return p;
+    }
+    (p * libm::cos(angle) + w * (libm::sin(angle) / angle)).normalize()
+}

@@ -1,0 +1,19 @@
+//! campath: animates the general UVN camera of the lecture notes from a RON keyframe file and
+//! ray casts each frame against spheres.
+//!
+//! The pipeline, one module per stage: [`format`] (RON file) → [`document`] (checked values) →
+//! [`keyframes`] (tracks) → [`animation`] (per-frame [`camera`]) → [`render`] (ray caster over the
+//! [`scene`]) → [`output`] (PNG, hashes). [`commands`] ties them together for the binary.
+
+pub mod animation;
+pub mod camera;
+pub mod commands;
+pub mod document;
+pub mod error;
+pub mod format;
+pub mod keyframes;
+pub mod output;
+pub mod render;
+pub mod scene;
+
+pub use error::{Error, Result};

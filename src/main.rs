@@ -1,0 +1,113 @@
+//! The `campath` command: parses arguments, runs a verb from [`campath::commands`], prints the
+//! error chain and exits 2 on bad input, 1 on other failures.
+
+use clap::{Parser, Subcommand};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use campath::commands;
+use campath::document::Document;
+use campath::output::hash_line;
+use campath::Error;
+
+#[derive(Parser)]
+#[command(
+    name = "campath",
+    version,
+    about = "Animate a general UVN camera from a RON keyframe file and ray cast spheres"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render frames to DIR/frame_NNNN.png and DIR/hashes.txt.
+    Render {
+        file: PathBuf,
+        /// Output folder [default: out/<file stem>/].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Frames to render: A..B (B excluded), A.., ..B, A..=B or K.
+        #[arg(long)]
+        frames: Option<String>,
+    },
+    /// Print `<frame> <sha256>` per frame without writing images.
+    Hash {
+        file: PathBuf,
+        #[arg(long)]
+        frames: Option<String>,
+    },
+    /// Compare fresh renders with a hashes.txt; exit 1 naming every frame that differs.
+    Verify { file: PathBuf, golden: PathBuf },
+    /// Print the evaluated camera per frame as CSV.
+    Path { file: PathBuf },
+    /// Validate a file, report every problem, and evaluate every frame's camera.
+    Check { file: PathBuf },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match run(cli.command, &mut out) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
+        Err(e) => {
+            let _ = out.flush();
+            eprintln!("campath: error: {e}");
+            let mut source = std::error::Error::source(&e);
+            while let Some(s) = source {
+                eprintln!("  caused by: {s}");
+                source = s.source();
+            }
+            ExitCode::from(if e.is_bad_input() { 2 } else { 1 })
+        }
+    }
+}
+
+fn frames(doc: &Document, spec: Option<&str>) -> Result<std::ops::Range<u64>, Error> {
+    match spec {
+        Some(s) => commands::parse_frames(s, doc.animation.frames),
+        None => Ok(0..doc.animation.frames),
+    }
+}
+
+fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
+    match command {
+        Command::Render {
+            file,
+            out: dir,
+            frames: spec,
+        } => {
+            let doc = Document::load(&file)?;
+            let range = frames(&doc, spec.as_deref())?;
+            let dir = dir.unwrap_or_else(|| default_out_dir(&file));
+            commands::render(&doc, &dir, range, out)?;
+        }
+        Command::Hash { file, frames: spec } => {
+            let doc = Document::load(&file)?;
+            let range = frames(&doc, spec.as_deref())?;
+            for (frame, hash) in commands::hashes(&doc, range)? {
+                let _ = writeln!(out, "{}", hash_line(frame, &hash));
+            }
+        }
+        Command::Verify { file, golden } => {
+            let doc = Document::load(&file)?;
+            return commands::verify(&doc, &golden, out);
+        }
+        Command::Path { file } => commands::path_csv(&Document::load(&file)?, out)?,
+        Command::Check { file } => commands::check(&Document::load(&file)?, out)?,
+    }
+    Ok(true)
+}
+
+/// `out/<file stem>/`, relative to the working directory.
+fn default_out_dir(file: &Path) -> PathBuf {
+    let stem = file
+        .file_stem()
+        .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    Path::new("out").join(stem)
+}
