@@ -13,7 +13,7 @@ pub type Triple = (f64, f64, f64);
 pub type Pair = (f64, f64);
 
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "file")]
 pub struct FileSpec {
     pub frames: Option<u64>,
     pub fps: Option<f64>,
@@ -27,7 +27,7 @@ pub struct FileSpec {
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "image")]
 pub struct ImageSpec {
     pub width: Option<u32>,
     pub height: Option<u32>,
@@ -35,7 +35,7 @@ pub struct ImageSpec {
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "camera")]
 pub struct CameraSpec {
     pub vrp: Option<Triple>,
     pub vpn: Option<Triple>,
@@ -56,7 +56,7 @@ pub enum InterpolationSpec {
 }
 
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "key")]
 pub struct KeySpec<V> {
     pub t: f64,
     pub value: V,
@@ -64,7 +64,7 @@ pub struct KeySpec<V> {
 }
 
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "animate")]
 pub enum TrackSpec {
     Observer {
         keys: Vec<KeySpec<Triple>>,
@@ -102,7 +102,7 @@ impl TrackSpec {
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "scene")]
 pub struct SceneSpec {
     pub background: Option<Triple>,
     pub ambient: Option<f64>,
@@ -113,7 +113,7 @@ pub struct SceneSpec {
 }
 
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "light")]
 pub struct LightSpec {
     pub direction: Triple,
     pub color: Option<Triple>,
@@ -121,7 +121,7 @@ pub struct LightSpec {
 }
 
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "sphere")]
 pub struct SphereSpec {
     pub center: Triple,
     pub radius: f64,

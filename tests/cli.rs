@@ -1,0 +1,262 @@
+//! The campath binary end to end, in temporary folders.
+
+mod common;
+
+use common::{campath, root, stderr, stdout};
+use std::path::Path;
+
+const SMALL: &str = "(
+    frames: 4, fps: 4.0,
+    image: (width: 32, height: 18),
+    camera: (vrp: (0.0, 1.0, -6.0), tp: (0.0, 0.0, 0.0), window: (1.6, 0.9)),
+    animate: [Observer(keys: [(t: 0.0, value: (0.0, 1.0, -6.0)), (t: 1.0, value: (2.0, 1.0, -5.0))])],
+    scene: (lights: [(direction: (-1.0, -2.0, 1.0))], spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0, color: (0.9, 0.2, 0.2))]),
+)";
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    std::fs::write(dir.join(name), text).unwrap();
+    name.to_string()
+}
+
+#[test]
+fn render_writes_frames_and_hashes_that_match_the_pngs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let o = campath(tmp.path(), &["render", &f], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("rendered 4 frame(s)"), "{}", stdout(&o));
+    let dir = tmp.path().join("out/small");
+    let manifest = std::fs::read_to_string(dir.join("hashes.txt")).unwrap();
+    let lines: Vec<&str> = manifest.lines().collect();
+    assert_eq!(lines.len(), 4);
+    for (k, line) in lines.iter().enumerate() {
+        // Recompute the hash from the PNG with an image library and an independent SHA-256
+        // (the coreutils sha256sum over the raw bytes).
+        let png = dir.join(format!("frame_{k:04}.png"));
+        let raw = image::open(&png).unwrap().to_rgb8().into_raw();
+        assert_eq!(raw.len(), 32 * 18 * 3);
+        let rawfile = tmp.path().join("raw.bin");
+        std::fs::write(&rawfile, &raw).unwrap();
+        let sum = std::process::Command::new("sha256sum")
+            .arg(&rawfile)
+            .output()
+            .unwrap();
+        let sum = String::from_utf8(sum.stdout).unwrap();
+        let hex = sum.split_whitespace().next().unwrap();
+        assert_eq!(*line, format!("{k} {hex}"));
+    }
+    // `hash` prints the same lines without writing images.
+    let h = campath(tmp.path(), &["hash", &f], &[]);
+    assert_eq!(stdout(&h), manifest);
+}
+
+#[test]
+fn frames_option_and_out_option() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let o = campath(
+        tmp.path(),
+        &["render", &f, "--out", "elsewhere", "--frames", "1..3"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut names: Vec<String> = std::fs::read_dir(tmp.path().join("elsewhere"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["frame_0001.png", "frame_0002.png", "hashes.txt"]);
+    let all = stdout(&campath(tmp.path(), &["hash", &f], &[]));
+    let part = std::fs::read_to_string(tmp.path().join("elsewhere/hashes.txt")).unwrap();
+    let expect: Vec<&str> = all.lines().skip(1).take(2).collect();
+    assert_eq!(part.lines().collect::<Vec<_>>(), expect);
+    // Out of range.
+    let bad = campath(tmp.path(), &["render", &f, "--frames", "2..9"], &[]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("frames 0..4"), "{}", stderr(&bad));
+}
+
+#[test]
+fn verify_names_every_differing_frame() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let good = stdout(&campath(tmp.path(), &["hash", &f], &[]));
+    write(tmp.path(), "good.txt", &good);
+    let ok = campath(tmp.path(), &["verify", &f, "good.txt"], &[]);
+    assert!(ok.status.success(), "{}{}", stdout(&ok), stderr(&ok));
+    let mut lines: Vec<String> = good.lines().map(str::to_string).collect();
+    lines[1] = format!("1 {}", "0".repeat(64));
+    lines[3] = format!("3 {}", "f".repeat(64));
+    write(tmp.path(), "bad.txt", &lines.join("\n"));
+    let bad = campath(tmp.path(), &["verify", &f, "bad.txt"], &[]);
+    assert_eq!(bad.status.code(), Some(1));
+    let out = stdout(&bad);
+    assert!(
+        out.contains("frame 1:") && out.contains("frame 3:"),
+        "{out}"
+    );
+    assert!(
+        !out.contains("frame 0:") && !out.contains("frame 2:"),
+        "{out}"
+    );
+}
+
+#[test]
+fn path_prints_one_csv_row_per_frame() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let o = campath(tmp.path(), &["path", &f], &[]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(rows.len(), 5);
+    assert!(rows[0].starts_with("frame,t,vrp_x"));
+    let first: Vec<f64> = rows[1].split(',').map(|c| c.parse().unwrap()).collect();
+    assert_eq!(first.len(), 19);
+    // VRP at frame 0 is the first key; n points from it at the target (0, 0, 0).
+    assert_eq!(&first[2..5], &[0.0, 1.0, -6.0]);
+    let len = (1.0f64 + 36.0).sqrt();
+    assert!(
+        (first[11] - 0.0).abs() < 1e-15
+            && (first[12] + 1.0 / len).abs() < 1e-15
+            && (first[13] - 6.0 / len).abs() < 1e-15
+    );
+    // COP in world: VRP + n·(−1) for the default COP (0, 0, −1).
+    assert!((first[15] - (1.0 + 1.0 / len)).abs() < 1e-15);
+}
+
+#[test]
+fn check_accepts_every_example() {
+    for name in [
+        "observer",
+        "look_around",
+        "track",
+        "zoom",
+        "distort",
+        "flythrough",
+        "dolly_zoom",
+    ] {
+        let file = root().join(format!("animations/{name}.ron"));
+        let o = campath(&root(), &["check", file.to_str().unwrap()], &[]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(stdout(&o).contains(": ok:"));
+    }
+}
+
+/// Runs `check` and `render` on bad input: exit status 2, nothing written, and every expected
+/// fragment in the message.
+fn rejects(text: &str, expect: &[&str]) {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "bad.ron", text);
+    for verb in ["check", "render"] {
+        let o = campath(tmp.path(), &[verb, &f], &[]);
+        assert_eq!(o.status.code(), Some(2), "{verb}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(!err.contains("panicked"), "{err}");
+        for e in expect {
+            assert!(err.contains(e), "{verb}: expected {e:?} in:\n{err}");
+        }
+    }
+    assert!(
+        !tmp.path().join("out").exists(),
+        "bad input must write nothing"
+    );
+}
+
+#[test]
+fn syntax_errors_name_line_and_column() {
+    rejects(
+        "(\n  camera: (vpn: (0.0, 0.0 1.0)),\n)",
+        &["bad.ron:2:", "Expected"],
+    );
+}
+
+#[test]
+fn unknown_fields_are_refused() {
+    rejects(
+        "(camera: (vpn: (0.0, 0.0, 1.0), zoom: 2.0))",
+        &["bad.ron:1:", "zoom"],
+    );
+}
+
+#[test]
+fn every_problem_is_reported_with_its_field() {
+    rejects(
+        "(frames: 0, fps: -1.0, image: (width: 0), camera: (vpn: (0.0, 0.0, 0.0), cop: (0.0, 0.0, 1.0)),
+          animate: [Observer(keys: [(t: 1.0, value: (0.0, 0.0, 0.0)), (t: 0.5, value: (1.0, 0.0, 0.0))])],
+          scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: -1.0, color: (2.0, 0.0, 0.0))]))",
+        &[
+            "frames: must be at least 1",
+            "fps: must be greater than 0",
+            "image.width",
+            "camera.vpn: must be a non-zero vector",
+            "camera.cop",
+            "animate[0] (Observer).keys[1].t: key times must strictly increase",
+            "scene.spheres[0].radius",
+            "scene.spheres[0].color",
+        ],
+    );
+}
+
+#[test]
+fn conflicting_tracks_name_both() {
+    rejects(
+        "(camera: (vrp: (0.0, 0.0, -5.0)), animate: [
+            LookAround(keys: [(t: 0.0, value: (0.0, 0.0, 1.0))]),
+            Track(keys: [(t: 0.0, value: (0.0, 0.0, 0.0))]),
+        ])",
+        &[
+            "animate[1] (Track)",
+            "animate[0] (LookAround)",
+            "view direction",
+        ],
+    );
+    rejects(
+        "(camera: (vpn: (0.0, 0.0, 1.0)), animate: [
+            Observer(keys: [(t: 0.0, value: (0.0, 0.0, 0.0))]),
+            Observer(keys: [(t: 0.0, value: (1.0, 0.0, 0.0))]),
+        ])",
+        &["animate[1] (Observer)", "animate[0] (Observer)"],
+    );
+}
+
+#[test]
+fn a_camera_that_breaks_mid_animation_names_the_frame_time() {
+    // The VRP passes through the fixed target at t = 1 s: VPN = TP − VRP is zero there.
+    rejects(
+        "(frames: 5, fps: 2.0, camera: (tp: (0.0, 0.0, 0.0)), animate: [
+            Observer(keys: [(t: 0.0, value: (0.0, 0.0, -2.0)), (t: 2.0, value: (0.0, 0.0, 2.0))], interpolation: Linear)])",
+        &["frame 2 (t = 1 s)", "VPN"],
+    );
+}
+
+#[test]
+fn static_camera_looking_along_vuv_is_an_error() {
+    rejects(
+        "(camera: (vpn: (0.0, 2.0, 0.0)))",
+        &["camera.vuv", "parallel"],
+    );
+}
+
+#[test]
+fn missing_file_is_an_io_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = campath(tmp.path(), &["check", "nope.ron"], &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("nope.ron: cannot read"));
+}
+
+#[test]
+fn a_minimal_file_is_a_few_lines() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "min.ron", "(camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),\n scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]))");
+    let o = campath(tmp.path(), &["render", &f], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(tmp.path().join("out/min/frame_0000.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(img.dimensions(), (640, 360));
+    // Flat white sphere in the middle, black background in the corner.
+    assert_eq!(img.get_pixel(320, 180).0, [255, 255, 255]);
+    assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+}

@@ -1,0 +1,40 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use campath::document::Document;
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Loads `animations/<name>.ron`.
+pub fn example(name: &str) -> Document {
+    Document::load(&root().join("animations").join(format!("{name}.ron"))).unwrap()
+}
+
+/// Checks RON text as if it were the file `test.ron`.
+pub fn doc(text: &str) -> Document {
+    Document::from_str(Path::new("test.ron"), text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Runs the campath binary in `dir` with `args` and optional environment.
+pub fn campath(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_campath"));
+    cmd.current_dir(dir).args(args);
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("campath runs")
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}

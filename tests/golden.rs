@@ -1,0 +1,71 @@
+//! Golden frame hashes for every example in animations/: the first, middle and last frame of
+//! each, rendered at 96×54 (the file's own samples) so the test stays fast.
+//!
+//! Regenerate after an intended change of the pictures with
+//! `UPDATE_GOLDEN=1 cargo test --test golden`, look at the frames, and commit tests/golden/.
+
+mod common;
+
+use campath::commands::for_each_frame;
+use campath::output::{frame_hash, hash_line, parse_hashes};
+use common::{example, root};
+
+const EXAMPLES: [&str; 7] = [
+    "observer",
+    "look_around",
+    "track",
+    "zoom",
+    "distort",
+    "flythrough",
+    "dolly_zoom",
+];
+
+fn hashes(name: &str) -> String {
+    let mut doc = example(name);
+    doc.raster.width = 96;
+    doc.raster.height = 54;
+    let last = doc.animation.frames - 1;
+    let mut out = String::new();
+    for k in [0, last / 2, last] {
+        for_each_frame(&doc, k..k + 1, |frame, pixels| {
+            out += &hash_line(frame, &frame_hash(pixels));
+            out.push('\n');
+            Ok(())
+        })
+        .unwrap();
+    }
+    out
+}
+
+#[test]
+fn examples_match_their_golden_hashes() {
+    let update = std::env::var_os("UPDATE_GOLDEN").is_some();
+    let mut failures = Vec::new();
+    for name in EXAMPLES {
+        let path = root().join(format!("tests/golden/{name}.txt"));
+        let got = hashes(name);
+        if update {
+            std::fs::write(&path, &got).unwrap();
+            continue;
+        }
+        let want = std::fs::read_to_string(&path).unwrap_or_else(|_| {
+            panic!(
+                "{} is missing: run UPDATE_GOLDEN=1 cargo test --test golden",
+                path.display()
+            )
+        });
+        let want = parse_hashes(&path, &want).unwrap();
+        let got = parse_hashes(&path, &got).unwrap();
+        for (w, g) in want.iter().zip(&got) {
+            if w != g {
+                failures.push(format!("{name} frame {}: golden {} got {}", w.0, w.1, g.1));
+            }
+        }
+        assert_eq!(want.len(), got.len(), "{name}: frame list changed");
+    }
+    assert!(
+        failures.is_empty(),
+        "frames differ from tests/golden (UPDATE_GOLDEN=1 to accept):\n{}",
+        failures.join("\n")
+    );
+}
