@@ -11,7 +11,7 @@
 
 use glam::{DVec2, DVec3};
 
-use crate::camera::{Basis, BasisError, Camera};
+use crate::camera::{Basis, Camera, CameraError};
 use crate::keyframes::{DirectionTrack, Track};
 
 /// Where the base camera points, when no track sets it.
@@ -50,7 +50,7 @@ pub struct FrameError {
     pub frame: u64,
     /// Seconds.
     pub time: f64,
-    pub cause: BasisError,
+    pub cause: CameraError,
 }
 
 impl Animation {
@@ -61,7 +61,7 @@ impl Animation {
 
     /// The camera at `t` seconds, continuing from the previous frame's v (see
     /// [`Basis::following`]).
-    pub fn camera_at(&self, t: f64, previous_v: Option<DVec3>) -> Result<Camera, BasisError> {
+    pub fn camera_at(&self, t: f64, previous_v: Option<DVec3>) -> Result<Camera, CameraError> {
         let vrp = self.observer.as_ref().map_or(self.vrp, |tr| tr.sample(t));
         let vpn = if let Some(look) = &self.look_around {
             look.sample(t)
@@ -81,6 +81,9 @@ impl Animation {
             let uv = distort.sample(t);
             cop.x = uv.x;
             cop.y = uv.y;
+        }
+        if !(cop.z < 0.0 && cop.is_finite()) {
+            return Err(CameraError::CopNotBehind(cop.z));
         }
         Ok(Camera {
             vrp_world: vrp,

@@ -28,30 +28,33 @@ pub struct Basis {
     pub n: DVec3,
 }
 
-/// Why a basis could not be formed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BasisError {
+/// Why a camera could not be formed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraError {
     /// VPN is zero, or not finite.
     ZeroVpn,
     /// VUV is zero, or not finite.
     ZeroVuv,
     /// VPN and VUV are parallel (within 1e-9 rad) and there is no previous frame to follow.
     Parallel,
+    /// The COP's n is not < 0 (an overshooting zoom track can push it through the view plane).
+    CopNotBehind(f64),
 }
 
-impl std::fmt::Display for BasisError {
+impl std::fmt::Display for CameraError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            BasisError::ZeroVpn => "the view plane normal (VPN) is zero or not finite; with a target point, TP equals VRP",
-            BasisError::ZeroVuv => "the view up vector (VUV) is zero or not finite",
-            BasisError::Parallel => "VPN is parallel to VUV, so no image 'up' is defined; change vuv or the view direction",
-        })
+        match self {
+            CameraError::ZeroVpn => f.write_str("the view plane normal (VPN) is zero or not finite; with a target point, TP equals VRP"),
+            CameraError::ZeroVuv => f.write_str("the view up vector (VUV) is zero or not finite"),
+            CameraError::Parallel => f.write_str("VPN is parallel to VUV, so no image 'up' is defined; change vuv or the view direction"),
+            CameraError::CopNotBehind(n) => write!(f, "the COP's n is {n}, not < 0; a CatmullRom Zoom track may overshoot: use Monotone"),
+        }
     }
 }
 
 impl Basis {
     /// The notes' basis from a view plane normal and a view up vector (neither need be unit).
-    pub fn from_vpn_vuv(vpn: DVec3, vuv: DVec3) -> Result<Basis, BasisError> {
+    pub fn from_vpn_vuv(vpn: DVec3, vuv: DVec3) -> Result<Basis, CameraError> {
         Basis::following(vpn, vuv, None)
     }
 
@@ -69,14 +72,14 @@ impl Basis {
         vpn: DVec3,
         vuv: DVec3,
         previous_v: Option<DVec3>,
-    ) -> Result<Basis, BasisError> {
+    ) -> Result<Basis, CameraError> {
         let len = vpn.length();
         if !(len.is_finite() && len > 0.0) {
-            return Err(BasisError::ZeroVpn);
+            return Err(CameraError::ZeroVpn);
         }
         let vuv_len = vuv.length();
         if !(vuv_len.is_finite() && vuv_len > 0.0) {
-            return Err(BasisError::ZeroVuv);
+            return Err(CameraError::ZeroVuv);
         }
         let n = vpn / len;
         let side = n.cross(vuv / vuv_len);
@@ -89,10 +92,10 @@ impl Basis {
                 _ => Basis { u, v, n },
             });
         }
-        let prev = previous_v.ok_or(BasisError::Parallel)?;
+        let prev = previous_v.ok_or(CameraError::Parallel)?;
         let v = (prev - n * prev.dot(n))
             .try_normalize()
-            .ok_or(BasisError::Parallel)?;
+            .ok_or(CameraError::Parallel)?;
         Ok(Basis {
             u: n.cross(v),
             v,
@@ -275,19 +278,19 @@ mod tests {
     fn parallel_vpn_vuv_is_an_error_without_a_previous_frame() {
         assert_eq!(
             Basis::from_vpn_vuv(DVec3::Y, DVec3::Y * 2.0),
-            Err(BasisError::Parallel)
+            Err(CameraError::Parallel)
         );
         assert_eq!(
             Basis::from_vpn_vuv(DVec3::ZERO, DVec3::Y),
-            Err(BasisError::ZeroVpn)
+            Err(CameraError::ZeroVpn)
         );
         assert_eq!(
             Basis::from_vpn_vuv(DVec3::Z, DVec3::ZERO),
-            Err(BasisError::ZeroVuv)
+            Err(CameraError::ZeroVuv)
         );
         assert_eq!(
             Basis::from_vpn_vuv(DVec3::new(f64::NAN, 0.0, 1.0), DVec3::Y),
-            Err(BasisError::ZeroVpn)
+            Err(CameraError::ZeroVpn)
         );
     }
 

@@ -5,7 +5,7 @@ use glam::{DVec2, DVec3};
 use std::path::{Path, PathBuf};
 
 use crate::animation::{Animation, Pointing};
-use crate::camera::{window_extent, BasisError, Camera};
+use crate::camera::{window_extent, Camera, CameraError};
 use crate::error::{Error, Problem, Problems, Result};
 use crate::format::{self, FileSpec, InterpolationSpec, KeySpec, Pair, TrackSpec, Triple};
 use crate::keyframes::{DirectionTrack, Interpolation, Key, Keyable, Track};
@@ -171,9 +171,10 @@ impl Checker {
         // frame by frame when evaluated.
         if let Err(e) = doc.animation.camera_at(0.0, None) {
             let field = match e {
-                BasisError::ZeroVpn => "camera.vpn",
-                BasisError::ZeroVuv => "camera.vuv",
-                BasisError::Parallel => "camera.vuv",
+                CameraError::ZeroVpn => "camera.vpn",
+                CameraError::ZeroVuv => "camera.vuv",
+                CameraError::Parallel => "camera.vuv",
+                CameraError::CopNotBehind(_) => "camera.cop",
             };
             self.problem(field, format!("at t = 0 s: {e}"));
         }
@@ -544,6 +545,8 @@ fn interpolation(spec: InterpolationSpec) -> Interpolation {
         InterpolationSpec::Linear => Interpolation::Linear,
         InterpolationSpec::Cosine => Interpolation::Cosine,
         InterpolationSpec::CatmullRom => Interpolation::CatmullRom,
+        InterpolationSpec::Monotone => Interpolation::Monotone,
+        InterpolationSpec::Centripetal => Interpolation::Centripetal,
     }
 }
 

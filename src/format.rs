@@ -53,6 +53,8 @@ pub enum InterpolationSpec {
     Linear,
     Cosine,
     CatmullRom,
+    Monotone,
+    Centripetal,
 }
 
 #[derive(Debug, Clone, Deserialize)]

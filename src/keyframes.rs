@@ -23,7 +23,22 @@ pub enum Interpolation {
     /// Ease in and out: the linear blend weighted by (1 − cos πs)/2.
     Cosine,
     /// Cubic through the neighbouring keys (non-uniform Catmull-Rom tangents, scaled by time).
+    /// May overshoot the key values where keys are unevenly spaced.
     CatmullRom,
+    /// Monotone cubic (Fritsch–Carlson, with the Fritsch–Butland weighted harmonic mean
+    /// tangents): each component stays between the segment's two key values, so it never
+    /// overshoots, however stiff the timing.
+    Monotone,
+    /// Centripetal Catmull-Rom (knots spaced by the square root of the chord length): a path
+    /// never loops or cusps within a segment. The segment still takes its keys' time.
+    Centripetal,
+}
+
+impl Interpolation {
+    /// Whether campath evaluates the segment as a precomputed cubic Bézier.
+    fn is_cubic(self) -> bool {
+        matches!(self, Interpolation::Monotone | Interpolation::Centripetal)
+    }
 }
 
 /// One key: a value at a time in seconds.
@@ -40,10 +55,45 @@ pub struct Key<V> {
 pub trait Keyable:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f64, Output = Self> + std::fmt::Debug
 {
+    /// Number of components.
+    const DIM: usize;
+    fn component(&self, i: usize) -> f64;
+    fn set_component(&mut self, i: usize, x: f64);
+    /// Euclidean length.
+    fn norm(&self) -> f64;
 }
-impl Keyable for f64 {}
-impl Keyable for DVec2 {}
-impl Keyable for DVec3 {}
+
+impl Keyable for f64 {
+    const DIM: usize = 1;
+    fn component(&self, _: usize) -> f64 {
+        *self
+    }
+    fn set_component(&mut self, _: usize, x: f64) {
+        *self = x;
+    }
+    fn norm(&self) -> f64 {
+        self.abs()
+    }
+}
+
+macro_rules! keyable_vector {
+    ($t:ty, $dim:expr) => {
+        impl Keyable for $t {
+            const DIM: usize = $dim;
+            fn component(&self, i: usize) -> f64 {
+                self[i]
+            }
+            fn set_component(&mut self, i: usize, x: f64) {
+                self[i] = x;
+            }
+            fn norm(&self) -> f64 {
+                self.length()
+            }
+        }
+    };
+}
+keyable_vector!(DVec2, 2);
+keyable_vector!(DVec3, 3);
 
 /// Wrapper that gives splines an [`Interpolate`] whose cosine goes through libm, so that results
 /// do not depend on the platform's math library.
@@ -115,7 +165,113 @@ fn splines_interpolation<V>(i: Interpolation) -> splines::Interpolation<f64, Kno
         Interpolation::Linear => splines::Interpolation::Linear,
         Interpolation::Cosine => splines::Interpolation::Cosine,
         Interpolation::CatmullRom => splines::Interpolation::CatmullRom,
+        // Evaluated from precomputed Bézier control points, never by the spline; Linear keeps
+        // the spline's neighbours valid.
+        Interpolation::Monotone | Interpolation::Centripetal => splines::Interpolation::Linear,
     }
+}
+
+/// The inner Bézier control points of segment i (keys i → i + 1) for a cubic interpolation.
+type Controls<V> = (V, V);
+
+/// Fritsch–Carlson monotone tangents per component, in value per second: zero at a local
+/// extremum, the Fritsch–Butland weighted harmonic mean of the neighbouring slopes elsewhere, and
+/// the end segment's slope at either end. Each tangent lies within [0, 3] times both adjacent
+/// slopes, the box where a cubic Hermite segment stays monotone.
+fn monotone_tangents<V: Keyable>(keys: &[Key<V>]) -> Vec<V> {
+    let n = keys.len();
+    let mut out = vec![keys[0].value; n];
+    for c in 0..V::DIM {
+        let h: Vec<f64> = keys.windows(2).map(|w| w[1].t - w[0].t).collect();
+        let slope: Vec<f64> = keys
+            .windows(2)
+            .zip(&h)
+            .map(|(w, h)| (w[1].value.component(c) - w[0].value.component(c)) / h)
+            .collect();
+        for (k, m) in out.iter_mut().enumerate() {
+            let tangent = if k == 0 {
+                slope[0]
+            } else if k == n - 1 {
+                slope[n - 2]
+            } else {
+                let (d0, d1, h0, h1) = (slope[k - 1], slope[k], h[k - 1], h[k]);
+                if d0 * d1 <= 0.0 {
+                    0.0
+                } else {
+                    3.0 * (h0 + h1) / ((2.0 * h1 + h0) / d0 + (h1 + 2.0 * h0) / d1)
+                }
+            };
+            m.set_component(c, tangent);
+        }
+    }
+    out
+}
+
+/// Centripetal Catmull-Rom tangents at each key, with respect to the knot parameter
+/// (Barry–Goldman, as in Yuksel et al., "Parameterization and applications of Catmull-Rom
+/// curves", 2011), and the knots themselves. The ends use keys mirrored through the end keys.
+fn centripetal_tangents<V: Keyable>(keys: &[Key<V>]) -> (Vec<V>, Vec<f64>) {
+    let n = keys.len();
+    let p = |i: isize| -> V {
+        if i < 0 {
+            keys[0].value * 2.0 - keys[1].value
+        } else if i as usize >= n {
+            keys[n - 1].value * 2.0 - keys[n - 2].value
+        } else {
+            keys[i as usize].value
+        }
+    };
+    // Knot gaps: sqrt of chord length, floored so that repeated keys do not divide by zero.
+    let scale = keys
+        .windows(2)
+        .map(|w| (w[1].value - w[0].value).norm())
+        .fold(0.0, f64::max);
+    let floor = (scale * 1e-12).max(1e-300).sqrt();
+    let gap = |i: isize| (p(i + 1) - p(i)).norm().sqrt().max(floor);
+    let mut knots = vec![0.0; n];
+    for i in 1..n {
+        knots[i] = knots[i - 1] + gap(i as isize - 1);
+    }
+    let tangents = (0..n as isize)
+        .map(|i| {
+            let (g0, g1) = (gap(i - 1), gap(i));
+            let (a, b, c) = (p(i - 1), p(i), p(i + 1));
+            (b - a) * (1.0 / g0) - (c - a) * (1.0 / (g0 + g1)) + (c - b) * (1.0 / g1)
+        })
+        .collect();
+    (tangents, knots)
+}
+
+/// Bézier control points for every segment whose start key asks for a cubic interpolation.
+fn cubic_controls<V: Keyable>(keys: &[Key<V>]) -> Vec<Option<Controls<V>>> {
+    let monotone = keys
+        .iter()
+        .any(|k| k.interpolation == Interpolation::Monotone)
+        .then(|| monotone_tangents(keys));
+    let centripetal = keys
+        .iter()
+        .any(|k| k.interpolation == Interpolation::Centripetal)
+        .then(|| centripetal_tangents(keys));
+    (0..keys.len() - 1)
+        .map(|i| {
+            let (a, b) = (keys[i].value, keys[i + 1].value);
+            match keys[i].interpolation {
+                Interpolation::Monotone => {
+                    let m = monotone.as_ref().expect("computed when a key asks for it");
+                    let h = keys[i + 1].t - keys[i].t;
+                    Some((a + m[i] * (h / 3.0), b - m[i + 1] * (h / 3.0)))
+                }
+                Interpolation::Centripetal => {
+                    let (m, knots) = centripetal
+                        .as_ref()
+                        .expect("computed when a key asks for it");
+                    let span = knots[i + 1] - knots[i];
+                    Some((a + m[i] * (span / 3.0), b - m[i + 1] * (span / 3.0)))
+                }
+                _ => None,
+            }
+        })
+        .collect()
 }
 
 /// Builds a splines curve over `keys` with phantom keys mirrored through both ends.
@@ -145,6 +301,8 @@ fn spline_with_phantoms<V: Keyable>(keys: &[Key<V>]) -> Spline<f64, Knot<V>> {
 pub struct Track<V: Keyable> {
     keys: Vec<Key<V>>,
     spline: Option<Spline<f64, Knot<V>>>,
+    /// Per segment: Bézier control points where the segment is Monotone or Centripetal.
+    controls: Vec<Option<Controls<V>>>,
 }
 
 impl<V: Keyable> Track<V> {
@@ -154,7 +312,16 @@ impl<V: Keyable> Track<V> {
         assert!(!keys.is_empty(), "a track needs a key");
         debug_assert!(keys.windows(2).all(|w| w[0].t < w[1].t));
         let spline = (keys.len() >= 2).then(|| spline_with_phantoms(&keys));
-        Track { keys, spline }
+        let controls = if keys.iter().any(|k| k.interpolation.is_cubic()) {
+            cubic_controls(&keys)
+        } else {
+            Vec::new()
+        };
+        Track {
+            keys,
+            spline,
+            controls,
+        }
     }
 
     pub fn keys(&self) -> &[Key<V>] {
@@ -169,6 +336,21 @@ impl<V: Keyable> Track<V> {
             Some(_) if t <= first.t => first.value,
             Some(_) if t >= last.t => last.value,
             Some(spline) => {
+                if !self.controls.is_empty() {
+                    let i = self.keys.partition_point(|k| k.t <= t) - 1;
+                    if let Some((c1, c2)) = self.controls[i] {
+                        let (a, b) = (&self.keys[i], &self.keys[i + 1]);
+                        let s = (t - a.t) / (b.t - a.t);
+                        return Knot::cubic_bezier(
+                            s,
+                            Knot(a.value),
+                            Knot(c1),
+                            Knot(c2),
+                            Knot(b.value),
+                        )
+                        .0;
+                    }
+                }
                 spline
                     .sample(t)
                     .expect("phantom keys give every inner segment its neighbours")
@@ -235,18 +417,8 @@ impl DirectionTrack {
         } else {
             mirror(&local(i + 1), &local(i))
         });
-        let spline = Spline::from_vec(
-            window
-                .iter()
-                .map(|k| {
-                    splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation))
-                })
-                .collect(),
-        );
-        let w = spline
-            .sample(t)
-            .expect("the window holds the segment's neighbours")
-            .0;
+        // The window's own phantoms lie outside it, so segment 1 sees exactly these neighbours.
+        let w = Track::new(window).sample(t);
         exp_map(base, w)
     }
 }
