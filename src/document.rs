@@ -171,6 +171,9 @@ impl Checker {
         // frame by frame when evaluated.
         if let Err(e) = doc.animation.camera_at(0.0, None) {
             let field = match e {
+                CameraError::ZeroVpn if matches!(doc.animation.pointing, Pointing::Target(_)) => {
+                    "camera.tp"
+                }
                 CameraError::ZeroVpn => "camera.vpn",
                 CameraError::ZeroVuv => "camera.vuv",
                 CameraError::Parallel => "camera.vuv",
