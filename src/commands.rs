@@ -151,18 +151,26 @@ pub fn verify(doc: &Document, golden: &Path, out: &mut dyn Write) -> Result<bool
 
 /// The evaluated camera per frame as CSV: frame, time, VRP, u, v, n, COP in world, window.
 pub fn path_csv(doc: &Document, out: &mut dyn Write) -> Result<()> {
-    let mut text = String::from(
-        "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h\n",
-    );
+    let mut out = std::io::BufWriter::new(out);
+    let failed = |source| Error::Write {
+        path: "<stdout>".into(),
+        source,
+    };
+    writeln!(
+        out,
+        "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h"
+    )
+    .map_err(failed)?;
     for item in doc.cameras() {
         let (frame, cam) = item?;
-        let b = cam.basis;
-        let cop = cam.cop_world();
-        let cols = [
+        let (b, cop, vrp) = (cam.basis, cam.cop_world(), cam.vrp_world);
+        writeln!(
+            out,
+            "{frame},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             doc.animation.time(frame),
-            cam.vrp_world.x,
-            cam.vrp_world.y,
-            cam.vrp_world.z,
+            vrp.x,
+            vrp.y,
+            vrp.z,
             b.u.x,
             b.u.y,
             b.u.z,
@@ -176,20 +184,11 @@ pub fn path_csv(doc: &Document, out: &mut dyn Write) -> Result<()> {
             cop.y,
             cop.z,
             cam.window.x,
-            cam.window.y,
-        ];
-        text.push_str(&frame.to_string());
-        for c in cols {
-            text.push(',');
-            text.push_str(&c.to_string());
-        }
-        text.push('\n');
+            cam.window.y
+        )
+        .map_err(failed)?;
     }
-    out.write_all(text.as_bytes())
-        .map_err(|source| Error::Write {
-            path: "<stdout>".into(),
-            source,
-        })
+    out.flush().map_err(failed)
 }
 
 /// A one-line summary of a valid file, after evaluating every frame's camera.
