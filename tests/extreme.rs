@@ -251,6 +251,29 @@ fn far_from_the_origin_renders_the_same_pixels() {
     }
 }
 
+#[test]
+fn naive_f32_world_space_loses_the_small_sphere_far_away() {
+    // The naive route, f32 world coordinates through the matrix M, puts the 1 cm sphere's centre
+    // off by more than its radius at 1e6; campath's camera-relative f64 keeps it to 1e-9.
+    let at = |offset: f64| {
+        let doc = Document::from_str(Path::new("far.ron"), &far_scene(offset)).unwrap();
+        (cameras(&doc)[1], doc.scene.spheres[3])
+    };
+    let (cam0, s0) = at(0.0);
+    let exact = cam0.point_to_view(s0.center_world);
+    let (cam, s) = at(1e6);
+    let ours = cam.point_to_view(s.center_world);
+    let naive = cam
+        .world_to_view()
+        .as_mat4()
+        .transform_point3(s.center_world.as_vec3())
+        .as_dvec3();
+    let (ours_err, naive_err) = ((ours - exact).length(), (naive - exact).length());
+    eprintln!("offset 1e6: view-space error of the 1 cm sphere: f64 camera-relative {ours_err:.1e}, naive f32 {naive_err:.1e}");
+    assert!(ours_err < 1e-9);
+    assert!(naive_err > s.radius);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The camera at and near the pole (VPN ∥ VUV).
 
