@@ -127,15 +127,7 @@ fn path_prints_one_csv_row_per_frame() {
 
 #[test]
 fn check_accepts_every_example() {
-    for name in [
-        "observer",
-        "look_around",
-        "track",
-        "zoom",
-        "distort",
-        "flythrough",
-        "dolly_zoom",
-    ] {
+    for name in common::EXAMPLES {
         let file = root().join(format!("animations/{name}.ron"));
         let o = campath(&root(), &["check", file.to_str().unwrap()], &[]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));

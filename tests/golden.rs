@@ -8,17 +8,7 @@ mod common;
 
 use campath::commands::for_each_frame;
 use campath::output::{frame_hash, hash_line, parse_hashes};
-use common::{example, root};
-
-const EXAMPLES: [&str; 7] = [
-    "observer",
-    "look_around",
-    "track",
-    "zoom",
-    "distort",
-    "flythrough",
-    "dolly_zoom",
-];
+use common::{example, root, EXAMPLES};
 
 fn hashes(name: &str) -> String {
     let mut doc = example(name);

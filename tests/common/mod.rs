@@ -6,6 +6,17 @@ use std::process::{Command, Output};
 
 use campath::document::Document;
 
+/// The examples in animations/, by file stem.
+pub const EXAMPLES: [&str; 7] = [
+    "observer",
+    "look_around",
+    "track",
+    "zoom",
+    "distort",
+    "flythrough",
+    "dolly_zoom",
+];
+
 /// The repository root.
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
