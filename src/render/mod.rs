@@ -15,6 +15,12 @@ use std::sync::OnceLock;
 use crate::camera::{window_point, Camera};
 use crate::scene::Scene;
 
+mod shadows;
+mod tiles;
+
+use shadows::ShadowGrid;
+use tiles::TileBins;
+
 /// Output size and sampling.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Raster {
@@ -82,16 +88,18 @@ struct ViewSphere {
     f: DVec3,
     /// |f|² − r².
     c: f64,
+    /// |f| − r: no primary ray meets the sphere nearer than this.
+    min_dist: f64,
     color: DVec3,
 }
 
 /// A light in view coordinates.
-#[derive(Debug, Clone, Copy)]
 struct ViewLight {
     /// Unit vector from a surface towards the light: −direction.
     to_light: DVec3,
     color: DVec3,
-    shadows: bool,
+    /// Spheres binned for this light's shadow rays; None when the light casts no shadows.
+    shadows: Option<ShadowGrid>,
 }
 
 /// Renders frames, keeping the ray table between frames.
@@ -125,19 +133,26 @@ impl Renderer {
                     radius2,
                     f,
                     c: f.length_squared() - radius2,
+                    min_dist: f.length() - s.radius,
                     color: s.color,
                 }
             })
             .collect();
+        // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let lights: Vec<ViewLight> = scene
             .lights
             .iter()
-            .map(|l| ViewLight {
-                to_light: -camera.basis.to_view(l.direction_world),
-                color: l.color,
-                shadows: l.shadows,
+            .map(|l| {
+                let to_light = -camera.basis.to_view(l.direction_world);
+                ViewLight {
+                    to_light,
+                    color: l.color,
+                    shadows: (l.shadows && spheres.len() > 1)
+                        .then(|| ShadowGrid::build(&spheres, to_light)),
+                }
             })
             .collect();
+        let bins = TileBins::build(&spheres, camera.cop_view, camera.window, raster);
         let ctx = Shading {
             spheres: &spheres,
             lights: &lights,
@@ -152,11 +167,17 @@ impl Renderer {
         pixels
             .par_chunks_mut(width * 3)
             .zip(table.dirs.par_chunks(width * s2))
-            .for_each(|(row, dirs)| {
-                for (px, samples) in row.chunks_exact_mut(3).zip(dirs.chunks_exact(s2)) {
+            .enumerate()
+            .for_each(|(j, (row, dirs))| {
+                for (i, (px, samples)) in row
+                    .chunks_exact_mut(3)
+                    .zip(dirs.chunks_exact(s2))
+                    .enumerate()
+                {
+                    let candidates = bins.at(i, j);
                     let mut sum = DVec3::ZERO;
                     for d in samples {
-                        sum += ctx.shade(*d);
+                        sum += ctx.shade(*d, candidates);
                     }
                     let c = sum / s2 as f64;
                     px[0] = encode.encode(c.x);
@@ -177,12 +198,18 @@ struct Shading<'a> {
 }
 
 impl Shading<'_> {
-    /// Linear colour seen along unit direction `d` from the COP.
-    fn shade(&self, d: DVec3) -> DVec3 {
-        let Some((index, t)) = self.nearest(d) else {
+    /// Linear colour seen along unit direction `d` from the COP, among `candidates` (sphere
+    /// indices, nearest possible hit first).
+    #[inline]
+    fn shade(&self, d: DVec3, candidates: &[u32]) -> DVec3 {
+        let Some((index, t)) = self.nearest(d, candidates) else {
             return self.background;
         };
         let s = &self.spheres[index];
+        if self.lights.is_empty() {
+            // Flat: no normal, no light loop.
+            return (s.color * self.ambient).min(DVec3::ONE);
+        }
         // Hit point relative to the centre, f + t·d, has length r; the normal is that over r.
         let rel = s.f + d * t;
         let normal = rel / s.radius;
@@ -193,44 +220,33 @@ impl Shading<'_> {
             if facing <= 0.0 {
                 continue;
             }
-            if l.shadows && self.occluded(point, l.to_light, index) {
-                continue;
+            if let Some(grid) = &l.shadows {
+                if grid.occluded(self.spheres, point, index) {
+                    continue;
+                }
             }
             light += l.color * facing;
         }
         (s.color * light).clamp(DVec3::ZERO, DVec3::ONE)
     }
 
-    /// The nearest sphere hit in front of the COP, as (sphere index, distance).
-    fn nearest(&self, d: DVec3) -> Option<(usize, f64)> {
+    /// The nearest hit in front of the COP among `candidates`, as (sphere index, distance). The
+    /// candidates come nearest-first, so the search stops once none left can be nearer.
+    #[inline]
+    fn nearest(&self, d: DVec3, candidates: &[u32]) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
-        for (i, s) in self.spheres.iter().enumerate() {
+        for &k in candidates {
+            let s = &self.spheres[k as usize];
+            if best.is_some_and(|(_, bt)| s.min_dist >= bt) {
+                break;
+            }
             if let Some(t) = nearest_positive_root(s.f, s.c, s.radius2, d) {
                 if best.is_none_or(|(_, bt)| t < bt) {
-                    best = Some((i, t));
+                    best = Some((k as usize, t));
                 }
             }
         }
         best
-    }
-
-    /// Whether a ray from `point` (on sphere `own`) towards the light meets another sphere.
-    fn occluded(&self, point: DVec3, to_light: DVec3, own: usize) -> bool {
-        self.spheres.iter().enumerate().any(|(i, s)| {
-            // A sphere never shadows its own lit side (it is convex), so it is skipped.
-            if i == own {
-                return false;
-            }
-            let f = point - s.center;
-            let c = f.length_squared() - s.radius2;
-            if c <= 0.0 {
-                // The point is inside (or on) another sphere: no light reaches it.
-                return true;
-            }
-            // Outside: both roots share a sign, positive exactly when the sphere is ahead.
-            let b = f.dot(to_light);
-            b < 0.0 && (f - to_light * b).length_squared() <= s.radius2
-        })
     }
 }
 
@@ -304,6 +320,156 @@ pub fn srgb_decode(e: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::Basis;
+    use crate::scene::{Light, Sphere};
+
+    /// Renders with every sphere tested for every ray (primary and shadow), in index order.
+    fn brute_force(camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
+        let mut r = Renderer::new();
+        let fast = r.render(camera, scene, raster);
+        let table = r.table.take().unwrap();
+        let spheres: Vec<ViewSphere> = scene
+            .spheres
+            .iter()
+            .map(|s| {
+                let center = camera.point_to_view(s.center_world);
+                let f = camera.cop_view - center;
+                ViewSphere {
+                    center,
+                    radius: s.radius,
+                    radius2: s.radius * s.radius,
+                    f,
+                    c: f.length_squared() - s.radius * s.radius,
+                    min_dist: f64::NEG_INFINITY,
+                    color: s.color,
+                }
+            })
+            .collect();
+        let enc = srgb_encoder();
+        let s2 = (raster.samples * raster.samples) as usize;
+        let mut out = Vec::with_capacity(fast.len());
+        for samples in table.dirs.chunks(s2) {
+            let mut sum = DVec3::ZERO;
+            for d in samples {
+                let mut best: Option<(usize, f64)> = None;
+                for (k, s) in spheres.iter().enumerate() {
+                    if let Some(t) = nearest_positive_root(s.f, s.c, s.radius2, *d) {
+                        if best.is_none_or(|(_, bt)| t < bt) {
+                            best = Some((k, t));
+                        }
+                    }
+                }
+                sum += match best {
+                    None => scene.background,
+                    Some((k, t)) => {
+                        let s = &spheres[k];
+                        let rel = s.f + *d * t;
+                        let normal = rel / s.radius;
+                        let point = s.center + rel;
+                        let mut light = DVec3::splat(scene.ambient);
+                        for l in &scene.lights {
+                            let to_light = -camera.basis.to_view(l.direction_world);
+                            let facing = normal.dot(to_light);
+                            let shadowed = l.shadows
+                                && spheres.iter().enumerate().any(|(o, os)| {
+                                    o != k && shadows::blocks_ray(os, point, to_light)
+                                });
+                            if facing > 0.0 && !shadowed {
+                                light += l.color * facing;
+                            }
+                        }
+                        (s.color * light).clamp(DVec3::ZERO, DVec3::ONE)
+                    }
+                };
+            }
+            let c = sum / s2 as f64;
+            out.extend([enc.encode(c.x), enc.encode(c.y), enc.encode(c.z)]);
+        }
+        out
+    }
+
+    /// SplitMix64 in [0, 1): a fixed-seed generator for test scenes.
+    fn rng(state: &mut u64) -> f64 {
+        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = *state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    #[test]
+    fn tiles_and_shadow_grid_give_the_brute_force_bytes() {
+        let mut seed = 7u64;
+        let mut spheres: Vec<Sphere> = (0..300)
+            .map(|_| {
+                let mut r = || rng(&mut seed);
+                Sphere {
+                    center_world: DVec3::new(r() * 40.0 - 20.0, r() * 6.0, r() * 40.0 - 20.0),
+                    radius: 0.2 + r() * 1.5,
+                    color: DVec3::new(r(), r(), r()),
+                }
+            })
+            .collect();
+        spheres.push(Sphere {
+            center_world: DVec3::new(0.0, -1000.0, 0.0),
+            radius: 1000.0,
+            color: DVec3::splat(0.6),
+        });
+        let scene = Scene {
+            background: DVec3::new(0.1, 0.1, 0.2),
+            ambient: 0.1,
+            lights: vec![
+                Light {
+                    direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
+                    color: DVec3::splat(0.8),
+                    shadows: true,
+                },
+                Light {
+                    direction_world: DVec3::new(1.0, -0.3, 0.2).normalize(),
+                    color: DVec3::splat(0.3),
+                    shadows: true,
+                },
+            ],
+            spheres,
+        };
+        let raster = Raster {
+            width: 96,
+            height: 64,
+            samples: 2,
+        };
+        let cameras = [
+            // Outside the field, looking in.
+            (
+                DVec3::new(0.0, 8.0, -40.0),
+                DVec3::new(0.0, -0.2, 1.0),
+                DVec3::new(0.0, 0.0, -1.0),
+            ),
+            // Inside the field, off-axis COP, spheres on all sides and behind.
+            (
+                DVec3::new(1.0, 2.0, 0.0),
+                DVec3::new(1.0, -0.1, 0.3),
+                DVec3::new(0.3, -0.2, -0.8),
+            ),
+            // Inside the ground sphere's neighbourhood, looking down.
+            (
+                DVec3::new(-5.0, 0.5, 3.0),
+                DVec3::new(0.2, -1.0, 0.1),
+                DVec3::new(0.0, 0.0, -1.5),
+            ),
+        ];
+        for (k, (vrp, vpn, cop)) in cameras.into_iter().enumerate() {
+            let camera = Camera {
+                vrp_world: vrp,
+                basis: Basis::from_vpn_vuv(vpn, DVec3::Y).unwrap(),
+                cop_view: cop,
+                window: DVec2::new(1.5, 1.0),
+            };
+            let fast = Renderer::new().render(&camera, &scene, raster);
+            let slow = brute_force(&camera, &scene, raster);
+            let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
+            assert_eq!(differ, 0, "camera {k}: {differ} bytes differ");
+        }
+    }
 
     #[test]
     fn srgb_levels_match_the_formula() {

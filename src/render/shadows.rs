@@ -1,0 +1,163 @@
+//! Shadow rays towards a directional light, binned in the light's own projection.
+//!
+//! Every shadow ray runs parallel to the light, so projected along it each ray is a single
+//! point, and only spheres whose projected disc holds that point can block it. Discs are binned
+//! into a uniform grid over the plane orthogonal to the light; a query looks at one cell. Spheres
+//! much larger than the typical one (a ground sphere) are kept in a list tested for every ray,
+//! so they do not inflate the grid.
+
+use glam::{DVec2, DVec3};
+
+use super::ViewSphere;
+
+/// Spheres binned for one light direction, in view coordinates.
+pub struct ShadowGrid {
+    /// Unit vector towards the light.
+    to_light: DVec3,
+    /// Orthonormal axes of the projection plane.
+    axes: (DVec3, DVec3),
+    origin: DVec2,
+    inv_cell: f64,
+    dims: (usize, usize),
+    offsets: Vec<u32>,
+    items: Vec<u32>,
+    /// Spheres tested for every ray.
+    always: Vec<u32>,
+}
+
+impl ShadowGrid {
+    pub fn build(spheres: &[ViewSphere], to_light: DVec3) -> ShadowGrid {
+        let axes = to_light.any_orthonormal_pair();
+        let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
+        let mut radii: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
+        let big = if radii.is_empty() {
+            f64::INFINITY
+        } else {
+            let mid = radii.len() / 2;
+            *radii.select_nth_unstable_by(mid, f64::total_cmp).1 * 16.0
+        };
+        let mut always = Vec::new();
+        let mut lo = DVec2::splat(f64::INFINITY);
+        let mut hi = DVec2::splat(f64::NEG_INFINITY);
+        let mut small = 0usize;
+        for (k, s) in spheres.iter().enumerate() {
+            if s.radius > big {
+                always.push(k as u32);
+            } else {
+                let c = project(s.center);
+                lo = lo.min(c - s.radius);
+                hi = hi.max(c + s.radius);
+                small += 1;
+            }
+        }
+        if small == 0 {
+            return ShadowGrid {
+                to_light,
+                axes,
+                origin: DVec2::ZERO,
+                inv_cell: 0.0,
+                dims: (0, 0),
+                offsets: vec![0],
+                items: Vec::new(),
+                always,
+            };
+        }
+        // About two cells per sphere, at most 1024 a side.
+        let extent = (hi - lo).max(DVec2::splat(1e-300));
+        let cell = (extent.x * extent.y / (2.0 * small as f64))
+            .sqrt()
+            .max(extent.x.max(extent.y) / 1024.0);
+        let dims = (
+            ((extent.x / cell).ceil() as usize).clamp(1, 1024),
+            ((extent.y / cell).ceil() as usize).clamp(1, 1024),
+        );
+        let inv_cell = 1.0 / cell;
+        let cell_range = |s: &ViewSphere| {
+            let c = project(s.center);
+            let a = ((c - s.radius - lo) * inv_cell).floor();
+            let b = ((c + s.radius - lo) * inv_cell).floor();
+            let clampx = |v: f64| v.max(0.0).min(dims.0 as f64 - 1.0) as usize;
+            let clampy = |v: f64| v.max(0.0).min(dims.1 as f64 - 1.0) as usize;
+            (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
+        };
+        let cells = dims.0 * dims.1;
+        let mut counts = vec![0u32; cells];
+        for s in spheres.iter().filter(|s| s.radius <= big) {
+            let (x0, x1, y0, y1) = cell_range(s);
+            for y in y0..=y1 {
+                for c in &mut counts[y * dims.0 + x0..=y * dims.0 + x1] {
+                    *c += 1;
+                }
+            }
+        }
+        let mut offsets = Vec::with_capacity(cells + 1);
+        let mut total = 0u32;
+        for c in &counts {
+            offsets.push(total);
+            total += c;
+        }
+        offsets.push(total);
+        let mut fill = offsets.clone();
+        let mut items = vec![0u32; total as usize];
+        for (k, s) in spheres.iter().enumerate().filter(|(_, s)| s.radius <= big) {
+            let (x0, x1, y0, y1) = cell_range(s);
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let slot = &mut fill[y * dims.0 + x];
+                    items[*slot as usize] = k as u32;
+                    *slot += 1;
+                }
+            }
+        }
+        ShadowGrid {
+            to_light,
+            axes,
+            origin: lo,
+            inv_cell,
+            dims,
+            offsets,
+            items,
+            always,
+        }
+    }
+
+    /// Whether the ray from `point` (on sphere `own`) towards the light meets another sphere.
+    pub fn occluded(&self, spheres: &[ViewSphere], point: DVec3, own: usize) -> bool {
+        let blocks = |k: &u32| {
+            let k = *k as usize;
+            k != own && blocks_ray(&spheres[k], point, self.to_light)
+        };
+        if self.always.iter().any(blocks) {
+            return true;
+        }
+        if self.dims.0 == 0 {
+            return false;
+        }
+        let q = (DVec2::new(point.dot(self.axes.0), point.dot(self.axes.1)) - self.origin)
+            * self.inv_cell;
+        let (x, y) = (q.x.floor(), q.y.floor());
+        // Outside the grid no binned disc holds the point (the far edges belong to the last cells).
+        if !(x >= 0.0 && y >= 0.0 && x <= self.dims.0 as f64 && y <= self.dims.1 as f64) {
+            return false;
+        }
+        let c = (y as usize).min(self.dims.1 - 1) * self.dims.0 + (x as usize).min(self.dims.0 - 1);
+        self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+            .iter()
+            .any(blocks)
+    }
+}
+
+/// Whether sphere `s` blocks the ray from `point` along unit `dir` (t > 0). A point inside (or
+/// on) the sphere is blocked; outside, both roots share a sign, positive exactly when the sphere
+/// lies ahead. No epsilon is needed: the caller skips the sphere the point lies on, which, being
+/// convex, never shadows its own lit side.
+#[inline]
+pub fn blocks_ray(s: &ViewSphere, point: DVec3, dir: DVec3) -> bool {
+    let f = point - s.center;
+    let c = f.length_squared() - s.radius2;
+    if c <= 0.0 {
+        return true;
+    }
+    let b = f.dot(dir);
+    b < 0.0 && (f - dir * b).length_squared() <= s.radius2
+}
