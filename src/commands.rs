@@ -4,11 +4,13 @@
 use std::io::Write;
 use std::ops::Range;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
+use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::output::{frame_hash, frame_path, hash_line, parse_hashes, write_png};
+use crate::output::{frame_hash, frame_path, hash_line, parse_hashes, write_png, Compression};
 use crate::render::Renderer;
 
 /// Parses `A..B` (frames A to B − 1), `A..` (A to the end), `..B`, `A..=B` or a single `K`.
@@ -39,9 +41,77 @@ pub fn parse_frames(spec: &str, frames: u64) -> Result<Range<u64>> {
     Ok(range)
 }
 
+/// Timing of a run of frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// Frames delivered.
+    pub frames: u64,
+    /// Frames whose camera equalled the previous frame's, delivered again without rendering.
+    pub reused: u64,
+    /// Seconds per frame spent rendering, in frame order.
+    pub render_secs: Vec<f64>,
+    /// Wall-clock seconds for the whole run, output included.
+    pub wall_secs: f64,
+}
+
+impl Summary {
+    /// Median seconds per rendered frame.
+    pub fn median_render_secs(&self) -> f64 {
+        median(&self.render_secs)
+    }
+
+    /// One line for people, e.g. `rendered 96 frame(s) of 640×360 to out/x in …`: frames,
+    /// wall time, median render time and peak memory. `detail` follows the frame count.
+    pub fn line(&self, verb: &str, detail: &str) -> String {
+        let mut line = format!(
+            "{verb} {} frame(s){detail} in {:.2} s ({:.1} ms/frame wall, median render {:.1} ms/frame",
+            self.frames,
+            self.wall_secs,
+            self.wall_secs * 1e3 / self.frames.max(1) as f64,
+            self.median_render_secs() * 1e3
+        );
+        if self.reused > 0 {
+            line += &format!(", {} reused", self.reused);
+        }
+        if let Some(mb) = peak_memory_mb() {
+            line += &format!(", peak memory {mb:.0} MB");
+        }
+        line + ")"
+    }
+}
+
+/// The median of `xs` (0 for none).
+pub fn median(xs: &[f64]) -> f64 {
+    if xs.is_empty() {
+        return 0.0;
+    }
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        (v[m - 1] + v[m]) * 0.5
+    }
+}
+
+/// The process's peak resident memory in MB, where the platform tells (Linux's VmHWM).
+pub fn peak_memory_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
 /// Renders `frames` to PNGs in `dir` and writes `dir/hashes.txt`. The whole path is checked
-/// before anything is written.
-pub fn render(doc: &Document, dir: &Path, frames: Range<u64>, out: &mut dyn Write) -> Result<()> {
+/// before anything is written. PNG encoding runs on its own thread while the next frame renders.
+pub fn render(
+    doc: &Document,
+    dir: &Path,
+    frames: Range<u64>,
+    compression: Compression,
+    out: &mut dyn Write,
+) -> Result<Summary> {
     doc.check_path()?;
     std::fs::create_dir_all(dir).map_err(|source| Error::Write {
         path: dir.to_path_buf(),
@@ -49,39 +119,67 @@ pub fn render(doc: &Document, dir: &Path, frames: Range<u64>, out: &mut dyn Writ
     })?;
     let total = doc.animation.frames;
     let started = Instant::now();
-    let mut lines = String::new();
-    for_each_frame(doc, frames.clone(), |frame, pixels| {
-        let hash = frame_hash(pixels);
-        write_png(&frame_path(dir, frame, total), pixels, doc.raster)?;
-        lines.push_str(&hash_line(frame, &hash));
-        lines.push('\n');
-        Ok(())
+    let (summary, lines) = std::thread::scope(|scope| -> Result<(Summary, String)> {
+        // Two frames in flight at most: memory stays flat in the number of frames.
+        let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, Arc<Vec<u8>>)>(1);
+        let writer = scope.spawn(move || -> Result<String> {
+            let mut lines = String::new();
+            for (frame, pixels) in rx {
+                write_png(
+                    &frame_path(dir, frame, total),
+                    &pixels,
+                    doc.raster,
+                    compression,
+                )?;
+                lines.push_str(&hash_line(frame, &frame_hash(&pixels)));
+                lines.push('\n');
+            }
+            Ok(lines)
+        });
+        let rendered = for_each_frame(doc, frames.clone(), |frame, pixels| {
+            // A failed send means the writer stopped on an error, reported below.
+            let _ = tx.send((frame, Arc::clone(pixels)));
+            Ok(())
+        });
+        drop(tx);
+        let lines = writer.join().expect("the PNG writer does not panic")?;
+        Ok((rendered?, lines))
     })?;
     let manifest = dir.join("hashes.txt");
     std::fs::write(&manifest, lines).map_err(|source| Error::Write {
         path: manifest,
         source,
     })?;
-    let count = frames.end - frames.start;
-    let secs = started.elapsed().as_secs_f64();
-    let _ = writeln!(
-        out,
-        "rendered {count} frame(s) of {}×{} to {} in {secs:.2} s ({:.1} ms/frame)",
+    let summary = Summary {
+        wall_secs: started.elapsed().as_secs_f64(),
+        ..summary
+    };
+    let detail = format!(
+        " of {}×{} to {}",
         doc.raster.width,
         doc.raster.height,
-        dir.display(),
-        secs * 1e3 / count as f64
+        dir.display()
     );
-    Ok(())
+    let _ = writeln!(out, "{}", summary.line("rendered", &detail));
+    Ok(summary)
 }
 
-/// Renders `frames` and calls `sink` with each frame's RGB8 pixels, in order.
+/// Renders `frames` in order and calls `sink` with each frame's RGB8 pixels. A frame whose
+/// camera equals the previous frame's is not rendered again.
 pub fn for_each_frame(
     doc: &Document,
     frames: Range<u64>,
-    mut sink: impl FnMut(u64, &[u8]) -> Result<()>,
-) -> Result<()> {
+    mut sink: impl FnMut(u64, &Arc<Vec<u8>>) -> Result<()>,
+) -> Result<Summary> {
+    let started = Instant::now();
     let mut renderer = Renderer::new();
+    let mut previous: Option<(Camera, Arc<Vec<u8>>)> = None;
+    let mut summary = Summary {
+        frames: 0,
+        reused: 0,
+        render_secs: Vec::new(),
+        wall_secs: 0.0,
+    };
     for item in doc.cameras() {
         let (frame, camera) = item?;
         if frame >= frames.end {
@@ -90,10 +188,24 @@ pub fn for_each_frame(
         if frame < frames.start {
             continue;
         }
-        let pixels = renderer.render(&camera, &doc.scene, doc.raster);
+        let pixels = match previous.take() {
+            Some((cam, pixels)) if cam == camera => {
+                summary.reused += 1;
+                pixels
+            }
+            _ => {
+                let t = Instant::now();
+                let pixels = Arc::new(renderer.render(&camera, &doc.scene, doc.raster));
+                summary.render_secs.push(t.elapsed().as_secs_f64());
+                pixels
+            }
+        };
         sink(frame, &pixels)?;
+        summary.frames += 1;
+        previous = Some((camera, pixels));
     }
-    Ok(())
+    summary.wall_secs = started.elapsed().as_secs_f64();
+    Ok(summary)
 }
 
 /// The `<frame> <sha256>` lines of `frames`, without writing images.

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use campath::commands;
 use campath::document::Document;
-use campath::output::hash_line;
+use campath::output::{frame_hash, hash_line, Compression};
 use campath::Error;
 
 #[derive(Parser)]
@@ -33,12 +33,18 @@ enum Command {
         /// Frames to render: A..B (B excluded), A.., ..B, A..=B or K.
         #[arg(long)]
         frames: Option<String>,
+        /// PNG compression: fast (default), default, or best (smallest files).
+        #[arg(long, value_enum, default_value_t)]
+        compression: Compression,
     },
     /// Print `<frame> <sha256>` per frame without writing images.
     Hash {
         file: PathBuf,
         #[arg(long)]
         frames: Option<String>,
+        /// Also print the timing summary to standard error.
+        #[arg(long)]
+        stats: bool,
     },
     /// Compare fresh renders with a hashes.txt; exit 1 naming every frame that differs.
     Verify { file: PathBuf, golden: PathBuf },
@@ -81,17 +87,26 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             file,
             out: dir,
             frames: spec,
+            compression,
         } => {
             let doc = Document::load(&file)?;
             let range = frames(&doc, spec.as_deref())?;
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
-            commands::render(&doc, &dir, range, out)?;
+            commands::render(&doc, &dir, range, compression, out)?;
         }
-        Command::Hash { file, frames: spec } => {
+        Command::Hash {
+            file,
+            frames: spec,
+            stats,
+        } => {
             let doc = Document::load(&file)?;
             let range = frames(&doc, spec.as_deref())?;
-            for (frame, hash) in commands::hashes(&doc, range)? {
-                let _ = writeln!(out, "{}", hash_line(frame, &hash));
+            let summary = commands::for_each_frame(&doc, range, |frame, pixels| {
+                let _ = writeln!(out, "{}", hash_line(frame, &frame_hash(pixels)));
+                Ok(())
+            })?;
+            if stats {
+                eprintln!("{}", summary.line("hashed", ""));
             }
         }
         Command::Verify { file, golden } => {

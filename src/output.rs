@@ -34,29 +34,47 @@ pub fn frame_path(dir: &Path, frame: u64, frames: u64) -> PathBuf {
     ))
 }
 
-/// Writes RGB8 pixels as an 8-bit sRGB PNG, with fast compression.
-pub fn write_png(path: &Path, pixels: &[u8], raster: Raster) -> Result<()> {
+/// PNG compression: a trade of encoding time against file size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Compression {
+    /// Fastest encoding, larger files (the default).
+    #[default]
+    Fast,
+    /// zlib's default level.
+    Default,
+    /// Smallest files, slowest encoding.
+    Best,
+}
+
+/// Writes RGB8 pixels as an 8-bit sRGB PNG.
+pub fn write_png(
+    path: &Path,
+    pixels: &[u8],
+    raster: Raster,
+    compression: Compression,
+) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
+    let (level, filter) = match compression {
+        Compression::Fast => (CompressionType::Fast, FilterType::Adaptive),
+        Compression::Default => (CompressionType::Default, FilterType::Adaptive),
+        Compression::Best => (CompressionType::Best, FilterType::Adaptive),
+    };
     let file = std::fs::File::create(path).map_err(|source| Error::Write {
         path: path.to_path_buf(),
         source,
     })?;
-    PngEncoder::new_with_quality(
-        BufWriter::new(file),
-        CompressionType::Fast,
-        FilterType::Adaptive,
-    )
-    .write_image(
-        pixels,
-        raster.width,
-        raster.height,
-        image::ExtendedColorType::Rgb8,
-    )
-    .map_err(|source| Error::Encode {
-        path: path.to_path_buf(),
-        source,
-    })
+    PngEncoder::new_with_quality(BufWriter::new(file), level, filter)
+        .write_image(
+            pixels,
+            raster.width,
+            raster.height,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|source| Error::Encode {
+            path: path.to_path_buf(),
+            source,
+        })
 }
 
 /// One `<frame index> <sha256 hex>` line.

@@ -252,3 +252,33 @@ fn a_minimal_file_is_a_few_lines() {
     assert_eq!(img.get_pixel(320, 180).0, [255, 255, 255]);
     assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
 }
+
+#[test]
+fn held_frames_are_reused_and_compression_keeps_the_pixels() {
+    let tmp = tempfile::tempdir().unwrap();
+    // The camera stops at t = 0.5 s: frames 2 and 3 repeat frame 2's camera.
+    let held = SMALL.replace(
+        "(t: 1.0, value: (2.0, 1.0, -5.0))",
+        "(t: 0.5, value: (2.0, 1.0, -5.0))",
+    );
+    let f = write(tmp.path(), "held.ron", &held);
+    let fast = campath(tmp.path(), &["render", &f, "--out", "fast"], &[]);
+    assert!(stdout(&fast).contains("1 reused"), "{}", stdout(&fast));
+    let best = campath(
+        tmp.path(),
+        &["render", &f, "--out", "best", "--compression", "best"],
+        &[],
+    );
+    assert!(best.status.success(), "{}", stderr(&best));
+    let read = |d: &str| std::fs::read_to_string(tmp.path().join(d).join("hashes.txt")).unwrap();
+    assert_eq!(read("fast"), read("best"));
+    let lines: Vec<String> = read("fast")
+        .lines()
+        .map(|l| l.split(' ').nth(1).unwrap().to_string())
+        .collect();
+    assert_eq!(lines[2], lines[3]);
+    assert_ne!(lines[1], lines[2]);
+    // And the same as rendering without reuse: `hash` of frame 3 alone.
+    let alone = stdout(&campath(tmp.path(), &["hash", &f, "--frames", "3"], &[]));
+    assert_eq!(alone.trim(), format!("3 {}", lines[3]));
+}
