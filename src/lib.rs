@@ -6,6 +6,7 @@
 //! [`scene`]) → [`output`] (PNG, hashes). [`commands`] ties them together for the binary.
 
 pub mod animation;
+pub mod bench;
 pub mod camera;
 pub mod commands;
 pub mod document;

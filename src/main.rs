@@ -52,6 +52,18 @@ enum Command {
     Path { file: PathBuf },
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check { file: PathBuf },
+    /// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table.
+    Bench {
+        /// Where the scene files and renders go.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+        /// Frames POV-Ray renders per scene (0 skips POV-Ray).
+        #[arg(long, default_value_t = 4)]
+        pov_frames: u64,
+        /// Only these scenes (fly100, fly1000, fly10000, small), comma-separated.
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -115,6 +127,24 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
         }
         Command::Path { file } => commands::path_csv(&Document::load(&file)?, out)?,
         Command::Check { file } => commands::check(&Document::load(&file)?, out)?,
+        Command::Bench {
+            out: dir,
+            pov_frames,
+            scenes,
+        } => {
+            let chosen: Vec<_> = campath::bench::SCENES
+                .iter()
+                .filter(|s| scenes.is_empty() || scenes.iter().any(|n| n == s.name))
+                .copied()
+                .collect();
+            if chosen.is_empty() {
+                return Err(Error::Usage(format!(
+                    "--scenes: none of {scenes:?} is a bench scene"
+                )));
+            }
+            let rows = campath::bench::run(&dir, pov_frames, &chosen, &mut std::io::stderr())?;
+            let _ = write!(out, "{}", campath::bench::table(&rows));
+        }
     }
     Ok(true)
 }

@@ -282,23 +282,39 @@ pub fn nearest_positive_root(f: DVec3, c: f64, radius2: f64, d: DVec3) -> Option
 
 /// Exact sRGB quantisation: the linear value at which each 8-bit level begins.
 pub struct SrgbEncoder {
-    /// `thresholds[k]` is the linear value whose encoding is level k + ½.
-    thresholds: [f64; 255],
+    /// `thresholds[k]` is the linear value whose encoding is level k + ½; the last entry is a
+    /// sentinel above 1.
+    thresholds: [f64; 256],
+    /// `first[b]`: the level of the linear value b / BUCKETS.
+    first: Vec<u8>,
 }
+
+/// Buckets of the linear range. Consecutive thresholds are at least 1/(255·12.92) ≈ 3.0e-4
+/// apart (the linear toe is the steepest part), more than a bucket's 2.4e-4, so a bucket holds
+/// at most one threshold and one comparison finishes the lookup.
+const BUCKETS: usize = 4096;
 
 impl SrgbEncoder {
     fn new() -> SrgbEncoder {
-        let mut thresholds = [0.0; 255];
-        for (k, t) in thresholds.iter_mut().enumerate() {
+        let mut thresholds = [f64::INFINITY; 256];
+        for (k, t) in thresholds.iter_mut().take(255).enumerate() {
             *t = srgb_decode((k as f64 + 0.5) / 255.0);
         }
-        SrgbEncoder { thresholds }
+        let level = |x: f64| thresholds.partition_point(|&t| t <= x) as u8;
+        let first = (0..=BUCKETS)
+            .map(|b| level(b as f64 / BUCKETS as f64))
+            .collect();
+        SrgbEncoder { thresholds, first }
     }
 
-    /// Linear [0, 1] to the nearest 8-bit sRGB level (values outside are clamped).
+    /// Linear [0, 1] to the nearest 8-bit sRGB level (values outside are clamped): the level
+    /// whose threshold interval holds the value, exactly.
     #[inline]
     pub fn encode(&self, linear: f64) -> u8 {
-        self.thresholds.partition_point(|&t| t <= linear) as u8
+        let x = linear.clamp(0.0, 1.0);
+        // Truncation is floor here: x ≥ 0. NaN clamps to… NaN, and `as` maps it to bucket 0.
+        let level = self.first[(x * BUCKETS as f64) as usize];
+        level + (x >= self.thresholds[level as usize]) as u8
     }
 }
 
@@ -492,6 +508,14 @@ mod tests {
         assert_eq!(enc.encode(0.5), 188);
         assert_eq!(enc.encode(-1.0), 0);
         assert_eq!(enc.encode(2.0), 255);
+        // Exactly at and just below every threshold, against the plain binary search.
+        for k in 0..255 {
+            let t = srgb_decode((k as f64 + 0.5) / 255.0);
+            let slow = |x: f64| enc.thresholds.partition_point(|&th| th <= x) as u8;
+            for x in [t, t.next_down(), t.next_up()] {
+                assert_eq!(enc.encode(x), slow(x), "x = {x}");
+            }
+        }
     }
 
     #[test]

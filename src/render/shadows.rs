@@ -135,12 +135,13 @@ impl ShadowGrid {
         }
         let q = (DVec2::new(point.dot(self.axes.0), point.dot(self.axes.1)) - self.origin)
             * self.inv_cell;
-        let (x, y) = (q.x.floor(), q.y.floor());
         // Outside the grid no binned disc holds the point (the far edges belong to the last cells).
-        if !(x >= 0.0 && y >= 0.0 && x <= self.dims.0 as f64 && y <= self.dims.1 as f64) {
+        if !(q.x >= 0.0 && q.y >= 0.0 && q.x <= self.dims.0 as f64 && q.y <= self.dims.1 as f64) {
             return false;
         }
-        let c = (y as usize).min(self.dims.1 - 1) * self.dims.0 + (x as usize).min(self.dims.0 - 1);
+        // Truncation is floor for these non-negative values, without a libm call.
+        let c =
+            (q.y as usize).min(self.dims.1 - 1) * self.dims.0 + (q.x as usize).min(self.dims.0 - 1);
         self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
             .iter()
             .any(blocks)
