@@ -216,6 +216,7 @@ impl Checker {
             width,
             height,
             samples,
+            adaptive: image.adaptive.unwrap_or(false),
         })
     }
 

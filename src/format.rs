@@ -32,6 +32,7 @@ pub struct ImageSpec {
     pub width: Option<u32>,
     pub height: Option<u32>,
     pub samples: Option<u32>,
+    pub adaptive: Option<bool>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]

@@ -15,6 +15,7 @@ pub mod format;
 pub mod keyframes;
 pub mod output;
 pub mod render;
+pub mod report;
 pub mod scene;
 
 pub use error::{Error, Result};

@@ -52,6 +52,19 @@ enum Command {
     Path { file: PathBuf },
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check { file: PathBuf },
+    /// Error against run time: every accuracy setting against a 16×16-sample reference.
+    Report {
+        file: PathBuf,
+        /// The frame to measure [default: the middle frame].
+        #[arg(long)]
+        frame: Option<u64>,
+        /// Timed renders per setting (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Where the log-log plot goes [default: out/<file stem>/report.png].
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table.
     Bench {
         /// Where the scene files and renders go.
@@ -127,6 +140,27 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
         }
         Command::Path { file } => commands::path_csv(&Document::load(&file)?, out)?,
         Command::Check { file } => commands::check(&Document::load(&file)?, out)?,
+        Command::Report {
+            file,
+            frame,
+            runs,
+            plot,
+        } => {
+            let doc = Document::load(&file)?;
+            let frame = frame.unwrap_or(doc.animation.frames / 2);
+            let rows = campath::report::renderer_report(&doc, frame, runs.max(1))?;
+            let _ = writeln!(out, "Renderer, frame {frame} of {}:\n", file.display());
+            let _ = write!(out, "{}", campath::report::renderer_table(&rows));
+            let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
+            if let Some(dir) = plot.parent() {
+                std::fs::create_dir_all(dir).map_err(|source| Error::Write {
+                    path: dir.to_path_buf(),
+                    source,
+                })?;
+            }
+            campath::report::plot(&rows, &plot)?;
+            let _ = writeln!(out, "\nplot: {}", plot.display());
+        }
         Command::Bench {
             out: dir,
             pov_frames,

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use std::sync::OnceLock;
 
 use crate::camera::{window_point, Camera};
+use crate::document::MAX_SAMPLES;
 use crate::scene::Scene;
 
 mod shadows;
@@ -30,6 +31,10 @@ pub struct Raster {
     pub height: u32,
     /// Samples per pixel side: an s×s grid at fixed positions, averaged.
     pub samples: u32,
+    /// With s ≥ 2: trace the grid's four corner samples first, and where they see the same
+    /// sphere lit by the same lights (or all the background), average those four and skip the
+    /// rest of the grid.
+    pub adaptive: bool,
 }
 
 impl Raster {
@@ -39,42 +44,95 @@ impl Raster {
     }
 }
 
-/// Unit ray directions in view coordinates, for one COP, window and raster: row-major pixels,
-/// each with its s×s samples row-major.
+/// Largest number of sample directions kept in memory (96 MB); past it, directions are
+/// normalised on the fly from the cached per-column and per-row offsets, to the same bits.
+const CACHED_DIRECTIONS: usize = 1 << 22;
+
+/// Ray directions in view coordinates, for one COP, window and raster. Sample (sx, sy) of pixel
+/// (i, j) leaves the COP towards window point (xs[i·s + sx], ys[j·s + sy]) relative to the COP,
+/// at depth dz; `dirs` holds the unit directions themselves (row-major pixels, each with its s×s
+/// samples row-major) while they fit in [`CACHED_DIRECTIONS`].
 struct RayTable {
     cop_view: DVec3,
     window: DVec2,
     raster: Raster,
-    dirs: Vec<DVec3>,
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    dz: f64,
+    dirs: Option<Vec<DVec3>>,
 }
 
 impl RayTable {
     fn new(cop_view: DVec3, window: DVec2, raster: Raster) -> RayTable {
+        RayTable::with_cache_limit(cop_view, window, raster, CACHED_DIRECTIONS)
+    }
+
+    fn with_cache_limit(cop_view: DVec3, window: DVec2, raster: Raster, limit: usize) -> RayTable {
         let s = raster.samples as usize;
         let size = (raster.width, raster.height);
-        let per_row = raster.width as usize * s * s;
-        let mut dirs = vec![DVec3::ZERO; per_row * raster.height as usize];
-        dirs.par_chunks_mut(per_row)
-            .enumerate()
-            .for_each(|(j, row)| {
-                for (k, d) in row.iter_mut().enumerate() {
-                    let i = k / (s * s);
-                    let (sy, sx) = ((k % (s * s)) / s, k % s);
-                    let px = i as f64 + (sx as f64 + 0.5) / s as f64;
-                    let py = j as f64 + (sy as f64 + 0.5) / s as f64;
-                    *d = (window_point(window, size, px, py) - cop_view).normalize();
-                }
-            });
-        RayTable {
+        let offset = |k: usize| (k / s) as f64 + ((k % s) as f64 + 0.5) / s as f64;
+        let xs = (0..raster.width as usize * s)
+            .map(|k| window_point(window, size, offset(k), 0.0).x - cop_view.x)
+            .collect();
+        let ys = (0..raster.height as usize * s)
+            .map(|k| window_point(window, size, 0.0, offset(k)).y - cop_view.y)
+            .collect();
+        let mut table = RayTable {
             cop_view,
             window,
             raster,
-            dirs,
+            xs,
+            ys,
+            dz: -cop_view.z,
+            dirs: None,
+        };
+        let per_row = raster.width as usize * s * s;
+        if per_row * raster.height as usize <= limit {
+            let mut dirs = vec![DVec3::ZERO; per_row * raster.height as usize];
+            dirs.par_chunks_mut(per_row)
+                .enumerate()
+                .for_each(|(j, row)| {
+                    for (i, pixel) in row.chunks_exact_mut(s * s).enumerate() {
+                        table.compute(i, j, pixel);
+                    }
+                });
+            table.dirs = Some(dirs);
+        }
+        table
+    }
+
+    /// Computes pixel (i, j)'s s×s unit directions into `out`.
+    #[inline]
+    fn compute(&self, i: usize, j: usize, out: &mut [DVec3]) {
+        let s = self.raster.samples as usize;
+        for (k, d) in out.iter_mut().enumerate() {
+            let (sy, sx) = (k / s, k % s);
+            *d = DVec3::new(self.xs[i * s + sx], self.ys[j * s + sy], self.dz).normalize();
+        }
+    }
+
+    /// Pixel (i, j)'s s×s unit directions: from the cache, or computed into `scratch`.
+    #[inline]
+    fn pixel<'a>(&'a self, i: usize, j: usize, scratch: &'a mut [DVec3]) -> &'a [DVec3] {
+        let s2 = (self.raster.samples * self.raster.samples) as usize;
+        match &self.dirs {
+            Some(dirs) => {
+                let start = (j * self.raster.width as usize + i) * s2;
+                &dirs[start..start + s2]
+            }
+            None => {
+                self.compute(i, j, &mut scratch[..s2]);
+                &scratch[..s2]
+            }
         }
     }
 
     fn fits(&self, cop_view: DVec3, window: DVec2, raster: Raster) -> bool {
-        self.cop_view == cop_view && self.window == window && self.raster == raster
+        // Adaptive sampling does not change the directions.
+        let same = |a: Raster, b: Raster| {
+            a.width == b.width && a.height == b.height && a.samples == b.samples
+        };
+        self.cop_view == cop_view && self.window == window && same(self.raster, raster)
     }
 }
 
@@ -161,25 +219,27 @@ impl Renderer {
         };
 
         let s2 = (raster.samples * raster.samples) as usize;
+        let adaptive = raster.adaptive && raster.samples >= 2;
         let width = raster.width as usize;
         let mut pixels = vec![0u8; raster.frame_bytes()];
         let encode = srgb_encoder();
         pixels
             .par_chunks_mut(width * 3)
-            .zip(table.dirs.par_chunks(width * s2))
             .enumerate()
-            .for_each(|(j, (row, dirs))| {
-                for (i, (px, samples)) in row
-                    .chunks_exact_mut(3)
-                    .zip(dirs.chunks_exact(s2))
-                    .enumerate()
-                {
+            .for_each(|(j, row)| {
+                let mut scratch = [DVec3::ZERO; (MAX_SAMPLES * MAX_SAMPLES) as usize];
+                for (i, px) in row.chunks_exact_mut(3).enumerate() {
+                    let samples = table.pixel(i, j, &mut scratch);
                     let candidates = bins.at(i, j);
-                    let mut sum = DVec3::ZERO;
-                    for d in samples {
-                        sum += ctx.shade(*d, candidates);
-                    }
-                    let c = sum / s2 as f64;
+                    let c = if adaptive {
+                        ctx.pixel_adaptive(samples, raster.samples as usize, candidates)
+                    } else {
+                        let mut sum = DVec3::ZERO;
+                        for d in samples {
+                            sum += ctx.shade(*d, candidates).0;
+                        }
+                        sum / s2 as f64
+                    };
                     px[0] = encode.encode(c.x);
                     px[1] = encode.encode(c.y);
                     px[2] = encode.encode(c.z);
@@ -197,25 +257,48 @@ struct Shading<'a> {
     background: DVec3,
 }
 
+/// What a sample saw: the sphere (or `u64::MAX` for the background) in the high bits and, in
+/// the low 32, which lights reach the point. Adaptive sampling compares these.
+type Seen = u64;
+
 impl Shading<'_> {
+    /// One pixel's s×s `samples` with adaptive refinement: the four corners first, the whole
+    /// grid only where they disagree on what they see.
+    fn pixel_adaptive(&self, samples: &[DVec3], s: usize, candidates: &[u32]) -> DVec3 {
+        let corners = [0, s - 1, s * (s - 1), s * s - 1];
+        let shaded = corners.map(|k| self.shade(samples[k], candidates));
+        if shaded.iter().all(|(_, seen)| *seen == shaded[0].1) {
+            return (shaded[0].0 + shaded[1].0 + shaded[2].0 + shaded[3].0) / 4.0;
+        }
+        let mut sum = DVec3::ZERO;
+        for (k, d) in samples.iter().enumerate() {
+            sum += match corners.iter().position(|&c| c == k) {
+                Some(n) => shaded[n].0,
+                None => self.shade(*d, candidates).0,
+            };
+        }
+        sum / (s * s) as f64
+    }
+
     /// Linear colour seen along unit direction `d` from the COP, among `candidates` (sphere
-    /// indices, nearest possible hit first).
+    /// indices, nearest possible hit first), and what was seen.
     #[inline]
-    fn shade(&self, d: DVec3, candidates: &[u32]) -> DVec3 {
+    fn shade(&self, d: DVec3, candidates: &[u32]) -> (DVec3, Seen) {
         let Some((index, t)) = self.nearest(d, candidates) else {
-            return self.background;
+            return (self.background, u64::MAX);
         };
         let s = &self.spheres[index];
+        let mut seen = (index as u64) << 32;
         if self.lights.is_empty() {
             // Flat: no normal, no light loop.
-            return (s.color * self.ambient).min(DVec3::ONE);
+            return ((s.color * self.ambient).min(DVec3::ONE), seen);
         }
         // Hit point relative to the centre, f + t·d, has length r; the normal is that over r.
         let rel = s.f + d * t;
         let normal = rel / s.radius;
         let point = s.center + rel;
         let mut light = DVec3::splat(self.ambient);
-        for l in self.lights {
+        for (n, l) in self.lights.iter().enumerate() {
             let facing = normal.dot(l.to_light);
             if facing <= 0.0 {
                 continue;
@@ -226,8 +309,9 @@ impl Shading<'_> {
                 }
             }
             light += l.color * facing;
+            seen |= 1 << n.min(31);
         }
-        (s.color * light).clamp(DVec3::ZERO, DVec3::ONE)
+        ((s.color * light).clamp(DVec3::ZERO, DVec3::ONE), seen)
     }
 
     /// The nearest hit in front of the COP among `candidates`, as (sphere index, distance). The
@@ -344,6 +428,7 @@ mod tests {
         let mut r = Renderer::new();
         let fast = r.render(camera, scene, raster);
         let table = r.table.take().unwrap();
+        let dirs = table.dirs.clone().unwrap();
         let spheres: Vec<ViewSphere> = scene
             .spheres
             .iter()
@@ -364,7 +449,7 @@ mod tests {
         let enc = srgb_encoder();
         let s2 = (raster.samples * raster.samples) as usize;
         let mut out = Vec::with_capacity(fast.len());
-        for samples in table.dirs.chunks(s2) {
+        for samples in dirs.chunks(s2) {
             let mut sum = DVec3::ZERO;
             for d in samples {
                 let mut best: Option<(usize, f64)> = None;
@@ -402,6 +487,35 @@ mod tests {
             out.extend([enc.encode(c.x), enc.encode(c.y), enc.encode(c.z)]);
         }
         out
+    }
+
+    #[test]
+    fn uncached_directions_are_the_cached_bits() {
+        let raster = Raster {
+            width: 37,
+            height: 23,
+            samples: 3,
+            adaptive: false,
+        };
+        let (cop, window) = (DVec3::new(0.3, -0.2, -1.7), DVec2::new(1.9, 1.1));
+        let cached = RayTable::with_cache_limit(cop, window, raster, usize::MAX);
+        let computed = RayTable::with_cache_limit(cop, window, raster, 0);
+        assert!(cached.dirs.is_some() && computed.dirs.is_none());
+        let mut a = [DVec3::ZERO; 9];
+        let mut b = [DVec3::ZERO; 9];
+        for j in 0..23 {
+            for i in 0..37 {
+                let x = cached.pixel(i, j, &mut a).to_vec();
+                assert_eq!(x, computed.pixel(i, j, &mut b));
+                // And the notes' pixel formula, sample by sample.
+                for (k, d) in x.iter().enumerate() {
+                    let px = i as f64 + ((k % 3) as f64 + 0.5) / 3.0;
+                    let py = j as f64 + ((k / 3) as f64 + 0.5) / 3.0;
+                    let expect = (window_point(window, (37, 23), px, py) - cop).normalize();
+                    assert_eq!(*d, expect);
+                }
+            }
+        }
     }
 
     /// SplitMix64 in [0, 1): a fixed-seed generator for test scenes.
@@ -452,6 +566,7 @@ mod tests {
             width: 96,
             height: 64,
             samples: 2,
+            adaptive: false,
         };
         let cameras = [
             // Outside the field, looking in.

@@ -1,0 +1,268 @@
+//! `campath report`: what accuracy each renderer setting buys, and at what time.
+//!
+//! One frame is rendered at every setting that trades accuracy for time (samples per pixel side
+//! 1, 2, 3, 4, 8, and adaptive sampling at 2, 4 and 8) and compared with a reference at 16×16
+//! samples. Errors are per channel, in 8-bit levels and in linear light.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use crate::camera::Camera;
+use crate::commands::median;
+use crate::document::Document;
+use crate::error::{Error, Result};
+use crate::render::{srgb_decode, Raster, Renderer};
+use crate::scene::Scene;
+
+/// Samples per side of the reference.
+pub const REFERENCE_SAMPLES: u32 = 16;
+
+/// One setting's measurements against the reference.
+#[derive(Debug, Clone)]
+pub struct Measured {
+    pub label: String,
+    /// Median seconds per frame over the timed runs (ray table already built).
+    pub secs: f64,
+    pub rmse_levels: f64,
+    pub max_levels: f64,
+    pub rmse_linear: f64,
+    pub max_linear: f64,
+    /// Fraction of pixels with any channel different from the reference.
+    pub changed: f64,
+}
+
+/// Median time of `runs` renders after one warm-up render, and the last frame.
+fn timed(camera: &Camera, scene: &Scene, raster: Raster, runs: usize) -> (f64, Vec<u8>) {
+    let mut r = Renderer::new();
+    let mut pixels = r.render(camera, scene, raster);
+    let mut secs = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t = Instant::now();
+        pixels = r.render(camera, scene, raster);
+        secs.push(t.elapsed().as_secs_f64());
+    }
+    (median(&secs), pixels)
+}
+
+/// Errors of `got` against `reference`, both RGB8 sRGB.
+pub fn compare(got: &[u8], reference: &[u8]) -> (f64, f64, f64, f64, f64) {
+    let linear: Vec<f64> = (0..=255).map(|l| srgb_decode(l as f64 / 255.0)).collect();
+    let (mut sq, mut max, mut sq_lin, mut max_lin) = (0.0, 0.0f64, 0.0, 0.0f64);
+    for (a, b) in got.iter().zip(reference) {
+        let d = (*a as f64 - *b as f64).abs();
+        let dl = (linear[*a as usize] - linear[*b as usize]).abs();
+        sq += d * d;
+        sq_lin += dl * dl;
+        max = max.max(d);
+        max_lin = max_lin.max(dl);
+    }
+    let n = got.len().max(1) as f64;
+    let changed = got
+        .chunks(3)
+        .zip(reference.chunks(3))
+        .filter(|(a, b)| a != b)
+        .count() as f64
+        / (n / 3.0);
+    ((sq / n).sqrt(), max, (sq_lin / n).sqrt(), max_lin, changed)
+}
+
+/// Measures every setting on frame `frame` of `doc`.
+pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Measured>> {
+    let camera = doc
+        .cameras()
+        .nth(frame as usize)
+        .ok_or_else(|| {
+            Error::Usage(format!(
+                "--frame {frame}: the animation has frames 0..{}",
+                doc.animation.frames
+            ))
+        })??
+        .1;
+    let base = Raster {
+        samples: 1,
+        adaptive: false,
+        ..doc.raster
+    };
+    let (_, reference) = timed(
+        &camera,
+        &doc.scene,
+        Raster {
+            samples: REFERENCE_SAMPLES,
+            ..base
+        },
+        0,
+    );
+    let mut settings: Vec<(String, Raster)> = [1, 2, 3, 4, 8]
+        .iter()
+        .map(|&s| (format!("samples {s}"), Raster { samples: s, ..base }))
+        .collect();
+    for s in [2, 4, 8] {
+        settings.push((
+            format!("samples {s}, adaptive"),
+            Raster {
+                samples: s,
+                adaptive: true,
+                ..base
+            },
+        ));
+    }
+    let mut out = Vec::new();
+    for (label, raster) in settings {
+        let (secs, pixels) = timed(&camera, &doc.scene, raster, runs);
+        let (rmse_levels, max_levels, rmse_linear, max_linear, changed) =
+            compare(&pixels, &reference);
+        out.push(Measured {
+            label,
+            secs,
+            rmse_levels,
+            max_levels,
+            rmse_linear,
+            max_linear,
+            changed,
+        });
+    }
+    Ok(out)
+}
+
+/// The renderer table as Markdown.
+pub fn renderer_table(rows: &[Measured]) -> String {
+    let mut t = format!(
+        "| setting | median ms/frame | RMSE (levels) | max (levels) | RMSE (linear) | max (linear) | pixels changed |\n|---|---|---|---|---|---|---|\n"
+    );
+    for r in rows {
+        let _ = writeln!(
+            t,
+            "| {} | {:.1} | {:.3} | {:.0} | {:.5} | {:.4} | {:.2}% |",
+            r.label,
+            r.secs * 1e3,
+            r.rmse_levels,
+            r.max_levels,
+            r.rmse_linear,
+            r.max_linear,
+            r.changed * 100.0
+        );
+    }
+    t
+}
+
+/// Font files tried, in order, for the plot's labels.
+const FONTS: [&str; 3] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+];
+
+fn register_font() -> std::result::Result<(), String> {
+    use std::sync::OnceLock;
+    static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        let bytes = FONTS
+            .iter()
+            .find_map(|p| std::fs::read(p).ok())
+            .ok_or_else(|| format!("no font for the plot's labels; install fonts-dejavu-core (looked in {FONTS:?})"))?;
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, Box::leak(bytes.into_boxed_slice()))
+            .map_err(|_| "the DejaVu font could not be read".to_string())
+    })
+    .clone()
+}
+
+/// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG.
+pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
+    use plotters::prelude::*;
+    register_font().map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+    let (w, h) = (900u32, 600u32);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let draw_err = |e: DrawingAreaErrorKind<_>| {
+            Error::Usage(format!("{}: cannot draw the plot: {e}", path.display()))
+        };
+        root.fill(&WHITE).map_err(draw_err)?;
+        let floor = 1e-3;
+        let (tmin, tmax) = rows.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
+            (a.min(r.secs * 1e3), b.max(r.secs * 1e3))
+        });
+        let (emin, emax) = rows.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
+            (
+                a.min(r.rmse_levels.max(floor)),
+                b.max(r.rmse_levels.max(floor)),
+            )
+        });
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "Error against run time (reference: 16×16 samples)",
+                ("sans-serif", 24),
+            )
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(
+                (tmin * 0.7..tmax * 1.4).log_scale(),
+                (emin * 0.7..emax * 1.4).log_scale(),
+            )
+            .map_err(draw_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("median time per frame (ms)")
+            .y_desc("RMSE (8-bit levels)")
+            .x_labels(8)
+            .y_labels(8)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.2}"))
+            .label_style(("sans-serif", 16))
+            .draw()
+            .map_err(draw_err)?;
+        let point = |r: &Measured| (r.secs * 1e3, r.rmse_levels.max(floor));
+        let plain: Vec<_> = rows
+            .iter()
+            .filter(|r| !r.label.contains("adaptive"))
+            .map(point)
+            .collect();
+        let adaptive: Vec<_> = rows
+            .iter()
+            .filter(|r| r.label.contains("adaptive"))
+            .map(point)
+            .collect();
+        for (series, color, name) in [(plain, BLUE, "full grid"), (adaptive, RED, "adaptive")] {
+            chart
+                .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
+                .map_err(draw_err)?
+                .label(name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(series.iter().map(|p| Circle::new(*p, 5, color.filled())))
+                .map_err(draw_err)?;
+        }
+        for r in rows {
+            let (x, y) = point(r);
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    r.label.replace("samples ", "s="),
+                    (x, y),
+                    ("sans-serif", 14),
+                )))
+                .map_err(draw_err)?;
+        }
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()
+            .map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
+    }
+    crate::output::write_png(
+        path,
+        &buf,
+        Raster {
+            width: w,
+            height: h,
+            samples: 1,
+            adaptive: false,
+        },
+        crate::output::Compression::Default,
+    )
+}
