@@ -127,7 +127,7 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
 
 /// The renderer table as Markdown.
 pub fn renderer_table(rows: &[Measured]) -> String {
-    let mut t = format!(
+    let mut t = String::from(
         "| setting | median ms/frame | RMSE (levels) | max (levels) | RMSE (linear) | max (linear) | pixels changed |\n|---|---|---|---|---|---|---|\n"
     );
     for r in rows {
