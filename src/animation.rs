@@ -12,7 +12,7 @@
 use glam::{DVec2, DVec3};
 
 use crate::camera::{Basis, Camera, CameraError};
-use crate::keyframes::{DirectionTrack, Track};
+use crate::keyframes::{DirectionTrack, PathTrack, Track};
 
 /// Where the base camera points, when no track sets it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,7 +37,7 @@ pub struct Animation {
     pub cop: DVec3,
     /// Window (width, height) in world units.
     pub window: DVec2,
-    pub observer: Option<Track<DVec3>>,
+    pub observer: Option<PathTrack>,
     pub look_around: Option<DirectionTrack>,
     pub track: Option<Track<DVec3>>,
     pub zoom: Option<Track<f64>>,

@@ -7,8 +7,12 @@ use std::path::{Path, PathBuf};
 use crate::animation::{Animation, Pointing};
 use crate::camera::{window_extent, Camera, CameraError};
 use crate::error::{Error, Problem, Problems, Result};
-use crate::format::{self, FileSpec, InterpolationSpec, KeySpec, Pair, TrackSpec, Triple};
-use crate::keyframes::{DirectionTrack, Interpolation, Key, Keyable, Track};
+use crate::format::{
+    self, FileSpec, InterpolationSpec, KeySpec, Pair, SpeedSpec, TrackSpec, Triple,
+};
+use crate::keyframes::{
+    DirectionTrack, Interpolation, Key, Keyable, PathTrack, Track, UniformSpeed,
+};
 use crate::render::Raster;
 use crate::scene::{Light, Scene, Sphere};
 
@@ -448,10 +452,31 @@ impl Checker {
                 TrackSpec::Observer {
                     keys,
                     interpolation,
+                    speed,
+                    arc_samples,
                 } => {
+                    let samples = arc_samples.unwrap_or(UniformSpeed::DEFAULT_SAMPLES);
+                    if samples == 0 || samples > 1 << 20 {
+                        self.problem(
+                            format!("{field}.arc_samples"),
+                            format!("must lie in 1..={}, got {samples}", 1 << 20),
+                        );
+                    }
+                    if arc_samples.is_some() && *speed != Some(SpeedSpec::Uniform) {
+                        self.problem(
+                            format!("{field}.arc_samples"),
+                            "only applies with speed: Uniform",
+                        );
+                    }
                     out.observer = self
                         .keys(&field, keys, *interpolation, |c, f, v| c.triple(f, *v))
-                        .map(Track::new);
+                        .map(Track::new)
+                        .map(|track| match speed {
+                            Some(SpeedSpec::Uniform) => {
+                                PathTrack::Uniform(UniformSpeed::new(track, samples))
+                            }
+                            _ => PathTrack::Keyed(track),
+                        });
                 }
                 TrackSpec::Track {
                     keys,
@@ -556,7 +581,7 @@ fn interpolation(spec: InterpolationSpec) -> Interpolation {
 
 #[derive(Default)]
 struct Tracks {
-    observer: Option<Track<DVec3>>,
+    observer: Option<PathTrack>,
     look_around: Option<DirectionTrack>,
     track: Option<Track<DVec3>>,
     zoom: Option<Track<f64>>,

@@ -58,6 +58,15 @@ pub enum InterpolationSpec {
     Centripetal,
 }
 
+/// How an Observer path is timed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+pub enum SpeedSpec {
+    /// Each key is reached at its time.
+    Keyed,
+    /// Constant speed along the path from the first key's time to the last.
+    Uniform,
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "key")]
 pub struct KeySpec<V> {
@@ -72,6 +81,8 @@ pub enum TrackSpec {
     Observer {
         keys: Vec<KeySpec<Triple>>,
         interpolation: Option<InterpolationSpec>,
+        speed: Option<SpeedSpec>,
+        arc_samples: Option<u32>,
     },
     LookAround {
         keys: Vec<KeySpec<Triple>>,

@@ -462,3 +462,100 @@ pub fn exp_map(p: DVec3, w: DVec3) -> DVec3 {
     }
     (p * libm::cos(angle) + w * (libm::sin(angle) / angle)).normalize()
 }
+
+/// A position track re-timed to constant speed: between its first and last key times the
+/// camera covers equal path length in equal time, along the same curve. Arc length comes from a
+/// table of the curve sampled at `samples_per_segment` equal time steps per key segment (chord
+/// sums); a time maps to its arc length, the table is searched, and the curve parameter is
+/// interpolated linearly within the table step. Keys are passed through, no longer at their
+/// times. The error falls with the square of the table step (README shows the measured table).
+#[derive(Debug, Clone)]
+pub struct UniformSpeed {
+    track: Track<DVec3>,
+    /// Track times of the table's samples, increasing.
+    times: Vec<f64>,
+    /// Arc length from the first key to each sample, non-decreasing.
+    lengths: Vec<f64>,
+}
+
+impl UniformSpeed {
+    /// Default table resolution.
+    pub const DEFAULT_SAMPLES: u32 = 256;
+
+    pub fn new(track: Track<DVec3>, samples_per_segment: u32) -> UniformSpeed {
+        let n = samples_per_segment.max(1) as usize;
+        let keys = track.keys();
+        let mut times = vec![keys[0].t];
+        for w in keys.windows(2) {
+            for k in 1..=n {
+                times.push(w[0].t + (w[1].t - w[0].t) * (k as f64 / n as f64));
+            }
+        }
+        let mut lengths = Vec::with_capacity(times.len());
+        let mut total = 0.0;
+        let mut prev = track.sample(times[0]);
+        for &t in &times {
+            let p = track.sample(t);
+            total += (p - prev).length();
+            lengths.push(total);
+            prev = p;
+        }
+        UniformSpeed {
+            track,
+            times,
+            lengths,
+        }
+    }
+
+    /// Path length in world units (the table's chord sum).
+    pub fn length(&self) -> f64 {
+        self.lengths[self.lengths.len() - 1]
+    }
+
+    pub fn keys(&self) -> &[Key<DVec3>] {
+        self.track.keys()
+    }
+
+    /// The position at `t` seconds; held before the first and after the last key time.
+    pub fn sample(&self, t: f64) -> DVec3 {
+        let (t0, t1) = (self.times[0], self.times[self.times.len() - 1]);
+        if t <= t0 || self.length() == 0.0 {
+            return self.track.sample(t0.max(t.min(t1)));
+        }
+        if t >= t1 {
+            return self.track.sample(t1);
+        }
+        let s = self.length() * ((t - t0) / (t1 - t0));
+        let i = self
+            .lengths
+            .partition_point(|&l| l <= s)
+            .clamp(1, self.lengths.len() - 1);
+        let (l0, l1) = (self.lengths[i - 1], self.lengths[i]);
+        let frac = if l1 > l0 { (s - l0) / (l1 - l0) } else { 0.0 };
+        self.track
+            .sample(self.times[i - 1] + (self.times[i] - self.times[i - 1]) * frac)
+    }
+}
+
+/// A VRP track: keyed, or re-timed to constant speed.
+#[derive(Debug, Clone)]
+pub enum PathTrack {
+    Keyed(Track<DVec3>),
+    Uniform(UniformSpeed),
+}
+
+impl PathTrack {
+    pub fn sample(&self, t: f64) -> DVec3 {
+        match self {
+            PathTrack::Keyed(track) => track.sample(t),
+            PathTrack::Uniform(u) => u.sample(t),
+        }
+    }
+
+    pub fn keys(&self) -> &[Key<DVec3>] {
+        match self {
+            PathTrack::Keyed(track) => track.keys(),
+            PathTrack::Uniform(u) => u.keys(),
+        }
+    }
+}

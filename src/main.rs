@@ -160,6 +160,14 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             }
             campath::report::plot(&rows, &plot)?;
             let _ = writeln!(out, "\nplot: {}", plot.display());
+            if let Some(path) = campath::report::path_report(&doc) {
+                let _ = writeln!(
+                    out,
+                    "\nCamera path, speed: Uniform against a {}-step arc-length table:\n",
+                    campath::report::PATH_REFERENCE_SAMPLES
+                );
+                let _ = write!(out, "{}", campath::report::path_table(&path));
+            }
         }
         Command::Bench {
             out: dir,

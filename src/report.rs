@@ -266,3 +266,109 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
         crate::output::Compression::Default,
     )
 }
+
+/// One arc-length table resolution, measured against a 65,536-step reference.
+#[derive(Debug, Clone)]
+pub struct PathRow {
+    /// Table samples per key segment; 0 for the keyed (not re-timed) path.
+    pub samples: u32,
+    /// Median microseconds to build the table.
+    pub build_us: f64,
+    /// Median nanoseconds to evaluate one frame's position.
+    pub eval_ns: f64,
+    /// Largest distance from the reference position over all frames, world units.
+    pub max_error: f64,
+    /// (largest − smallest) / mean distance moved per frame while moving: 0 is constant speed.
+    pub speed_spread: f64,
+}
+
+/// Reference resolution of the arc-length table.
+pub const PATH_REFERENCE_SAMPLES: u32 = 1 << 16;
+
+/// Arc-length table resolution against accuracy and time, for the file's Observer path; None
+/// when the file has no Observer track.
+pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
+    use crate::keyframes::{PathTrack, Track, UniformSpeed};
+    let keys = doc.animation.observer.as_ref()?.keys().to_vec();
+    if keys.len() < 2 {
+        return None;
+    }
+    let track = Track::new(keys.clone());
+    let (t0, t1) = (keys[0].t, keys[keys.len() - 1].t);
+    let times: Vec<f64> = (0..doc.animation.frames)
+        .map(|k| doc.animation.time(k))
+        .filter(|t| *t >= t0 && *t <= t1)
+        .collect();
+    let reference = UniformSpeed::new(track.clone(), PATH_REFERENCE_SAMPLES);
+    let exact: Vec<_> = times.iter().map(|t| reference.sample(*t)).collect();
+    let measure = |path: &PathTrack, build_us: f64, samples: u32| {
+        let mut eval = Vec::new();
+        let mut positions = Vec::new();
+        for _ in 0..5 {
+            let start = Instant::now();
+            positions = times.iter().map(|t| path.sample(*t)).collect::<Vec<_>>();
+            eval.push(start.elapsed().as_secs_f64() * 1e9 / times.len().max(1) as f64);
+        }
+        let max_error = positions
+            .iter()
+            .zip(&exact)
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0, f64::max);
+        let steps: Vec<f64> = positions
+            .windows(2)
+            .map(|w| (w[1] - w[0]).length())
+            .collect();
+        let mean = steps.iter().sum::<f64>() / steps.len().max(1) as f64;
+        let spread = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
+            (lo.min(*s), hi.max(*s))
+        });
+        PathRow {
+            samples,
+            build_us,
+            eval_ns: median(&eval),
+            max_error,
+            speed_spread: if mean > 0.0 {
+                (spread.1 - spread.0) / mean
+            } else {
+                0.0
+            },
+        }
+    };
+    let mut rows = vec![measure(&PathTrack::Keyed(track.clone()), 0.0, 0)];
+    rows[0].max_error = f64::NAN;
+    for samples in [2, 4, 16, 64, 256, 1024] {
+        let mut builds = Vec::new();
+        let mut table = None;
+        for _ in 0..5 {
+            let start = Instant::now();
+            table = Some(UniformSpeed::new(track.clone(), samples));
+            builds.push(start.elapsed().as_secs_f64() * 1e6);
+        }
+        let path = PathTrack::Uniform(table.expect("built five times"));
+        rows.push(measure(&path, median(&builds), samples));
+    }
+    Some(rows)
+}
+
+/// The camera path table as Markdown.
+pub fn path_table(rows: &[PathRow]) -> String {
+    let mut t = String::from(
+        "| timing | table samples per segment | build µs | eval ns/frame | max position error | speed spread |\n|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        if r.samples == 0 {
+            let _ = writeln!(
+                t,
+                "| keyed | — | — | {:.0} | — | {:.3} |",
+                r.eval_ns, r.speed_spread
+            );
+        } else {
+            let _ = writeln!(
+                t,
+                "| uniform | {} | {:.1} | {:.0} | {:.2e} | {:.2e} |",
+                r.samples, r.build_us, r.eval_ns, r.max_error, r.speed_spread
+            );
+        }
+    }
+    t
+}

@@ -282,3 +282,36 @@ fn held_frames_are_reused_and_compression_keeps_the_pixels() {
     let alone = stdout(&campath(tmp.path(), &["hash", &f, "--frames", "3"], &[]));
     assert_eq!(alone.trim(), format!("3 {}", lines[3]));
 }
+
+#[test]
+fn report_prints_both_tables_and_writes_the_plot() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let o = campath(
+        tmp.path(),
+        &["report", &f, "--runs", "1", "--plot", "plot.png"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for row in [
+        "| samples 1 |",
+        "| samples 8 |",
+        "| samples 4, adaptive |",
+        "| uniform | 1024 |",
+        "| keyed |",
+    ] {
+        assert!(text.contains(row), "{row} missing from:\n{text}");
+    }
+    // Samples 8 is closer to the 16×16 reference than samples 1.
+    let rmse = |label: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {label} |")))
+            .unwrap();
+        line.split('|').nth(3).unwrap().trim().parse().unwrap()
+    };
+    assert!(rmse("samples 8") < rmse("samples 1"));
+    let plot = image::open(tmp.path().join("plot.png")).unwrap();
+    assert_eq!((plot.width(), plot.height()), (900, 600));
+}
