@@ -210,12 +210,35 @@ pub fn for_each_frame(
 
 /// The `<frame> <sha256>` lines of `frames`, without writing images.
 pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, String)>> {
-    let mut out = Vec::new();
-    for_each_frame(doc, frames, |frame, pixels| {
-        out.push((frame, frame_hash(pixels)));
-        Ok(())
-    })?;
-    Ok(out)
+    Ok(hash_frames(doc, frames, |_, _| ())?.0)
+}
+
+/// Renders `frames` and hashes each on its own thread while the next renders (SHA-256 is
+/// sequential within a frame); `each` sees every (frame, hash) in order, as it is ready.
+pub fn hash_frames(
+    doc: &Document,
+    frames: Range<u64>,
+    mut each: impl FnMut(u64, &str) + Send,
+) -> Result<(Vec<(u64, String)>, Summary)> {
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, Arc<Vec<u8>>)>(1);
+        let hasher = scope.spawn(move || {
+            let mut out = Vec::new();
+            for (frame, pixels) in rx {
+                let hash = frame_hash(&pixels);
+                each(frame, &hash);
+                out.push((frame, hash));
+            }
+            out
+        });
+        let summary = for_each_frame(doc, frames, |frame, pixels| {
+            let _ = tx.send((frame, Arc::clone(pixels)));
+            Ok(())
+        });
+        drop(tx);
+        let out = hasher.join().expect("the hasher does not panic");
+        Ok((out, summary?))
+    })
 }
 
 /// Compares the frames listed in `golden` (a hashes.txt) with fresh renders. Returns whether all

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use campath::commands;
 use campath::document::Document;
-use campath::output::{frame_hash, hash_line, Compression};
+use campath::output::{hash_line, Compression};
 use campath::Error;
 
 #[derive(Parser)]
@@ -126,10 +126,11 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
         } => {
             let doc = Document::load(&file)?;
             let range = frames(&doc, spec.as_deref())?;
-            let summary = commands::for_each_frame(&doc, range, |frame, pixels| {
-                let _ = writeln!(out, "{}", hash_line(frame, &frame_hash(pixels)));
-                Ok(())
+            let mut lines = std::io::BufWriter::new(std::io::stdout());
+            let (_, summary) = commands::hash_frames(&doc, range, |frame, hash| {
+                let _ = writeln!(lines, "{}", hash_line(frame, hash));
             })?;
+            let _ = lines.flush();
             if stats {
                 eprintln!("{}", summary.line("hashed", ""));
             }
