@@ -10,7 +10,10 @@ use std::time::Instant;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::output::{frame_hash, frame_path, hash_line, parse_hashes, write_png, Compression};
+use crate::output::{
+    frame_hash, frame_path, hash_line, is_ours, manifest_name, manifest_text, parse_hashes,
+    read_manifest_lenient, write_atomic, write_png_atomic, Compression,
+};
 use crate::render::Renderer;
 
 /// Parses `A..B` (frames A to B − 1), `A..` (A to the end), `..B`, `A..=B` or a single `K`.
@@ -41,6 +44,69 @@ pub fn parse_frames(spec: &str, frames: u64) -> Result<Range<u64>> {
     Ok(range)
 }
 
+/// The frames a run covers: a range, optionally one shard of it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FrameSet {
+    pub range: Range<u64>,
+    /// (K, N): only frames k with k mod N = K (interleaved, so every shard gets a share of each
+    /// part of the animation).
+    pub shard: Option<(u64, u64)>,
+}
+
+impl FrameSet {
+    pub fn all(range: Range<u64>) -> FrameSet {
+        FrameSet { range, shard: None }
+    }
+
+    pub fn contains(&self, k: u64) -> bool {
+        self.range.contains(&k) && self.shard.is_none_or(|(i, n)| k % n == i)
+    }
+
+    pub fn count(&self) -> u64 {
+        (self.range.start..self.range.end)
+            .filter(|k| self.contains(*k))
+            .count() as u64
+    }
+}
+
+/// Parses `K/N` with 0 ≤ K < N.
+pub fn parse_shard(spec: &str) -> Result<(u64, u64)> {
+    let bad = || {
+        Error::Usage(format!(
+            "--shard {spec:?}: expected K/N with 0 ≤ K < N, e.g. 0/4"
+        ))
+    };
+    let (k, n) = spec.split_once('/').ok_or_else(bad)?;
+    let (k, n): (u64, u64) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || k >= n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// How a render reports progress on standard error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Progress {
+    /// Nothing at all, not even the summary.
+    Quiet,
+    /// A line per finished frame (for logs and pipes).
+    Lines,
+    /// A progress bar with frames per second and an ETA (for terminals).
+    Bar,
+}
+
+/// Options of `campath render`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderOptions {
+    pub compression: Compression,
+    /// Render every frame again, even those already complete on disk.
+    pub force: bool,
+    pub progress: Progress,
+}
+
 /// Timing of a run of frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Summary {
@@ -48,6 +114,8 @@ pub struct Summary {
     pub frames: u64,
     /// Frames whose camera equalled the previous frame's, delivered again without rendering.
     pub reused: u64,
+    /// Frames already complete on disk (resumed renders), neither rendered nor delivered.
+    pub skipped: u64,
     /// Seconds per frame spent rendering, in frame order.
     pub render_secs: Vec<f64>,
     /// Wall-clock seconds for the whole run, output included.
@@ -72,6 +140,9 @@ impl Summary {
         );
         if self.reused > 0 {
             line += &format!(", {} reused", self.reused);
+        }
+        if self.skipped > 0 {
+            line += &format!(", {} already complete", self.skipped);
         }
         if let Some(mb) = peak_memory_mb() {
             line += &format!(", peak memory {mb:.0} MB");
@@ -103,72 +174,167 @@ pub fn peak_memory_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
-/// Renders `frames` to PNGs in `dir` and writes `dir/hashes.txt`. The whole path is checked
-/// before anything is written. PNG encoding runs on its own thread while the next frame renders.
+/// Renders the frames of `set` to PNGs in `dir`, with their manifest (hashes.txt, or
+/// hashes.part-K-of-N.txt for a shard).
+///
+/// - Nothing is written before the whole path is checked, and never into a folder that holds
+///   files campath did not write.
+/// - Each PNG is written under a temporary name and renamed into place; its manifest line is
+///   appended after that, so the manifest lists only complete frames, even after SIGKILL.
+/// - A frame whose PNG exists and decodes to pixels with the manifest's hash is kept (resume),
+///   unless `force`.
+/// - PNG encoding runs on its own thread while the next frame renders.
 pub fn render(
     doc: &Document,
     dir: &Path,
-    frames: Range<u64>,
-    compression: Compression,
+    set: &FrameSet,
+    options: RenderOptions,
     out: &mut dyn Write,
 ) -> Result<Summary> {
     doc.check_path()?;
+    check_folder(dir)?;
     std::fs::create_dir_all(dir).map_err(|source| Error::Write {
         path: dir.to_path_buf(),
         source,
     })?;
     let total = doc.animation.frames;
+    let manifest_path = dir.join(manifest_name(set.shard));
+    // Complete frames from an earlier run: the manifest's entries whose PNG still hashes to them.
+    let mut done = if options.force {
+        std::collections::BTreeMap::new()
+    } else {
+        read_manifest_lenient(&manifest_path)
+    };
+    done.retain(|frame, hash| {
+        set.contains(*frame) && png_hash(&frame_path(dir, *frame, total)).as_ref() == Some(hash)
+    });
+    // Start the manifest clean (no torn line), then append as frames complete.
+    write_atomic(&manifest_path, &manifest_text(&done))?;
+    let mut manifest = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&manifest_path)
+        .map_err(|source| Error::Write {
+            path: manifest_path.clone(),
+            source,
+        })?;
+
+    let todo = set.count();
+    let bar = match options.progress {
+        Progress::Bar => {
+            let bar = indicatif::ProgressBar::new(todo);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} frames, {per_sec}, ETA {eta}",
+                )
+                .expect("the template is valid"),
+            );
+            bar.inc(done.len() as u64);
+            Some(bar)
+        }
+        _ => None,
+    };
+    let lines = options.progress == Progress::Lines;
     let started = Instant::now();
-    let (summary, lines) = std::thread::scope(|scope| -> Result<(Summary, String)> {
+    let summary = std::thread::scope(|scope| -> Result<Summary> {
         // Two frames in flight at most: memory stays flat in the number of frames.
         let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, Arc<Vec<u8>>)>(1);
-        let writer = scope.spawn(move || -> Result<String> {
-            let mut lines = String::new();
+        let bar = bar.clone();
+        let manifest_path = &manifest_path;
+        let writer = scope.spawn(move || -> Result<()> {
             for (frame, pixels) in rx {
-                write_png(
+                write_png_atomic(
                     &frame_path(dir, frame, total),
                     &pixels,
                     doc.raster,
-                    compression,
+                    options.compression,
                 )?;
-                lines.push_str(&hash_line(frame, &frame_hash(&pixels)));
-                lines.push('\n');
+                writeln!(manifest, "{}", hash_line(frame, &frame_hash(&pixels))).map_err(
+                    |source| Error::Write {
+                        path: manifest_path.to_path_buf(),
+                        source,
+                    },
+                )?;
+                if let Some(bar) = &bar {
+                    bar.inc(1);
+                }
+                if lines {
+                    eprintln!("frame {frame} done");
+                }
             }
-            Ok(lines)
-        });
-        let rendered = for_each_frame(doc, frames.clone(), |frame, pixels| {
-            // A failed send means the writer stopped on an error, reported below.
-            let _ = tx.send((frame, Arc::clone(pixels)));
             Ok(())
         });
+        let rendered = for_each_frame(
+            doc,
+            set,
+            |frame| done.contains_key(&frame),
+            |frame, pixels| {
+                // A failed send means the writer stopped on an error, reported below.
+                let _ = tx.send((frame, Arc::clone(pixels)));
+                Ok(())
+            },
+        );
         drop(tx);
-        let lines = writer.join().expect("the PNG writer does not panic")?;
-        Ok((rendered?, lines))
+        writer.join().expect("the PNG writer does not panic")?;
+        rendered
     })?;
-    let manifest = dir.join("hashes.txt");
-    std::fs::write(&manifest, lines).map_err(|source| Error::Write {
-        path: manifest,
-        source,
-    })?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    // The final manifest: sorted, exactly this run's complete frames.
+    let mut entries = read_manifest_lenient(&manifest_path);
+    entries.retain(|frame, _| set.contains(*frame));
+    write_atomic(&manifest_path, &manifest_text(&entries))?;
     let summary = Summary {
         wall_secs: started.elapsed().as_secs_f64(),
         ..summary
     };
-    let detail = format!(
-        " of {}×{} to {}",
-        doc.raster.width,
-        doc.raster.height,
-        dir.display()
-    );
-    let _ = writeln!(out, "{}", summary.line("rendered", &detail));
+    if options.progress != Progress::Quiet {
+        let detail = format!(
+            " of {}×{} to {}",
+            doc.raster.width,
+            doc.raster.height,
+            dir.display()
+        );
+        let _ = writeln!(out, "{}", summary.line("rendered", &detail));
+    }
     Ok(summary)
 }
 
-/// Renders `frames` in order and calls `sink` with each frame's RGB8 pixels. A frame whose
-/// camera equals the previous frame's is not rendered again.
+/// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.
+fn png_hash(path: &Path) -> Option<String> {
+    let img = image::open(path).ok()?.to_rgb8();
+    Some(frame_hash(img.as_raw()))
+}
+
+/// Refuses a folder that holds anything campath does not write there.
+fn check_folder(dir: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let foreign: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !is_ours(n))
+        .take(3)
+        .collect();
+    if foreign.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Usage(format!(
+            "{} holds files campath did not write ({}); choose another --out so nothing is clobbered",
+            dir.display(),
+            foreign.join(", ")
+        )))
+    }
+}
+
+/// Renders the frames of `set` in order and calls `sink` with each frame's RGB8 pixels; frames
+/// for which `done` says true are passed over without rendering. A frame whose camera equals the
+/// previous rendered frame's is not rendered again.
 pub fn for_each_frame(
     doc: &Document,
-    frames: Range<u64>,
+    set: &FrameSet,
+    mut done: impl FnMut(u64) -> bool,
     mut sink: impl FnMut(u64, &Arc<Vec<u8>>) -> Result<()>,
 ) -> Result<Summary> {
     let started = Instant::now();
@@ -177,15 +343,20 @@ pub fn for_each_frame(
     let mut summary = Summary {
         frames: 0,
         reused: 0,
+        skipped: 0,
         render_secs: Vec::new(),
         wall_secs: 0.0,
     };
     for item in doc.cameras() {
         let (frame, camera) = item?;
-        if frame >= frames.end {
+        if frame >= set.range.end {
             break;
         }
-        if frame < frames.start {
+        if !set.contains(frame) {
+            continue;
+        }
+        if done(frame) {
+            summary.skipped += 1;
             continue;
         }
         let pixels = match previous.take() {
@@ -231,10 +402,15 @@ pub fn hash_frames(
             }
             out
         });
-        let summary = for_each_frame(doc, frames, |frame, pixels| {
-            let _ = tx.send((frame, Arc::clone(pixels)));
-            Ok(())
-        });
+        let summary = for_each_frame(
+            doc,
+            &FrameSet::all(frames),
+            |_| false,
+            |frame, pixels| {
+                let _ = tx.send((frame, Arc::clone(pixels)));
+                Ok(())
+            },
+        );
         drop(tx);
         let out = hasher.join().expect("the hasher does not panic");
         Ok((out, summary?))

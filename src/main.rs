@@ -2,11 +2,11 @@
 //! error chain and exits 2 on bad input, 1 on other failures.
 
 use clap::{Parser, Subcommand};
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use campath::commands;
+use campath::commands::{self, FrameSet, Progress, RenderOptions};
 use campath::document::Document;
 use campath::output::{hash_line, Compression};
 use campath::Error;
@@ -36,7 +36,18 @@ enum Command {
         /// PNG compression: fast (default), default, or best (smallest files).
         #[arg(long, value_enum, default_value_t)]
         compression: Compression,
+        /// Render only frames k with k mod N = K, into hashes.part-K-of-N.txt (see `merge`).
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// Render every frame again, even those already complete in the output folder.
+        #[arg(long)]
+        force: bool,
+        /// Print nothing.
+        #[arg(long, short)]
+        quiet: bool,
     },
+    /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt.
+    Merge { dir: PathBuf },
     /// Print `<frame> <sha256>` per frame without writing images.
     Hash {
         file: PathBuf,
@@ -113,11 +124,40 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             out: dir,
             frames: spec,
             compression,
+            shard,
+            force,
+            quiet,
         } => {
             let doc = Document::load(&file)?;
-            let range = frames(&doc, spec.as_deref())?;
+            let set = FrameSet {
+                range: frames(&doc, spec.as_deref())?,
+                shard: shard.as_deref().map(commands::parse_shard).transpose()?,
+            };
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
-            commands::render(&doc, &dir, range, compression, out)?;
+            let progress = if quiet {
+                Progress::Quiet
+            } else if std::io::stderr().is_terminal() {
+                Progress::Bar
+            } else {
+                Progress::Lines
+            };
+            let options = RenderOptions {
+                compression,
+                force,
+                progress,
+            };
+            commands::render(&doc, &dir, &set, options, out)?;
+        }
+        Command::Merge { dir } => {
+            let text = campath::output::merge_parts(&dir)?;
+            let path = dir.join("hashes.txt");
+            campath::output::write_atomic(&path, &text)?;
+            let _ = writeln!(
+                out,
+                "merged {} frame(s) into {}",
+                text.lines().count(),
+                path.display()
+            );
         }
         Command::Hash {
             file,

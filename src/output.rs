@@ -148,3 +148,133 @@ mod tests {
         assert!(parse_hashes(Path::new("g"), "1 abc").is_err());
     }
 }
+
+/// Writes a PNG under a temporary name beside `path` and renames it into place, so a render
+/// killed at any moment leaves no partial PNG under a final name.
+pub fn write_png_atomic(
+    path: &Path,
+    pixels: &[u8],
+    raster: Raster,
+    compression: Compression,
+) -> Result<()> {
+    let tmp = tmp_path(path);
+    write_png(&tmp, pixels, raster, compression)?;
+    std::fs::rename(&tmp, path).map_err(|source| Error::Write {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn tmp_path(path: &Path) -> PathBuf {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    path.with_file_name(name)
+}
+
+/// Writes `text` to `path` through a temporary file and a rename.
+pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
+    let tmp = tmp_path(path);
+    let err = |source| Error::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    std::fs::write(&tmp, text).map_err(err)?;
+    std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// The manifest name of a run: `hashes.txt`, or `hashes.part-K-of-N.txt` for shard K of N.
+pub fn manifest_name(shard: Option<(u64, u64)>) -> String {
+    match shard {
+        None => "hashes.txt".into(),
+        Some((k, n)) => format!("hashes.part-{k}-of-{n}.txt"),
+    }
+}
+
+/// Whether campath writes files of this name into an output folder.
+pub fn is_ours(name: &str) -> bool {
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    let frame = |s: &str| {
+        s.strip_prefix("frame_")
+            .and_then(|s| s.strip_suffix(".png"))
+            .is_some_and(digits)
+    };
+    let part = |s: &str| {
+        s.strip_prefix("hashes.part-")
+            .and_then(|s| s.strip_suffix(".txt"))
+            .and_then(|s| s.split_once("-of-"))
+            .is_some_and(|(k, n)| digits(k) && digits(n))
+    };
+    let base = name.strip_suffix(".tmp").unwrap_or(name);
+    frame(base) || part(base) || base == "hashes.txt" || base == "report.png"
+}
+
+/// Reads a manifest that a killed render may have left: lines that do not parse (a torn last
+/// line) are dropped, and a later line for a frame replaces an earlier one.
+pub fn read_manifest_lenient(path: &Path) -> std::collections::BTreeMap<u64, String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| parse_hashes(path, l).ok())
+        .flatten()
+        .collect()
+}
+
+/// Sorted `<frame> <hash>` lines.
+pub fn manifest_text(entries: &std::collections::BTreeMap<u64, String>) -> String {
+    entries
+        .iter()
+        .map(|(f, h)| hash_line(*f, h) + "\n")
+        .collect()
+}
+
+/// Combines the shard manifests `hashes.part-K-of-N.txt` in `dir` into the text of a single
+/// run's hashes.txt. Every part of one N must be there, and no frame may have two hashes.
+pub fn merge_parts(dir: &Path) -> Result<String> {
+    let entries = std::fs::read_dir(dir).map_err(|source| Error::Read {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut parts: Vec<(u64, u64, PathBuf)> = Vec::new();
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if let Some((k, n)) = name
+            .strip_prefix("hashes.part-")
+            .and_then(|s| s.strip_suffix(".txt"))
+            .and_then(|s| s.split_once("-of-"))
+        {
+            if let (Ok(k), Ok(n)) = (k.parse(), n.parse()) {
+                parts.push((k, n, e.path()));
+            }
+        }
+    }
+    parts.sort();
+    let bad = |message: String| Error::Golden {
+        path: dir.to_path_buf(),
+        message,
+    };
+    let Some(&(_, n, _)) = parts.first() else {
+        return Err(bad("holds no hashes.part-K-of-N.txt to merge".into()));
+    };
+    if parts.iter().any(|p| p.1 != n) {
+        return Err(bad("holds parts of different shard counts".into()));
+    }
+    let have: Vec<u64> = parts.iter().map(|p| p.0).collect();
+    let missing: Vec<u64> = (0..n).filter(|k| !have.contains(k)).collect();
+    if !missing.is_empty() {
+        return Err(bad(format!("shard(s) {missing:?} of {n} are missing")));
+    }
+    let mut all = std::collections::BTreeMap::new();
+    for (_, _, path) in &parts {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+            path: path.clone(),
+            source,
+        })?;
+        for (frame, hash) in parse_hashes(path, &text)? {
+            if let Some(other) = all.insert(frame, hash.clone()) {
+                if other != hash {
+                    return Err(bad(format!("frame {frame} has two different hashes")));
+                }
+            }
+        }
+    }
+    Ok(manifest_text(&all))
+}

@@ -1,0 +1,258 @@
+//! Production use: atomic frames, resume after SIGKILL, shards and merge, progress, refusing
+//! absurd requests and foreign folders.
+
+mod common;
+
+use common::{campath, stderr, stdout};
+use std::path::Path;
+use std::process::Command;
+use std::time::Duration;
+
+/// 48 frames that take a moment each in a debug build.
+const LONG: &str = "(
+    frames: 48, fps: 24.0,
+    image: (width: 240, height: 135, samples: 2),
+    camera: (vrp: (0.0, 2.0, -8.0), tp: (0.0, 0.0, 0.0), window: (1.6, 0.9)),
+    animate: [Observer(keys: [(t: 0.0, value: (0.0, 2.0, -8.0)), (t: 1.0, value: (6.0, 3.0, -3.0)), (t: 2.0, value: (0.0, 2.0, 6.0))])],
+    scene: (ambient: 0.1, lights: [(direction: (-1.0, -2.0, 1.0))],
+            spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0, color: (0.9, 0.2, 0.2)), (center: (0.0, -101.0, 0.0), radius: 100.0, color: (0.5, 0.5, 0.5)),
+                      (center: (2.0, 0.0, 1.0), radius: 0.6, color: (0.2, 0.8, 0.3))]),
+)";
+
+fn setup() -> tempfile::TempDir {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("long.ron"), LONG).unwrap();
+    tmp
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_default()
+}
+
+/// Every frame_*.png under its final name decodes in full, and every manifest line names such a
+/// frame with its pixels' hash.
+fn assert_consistent(dir: &Path) {
+    let mut pngs = 0;
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with("frame_") && name.ends_with(".png") {
+            image::open(e.path()).unwrap_or_else(|err| panic!("{name} is partial: {err}"));
+            pngs += 1;
+        }
+    }
+    for line in read(&dir.join("hashes.txt")).lines() {
+        let Some((frame, hash)) = line.split_once(' ') else {
+            continue;
+        };
+        if hash.len() != 64 {
+            continue; // a torn last line, dropped on resume
+        }
+        let png = dir.join(format!("frame_{:04}.png", frame.parse::<u64>().unwrap()));
+        let raw = image::open(&png)
+            .unwrap_or_else(|e| panic!("{} listed but unreadable: {e}", png.display()))
+            .to_rgb8()
+            .into_raw();
+        assert_eq!(campath::output::frame_hash(&raw), hash, "frame {frame}");
+    }
+    assert!(pngs <= 48);
+}
+
+#[test]
+fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
+    let tmp = setup();
+    let whole = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "whole", "--quiet"],
+        &[],
+    );
+    assert!(whole.status.success(), "{}", stderr(&whole));
+    let expected = read(&tmp.path().join("whole/hashes.txt"));
+    assert_eq!(expected.lines().count(), 48);
+
+    // Kill at fixed delays, and once as soon as the manifest lists a few more frames, so that
+    // there is always something to resume from however fast the machine is.
+    for (delay_ms, until_listed) in [(150u64, 0usize), (0, 5), (400, 0)] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
+            .current_dir(tmp.path())
+            .args(["render", "long.ron", "--out", "killed", "--quiet"])
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let listed = || read(&tmp.path().join("killed/hashes.txt")).lines().count();
+        let before = listed();
+        for _ in 0..2000 {
+            if until_listed == 0 || listed() >= (before + until_listed).min(47) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        assert_consistent(&tmp.path().join("killed"));
+    }
+    let resumed = campath(tmp.path(), &["render", "long.ron", "--out", "killed"], &[]);
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    assert!(
+        stdout(&resumed).contains("already complete"),
+        "the kills left no frame to resume from: {}",
+        stdout(&resumed)
+    );
+    assert_eq!(read(&tmp.path().join("killed/hashes.txt")), expected);
+    assert_consistent(&tmp.path().join("killed"));
+    // A complete folder renders nothing again; --force renders everything.
+    let again = campath(tmp.path(), &["render", "long.ron", "--out", "killed"], &[]);
+    assert!(
+        stdout(&again).contains("rendered 0 frame(s)")
+            && stdout(&again).contains("48 already complete"),
+        "{}",
+        stdout(&again)
+    );
+    let forced = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "killed", "--force"],
+        &[],
+    );
+    assert!(
+        stdout(&forced).contains("rendered 48 frame(s)")
+            && !stdout(&forced).contains("already complete"),
+        "{}",
+        stdout(&forced)
+    );
+    assert_eq!(read(&tmp.path().join("killed/hashes.txt")), expected);
+}
+
+#[test]
+fn a_damaged_frame_is_rendered_again() {
+    let tmp = setup();
+    let args = [
+        "render", "long.ron", "--out", "o", "--frames", "0..4", "--quiet",
+    ];
+    assert!(campath(tmp.path(), &args, &[]).status.success());
+    let expected = read(&tmp.path().join("o/hashes.txt"));
+    std::fs::write(tmp.path().join("o/frame_0002.png"), b"not a png").unwrap();
+    let again = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "o", "--frames", "0..4"],
+        &[],
+    );
+    assert!(
+        stdout(&again).contains("rendered 1 frame(s)")
+            && stdout(&again).contains("3 already complete"),
+        "{}",
+        stdout(&again)
+    );
+    assert_eq!(read(&tmp.path().join("o/hashes.txt")), expected);
+}
+
+#[test]
+fn three_shards_merge_into_a_single_runs_manifest() {
+    let tmp = setup();
+    let single = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "single", "--quiet"],
+        &[],
+    );
+    assert!(single.status.success());
+    let children: Vec<_> = (0..3)
+        .map(|k| {
+            Command::new(env!("CARGO_BIN_EXE_campath"))
+                .current_dir(tmp.path())
+                .args([
+                    "render",
+                    "long.ron",
+                    "--out",
+                    "farm",
+                    "--quiet",
+                    "--shard",
+                    &format!("{k}/3"),
+                ])
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let part = read(&tmp.path().join("farm/hashes.part-1-of-3.txt"));
+    assert_eq!(part.lines().count(), 16);
+    assert!(part
+        .lines()
+        .all(|l| l.split(' ').next().unwrap().parse::<u64>().unwrap() % 3 == 1));
+    let merged = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert!(merged.status.success(), "{}", stderr(&merged));
+    assert_eq!(
+        read(&tmp.path().join("farm/hashes.txt")),
+        read(&tmp.path().join("single/hashes.txt"))
+    );
+    // A missing shard is named.
+    std::fs::remove_file(tmp.path().join("farm/hashes.part-2-of-3.txt")).unwrap();
+    let broken = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert_eq!(broken.status.code(), Some(2));
+    assert!(
+        stderr(&broken).contains("shard(s) [2] of 3 are missing"),
+        "{}",
+        stderr(&broken)
+    );
+}
+
+#[test]
+fn progress_lines_off_a_terminal_and_quiet_prints_nothing() {
+    let tmp = setup();
+    let o = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "a", "--frames", "0..3"],
+        &[],
+    );
+    assert_eq!(
+        stderr(&o).lines().filter(|l| l.ends_with(" done")).count(),
+        3,
+        "{}",
+        stderr(&o)
+    );
+    let q = campath(
+        tmp.path(),
+        &[
+            "render", "long.ron", "--out", "b", "--frames", "0..3", "--quiet",
+        ],
+        &[],
+    );
+    assert!(q.status.success());
+    assert!(stdout(&q).is_empty() && stderr(&q).is_empty());
+}
+
+#[test]
+fn a_folder_with_other_files_is_never_clobbered() {
+    let tmp = setup();
+    std::fs::create_dir(tmp.path().join("mine")).unwrap();
+    std::fs::write(tmp.path().join("mine/notes.txt"), "keep").unwrap();
+    let o = campath(tmp.path(), &["render", "long.ron", "--out", "mine"], &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("notes.txt"), "{}", stderr(&o));
+    let names: Vec<_> = std::fs::read_dir(tmp.path().join("mine"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(names, ["notes.txt"]);
+}
+
+#[test]
+fn absurd_requests_are_refused_before_allocating() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (text, expect) in [
+        (
+            "(image: (width: 100000, height: 100000), camera: (vpn: (0.0, 0.0, 1.0)))",
+            "image.width",
+        ),
+        (
+            "(frames: 1000000000, camera: (vpn: (0.0, 0.0, 1.0)))",
+            "frames: at most",
+        ),
+    ] {
+        std::fs::write(tmp.path().join("absurd.ron"), text).unwrap();
+        let o = campath(tmp.path(), &["render", "absurd.ron"], &[]);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(stderr(&o).contains(expect), "{}", stderr(&o));
+        assert!(!tmp.path().join("out").exists());
+    }
+}
