@@ -114,41 +114,6 @@ pub fn parse_hashes(path: &Path, text: &str) -> Result<Vec<(u64, String)>> {
     Ok(out)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn hash_of_known_bytes() {
-        // SHA-256("abc") from FIPS 180-2, appendix B.1.
-        assert_eq!(
-            frame_hash(b"abc"),
-            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
-        );
-    }
-
-    #[test]
-    fn padding_fits_the_frame_count() {
-        assert_eq!(pad_width(1), 4);
-        assert_eq!(pad_width(10_000), 4);
-        assert_eq!(pad_width(10_001), 5);
-        assert_eq!(
-            frame_path(Path::new("o"), 7, 96),
-            Path::new("o/frame_0007.png")
-        );
-    }
-
-    #[test]
-    fn hashes_round_trip_and_reject_junk() {
-        let h = "ab".repeat(32);
-        let text = format!("{}\n\n{}\n", hash_line(0, &h), hash_line(12, &h));
-        let parsed = parse_hashes(Path::new("g"), &text).unwrap();
-        assert_eq!(parsed, vec![(0, h.clone()), (12, h.clone())]);
-        assert!(parse_hashes(Path::new("g"), "x abc").is_err());
-        assert!(parse_hashes(Path::new("g"), "1 abc").is_err());
-    }
-}
-
 /// Writes a PNG under a temporary name beside `path` and renames it into place, so a render
 /// killed at any moment leaves no partial PNG under a final name.
 pub fn write_png_atomic(
@@ -277,4 +242,39 @@ pub fn merge_parts(dir: &Path) -> Result<String> {
         }
     }
     Ok(manifest_text(&all))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hash_of_known_bytes() {
+        // SHA-256("abc") from FIPS 180-2, appendix B.1.
+        assert_eq!(
+            frame_hash(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn padding_fits_the_frame_count() {
+        assert_eq!(pad_width(1), 4);
+        assert_eq!(pad_width(10_000), 4);
+        assert_eq!(pad_width(10_001), 5);
+        assert_eq!(
+            frame_path(Path::new("o"), 7, 96),
+            Path::new("o/frame_0007.png")
+        );
+    }
+
+    #[test]
+    fn hashes_round_trip_and_reject_junk() {
+        let h = "ab".repeat(32);
+        let text = format!("{}\n\n{}\n", hash_line(0, &h), hash_line(12, &h));
+        let parsed = parse_hashes(Path::new("g"), &text).unwrap();
+        assert_eq!(parsed, vec![(0, h.clone()), (12, h.clone())]);
+        assert!(parse_hashes(Path::new("g"), "x abc").is_err());
+        assert!(parse_hashes(Path::new("g"), "1 abc").is_err());
+    }
 }
