@@ -460,48 +460,6 @@ pub fn verify(doc: &Document, golden: &Path, out: &mut dyn Write) -> Result<bool
     Ok(ok)
 }
 
-/// The evaluated camera per frame as CSV: frame, time, VRP, u, v, n, COP in world, window.
-pub fn path_csv(doc: &Document, out: &mut dyn Write) -> Result<()> {
-    let mut out = std::io::BufWriter::new(out);
-    let failed = |source| Error::Write {
-        path: "<stdout>".into(),
-        source,
-    };
-    writeln!(
-        out,
-        "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h"
-    )
-    .map_err(failed)?;
-    for item in doc.cameras() {
-        let (frame, cam) = item?;
-        let (b, cop, vrp) = (cam.basis, cam.cop_world(), cam.vrp_world);
-        writeln!(
-            out,
-            "{frame},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            doc.animation.time(frame),
-            vrp.x,
-            vrp.y,
-            vrp.z,
-            b.u.x,
-            b.u.y,
-            b.u.z,
-            b.v.x,
-            b.v.y,
-            b.v.z,
-            b.n.x,
-            b.n.y,
-            b.n.z,
-            cop.x,
-            cop.y,
-            cop.z,
-            cam.window.x,
-            cam.window.y
-        )
-        .map_err(failed)?;
-    }
-    out.flush().map_err(failed)
-}
-
 /// A one-line summary of a valid file, after evaluating every frame's camera.
 pub fn check(doc: &Document, out: &mut dyn Write) -> Result<()> {
     doc.check_path()?;

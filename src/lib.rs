@@ -11,6 +11,7 @@ pub mod camera;
 pub mod commands;
 pub mod document;
 pub mod error;
+pub mod export;
 pub mod format;
 pub mod keyframes;
 pub mod output;

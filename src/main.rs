@@ -59,8 +59,12 @@ enum Command {
     },
     /// Compare fresh renders with a hashes.txt; exit 1 naming every frame that differs.
     Verify { file: PathBuf, golden: PathBuf },
-    /// Print the evaluated camera per frame as CSV.
-    Path { file: PathBuf },
+    /// Print the evaluated camera per frame: CSV, JSON, or .chan for Nuke and Blender.
+    Path {
+        file: PathBuf,
+        #[arg(long, value_enum, default_value_t)]
+        format: campath::export::PathFormat,
+    },
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check { file: PathBuf },
     /// Error against run time: every accuracy setting against a 16×16-sample reference.
@@ -179,7 +183,9 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let doc = Document::load(&file)?;
             return commands::verify(&doc, &golden, out);
         }
-        Command::Path { file } => commands::path_csv(&Document::load(&file)?, out)?,
+        Command::Path { file, format } => {
+            campath::export::write_path(&Document::load(&file)?, format, out)?
+        }
         Command::Check { file } => commands::check(&Document::load(&file)?, out)?,
         Command::Report {
             file,

@@ -315,3 +315,45 @@ fn report_prints_both_tables_and_writes_the_plot() {
     let plot = image::open(tmp.path().join("plot.png")).unwrap();
     assert_eq!((plot.width(), plot.height()), (900, 600));
 }
+
+#[test]
+fn path_exports_json_and_chan() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let csv = stdout(&campath(tmp.path(), &["path", &f, "--format", "csv"], &[]));
+    let json = campath(tmp.path(), &["path", &f, "--format", "json"], &[]);
+    assert!(json.status.success(), "{}", stderr(&json));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&json)).unwrap();
+    let frames = v.as_array().unwrap();
+    assert_eq!(frames.len(), 4);
+    // The same numbers as the CSV, frame by frame.
+    for (row, obj) in csv.lines().skip(1).zip(frames) {
+        let cols: Vec<f64> = row.split(',').map(|c| c.parse().unwrap()).collect();
+        let vrp: Vec<f64> = obj["vrp"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert_eq!(vrp, cols[2..5]);
+        assert_eq!(obj["window"][1].as_f64().unwrap(), cols[18]);
+    }
+    let chan = stdout(&campath(tmp.path(), &["path", &f, "--format", "chan"], &[]));
+    let rows: Vec<Vec<f64>> = chan
+        .lines()
+        .map(|l| l.split('\t').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 4);
+    assert_eq!(rows[0].len(), 8);
+    assert_eq!(rows[0][0], 1.0);
+    // Translation is the COP; the vertical FOV is 2·atan(0.45 / 1) for window height 0.9 at d = 1.
+    let first: Vec<f64> = csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|c| c.parse().unwrap())
+        .collect();
+    assert_eq!(rows[0][1..4], first[14..17]);
+    assert!((rows[0][7] - 2.0 * 0.45f64.atan().to_degrees()).abs() < 1e-12);
+}

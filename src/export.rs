@@ -1,0 +1,194 @@
+//! The evaluated camera path for other tools: CSV, JSON, and the `.chan` camera-channel text
+//! that Nuke and Blender import.
+
+use std::io::Write;
+
+use glam::DVec3;
+
+use crate::camera::{Basis, Camera};
+use crate::document::Document;
+use crate::error::{Error, Result};
+
+/// Output format of `campath path`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PathFormat {
+    /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
+    #[default]
+    Csv,
+    /// An array of per-frame objects with the same fields.
+    Json,
+    /// `frame tx ty tz rx ry rz vfov`: position of the COP, rotation in degrees (ZXY order),
+    /// vertical field of view in degrees; frames numbered from 1.
+    Chan,
+}
+
+/// Euler angles in degrees (rx, ry, rz) of a camera looking down its local −Z with +Y up, for
+/// the ZXY rotation order of Nuke and Blender's importer: R = Ry·Rx·Rz, with R's columns the
+/// camera's right (u), up (v) and back (−n) axes in world coordinates.
+pub fn chan_rotation(b: &Basis) -> DVec3 {
+    let back = -b.n;
+    // R[row][col]: column 0 = u, 1 = v, 2 = back.
+    let r = |row: usize, col: usize| [b.u, b.v, back][col][row];
+    let rx = libm::asin((-r(1, 2)).clamp(-1.0, 1.0));
+    let (ry, rz) = if r(1, 2).abs() < 1.0 - 1e-12 {
+        (libm::atan2(r(0, 2), r(2, 2)), libm::atan2(r(1, 0), r(1, 1)))
+    } else {
+        // Looking straight up or down: only ry + rz (or ry − rz) is defined; put it all in ry.
+        (libm::atan2(-r(2, 0), r(0, 0)), 0.0)
+    };
+    DVec3::new(rx, ry, rz) * (180.0 / std::f64::consts::PI)
+}
+
+/// Vertical field of view in degrees seen from the COP: the window's height at the COP's
+/// distance. Off-axis COPs (distort) have no place in a .chan file; their v offset is ignored.
+pub fn vertical_fov(cam: &Camera) -> f64 {
+    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z) * (180.0 / std::f64::consts::PI)
+}
+
+fn triple(v: DVec3) -> String {
+    format!("[{}, {}, {}]", v.x, v.y, v.z)
+}
+
+/// Writes every frame's evaluated camera in `format`.
+pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Result<()> {
+    let mut out = std::io::BufWriter::new(out);
+    let failed = |source| Error::Write {
+        path: "<stdout>".into(),
+        source,
+    };
+    match format {
+        PathFormat::Csv => writeln!(
+            out,
+            "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h"
+        ),
+        PathFormat::Json => writeln!(out, "["),
+        PathFormat::Chan => Ok(()),
+    }
+    .map_err(failed)?;
+    let frames = doc.animation.frames;
+    for item in doc.cameras() {
+        let (frame, cam) = item?;
+        let (b, cop, vrp) = (cam.basis, cam.cop_world(), cam.vrp_world);
+        let t = doc.animation.time(frame);
+        match format {
+            PathFormat::Csv => {
+                let cols = [
+                    vrp.x,
+                    vrp.y,
+                    vrp.z,
+                    b.u.x,
+                    b.u.y,
+                    b.u.z,
+                    b.v.x,
+                    b.v.y,
+                    b.v.z,
+                    b.n.x,
+                    b.n.y,
+                    b.n.z,
+                    cop.x,
+                    cop.y,
+                    cop.z,
+                    cam.window.x,
+                    cam.window.y,
+                ];
+                let mut line = format!("{frame},{t}");
+                for c in cols {
+                    line.push(',');
+                    line += &c.to_string();
+                }
+                writeln!(out, "{line}")
+            }
+            PathFormat::Json => writeln!(
+                out,
+                "  {{\"frame\": {frame}, \"t\": {t}, \"vrp\": {}, \"u\": {}, \"v\": {}, \"n\": {}, \"cop\": {}, \"window\": [{}, {}]}}{}",
+                triple(vrp),
+                triple(b.u),
+                triple(b.v),
+                triple(b.n),
+                triple(cop),
+                cam.window.x,
+                cam.window.y,
+                if frame + 1 < frames { "," } else { "" }
+            ),
+            PathFormat::Chan => {
+                let r = chan_rotation(&b);
+                writeln!(
+                    out,
+                    "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+                    frame + 1,
+                    cop.x,
+                    cop.y,
+                    cop.z,
+                    r.x,
+                    r.y,
+                    r.z,
+                    vertical_fov(&cam)
+                )
+            }
+        }
+        .map_err(failed)?;
+    }
+    if format == PathFormat::Json {
+        writeln!(out, "]").map_err(failed)?;
+    }
+    out.flush().map_err(failed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// R = Ry·Rx·Rz composed from the angles by matrix products written out here.
+    fn compose(deg: DVec3) -> [[f64; 3]; 3] {
+        let (x, y, z) = (deg.x.to_radians(), deg.y.to_radians(), deg.z.to_radians());
+        let rx = [
+            [1.0, 0.0, 0.0],
+            [0.0, x.cos(), -x.sin()],
+            [0.0, x.sin(), x.cos()],
+        ];
+        let ry = [
+            [y.cos(), 0.0, y.sin()],
+            [0.0, 1.0, 0.0],
+            [-y.sin(), 0.0, y.cos()],
+        ];
+        let rz = [
+            [z.cos(), -z.sin(), 0.0],
+            [z.sin(), z.cos(), 0.0],
+            [0.0, 0.0, 1.0],
+        ];
+        let mul = |a: [[f64; 3]; 3], b: [[f64; 3]; 3]| {
+            let mut m = [[0.0; 3]; 3];
+            for (i, row) in m.iter_mut().enumerate() {
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+                }
+            }
+            m
+        };
+        mul(ry, mul(rx, rz))
+    }
+
+    #[test]
+    fn chan_angles_rebuild_the_camera_axes() {
+        for (vpn, vuv) in [
+            (DVec3::new(0.3, -0.2, 1.0), DVec3::Y),
+            (DVec3::new(-1.0, 0.5, -0.3), DVec3::Y),
+            (DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.2, 1.0, 0.0)),
+            (DVec3::new(0.1, -3.0, 0.2), DVec3::Z),
+        ] {
+            let b = Basis::from_vpn_vuv(vpn, vuv).unwrap();
+            let m = compose(chan_rotation(&b));
+            for (col, axis) in [b.u, b.v, -b.n].into_iter().enumerate() {
+                for row in 0..3 {
+                    assert!(
+                        (m[row][col] - axis[row]).abs() < 1e-12,
+                        "{vpn}: R[{row}][{col}]"
+                    );
+                }
+            }
+        }
+        // The default camera looking down −Z has no rotation.
+        let b = Basis::from_vpn_vuv(-DVec3::Z, DVec3::Y).unwrap();
+        assert!(chan_rotation(&b).length() < 1e-12);
+    }
+}
