@@ -46,6 +46,19 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Write a contact sheet (preview.png) and an animated GIF (preview.gif) at a small size.
+    Preview {
+        file: PathBuf,
+        /// Output folder [default: out/<file stem>/].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Width of each small frame in pixels.
+        #[arg(long, default_value_t = 240)]
+        width: u32,
+        /// Frames on the contact sheet, spread evenly.
+        #[arg(long, default_value_t = 12)]
+        count: u64,
+    },
     /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt.
     Merge { dir: PathBuf },
     /// Print `<frame> <sha256>` per frame without writing images.
@@ -151,6 +164,17 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
                 progress,
             };
             commands::render(&doc, &dir, &set, options, out)?;
+        }
+        Command::Preview {
+            file,
+            out: dir,
+            width,
+            count,
+        } => {
+            let doc = Document::load(&file)?;
+            let dir = dir.unwrap_or_else(|| default_out_dir(&file));
+            let (png, gif) = campath::preview::write(&doc, &dir, width, count)?;
+            let _ = writeln!(out, "wrote {} and {}", png.display(), gif.display());
         }
         Command::Merge { dir } => {
             let text = campath::output::merge_parts(&dir)?;

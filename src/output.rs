@@ -170,7 +170,16 @@ pub fn is_ours(name: &str) -> bool {
             .is_some_and(|(k, n)| digits(k) && digits(n))
     };
     let base = name.strip_suffix(".tmp").unwrap_or(name);
-    frame(base) || part(base) || base == "hashes.txt" || base == "report.png"
+    frame(base)
+        || part(base)
+        || [
+            "hashes.txt",
+            "report.png",
+            "preview.png",
+            "preview.gif",
+            "plot.png",
+        ]
+        .contains(&base)
 }
 
 /// Reads a manifest that a killed render may have left: lines that do not parse (a torn last

@@ -256,3 +256,43 @@ fn absurd_requests_are_refused_before_allocating() {
         assert!(!tmp.path().join("out").exists());
     }
 }
+
+#[test]
+fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
+    let tmp = setup();
+    let o = campath(
+        tmp.path(),
+        &[
+            "preview", "long.ron", "--out", "p", "--width", "60", "--count", "6",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // 240×135 shrinks to 60×34; six tiles in two rows of four columns, 2 px apart.
+    let sheet = image::open(tmp.path().join("p/preview.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(sheet.dimensions(), (4 * 60 + 3 * 2, 2 * 34 + 2));
+    // The first tile is frame 0 rendered at 60×34 with one sample.
+    let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
+    doc.raster = campath::preview::small_raster(&doc, 60);
+    let frame0 = campath::commands::hashes(&doc, 0..1).unwrap();
+    let mut tile = Vec::new();
+    for y in 0..34 {
+        for x in 0..60 {
+            tile.extend(sheet.get_pixel(x, y).0);
+        }
+    }
+    assert_eq!(campath::output::frame_hash(&tile), frame0[0].1);
+    // The GIF holds every frame of the 48.
+    use image::AnimationDecoder;
+    let file =
+        std::io::BufReader::new(std::fs::File::open(tmp.path().join("p/preview.gif")).unwrap());
+    let frames = image::codecs::gif::GifDecoder::new(file)
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+    assert_eq!(frames.len(), 48);
+    assert_eq!(frames[0].buffer().dimensions(), (60, 34));
+}

@@ -1,0 +1,118 @@
+//! `campath preview`: a contact sheet PNG and an animated GIF at a small size, to look over a
+//! sequence quickly. The camera and window are the file's; only the raster shrinks.
+
+use std::path::{Path, PathBuf};
+
+use crate::commands::{for_each_frame, FrameSet};
+use crate::document::Document;
+use crate::error::{Error, Result};
+use crate::output::{write_png, Compression};
+use crate::render::Raster;
+
+/// Columns of the contact sheet.
+pub const COLUMNS: u32 = 4;
+/// Pixels between tiles.
+pub const GAP: u32 = 2;
+/// Most frames in the GIF; longer sequences are sampled evenly.
+pub const GIF_FRAMES: u64 = 120;
+
+/// The small raster: `width` pixels wide, the file's aspect, one sample per pixel.
+pub fn small_raster(doc: &Document, width: u32) -> Raster {
+    let r = doc.raster;
+    let width = width.clamp(1, r.width);
+    let height = ((r.height as f64 * width as f64 / r.width as f64).round() as u32).max(1);
+    Raster {
+        width,
+        height,
+        samples: 1,
+        adaptive: false,
+    }
+}
+
+/// `count` frame numbers spread evenly over the animation, first and last included.
+pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
+    let count = count.clamp(1, frames);
+    if count == 1 {
+        return vec![0];
+    }
+    (0..count).map(|k| k * (frames - 1) / (count - 1)).collect()
+}
+
+/// Writes `dir/preview.png` (a sheet of `count` frames) and `dir/preview.gif`; returns both paths.
+pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(PathBuf, PathBuf)> {
+    doc.check_path()?;
+    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let raster = small_raster(doc, width);
+    let small = Document {
+        raster,
+        ..doc.clone()
+    };
+    let frames = doc.animation.frames;
+    let sheet_at = sheet_frames(frames, count);
+    let step = frames.div_ceil(GIF_FRAMES).max(1);
+    let (w, h) = (raster.width, raster.height);
+    let rows = (sheet_at.len() as u32).div_ceil(COLUMNS);
+    let cols = (sheet_at.len() as u32).min(COLUMNS);
+    let (sheet_w, sheet_h) = (cols * w + (cols - 1) * GAP, rows * h + (rows - 1) * GAP);
+    let mut sheet = vec![255u8; (sheet_w * sheet_h * 3) as usize];
+    let mut gif_frames = Vec::new();
+    let delay = image::Delay::from_numer_denom_ms(
+        (1000.0 * step as f64 / doc.animation.fps).round() as u32,
+        1,
+    );
+    for_each_frame(
+        &small,
+        &FrameSet::all(0..frames),
+        |_| false,
+        |frame, pixels| {
+            if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
+                let (cx, cy) = (
+                    slot as u32 % COLUMNS * (w + GAP),
+                    slot as u32 / COLUMNS * (h + GAP),
+                );
+                for y in 0..h {
+                    let src = (y * w * 3) as usize;
+                    let dst = (((cy + y) * sheet_w + cx) * 3) as usize;
+                    sheet[dst..dst + (w * 3) as usize]
+                        .copy_from_slice(&pixels[src..src + (w * 3) as usize]);
+                }
+            }
+            if frame % step == 0 {
+                let rgba: Vec<u8> = pixels
+                    .chunks(3)
+                    .flat_map(|p| [p[0], p[1], p[2], 255])
+                    .collect();
+                let img =
+                    image::RgbaImage::from_raw(w, h, rgba).expect("the buffer has w×h pixels");
+                gif_frames.push(image::Frame::from_parts(img, 0, 0, delay));
+            }
+            Ok(())
+        },
+    )?;
+    let png = dir.join("preview.png");
+    let sheet_raster = Raster {
+        width: sheet_w,
+        height: sheet_h,
+        samples: 1,
+        adaptive: false,
+    };
+    write_png(&png, &sheet, sheet_raster, Compression::Default)?;
+    let gif = dir.join("preview.gif");
+    let file = std::fs::File::create(&gif).map_err(|source| Error::Write {
+        path: gif.clone(),
+        source,
+    })?;
+    let mut encoder =
+        image::codecs::gif::GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+    encoder
+        .set_repeat(image::codecs::gif::Repeat::Infinite)
+        .and_then(|_| encoder.encode_frames(gif_frames))
+        .map_err(|source| Error::Encode {
+            path: gif.clone(),
+            source,
+        })?;
+    Ok((png, gif))
+}
