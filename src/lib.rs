@@ -15,6 +15,7 @@ pub mod export;
 pub mod format;
 pub mod keyframes;
 pub mod output;
+pub mod plot;
 pub mod preview;
 pub mod render;
 pub mod report;

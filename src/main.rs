@@ -59,6 +59,17 @@ enum Command {
         #[arg(long, default_value_t = 12)]
         count: u64,
     },
+    /// Draw the camera path from above and from the side, with keyframes, targets, frustums
+    /// and spheres.
+    Plot {
+        file: PathBuf,
+        /// Where the PNG goes [default: out/<file stem>/plot.png].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// A frustum every N frames [default: about eight along the path].
+        #[arg(long)]
+        every: Option<u64>,
+    },
     /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt.
     Merge { dir: PathBuf },
     /// Print `<frame> <sha256>` per frame without writing images.
@@ -175,6 +186,23 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
             let (png, gif) = campath::preview::write(&doc, &dir, width, count)?;
             let _ = writeln!(out, "wrote {} and {}", png.display(), gif.display());
+        }
+        Command::Plot {
+            file,
+            out: png,
+            every,
+        } => {
+            let doc = Document::load(&file)?;
+            let png = png.unwrap_or_else(|| default_out_dir(&file).join("plot.png"));
+            if let Some(dir) = png.parent() {
+                std::fs::create_dir_all(dir).map_err(|source| Error::Write {
+                    path: dir.to_path_buf(),
+                    source,
+                })?;
+            }
+            let every = every.unwrap_or((doc.animation.frames / 8).max(1));
+            campath::plot::write(&doc, &png, every)?;
+            let _ = writeln!(out, "wrote {}", png.display());
         }
         Command::Merge { dir } => {
             let text = campath::output::merge_parts(&dir)?;

@@ -153,7 +153,8 @@ const FONTS: [&str; 3] = [
     "/usr/share/fonts/dejavu/DejaVuSans.ttf",
 ];
 
-fn register_font() -> std::result::Result<(), String> {
+/// Registers DejaVu Sans as plotters' "sans-serif", once.
+pub(crate) fn register_font() -> std::result::Result<(), String> {
     use std::sync::OnceLock;
     static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {

@@ -296,3 +296,28 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     assert_eq!(frames.len(), 48);
     assert_eq!(frames[0].buffer().dimensions(), (60, 34));
 }
+
+#[test]
+fn plot_draws_the_path_from_above_and_from_the_side() {
+    let tmp = setup();
+    let o = campath(
+        tmp.path(),
+        &["plot", "long.ron", "--out", "plot.png", "--every", "12"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), campath::plot::SIZE);
+    // The blue VRP path appears in both panels; the red keyframe dots too.
+    let half = campath::plot::SIZE.0 / 2;
+    for (x0, x1) in [(0, half), (half, campath::plot::SIZE.0)] {
+        let count = |rgb: [u8; 3]| {
+            (x0..x1)
+                .flat_map(|x| (0..img.height()).map(move |y| (x, y)))
+                .filter(|&(x, y)| img.get_pixel(x, y).0 == rgb)
+                .count()
+        };
+        assert!(count([0, 0, 255]) > 50, "no path in panel {x0}..{x1}");
+        assert!(count([255, 0, 0]) > 20, "no keyframes in panel {x0}..{x1}");
+    }
+}
