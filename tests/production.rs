@@ -321,3 +321,25 @@ fn plot_draws_the_path_from_above_and_from_the_side() {
         assert!(count([255, 0, 0]) > 20, "no keyframes in panel {x0}..{x1}");
     }
 }
+
+#[test]
+fn a_terminal_gets_a_progress_bar() {
+    // `script` (util-linux) gives the render a pseudo-terminal.
+    let tmp = setup();
+    let cmd = format!("{} render long.ron --out t", env!("CARGO_BIN_EXE_campath"));
+    let o = Command::new("script")
+        .current_dir(tmp.path())
+        .args(["-qec", &cmd, "/dev/null"])
+        .output()
+        .expect("script (util-linux) runs");
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("/48 frames,") && text.contains("ETA"),
+        "{text}"
+    );
+    assert!(
+        !text.contains(" done\n"),
+        "a terminal gets the bar, not lines"
+    );
+}
