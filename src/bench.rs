@@ -59,10 +59,13 @@ pub const SCENES: [BenchScene; 4] = [
     },
 ];
 
-struct SplitMix(u64);
+/// SplitMix64 (Steele, Lea and Flood, 2014): a fixed-seed generator for generated scenes and
+/// test cameras, never seeded from entropy.
+pub struct SplitMix(pub u64);
 
 impl SplitMix {
-    fn next(&mut self) -> f64 {
+    /// The next number in [0, 1), with 53 random bits.
+    pub fn unit(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -80,12 +83,12 @@ pub fn scene_ron(s: &BenchScene) -> String {
     let mut spheres = String::new();
     spheres += "(center: (0.0, -100000.0, 0.0), radius: 100000.0, color: (0.55, 0.55, 0.5)),\n";
     for _ in 0..s.spheres {
-        let r = 0.3 + 1.2 * rng.next();
-        let (x, z) = ((rng.next() - 0.5) * side, (rng.next() - 0.5) * side);
+        let r = 0.3 + 1.2 * rng.unit();
+        let (x, z) = ((rng.unit() - 0.5) * side, (rng.unit() - 0.5) * side);
         let (cr, cg, cb) = (
-            0.2 + 0.8 * rng.next(),
-            0.2 + 0.8 * rng.next(),
-            0.2 + 0.8 * rng.next(),
+            0.2 + 0.8 * rng.unit(),
+            0.2 + 0.8 * rng.unit(),
+            0.2 + 0.8 * rng.unit(),
         );
         let _ = writeln!(
             spheres,

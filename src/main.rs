@@ -194,12 +194,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
         } => {
             let doc = Document::load(&file)?;
             let png = png.unwrap_or_else(|| default_out_dir(&file).join("plot.png"));
-            if let Some(dir) = png.parent() {
-                std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-                    path: dir.to_path_buf(),
-                    source,
-                })?;
-            }
+            create_parent(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
             campath::plot::write(&doc, &png, every)?;
             let _ = writeln!(out, "wrote {}", png.display());
@@ -251,12 +246,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let _ = writeln!(out, "Renderer, frame {frame} of {}:\n", file.display());
             let _ = write!(out, "{}", campath::report::renderer_table(&rows));
             let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
-            if let Some(dir) = plot.parent() {
-                std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-                    path: dir.to_path_buf(),
-                    source,
-                })?;
-            }
+            create_parent(&plot)?;
             campath::report::plot(&rows, &plot)?;
             let _ = writeln!(out, "\nplot: {}", plot.display());
             if let Some(path) = campath::report::path_report(&doc) {
@@ -288,6 +278,19 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
         }
     }
     Ok(true)
+}
+
+/// Creates the folder a file will be written into.
+fn create_parent(file: &Path) -> Result<(), Error> {
+    match file.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => {
+            std::fs::create_dir_all(dir).map_err(|source| Error::Write {
+                path: dir.to_path_buf(),
+                source,
+            })
+        }
+        _ => Ok(()),
+    }
 }
 
 /// `out/<file stem>/`, relative to the working directory.

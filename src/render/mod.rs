@@ -14,7 +14,7 @@ use std::sync::OnceLock;
 
 use crate::camera::{window_point, Camera};
 use crate::document::MAX_SAMPLES;
-use crate::scene::Scene;
+use crate::scene::{Scene, Sphere};
 
 mod shadows;
 mod tiles;
@@ -151,6 +151,25 @@ struct ViewSphere {
     color: DVec3,
 }
 
+impl ViewSphere {
+    /// `sphere` moved camera-relative into view coordinates: the VRP is subtracted first, so a
+    /// scene far from the origin keeps its precision.
+    fn new(camera: &Camera, sphere: &Sphere) -> ViewSphere {
+        let center = camera.point_to_view(sphere.center_world);
+        let f = camera.cop_view - center;
+        let radius2 = sphere.radius * sphere.radius;
+        ViewSphere {
+            center,
+            radius: sphere.radius,
+            radius2,
+            f,
+            c: f.length_squared() - radius2,
+            min_dist: f.length() - sphere.radius,
+            color: sphere.color,
+        }
+    }
+}
+
 /// A light in view coordinates.
 struct ViewLight {
     /// Unit vector from a surface towards the light: −direction.
@@ -181,20 +200,7 @@ impl Renderer {
         let spheres: Vec<ViewSphere> = scene
             .spheres
             .iter()
-            .map(|s| {
-                let center = camera.point_to_view(s.center_world);
-                let f = camera.cop_view - center;
-                let radius2 = s.radius * s.radius;
-                ViewSphere {
-                    center,
-                    radius: s.radius,
-                    radius2,
-                    f,
-                    c: f.length_squared() - radius2,
-                    min_dist: f.length() - s.radius,
-                    color: s.color,
-                }
-            })
+            .map(|s| ViewSphere::new(camera, s))
             .collect();
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let lights: Vec<ViewLight> = scene
@@ -421,7 +427,7 @@ pub fn srgb_decode(e: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::camera::Basis;
-    use crate::scene::{Light, Sphere};
+    use crate::scene::Light;
 
     /// Renders with every sphere tested for every ray (primary and shadow), in index order.
     fn brute_force(camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
@@ -432,19 +438,7 @@ mod tests {
         let spheres: Vec<ViewSphere> = scene
             .spheres
             .iter()
-            .map(|s| {
-                let center = camera.point_to_view(s.center_world);
-                let f = camera.cop_view - center;
-                ViewSphere {
-                    center,
-                    radius: s.radius,
-                    radius2: s.radius * s.radius,
-                    f,
-                    c: f.length_squared() - s.radius * s.radius,
-                    min_dist: f64::NEG_INFINITY,
-                    color: s.color,
-                }
-            })
+            .map(|s| ViewSphere::new(camera, s))
             .collect();
         let enc = srgb_encoder();
         let s2 = (raster.samples * raster.samples) as usize;
@@ -518,21 +512,12 @@ mod tests {
         }
     }
 
-    /// SplitMix64 in [0, 1): a fixed-seed generator for test scenes.
-    fn rng(state: &mut u64) -> f64 {
-        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = *state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     #[test]
     fn tiles_and_shadow_grid_give_the_brute_force_bytes() {
-        let mut seed = 7u64;
+        let mut gen = crate::bench::SplitMix(7);
         let mut spheres: Vec<Sphere> = (0..300)
             .map(|_| {
-                let mut r = || rng(&mut seed);
+                let mut r = || gen.unit();
                 Sphere {
                     center_world: DVec3::new(r() * 40.0 - 20.0, r() * 6.0, r() * 40.0 - 20.0),
                     radius: 0.2 + r() * 1.5,
