@@ -235,48 +235,32 @@ pub fn render(
     };
     let lines = options.progress == Progress::Lines;
     let started = Instant::now();
-    let summary = std::thread::scope(|scope| -> Result<Summary> {
-        // Two frames in flight at most: memory stays flat in the number of frames.
-        let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, Arc<Vec<u8>>)>(1);
-        let bar = bar.clone();
-        let manifest_path = &manifest_path;
-        let writer = scope.spawn(move || -> Result<()> {
-            for (frame, pixels) in rx {
-                write_png_atomic(
-                    &frame_path(dir, frame, total),
-                    &pixels,
-                    doc.raster,
-                    options.compression,
-                )?;
-                writeln!(manifest, "{}", hash_line(frame, &frame_hash(&pixels))).map_err(
-                    |source| Error::Write {
-                        path: manifest_path.to_path_buf(),
-                        source,
-                    },
-                )?;
-                if let Some(bar) = &bar {
-                    bar.inc(1);
+    let summary = stream_frames(
+        doc,
+        set,
+        |frame| done.contains_key(&frame),
+        |frame, pixels| {
+            write_png_atomic(
+                &frame_path(dir, frame, total),
+                pixels,
+                doc.raster,
+                options.compression,
+            )?;
+            writeln!(manifest, "{}", hash_line(frame, &frame_hash(pixels))).map_err(|source| {
+                Error::Write {
+                    path: manifest_path.clone(),
+                    source,
                 }
-                if lines {
-                    eprintln!("frame {frame} done");
-                }
+            })?;
+            if let Some(bar) = &bar {
+                bar.inc(1);
+            }
+            if lines {
+                eprintln!("frame {frame} done");
             }
             Ok(())
-        });
-        let rendered = for_each_frame(
-            doc,
-            set,
-            |frame| done.contains_key(&frame),
-            |frame, pixels| {
-                // A failed send means the writer stopped on an error, reported below.
-                let _ = tx.send((frame, Arc::clone(pixels)));
-                Ok(())
-            },
-        );
-        drop(tx);
-        writer.join().expect("the PNG writer does not panic")?;
-        rendered
-    })?;
+        },
+    )?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
@@ -391,29 +375,49 @@ pub fn hash_frames(
     frames: Range<u64>,
     mut each: impl FnMut(u64, &str) + Send,
 ) -> Result<(Vec<(u64, String)>, Summary)> {
+    let mut out = Vec::new();
+    let summary = stream_frames(
+        doc,
+        &FrameSet::all(frames),
+        |_| false,
+        |frame, pixels| {
+            let hash = frame_hash(pixels);
+            each(frame, &hash);
+            out.push((frame, hash));
+            Ok(())
+        },
+    )?;
+    Ok((out, summary))
+}
+
+/// [`for_each_frame`] with `consume` on a second thread, so a frame is written or hashed while
+/// the next one renders. At most one frame waits between them: memory stays flat in the number
+/// of frames. The first error of either side is returned.
+pub fn stream_frames(
+    doc: &Document,
+    set: &FrameSet,
+    done: impl FnMut(u64) -> bool,
+    mut consume: impl FnMut(u64, &[u8]) -> Result<()> + Send,
+) -> Result<Summary> {
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, Arc<Vec<u8>>)>(1);
-        let hasher = scope.spawn(move || {
-            let mut out = Vec::new();
+        let consumer = scope.spawn(move || -> Result<()> {
             for (frame, pixels) in rx {
-                let hash = frame_hash(&pixels);
-                each(frame, &hash);
-                out.push((frame, hash));
+                consume(frame, &pixels)?;
             }
-            out
+            Ok(())
         });
-        let summary = for_each_frame(
-            doc,
-            &FrameSet::all(frames),
-            |_| false,
-            |frame, pixels| {
-                let _ = tx.send((frame, Arc::clone(pixels)));
-                Ok(())
-            },
-        );
+        let rendered = for_each_frame(doc, set, done, |frame, pixels| {
+            // A failed send means the consumer stopped on an error: stop rendering too; the
+            // consumer's error is the one reported.
+            tx.send((frame, Arc::clone(pixels)))
+                .map_err(|_| Error::Usage("the frame consumer stopped".into()))
+        });
         drop(tx);
-        let out = hasher.join().expect("the hasher does not panic");
-        Ok((out, summary?))
+        consumer
+            .join()
+            .expect("the frame consumer does not panic")?;
+        rendered
     })
 }
 

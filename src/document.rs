@@ -589,33 +589,20 @@ struct Tracks {
 }
 
 impl Tracks {
+    /// The time of the last key of any track, 0 without tracks.
     fn last_key_time(&self) -> f64 {
-        let mut end: f64 = 0.0;
-        let mut see = |t: Option<f64>| {
-            if let Some(t) = t {
-                end = end.max(t);
-            }
-        };
-        see(self
-            .observer
-            .as_ref()
-            .and_then(|t| t.keys().last().map(|k| k.t)));
-        see(self
-            .look_around
-            .as_ref()
-            .and_then(|t| t.keys().last().map(|k| k.t)));
-        see(self
-            .track
-            .as_ref()
-            .and_then(|t| t.keys().last().map(|k| k.t)));
-        see(self
-            .zoom
-            .as_ref()
-            .and_then(|t| t.keys().last().map(|k| k.t)));
-        see(self
-            .distort
-            .as_ref()
-            .and_then(|t| t.keys().last().map(|k| k.t)));
-        end
+        fn end<V>(keys: &[Key<V>]) -> f64 {
+            keys.last().map_or(0.0, |k| k.t)
+        }
+        [
+            self.observer.as_ref().map(|t| end(t.keys())),
+            self.look_around.as_ref().map(|t| end(t.keys())),
+            self.track.as_ref().map(|t| end(t.keys())),
+            self.zoom.as_ref().map(|t| end(t.keys())),
+            self.distort.as_ref().map(|t| end(t.keys())),
+        ]
+        .into_iter()
+        .flatten()
+        .fold(0.0, f64::max)
     }
 }

@@ -149,7 +149,6 @@ fn naive_quadratic_fails_where_the_stable_form_holds() {
     // The textbook discriminant b² − c on the tiny sphere, from a COP 1e4 further back: the
     // terms are ~1e16 and r² = 1e-6 drowns. Shows the case is stiff for a naive caster.
     let doc = load("tiny_sphere.ron");
-    let cam = cameras(&doc)[0];
     let s = doc.scene.spheres[0];
     let origin = DVec3::new(0.0, 0.0, -1e8); // the camera pulled far back along −n
     let l = s.center_world - origin;
@@ -164,7 +163,6 @@ fn naive_quadratic_fails_where_the_stable_form_holds() {
         (naive_disc - 1e-6).abs() > 1e-7,
         "naive {naive_disc} should be visibly wrong here"
     );
-    let _ = cam;
 }
 
 #[test]
