@@ -240,20 +240,13 @@ pub fn run(
     scenes: &[BenchScene],
     progress: &mut dyn std::io::Write,
 ) -> Result<Vec<Row>> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
     let povray = Command::new("povray").arg("--version").output().is_ok();
     let mut rows = Vec::new();
     for s in scenes {
         let ron_path = dir.join(format!("{}.ron", s.name));
-        let write = |p: &PathBuf, text: &str| {
-            std::fs::write(p, text).map_err(|source| Error::Write {
-                path: p.clone(),
-                source,
-            })
-        };
+        let write =
+            |p: &PathBuf, text: &str| std::fs::write(p, text).map_err(Error::write(p.clone()));
         write(&ron_path, &scene_ron(s))?;
         let file = ron_path.to_string_lossy().into_owned();
         let frames_dir = dir.join(s.name).to_string_lossy().into_owned();
@@ -267,10 +260,7 @@ pub fn run(
             write(&pov_path, &pov_scene(&doc)?)?;
             let n = pov_frames.min(s.frames);
             let out_dir = dir.join(format!("{}-pov", s.name));
-            std::fs::create_dir_all(&out_dir).map_err(|source| Error::Write {
-                path: out_dir.clone(),
-                source,
-            })?;
+            std::fs::create_dir_all(&out_dir).map_err(Error::write(out_dir.clone()))?;
             let aa = if s.samples > 1 {
                 format!("+A0.0 +AM1 +R{}", s.samples)
             } else {

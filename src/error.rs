@@ -47,10 +47,10 @@ impl fmt::Display for Problems {
 /// Everything that can go wrong in campath.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read: {cause}", path.display())]
     Read {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("{}:{line}:{col}: {message}", path.display())]
     Parse {
@@ -71,17 +71,21 @@ pub enum Error {
         time: f64,
         message: String,
     },
+    /// A hashes.txt, golden file or part file that does not follow the manifest grammar.
     #[error("{}: {message}", path.display())]
-    Golden { path: PathBuf, message: String },
-    #[error("{}: cannot write: {source}", path.display())]
+    Manifest { path: PathBuf, message: String },
+    /// `merge` refused: the parts do not make a whole sequence.
+    #[error("{}: cannot merge, nothing written:{}", dir.display(), problems.iter().map(|p| format!("\n  - {p}")).collect::<String>())]
+    Merge { dir: PathBuf, problems: Vec<String> },
+    #[error("{}: cannot write: {cause}", path.display())]
     Write {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
-    #[error("{}: cannot encode PNG: {source}", path.display())]
+    #[error("{}: cannot encode PNG: {cause}", path.display())]
     Encode {
         path: PathBuf,
-        source: image::ImageError,
+        cause: image::ImageError,
     },
     #[error("{0}")]
     Usage(String),
@@ -95,10 +99,40 @@ impl Error {
             Error::Parse { .. }
                 | Error::Invalid { .. }
                 | Error::Frame { .. }
-                | Error::Golden { .. }
+                | Error::Manifest { .. }
+                | Error::Merge { .. }
                 | Error::Usage(_)
         )
     }
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// For `map_err`: a failure to read `path`.
+    pub fn read(path: impl Into<PathBuf>) -> impl Fn(std::io::Error) -> Error {
+        let path = path.into();
+        move |cause| Error::Read {
+            path: path.clone(),
+            cause,
+        }
+    }
+
+    /// For `map_err`: a failure to write `path`.
+    pub fn write(path: impl Into<PathBuf>) -> impl Fn(std::io::Error) -> Error {
+        let path = path.into();
+        move |cause| Error::Write {
+            path: path.clone(),
+            cause,
+        }
+    }
+
+    /// For `map_err`: a failure to encode the image `path`.
+    pub fn encode(path: impl Into<PathBuf>) -> impl Fn(image::ImageError) -> Error {
+        let path = path.into();
+        move |cause| Error::Encode {
+            path: path.clone(),
+            cause,
+        }
+    }
+}

@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use crate::camera::{Basis, Camera};
 use crate::document::Document;
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 /// Output format of `campath path`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
@@ -52,10 +52,7 @@ fn triple(v: DVec3) -> String {
 /// Writes every frame's evaluated camera in `format`.
 pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Result<()> {
     let mut out = std::io::BufWriter::new(out);
-    let failed = |source| Error::Write {
-        path: "<stdout>".into(),
-        source,
-    };
+    let failed = crate::commands::stdout_failed;
     match format {
         PathFormat::Csv => writeln!(
             out,

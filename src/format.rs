@@ -157,9 +157,6 @@ pub fn parse(path: &Path, text: &str) -> Result<FileSpec> {
 
 /// Reads and parses a keyframe file.
 pub fn read(path: &Path) -> Result<FileSpec> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(path).map_err(Error::read(path.to_path_buf()))?;
     parse(path, &text)
 }

@@ -13,12 +13,15 @@ pub mod document;
 pub mod error;
 pub mod export;
 pub mod format;
+pub mod frames;
 pub mod keyframes;
+pub mod manifest;
 pub mod output;
 pub mod plot;
 pub mod preview;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod sequence;
 
 pub use error::{Error, Result};

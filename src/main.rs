@@ -6,9 +6,12 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use campath::commands::{self, FrameSet, Progress, RenderOptions};
+use campath::commands::{self, stdout_failed};
 use campath::document::Document;
-use campath::output::{hash_line, Compression};
+use campath::frames::FrameSet;
+use campath::manifest::Shard;
+use campath::output::Compression;
+use campath::sequence::{self, Event, RenderOptions};
 use campath::Error;
 
 #[derive(Parser)]
@@ -38,8 +41,8 @@ enum Command {
         compression: Compression,
         /// Render only frames k with k mod N = K, into hashes.part-K-of-N.txt (see `merge`).
         #[arg(long, value_name = "K/N")]
-        shard: Option<String>,
-        /// Render every frame again, even those already complete in the output folder.
+        shard: Option<Shard>,
+        /// Render every frame again, even those unchanged and complete in the output folder.
         #[arg(long)]
         force: bool,
         /// Print nothing.
@@ -125,6 +128,12 @@ fn main() -> ExitCode {
     match run(cli.command, &mut out) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
+        // The reader of standard output went away (`campath path … | head`): end quietly.
+        Err(Error::Write { path, cause })
+            if cause.kind() == std::io::ErrorKind::BrokenPipe && path == Path::new("<stdout>") =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             let _ = out.flush();
             eprintln!("campath: error: {e}");
@@ -159,22 +168,24 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let doc = Document::load(&file)?;
             let set = FrameSet {
                 range: frames(&doc, spec.as_deref())?,
-                shard: shard.as_deref().map(commands::parse_shard).transpose()?,
+                shard,
             };
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
             let progress = if quiet {
                 Progress::Quiet
             } else if std::io::stderr().is_terminal() {
-                Progress::Bar
+                Progress::Bar(None)
             } else {
                 Progress::Lines
             };
-            let options = RenderOptions {
-                compression,
-                force,
-                progress,
-            };
-            commands::render(&doc, &dir, &set, options, out)?;
+            let options = RenderOptions { compression, force };
+            let mut progress = progress;
+            let summary = sequence::render(&doc, &dir, &set, options, &mut |e| progress.event(e))?;
+            progress.finish();
+            if !quiet {
+                writeln!(out, "{}", commands::render_line(&doc, &dir, &summary))
+                    .map_err(stdout_failed)?;
+            }
         }
         Command::Preview {
             file,
@@ -185,7 +196,8 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let doc = Document::load(&file)?;
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
             let (png, gif) = campath::preview::write(&doc, &dir, width, count)?;
-            let _ = writeln!(out, "wrote {} and {}", png.display(), gif.display());
+            writeln!(out, "wrote {} and {}", png.display(), gif.display())
+                .map_err(stdout_failed)?;
         }
         Command::Plot {
             file,
@@ -197,18 +209,16 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             create_parent(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
             campath::plot::write(&doc, &png, every)?;
-            let _ = writeln!(out, "wrote {}", png.display());
+            writeln!(out, "wrote {}", png.display()).map_err(stdout_failed)?;
         }
         Command::Merge { dir } => {
-            let text = campath::output::merge_parts(&dir)?;
-            let path = dir.join("hashes.txt");
-            campath::output::write_atomic(&path, &text)?;
-            let _ = writeln!(
+            let frames = sequence::merge(&dir)?;
+            writeln!(
                 out,
-                "merged {} frame(s) into {}",
-                text.lines().count(),
-                path.display()
-            );
+                "merged {frames} frame(s) into {}",
+                dir.join("hashes.txt").display()
+            )
+            .map_err(stdout_failed)?;
         }
         Command::Hash {
             file,
@@ -218,12 +228,12 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let doc = Document::load(&file)?;
             let range = frames(&doc, spec.as_deref())?;
             let mut lines = std::io::BufWriter::new(std::io::stdout());
-            let (_, summary) = commands::hash_frames(&doc, range, |frame, hash| {
-                let _ = writeln!(lines, "{}", hash_line(frame, hash));
+            let timing = campath::frames::hash_frames(&doc, range, |frame, hash| {
+                writeln!(lines, "{frame} {hash}").map_err(stdout_failed)
             })?;
-            let _ = lines.flush();
+            lines.flush().map_err(stdout_failed)?;
             if stats {
-                eprintln!("{}", summary.line("hashed", ""));
+                eprintln!("{}", commands::timing_line("hashed", "", &timing));
             }
         }
         Command::Verify { file, golden } => {
@@ -243,19 +253,21 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let doc = Document::load(&file)?;
             let frame = frame.unwrap_or(doc.animation.frames / 2);
             let rows = campath::report::renderer_report(&doc, frame, runs.max(1))?;
-            let _ = writeln!(out, "Renderer, frame {frame} of {}:\n", file.display());
-            let _ = write!(out, "{}", campath::report::renderer_table(&rows));
+            writeln!(out, "Renderer, frame {frame} of {}:\n", file.display())
+                .map_err(stdout_failed)?;
+            write!(out, "{}", campath::report::renderer_table(&rows)).map_err(stdout_failed)?;
             let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
             create_parent(&plot)?;
             campath::report::plot(&rows, &plot)?;
-            let _ = writeln!(out, "\nplot: {}", plot.display());
+            writeln!(out, "\nplot: {}", plot.display()).map_err(stdout_failed)?;
             if let Some(path) = campath::report::path_report(&doc) {
-                let _ = writeln!(
+                writeln!(
                     out,
                     "\nCamera path, speed: Uniform against a {}-step arc-length table:\n",
                     campath::report::PATH_REFERENCE_SAMPLES
-                );
-                let _ = write!(out, "{}", campath::report::path_table(&path));
+                )
+                .map_err(stdout_failed)?;
+                write!(out, "{}", campath::report::path_table(&path)).map_err(stdout_failed)?;
             }
         }
         Command::Bench {
@@ -274,20 +286,63 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
                 )));
             }
             let rows = campath::bench::run(&dir, pov_frames, &chosen, &mut std::io::stderr())?;
-            let _ = write!(out, "{}", campath::bench::table(&rows));
+            write!(out, "{}", campath::bench::table(&rows)).map_err(stdout_failed)?;
         }
     }
     Ok(true)
+}
+
+/// How `render` reports progress on standard error.
+enum Progress {
+    /// Nothing at all, not even the summary.
+    Quiet,
+    /// A line per finished frame (for logs and pipes).
+    Lines,
+    /// A progress bar with frames per second and an ETA (for terminals), made at the start.
+    Bar(Option<indicatif::ProgressBar>),
+}
+
+impl Progress {
+    fn event(&mut self, e: Event) {
+        match (self, e) {
+            (Progress::Bar(bar), Event::Start { frames, kept }) => {
+                let b = indicatif::ProgressBar::new(frames);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template(
+                        "{bar:40} {pos}/{len} frames, {rate}, ETA {eta}",
+                    )
+                    .expect("the template is valid")
+                    .with_key(
+                        "rate",
+                        |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                            let _ = write!(w, "{:.1} frames/s", s.per_sec());
+                        },
+                    ),
+                );
+                b.inc(kept);
+                *bar = Some(b);
+            }
+            (Progress::Bar(Some(bar)), Event::Written(_)) => bar.inc(1),
+            (Progress::Lines, Event::Start { frames, kept }) => {
+                eprintln!("{} frame(s) to render, {kept} kept", frames - kept)
+            }
+            (Progress::Lines, Event::Written(frame)) => eprintln!("frame {frame} done"),
+            _ => {}
+        }
+    }
+
+    fn finish(self) {
+        if let Progress::Bar(Some(bar)) = self {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 /// Creates the folder a file will be written into.
 fn create_parent(file: &Path) -> Result<(), Error> {
     match file.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => {
-            std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-                path: dir.to_path_buf(),
-                source,
-            })
+            std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))
         }
         _ => Ok(()),
     }

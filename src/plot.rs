@@ -11,7 +11,6 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::output::{write_png, Compression};
-use crate::render::Raster;
 
 /// A view: world point to the panel's (horizontal, vertical).
 type Projection = fn(DVec3) -> DVec2;
@@ -186,11 +185,5 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
         }
         root.present().map_err(err)?;
     }
-    let raster = Raster {
-        width: SIZE.0,
-        height: SIZE.1,
-        samples: 1,
-        adaptive: false,
-    };
-    write_png(path, &buf, raster, Compression::Default)
+    write_png(path, &buf, SIZE, Compression::Default)
 }

@@ -3,9 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::commands::{for_each_frame, FrameSet};
 use crate::document::Document;
 use crate::error::{Error, Result};
+use crate::frames::{for_each_frame, FrameSet};
 use crate::output::{write_png, Compression};
 use crate::render::Raster;
 
@@ -41,10 +41,7 @@ pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
 /// Writes `dir/preview.png` (a sheet of `count` frames) and `dir/preview.gif`; returns both paths.
 pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(PathBuf, PathBuf)> {
     doc.check_path()?;
-    std::fs::create_dir_all(dir).map_err(|source| Error::Write {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
     let raster = small_raster(doc, width);
     let small = Document {
         raster,
@@ -67,7 +64,7 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
         &small,
         &FrameSet::all(0..frames),
         |_| false,
-        |frame, pixels| {
+        |frame, _, pixels| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = (
                     slot as u32 % COLUMNS * (w + GAP),
@@ -93,26 +90,14 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
         },
     )?;
     let png = dir.join("preview.png");
-    let sheet_raster = Raster {
-        width: sheet_w,
-        height: sheet_h,
-        samples: 1,
-        adaptive: false,
-    };
-    write_png(&png, &sheet, sheet_raster, Compression::Default)?;
+    write_png(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
     let gif = dir.join("preview.gif");
-    let file = std::fs::File::create(&gif).map_err(|source| Error::Write {
-        path: gif.clone(),
-        source,
-    })?;
+    let file = std::fs::File::create(&gif).map_err(Error::write(gif.clone()))?;
     let mut encoder =
         image::codecs::gif::GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
     encoder
         .set_repeat(image::codecs::gif::Repeat::Infinite)
         .and_then(|_| encoder.encode_frames(gif_frames))
-        .map_err(|source| Error::Encode {
-            path: gif.clone(),
-            source,
-        })?;
+        .map_err(Error::encode(gif.clone()))?;
     Ok((png, gif))
 }

@@ -9,9 +9,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::camera::Camera;
-use crate::commands::median;
 use crate::document::Document;
 use crate::error::{Error, Result};
+use crate::frames::median;
 use crate::render::{srgb_decode, Raster, Renderer};
 use crate::scene::Scene;
 
@@ -255,17 +255,7 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .map_err(draw_err)?;
         root.present().map_err(draw_err)?;
     }
-    crate::output::write_png(
-        path,
-        &buf,
-        Raster {
-            width: w,
-            height: h,
-            samples: 1,
-            adaptive: false,
-        },
-        crate::output::Compression::Default,
-    )
+    crate::output::write_png(path, &buf, (w, h), crate::output::Compression::Default)
 }
 
 /// One arc-length table resolution, measured against a 65,536-step reference.

@@ -3,7 +3,7 @@
 
 mod common;
 
-use campath::commands::hashes;
+use campath::frames::hashes;
 use common::{campath, example, root, stdout};
 
 #[test]

@@ -8,8 +8,8 @@ mod common;
 use std::path::Path;
 
 use campath::camera::Camera;
-use campath::commands::hashes;
 use campath::document::Document;
+use campath::frames::hashes;
 use campath::render::Renderer;
 use campath::Error;
 use glam::DVec3;

@@ -6,8 +6,9 @@
 
 mod common;
 
-use campath::commands::{for_each_frame, FrameSet};
-use campath::output::{frame_hash, hash_line, parse_hashes};
+use campath::frames::{for_each_frame, FrameSet};
+use campath::manifest::parse_hashes;
+use campath::output::frame_hash;
 use common::{example, root, EXAMPLES};
 
 fn hashes(name: &str) -> String {
@@ -21,9 +22,8 @@ fn hashes(name: &str) -> String {
             &doc,
             &FrameSet::all(k..k + 1),
             |_| false,
-            |frame, pixels| {
-                out += &hash_line(frame, &frame_hash(pixels));
-                out.push('\n');
+            |frame, _, pixels| {
+                out += &format!("{frame} {}\n", frame_hash(pixels));
                 Ok(())
             },
         )

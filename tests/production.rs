@@ -41,11 +41,12 @@ fn assert_consistent(dir: &Path) {
         }
     }
     for line in read(&dir.join("hashes.txt")).lines() {
-        let Some((frame, hash)) = line.split_once(' ') else {
-            continue;
-        };
-        if hash.len() != 64 {
+        let cols: Vec<&str> = line.split(' ').collect();
+        let [frame, hash, key] = cols[..] else {
             continue; // a torn last line, dropped on resume
+        };
+        if hash.len() != 64 || key.len() != 64 {
+            continue;
         }
         let png = dir.join(format!("frame_{:04}.png", frame.parse::<u64>().unwrap()));
         let raw = image::open(&png)
@@ -93,7 +94,7 @@ fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
     let resumed = campath(tmp.path(), &["render", "long.ron", "--out", "killed"], &[]);
     assert!(resumed.status.success(), "{}", stderr(&resumed));
     assert!(
-        stdout(&resumed).contains("already complete"),
+        stdout(&resumed).contains(" kept") && !stdout(&resumed).contains("; 0 kept"),
         "the kills left no frame to resume from: {}",
         stdout(&resumed)
     );
@@ -102,8 +103,7 @@ fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
     // A complete folder renders nothing again; --force renders everything.
     let again = campath(tmp.path(), &["render", "long.ron", "--out", "killed"], &[]);
     assert!(
-        stdout(&again).contains("rendered 0 frame(s)")
-            && stdout(&again).contains("48 already complete"),
+        stdout(&again).contains("rendered 0 frame(s)") && stdout(&again).contains("48 kept"),
         "{}",
         stdout(&again)
     );
@@ -114,7 +114,8 @@ fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
     );
     assert!(
         stdout(&forced).contains("rendered 48 frame(s)")
-            && !stdout(&forced).contains("already complete"),
+            && stdout(&forced).contains("0 kept")
+            && stdout(&forced).contains("48 --force"),
         "{}",
         stdout(&forced)
     );
@@ -137,11 +138,30 @@ fn a_damaged_frame_is_rendered_again() {
     );
     assert!(
         stdout(&again).contains("rendered 1 frame(s)")
-            && stdout(&again).contains("3 already complete"),
+            && stdout(&again).contains("3 kept")
+            && stdout(&again).contains("1 missing or damaged on disk"),
         "{}",
         stdout(&again)
     );
     assert_eq!(read(&tmp.path().join("o/hashes.txt")), expected);
+}
+
+fn shard(tmp: &Path, k: u64) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_campath"));
+    cmd.current_dir(tmp).args([
+        "render",
+        "long.ron",
+        "--out",
+        "farm",
+        "--quiet",
+        "--shard",
+        &format!("{k}/3"),
+    ]);
+    cmd
+}
+
+fn frame_lines(text: &str) -> Vec<&str> {
+    text.lines().filter(|l| !l.starts_with('#')).collect()
 }
 
 #[test]
@@ -154,44 +174,92 @@ fn three_shards_merge_into_a_single_runs_manifest() {
     );
     assert!(single.status.success());
     let children: Vec<_> = (0..3)
-        .map(|k| {
-            Command::new(env!("CARGO_BIN_EXE_campath"))
-                .current_dir(tmp.path())
-                .args([
-                    "render",
-                    "long.ron",
-                    "--out",
-                    "farm",
-                    "--quiet",
-                    "--shard",
-                    &format!("{k}/3"),
-                ])
-                .spawn()
-                .unwrap()
-        })
+        .map(|k| shard(tmp.path(), k).spawn().unwrap())
         .collect();
     for mut c in children {
         assert!(c.wait().unwrap().success());
     }
     let part = read(&tmp.path().join("farm/hashes.part-1-of-3.txt"));
-    assert_eq!(part.lines().count(), 16);
-    assert!(part
-        .lines()
-        .all(|l| l.split(' ').next().unwrap().parse::<u64>().unwrap() % 3 == 1));
+    assert_eq!(frame_lines(&part).len(), 16);
+    assert!(part.starts_with("# campath part=1/3 range=0..48 frames=48 sequence="));
+    assert!(part.ends_with("# complete\n"));
+    assert!(frame_lines(&part).iter().all(|l| l
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse::<u64>()
+        .unwrap()
+        % 3
+        == 1));
     let merged = campath(tmp.path(), &["merge", "farm"], &[]);
     assert!(merged.status.success(), "{}", stderr(&merged));
     assert_eq!(
         read(&tmp.path().join("farm/hashes.txt")),
         read(&tmp.path().join("single/hashes.txt"))
     );
-    // A missing shard is named.
+    // A missing shard is named, and nothing is written.
+    std::fs::remove_file(tmp.path().join("farm/hashes.txt")).unwrap();
     std::fs::remove_file(tmp.path().join("farm/hashes.part-2-of-3.txt")).unwrap();
     let broken = campath(tmp.path(), &["merge", "farm"], &[]);
     assert_eq!(broken.status.code(), Some(2));
     assert!(
-        stderr(&broken).contains("shard(s) [2] of 3 are missing"),
+        stderr(&broken).contains("shard 2/3 never ran"),
         "{}",
         stderr(&broken)
+    );
+    assert!(!tmp.path().join("farm/hashes.txt").exists());
+    // Parts of another shard count are named with their files.
+    std::fs::write(tmp.path().join("farm/hashes.part-0-of-2.txt"), "").unwrap();
+    let mixed = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert_eq!(mixed.status.code(), Some(2));
+    for want in [
+        "2 different shard counts",
+        "N = 2: hashes.part-0-of-2.txt",
+        "N = 3: hashes.part-0-of-3.txt, hashes.part-1-of-3.txt",
+    ] {
+        assert!(stderr(&mixed).contains(want), "{want}: {}", stderr(&mixed));
+    }
+}
+
+#[test]
+fn merge_refuses_while_a_killed_shard_is_unfinished() {
+    let tmp = setup();
+    let single = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "single", "--quiet"],
+        &[],
+    );
+    assert!(single.status.success());
+    for k in [0, 2] {
+        assert!(shard(tmp.path(), k).status().unwrap().success());
+    }
+    // Shard 1 is killed once it has listed a few frames.
+    let part = tmp.path().join("farm/hashes.part-1-of-3.txt");
+    let mut child = shard(tmp.path(), 1).spawn().unwrap();
+    for _ in 0..4000 {
+        if frame_lines(&read(&part)).len() >= 3 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let listed = frame_lines(&read(&part)).len();
+    assert!((3..16).contains(&listed), "shard 1 listed {listed} frames");
+    let refused = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stdout(&refused));
+    let want = format!(
+        "shard 1/3 did not finish: hashes.part-1-of-3.txt lists {listed} of its 16 frame(s)"
+    );
+    assert!(stderr(&refused).contains(&want), "{}", stderr(&refused));
+    assert!(!tmp.path().join("farm/hashes.txt").exists());
+    // Run again with the same arguments: it resumes, and the merge is a single run's manifest.
+    assert!(shard(tmp.path(), 1).status().unwrap().success());
+    let merged = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert!(merged.status.success(), "{}", stderr(&merged));
+    assert_eq!(
+        read(&tmp.path().join("farm/hashes.txt")),
+        read(&tmp.path().join("single/hashes.txt"))
     );
 }
 
@@ -276,7 +344,7 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     // The first tile is frame 0 rendered at 60×34 with one sample.
     let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
     doc.raster = campath::preview::small_raster(&doc, 60);
-    let frame0 = campath::commands::hashes(&doc, 0..1).unwrap();
+    let frame0 = campath::frames::hashes(&doc, 0..1).unwrap();
     let mut tile = Vec::new();
     for y in 0..34 {
         for x in 0..60 {

@@ -16,6 +16,7 @@ use crate::camera::{window_point, Camera};
 use crate::document::MAX_SAMPLES;
 use crate::scene::{Scene, Sphere};
 
+pub mod key;
 mod shadows;
 mod tiles;
 

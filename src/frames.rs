@@ -1,0 +1,189 @@
+//! The frame engine: which frames a run covers, rendering them in order with each frame's
+//! [`FrameKey`], and streaming the pixels to a consumer on its own thread.
+
+use std::ops::Range;
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::camera::Camera;
+use crate::document::Document;
+use crate::error::{Error, Result};
+use crate::manifest::Shard;
+use crate::output::frame_hash;
+use crate::render::key::{FrameKey, KeyBase};
+use crate::render::Renderer;
+
+/// The frames a run covers: a range, optionally one shard of it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FrameSet {
+    pub range: Range<u64>,
+    pub shard: Option<Shard>,
+}
+
+impl FrameSet {
+    pub fn all(range: Range<u64>) -> FrameSet {
+        FrameSet { range, shard: None }
+    }
+
+    pub fn contains(&self, k: u64) -> bool {
+        self.range.contains(&k) && self.shard.is_none_or(|s| s.contains(k))
+    }
+
+    pub fn count(&self) -> u64 {
+        match self.shard {
+            None => self.range.end - self.range.start,
+            Some(s) => self.range.clone().filter(|k| s.contains(*k)).count() as u64,
+        }
+    }
+}
+
+/// Timing of a run of frames.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Timing {
+    /// Frames delivered to the consumer.
+    pub frames: u64,
+    /// Frames whose camera equalled the previous frame's: delivered again without rendering.
+    pub held: u64,
+    /// Seconds per frame spent rendering, in frame order.
+    pub render_secs: Vec<f64>,
+    /// Wall-clock seconds for the whole run, output included.
+    pub wall_secs: f64,
+}
+
+impl Timing {
+    /// Median seconds per rendered frame.
+    pub fn median_render_secs(&self) -> f64 {
+        median(&self.render_secs)
+    }
+}
+
+/// The median of `xs` (0 for none).
+pub fn median(xs: &[f64]) -> f64 {
+    if xs.is_empty() {
+        return 0.0;
+    }
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        (v[m - 1] + v[m]) * 0.5
+    }
+}
+
+/// Every frame's key, in order from frame 0 (the cameras are evaluated in order), or the first
+/// frame whose camera is undefined.
+pub fn keys(doc: &Document) -> impl Iterator<Item = Result<(u64, FrameKey)>> + '_ {
+    let base = KeyBase::new(&doc.scene, doc.raster);
+    doc.cameras()
+        .map(move |item| item.map(|(frame, camera)| (frame, base.key(&camera))))
+}
+
+/// Renders the frames of `set` in order and calls `sink` with each frame's key and RGB8 pixels;
+/// frames for which `done` says true are passed over without rendering. A frame whose camera
+/// equals the previous rendered frame's is not rendered again.
+pub fn for_each_frame(
+    doc: &Document,
+    set: &FrameSet,
+    mut done: impl FnMut(u64) -> bool,
+    mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>) -> Result<()>,
+) -> Result<Timing> {
+    let started = Instant::now();
+    let base = KeyBase::new(&doc.scene, doc.raster);
+    let mut renderer = Renderer::new();
+    let mut previous: Option<(Camera, Arc<Vec<u8>>)> = None;
+    let mut timing = Timing::default();
+    for item in doc.cameras() {
+        let (frame, camera) = item?;
+        if frame >= set.range.end {
+            break;
+        }
+        if !set.contains(frame) || done(frame) {
+            continue;
+        }
+        let pixels = match previous.take() {
+            Some((cam, pixels)) if cam == camera => {
+                timing.held += 1;
+                pixels
+            }
+            _ => {
+                let t = Instant::now();
+                let pixels = Arc::new(renderer.render(&camera, &doc.scene, doc.raster));
+                timing.render_secs.push(t.elapsed().as_secs_f64());
+                pixels
+            }
+        };
+        sink(frame, &base.key(&camera), &pixels)?;
+        timing.frames += 1;
+        previous = Some((camera, pixels));
+    }
+    timing.wall_secs = started.elapsed().as_secs_f64();
+    Ok(timing)
+}
+
+/// [`for_each_frame`] with `consume` on a second thread, so a frame is written or hashed while
+/// the next one renders. At most one frame waits between them: memory stays flat in the number
+/// of frames. The first error of either side is returned.
+pub fn stream_frames(
+    doc: &Document,
+    set: &FrameSet,
+    done: impl FnMut(u64) -> bool,
+    mut consume: impl FnMut(u64, &FrameKey, &[u8]) -> Result<()> + Send,
+) -> Result<Timing> {
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, FrameKey, Arc<Vec<u8>>)>(1);
+        let consumer = scope.spawn(move || -> Result<()> {
+            for (frame, key, pixels) in rx {
+                consume(frame, &key, &pixels)?;
+            }
+            Ok(())
+        });
+        let rendered = for_each_frame(doc, set, done, |frame, key, pixels| {
+            // A failed send means the consumer stopped on an error: stop rendering too; the
+            // consumer's error is the one reported.
+            tx.send((frame, key.clone(), Arc::clone(pixels)))
+                .map_err(|_| Error::Usage("the frame consumer stopped".into()))
+        });
+        drop(tx);
+        consumer
+            .join()
+            .expect("the frame consumer does not panic")?;
+        rendered
+    })
+}
+
+/// Renders `frames` and hashes each on its own thread while the next renders (SHA-256 is
+/// sequential within a frame); `each` sees every (frame, hash) in order, as it is ready, and
+/// may stop the run by returning an error.
+pub fn hash_frames(
+    doc: &Document,
+    frames: Range<u64>,
+    mut each: impl FnMut(u64, &str) -> Result<()> + Send,
+) -> Result<Timing> {
+    stream_frames(
+        doc,
+        &FrameSet::all(frames),
+        |_| false,
+        |frame, _, pixels| each(frame, &frame_hash(pixels)),
+    )
+}
+
+/// The `(frame, sha256)` pairs of `frames`, without writing images.
+///
+/// ```
+/// # let doc = campath::document::Document::from_str(std::path::Path::new("t.ron"),
+/// #     "(frames: 2, image: (width: 8, height: 4), camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),
+/// #       scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]))").unwrap();
+/// let hashes = campath::frames::hashes(&doc, 0..2).unwrap();
+/// assert_eq!(hashes.len(), 2);
+/// assert_eq!(hashes[1].1.len(), 64);
+/// ```
+pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, String)>> {
+    let mut out = Vec::new();
+    hash_frames(doc, frames, |frame, hash| {
+        out.push((frame, hash.to_string()));
+        Ok(())
+    })?;
+    Ok(out)
+}

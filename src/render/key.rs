@@ -1,0 +1,220 @@
+//! Frame keys: a SHA-256 of everything that determines a frame's pixels.
+//!
+//! A frame's pixels are a function of the renderer's code, the raster (size and sampling), the
+//! scene and the frame's camera, and of nothing else (no entropy, no thread count). The key
+//! hashes exactly those, bit for bit, so two frames with the same key have the same pixels and a
+//! frame on disk is still valid exactly when its recorded key equals the key of the file now.
+//!
+//! Every struct is destructured without `..`, so a field added to any of them does not compile
+//! until it is added to the key too.
+
+use glam::{DVec2, DVec3};
+use sha2::{Digest, Sha256};
+
+use super::Raster;
+use crate::camera::{Basis, Camera};
+use crate::scene::{Light, Scene, Sphere};
+
+/// The renderer's version. Bump it with every change that changes any frame's pixels (the golden
+/// test refuses new golden hashes under an old version), so frames rendered by an older campath
+/// are never taken for current ones.
+pub const VERSION: u32 = 1;
+
+/// The key of one frame: lower-case hex SHA-256 of the renderer version, raster, scene and camera.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FrameKey(pub String);
+
+impl std::fmt::Display for FrameKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// The part of every frame key that frames share (renderer version, raster, scene), hashed once.
+#[derive(Clone)]
+pub struct KeyBase(Sha256);
+
+impl KeyBase {
+    pub fn new(scene: &Scene, raster: Raster) -> KeyBase {
+        let mut h = Feed(Sha256::new());
+        h.bytes(b"campath frame key");
+        h.u64(u64::from(VERSION));
+        let Raster {
+            width,
+            height,
+            samples,
+            adaptive,
+        } = raster;
+        h.u64(u64::from(width));
+        h.u64(u64::from(height));
+        h.u64(u64::from(samples));
+        h.u64(u64::from(adaptive));
+        let Scene {
+            background,
+            ambient,
+            lights,
+            spheres,
+        } = scene;
+        h.vec3(*background);
+        h.f64(*ambient);
+        h.u64(lights.len() as u64);
+        for &Light {
+            direction_world,
+            color,
+            shadows,
+        } in lights
+        {
+            h.vec3(direction_world);
+            h.vec3(color);
+            h.u64(u64::from(shadows));
+        }
+        h.u64(spheres.len() as u64);
+        for &Sphere {
+            center_world,
+            radius,
+            color,
+        } in spheres
+        {
+            h.vec3(center_world);
+            h.f64(radius);
+            h.vec3(color);
+        }
+        KeyBase(h.0)
+    }
+
+    /// The key of a frame seen through `camera`.
+    pub fn key(&self, camera: &Camera) -> FrameKey {
+        let mut h = Feed(self.0.clone());
+        let Camera {
+            vrp_world,
+            basis: Basis { u, v, n },
+            cop_view,
+            window,
+        } = *camera;
+        for p in [vrp_world, u, v, n, cop_view] {
+            h.vec3(p);
+        }
+        h.vec2(window);
+        FrameKey(format!("{:x}", h.0.finalize()))
+    }
+}
+
+/// Feeds values to a hasher as fixed-width little-endian bytes (floats by their bits, so −0 and
+/// +0 differ and nothing is rounded).
+struct Feed(Sha256);
+
+impl Feed {
+    fn bytes(&mut self, b: &[u8]) {
+        self.0.update(b);
+    }
+    fn u64(&mut self, x: u64) {
+        self.0.update(x.to_le_bytes());
+    }
+    fn f64(&mut self, x: f64) {
+        self.0.update(x.to_bits().to_le_bytes());
+    }
+    fn vec2(&mut self, v: DVec2) {
+        self.f64(v.x);
+        self.f64(v.y);
+    }
+    fn vec3(&mut self, v: DVec3) {
+        self.f64(v.x);
+        self.f64(v.y);
+        self.f64(v.z);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene() -> Scene {
+        Scene {
+            background: DVec3::new(0.1, 0.2, 0.3),
+            ambient: 0.1,
+            lights: vec![Light {
+                direction_world: DVec3::NEG_Y,
+                color: DVec3::ONE,
+                shadows: true,
+            }],
+            spheres: vec![Sphere {
+                center_world: DVec3::ZERO,
+                radius: 1.0,
+                color: DVec3::new(0.9, 0.2, 0.2),
+            }],
+        }
+    }
+
+    fn camera() -> Camera {
+        Camera {
+            vrp_world: DVec3::new(0.0, 0.0, -4.0),
+            basis: Basis {
+                u: DVec3::NEG_X,
+                v: DVec3::Y,
+                n: DVec3::Z,
+            },
+            cop_view: DVec3::new(0.0, 0.0, -1.0),
+            window: DVec2::new(1.6, 0.9),
+        }
+    }
+
+    const RASTER: Raster = Raster {
+        width: 64,
+        height: 36,
+        samples: 1,
+        adaptive: false,
+    };
+
+    #[test]
+    fn the_key_is_the_sha256_of_the_documented_byte_layout() {
+        // The same layout written out by hand: tag, version, raster, scene, camera.
+        let mut bytes: Vec<u8> = b"campath frame key".to_vec();
+        let u = |b: &mut Vec<u8>, x: u64| b.extend_from_slice(&x.to_le_bytes());
+        let f = |b: &mut Vec<u8>, x: f64| b.extend_from_slice(&x.to_bits().to_le_bytes());
+        u(&mut bytes, VERSION as u64);
+        for x in [64, 36, 1, 0] {
+            u(&mut bytes, x);
+        }
+        for x in [0.1, 0.2, 0.3, 0.1] {
+            f(&mut bytes, x);
+        }
+        u(&mut bytes, 1);
+        for x in [0.0, -1.0, 0.0, 1.0, 1.0, 1.0] {
+            f(&mut bytes, x);
+        }
+        u(&mut bytes, 1);
+        u(&mut bytes, 1);
+        for x in [0.0, 0.0, 0.0, 1.0, 0.9, 0.2, 0.2] {
+            f(&mut bytes, x);
+        }
+        for x in [
+            0.0, 0.0, -4.0, -1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 1.6, 0.9,
+        ] {
+            f(&mut bytes, x);
+        }
+        let want = format!("{:x}", Sha256::digest(&bytes));
+        assert_eq!(KeyBase::new(&scene(), RASTER).key(&camera()).0, want);
+    }
+
+    #[test]
+    fn every_input_changes_the_key() {
+        let base = KeyBase::new(&scene(), RASTER).key(&camera());
+        let mut s = scene();
+        s.spheres[0].color.x = 0.8;
+        assert_ne!(KeyBase::new(&s, RASTER).key(&camera()), base);
+        let mut s = scene();
+        s.lights[0].shadows = false;
+        assert_ne!(KeyBase::new(&s, RASTER).key(&camera()), base);
+        let r = Raster {
+            samples: 2,
+            ..RASTER
+        };
+        assert_ne!(KeyBase::new(&scene(), r).key(&camera()), base);
+        let mut c = camera();
+        c.vrp_world.z = f64::from_bits((-4.0f64).to_bits() + 1); // one ulp
+        assert_ne!(KeyBase::new(&scene(), RASTER).key(&c), base);
+        let mut c = camera();
+        c.basis.u.y = -0.0;
+        assert_ne!(KeyBase::new(&scene(), RASTER).key(&c), base);
+    }
+}

@@ -1,0 +1,308 @@
+//! A frame sequence in an output folder: which frames on disk are still valid for the file as it
+//! is now, rendering the rest, and keeping the folder's manifests true.
+//!
+//! A frame on disk is kept only when a manifest records it with the frame's current
+//! [`FrameKey`](crate::render::key::FrameKey) and its PNG decodes to the recorded pixel hash; every
+//! other frame of the run is rendered again. So no frame survives an edit of the file, a
+//! different file rendered into the same folder, or a campath whose pictures differ.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fs::OpenOptions;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use sha2::{Digest, Sha256};
+
+use crate::document::Document;
+use crate::error::{Error, Result};
+use crate::frames::{keys, stream_frames, FrameSet, Timing};
+use crate::manifest::{self, Entry, Manifest, PartHeader};
+use crate::output::{
+    frame_hash, frame_of, frame_path, is_ours, pad_width, png_hash, write_atomic, write_png_atomic,
+    Compression,
+};
+
+/// Why frames of the run were rendered rather than kept.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Reasons {
+    /// Never rendered into this folder (no manifest records the frame).
+    pub missing: u64,
+    /// Recorded, but for other input: the file, the scene or campath's renderer changed.
+    pub changed: u64,
+    /// Recorded with the current key, but the PNG is gone or does not decode to its hash.
+    pub damaged: u64,
+    /// `--force`.
+    pub forced: u64,
+}
+
+/// What a render did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RenderSummary {
+    pub timing: Timing,
+    /// Frames of the run already complete on disk, neither rendered nor written.
+    pub kept: u64,
+    /// Why the other frames were rendered.
+    pub reasons: Reasons,
+    /// Stale frame files removed (from another file or version, or past the animation's end).
+    pub removed: u64,
+}
+
+/// How a render reports progress, called from the writer thread.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Event {
+    /// The run covers `frames` frames, of which `kept` are already complete.
+    Start { frames: u64, kept: u64 },
+    /// A frame's PNG and manifest line are written.
+    Written(u64),
+}
+
+/// Options of [`render`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderOptions {
+    pub compression: Compression,
+    /// Render every frame of the run again, even those still valid on disk.
+    pub force: bool,
+}
+
+/// The frames of a run, sorted into kept and to render, before anything is written.
+struct Plan {
+    /// SHA-256 of every frame's key in order.
+    sequence: String,
+    /// Frames of the run that are valid on disk.
+    kept: Vec<Entry>,
+    /// Frames outside the run that are recorded with their current key (whole runs only).
+    outside: Vec<Entry>,
+    /// Frame files that belong to no frame of the file as it is now (whole runs only).
+    stale: Vec<PathBuf>,
+    reasons: Reasons,
+}
+
+/// Every frame line of every manifest in `dir` (hashes.txt and the part files), by frame.
+fn recorded(dir: &Path) -> BTreeMap<u64, Vec<Entry>> {
+    let mut paths = vec![dir.join(manifest::file_name(None))];
+    paths.extend(manifest::parts_in(dir).unwrap_or_default().into_values());
+    let mut out: BTreeMap<u64, Vec<Entry>> = BTreeMap::new();
+    for path in paths {
+        for e in Manifest::read_lenient(&path).entries {
+            out.entry(e.frame).or_default().push(e);
+        }
+    }
+    out
+}
+
+fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan> {
+    let total = doc.animation.frames;
+    let recorded = recorded(dir);
+    let whole = set.shard.is_none();
+    // Frame files on disk, and those whose names no frame of this file has.
+    let mut files = BTreeSet::new();
+    let mut stale = Vec::new();
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if let Some((frame, digits)) = frame_of(&name) {
+            if frame < total && digits == pad_width(total) {
+                files.insert(frame);
+            } else if whole {
+                stale.push(e.path());
+            }
+        }
+    }
+    let mut sequence = Sha256::new();
+    let mut reasons = Reasons::default();
+    let mut check = Vec::new();
+    let mut outside = Vec::new();
+    for item in keys(doc) {
+        let (frame, key) = item?;
+        sequence.update(key.0.as_bytes());
+        let records = recorded.get(&frame).map_or(&[][..], Vec::as_slice);
+        let current: Vec<&Entry> = records
+            .iter()
+            .filter(|e| e.key.as_ref() == Some(&key))
+            .collect();
+        if set.contains(frame) {
+            if force {
+                reasons.forced += 1;
+            } else if !current.is_empty() {
+                check.push((frame, current));
+            } else if records.is_empty() {
+                reasons.missing += 1;
+            } else {
+                reasons.changed += 1;
+            }
+        } else if whole && files.contains(&frame) {
+            match current.first() {
+                Some(e) => outside.push((*e).clone()),
+                None => stale.push(frame_path(dir, frame, total)),
+            }
+        }
+    }
+    // Decoding the PNGs is the slow part of a resume: in parallel.
+    let verified: Vec<Option<Entry>> = check
+        .par_iter()
+        .map(|(frame, current)| {
+            let hash = png_hash(&frame_path(dir, *frame, total))?;
+            current
+                .iter()
+                .find(|e| e.hash == hash)
+                .map(|e| (*e).clone())
+        })
+        .collect();
+    let mut kept = Vec::new();
+    for e in verified {
+        match e {
+            Some(e) => kept.push(e),
+            None => reasons.damaged += 1,
+        }
+    }
+    Ok(Plan {
+        sequence: format!("{:x}", sequence.finalize()),
+        kept,
+        outside,
+        stale,
+        reasons,
+    })
+}
+
+/// Refuses a path that is not a folder, or a folder that holds anything campath does not write
+/// there.
+fn check_folder(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::Usage(format!(
+            "{} is a file, not a folder: --out names the folder the frames go into",
+            dir.display()
+        )));
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let foreign: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !is_ours(n))
+        .take(3)
+        .collect();
+    if foreign.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Usage(format!(
+            "{} holds files campath did not write ({}); choose another --out so nothing is clobbered",
+            dir.display(),
+            foreign.join(", ")
+        )))
+    }
+}
+
+fn remove(path: &Path) -> Result<bool> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(Error::write(path)(e)),
+    }
+}
+
+/// Renders the frames of `set` to PNGs in `dir` with their manifest: hashes.txt, or
+/// hashes.part-K-of-N.txt for a shard (marked complete when the shard has finished).
+///
+/// - Nothing is written before every frame's camera is checked, and never into a folder that
+///   holds files campath did not write.
+/// - A frame of the run is kept when a manifest records it with its current key and its PNG
+///   decodes to the recorded hash (unless `force`); every other frame is rendered.
+/// - Records this run makes false are removed first: a whole run removes the part files and the
+///   frame files that belong to no frame of the file as it is now; a shard removes hashes.txt
+///   (`merge` writes it again from the parts).
+/// - Each PNG is written under a temporary name and renamed into place; its manifest line is
+///   appended after that, so the manifest lists only complete frames, even after SIGKILL.
+/// - PNG encoding runs on its own thread while the next frame renders.
+pub fn render(
+    doc: &Document,
+    dir: &Path,
+    set: &FrameSet,
+    options: RenderOptions,
+    progress: &mut (dyn FnMut(Event) + Send),
+) -> Result<RenderSummary> {
+    check_folder(dir)?;
+    let plan = plan(doc, dir, set, options.force)?;
+    std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
+    let mut removed = 0;
+    match set.shard {
+        Some(_) => {
+            remove(&dir.join(manifest::file_name(None)))?;
+        }
+        None => {
+            for path in manifest::parts_in(dir)?.values() {
+                remove(path)?;
+            }
+            for path in &plan.stale {
+                removed += u64::from(remove(path)?);
+            }
+        }
+    }
+
+    let total = doc.animation.frames;
+    let manifest_path = dir.join(manifest::file_name(set.shard));
+    let mut manifest = Manifest {
+        header: set.shard.map(|shard| PartHeader {
+            shard,
+            range: set.range.clone(),
+            frames: total,
+            sequence: plan.sequence.clone(),
+        }),
+        entries: plan.kept.iter().chain(&plan.outside).cloned().collect(),
+        complete: false,
+    };
+    write_atomic(&manifest_path, &manifest.text())?;
+    let mut file = OpenOptions::new()
+        .append(true)
+        .open(&manifest_path)
+        .map_err(Error::write(&manifest_path))?;
+    let kept: BTreeSet<u64> = plan.kept.iter().map(|e| e.frame).collect();
+    progress(Event::Start {
+        frames: set.count(),
+        kept: kept.len() as u64,
+    });
+    let size = (doc.raster.width, doc.raster.height);
+    let timing = stream_frames(
+        doc,
+        set,
+        |frame| kept.contains(&frame),
+        |frame, key, pixels| {
+            write_png_atomic(
+                &frame_path(dir, frame, total),
+                pixels,
+                size,
+                options.compression,
+            )?;
+            let entry = Entry {
+                frame,
+                hash: frame_hash(pixels),
+                key: Some(key.clone()),
+            };
+            writeln!(file, "{entry}").map_err(Error::write(&manifest_path))?;
+            progress(Event::Written(frame));
+            Ok(())
+        },
+    )?;
+    // The final manifest: sorted, one line per frame, and complete.
+    let mut entries = BTreeMap::new();
+    for e in Manifest::read_lenient(&manifest_path).entries {
+        entries.insert(e.frame, e);
+    }
+    manifest.entries = entries.into_values().collect();
+    manifest.complete = set.shard.is_some();
+    write_atomic(&manifest_path, &manifest.text())?;
+    Ok(RenderSummary {
+        timing,
+        kept: kept.len() as u64,
+        reasons: plan.reasons,
+        removed,
+    })
+}
+
+/// Merges the part files in `dir` into `dir/hashes.txt` (see [`manifest::merge`]); returns the
+/// number of frames. Writes nothing when the parts do not make a whole sequence.
+pub fn merge(dir: &Path) -> Result<u64> {
+    let text = manifest::merge(dir, |frame, total| frame_path(dir, frame, total))?;
+    write_atomic(&dir.join(manifest::file_name(None)), &text)?;
+    Ok(text.lines().count() as u64)
+}
