@@ -3,12 +3,16 @@
 //!
 //! Regenerate after an intended change of the pictures with
 //! `UPDATE_GOLDEN=1 cargo test --test golden`, look at the frames, and commit tests/golden/.
+//! New pictures need a new renderer version (`campath::render::key::VERSION`, recorded in
+//! tests/golden/render_version.txt), so that frames rendered by an older campath are never kept
+//! as current: the update refuses changed hashes under the recorded version.
 
 mod common;
 
 use campath::frames::{for_each_frame, FrameSet};
 use campath::manifest::parse_hashes;
 use campath::output::frame_hash;
+use campath::render::key::VERSION;
 use common::{example, root, EXAMPLES};
 
 fn hashes(name: &str) -> String {
@@ -35,12 +39,25 @@ fn hashes(name: &str) -> String {
 #[test]
 fn examples_match_their_golden_hashes() {
     let update = std::env::var_os("UPDATE_GOLDEN").is_some();
+    let version_path = root().join("tests/golden/render_version.txt");
+    let recorded: u32 = std::fs::read_to_string(&version_path)
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
     let mut failures = Vec::new();
     for name in EXAMPLES {
         let path = root().join(format!("tests/golden/{name}.txt"));
         let got = hashes(name);
         if update {
+            let old = std::fs::read_to_string(&path).unwrap_or_default();
+            assert!(
+                old == got || recorded < VERSION,
+                "{name}: the pictures changed under renderer version {recorded}: \
+                 bump campath::render::key::VERSION, then update again"
+            );
             std::fs::write(&path, &got).unwrap();
+            std::fs::write(&version_path, format!("{VERSION}\n")).unwrap();
             continue;
         }
         let want = std::fs::read_to_string(&path).unwrap_or_else(|_| {
@@ -58,6 +75,10 @@ fn examples_match_their_golden_hashes() {
         }
         assert_eq!(want.len(), got.len(), "{name}: frame list changed");
     }
+    assert_eq!(
+        recorded, VERSION,
+        "the renderer version changed: UPDATE_GOLDEN=1 cargo test --test golden"
+    );
     assert!(
         failures.is_empty(),
         "frames differ from tests/golden (UPDATE_GOLDEN=1 to accept):\n{}",

@@ -1,0 +1,144 @@
+//! Incremental re-render: after an edit, `render` without `--force` gives exactly the folder a
+//! fresh render of the edited file gives, and rewrites only the frames the edit touched.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::os::unix::fs::MetadataExt;
+use std::path::Path;
+
+use campath::document::Document;
+use campath::frames::FrameSet;
+use campath::sequence::{render, RenderOptions, RenderSummary};
+use common::{root, EXAMPLES};
+
+/// An example at 64×36, so that every frame of every example renders quickly.
+fn small_example(name: &str) -> String {
+    let text = std::fs::read_to_string(root().join(format!("animations/{name}.ron"))).unwrap();
+    assert!(text.contains("width: 640, height: 360"), "{name}");
+    text.replace("width: 640, height: 360", "width: 64, height: 36")
+}
+
+fn load(text: &str) -> Document {
+    Document::from_str(Path::new("edit.ron"), text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn render_into(text: &str, dir: &Path) -> RenderSummary {
+    let doc = load(text);
+    let set = FrameSet::all(0..doc.animation.frames);
+    render(&doc, dir, &set, RenderOptions::default(), &mut |_| {}).unwrap()
+}
+
+/// Each frame file's inode and modification time: a rewrite (temporary file and rename) changes
+/// the inode.
+fn frame_files(dir: &Path) -> BTreeMap<String, (u64, i64, i64)> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("frame_"))
+        .map(|e| {
+            let m = e.metadata().unwrap();
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, (m.ino(), m.mtime(), m.mtime_nsec()))
+        })
+        .collect()
+}
+
+/// Replaces the first number after byte `at` with `f(number)`.
+fn edit_number(text: &str, at: usize, f: impl Fn(f64) -> f64) -> String {
+    let start = at
+        + text[at..]
+            .find(|c: char| c == '-' || c.is_ascii_digit())
+            .unwrap();
+    let len = text[start..]
+        .find(|c: char| !(c == '-' || c == '.' || c.is_ascii_digit()))
+        .unwrap();
+    let x: f64 = text[start..start + len].parse().unwrap();
+    format!("{}{:?}{}", &text[..start], f(x), &text[start + len..])
+}
+
+/// The three edits: the last key of the last track, the last sphere's red, the sample count.
+fn edits(text: &str) -> Vec<(&'static str, String)> {
+    let last_key = edit_number(text, text.rfind("value:").unwrap(), |x| x - 0.25);
+    let colour = edit_number(&last_key, last_key.rfind("color: (").unwrap(), |r| {
+        if r > 0.5 {
+            r - 0.3
+        } else {
+            r + 0.3
+        }
+    });
+    assert!(colour.contains("samples: 2"));
+    let samples = colour.replace("samples: 2", "samples: 1");
+    vec![
+        ("the last key", last_key),
+        ("a sphere's colour", colour),
+        ("the sample count", samples),
+    ]
+}
+
+#[test]
+fn every_edit_rerenders_exactly_the_frames_it_touched() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in EXAMPLES {
+        let dir = tmp.path().join(name);
+        let mut text = small_example(name);
+        render_into(&text, &dir);
+        for (what, edited) in edits(&text) {
+            let before = frame_files(&dir);
+            let summary = render_into(&edited, &dir);
+            let fresh = tmp.path().join(format!("{name}-fresh"));
+            render_into(&edited, &fresh);
+            let read = |d: &Path| std::fs::read_to_string(d.join("hashes.txt")).unwrap();
+            assert_eq!(read(&dir), read(&fresh), "{name}, {what}: hashes.txt");
+            std::fs::remove_dir_all(&fresh).unwrap();
+
+            // Which frames the edit touched, decided from the cameras alone: a frame is the same
+            // when its camera is bit-for-bit the same and the scene and raster did not change.
+            let (old, new) = (load(&text), load(&edited));
+            let same_world = old.scene == new.scene && old.raster == new.raster;
+            let cameras = |d: &Document| d.cameras().map(|c| c.unwrap().1).collect::<Vec<_>>();
+            let untouched: Vec<bool> = cameras(&old)
+                .iter()
+                .zip(cameras(&new))
+                .map(|(a, b)| same_world && *a == b)
+                .collect();
+            let after = frame_files(&dir);
+            assert_eq!(before.len(), after.len(), "{name}, {what}");
+            for (k, (file, stamp)) in after.iter().enumerate() {
+                assert_eq!(
+                    before[file] == *stamp,
+                    untouched[k],
+                    "{name}, {what}: {file} rewritten = {}",
+                    before[file] != *stamp
+                );
+            }
+            let kept = untouched.iter().filter(|u| **u).count() as u64;
+            assert_eq!(summary.kept, kept, "{name}, {what}");
+            assert_eq!(summary.reasons.changed, untouched.len() as u64 - kept);
+            if what == "the last key" && name != "flythrough" {
+                // Moving the last key leaves the first segment of these paths alone.
+                assert!(untouched[0], "{name}: frame 0 was rendered again");
+            }
+            text = edited;
+        }
+    }
+}
+
+#[test]
+fn another_file_rendered_into_the_same_folder_replaces_every_frame() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("shot");
+    // 72 frames, then 96 (flythrough), then 72 again: frames past the end are removed.
+    for name in ["zoom", "flythrough", "observer"] {
+        let text = small_example(name);
+        let summary = render_into(&text, &dir);
+        let fresh = tmp.path().join("fresh");
+        render_into(&text, &fresh);
+        let read = |d: &Path| std::fs::read_to_string(d.join("hashes.txt")).unwrap();
+        assert_eq!(read(&dir), read(&fresh), "{name}");
+        let frames = load(&text).animation.frames;
+        assert_eq!(summary.kept, 0, "{name}");
+        assert_eq!(frame_files(&dir).len() as u64, frames, "{name}");
+        std::fs::remove_dir_all(&fresh).unwrap();
+    }
+}
