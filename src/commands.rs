@@ -97,11 +97,6 @@ pub fn render_line(doc: &Document, dir: &Path, s: &RenderSummary) -> String {
     line
 }
 
-/// A write to standard output failed (the reader went away, or the disk is full).
-pub fn stdout_failed(cause: std::io::Error) -> Error {
-    Error::write("<stdout>")(cause)
-}
-
 /// Compares the frames listed in `golden` (a hashes.txt) with fresh renders. Returns whether all
 /// match; writes one line per differing frame and a count.
 pub fn verify(doc: &Document, golden: &Path, out: &mut dyn Write) -> Result<bool> {
@@ -121,14 +116,14 @@ pub fn verify(doc: &Document, golden: &Path, out: &mut dyn Write) -> Result<bool
             "frame {frame}: in {} but the animation has only {total} frames",
             golden.display()
         )
-        .map_err(stdout_failed)?;
+        .map_err(Error::stdout)?;
         differ.push(*frame);
     }
     let actual = hashes(doc, 0..(last + 1).min(total))?;
     for (frame, want) in expected.iter().filter(|(f, _)| *f < total) {
         let got = &actual[*frame as usize].1;
         if got != want {
-            writeln!(out, "frame {frame}: expected {want}, got {got}").map_err(stdout_failed)?;
+            writeln!(out, "frame {frame}: expected {want}, got {got}").map_err(Error::stdout)?;
             differ.push(*frame);
         }
     }
@@ -149,7 +144,7 @@ pub fn verify(doc: &Document, golden: &Path, out: &mut dyn Write) -> Result<bool
             list_frames(&differ)
         )
     }
-    .map_err(stdout_failed)?;
+    .map_err(Error::stdout)?;
     Ok(differ.is_empty())
 }
 
@@ -183,5 +178,5 @@ pub fn check(doc: &Document, out: &mut dyn Write) -> Result<()> {
         doc.scene.lights.len(),
         if tracks.is_empty() { "none".to_string() } else { tracks.join(", ") }
     )
-    .map_err(stdout_failed)
+    .map_err(Error::stdout)
 }

@@ -127,6 +127,20 @@ impl Error {
         }
     }
 
+    /// A write to standard output failed (the reader went away, or the disk is full).
+    pub fn stdout(cause: std::io::Error) -> Error {
+        Error::Write {
+            path: "<stdout>".into(),
+            cause,
+        }
+    }
+
+    /// Whether this is a write to standard output whose reader went away (`… | head`).
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, Error::Write { path, cause }
+            if cause.kind() == std::io::ErrorKind::BrokenPipe && path.as_os_str() == "<stdout>")
+    }
+
     /// For `map_err`: a failure to encode the image `path`.
     pub fn encode(path: impl Into<PathBuf>) -> impl Fn(image::ImageError) -> Error {
         let path = path.into();

@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use crate::camera::{Basis, Camera};
 use crate::document::Document;
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// Output format of `campath path`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
@@ -39,6 +39,39 @@ pub fn chan_rotation(b: &Basis) -> DVec3 {
     DVec3::new(rx, ry, rz) * (180.0 / std::f64::consts::PI)
 }
 
+/// Makes consecutive frames' `.chan` angles continuous: of the equivalent Euler triples of a
+/// rotation (each angle ± 360°, and (180° − rx, ry + 180°, rz + 180°)), it picks the one nearest
+/// the previous frame's, and at the pole, where only ry ∓ rz is defined, it keeps the previous
+/// rz. Nuke and Blender interpolate between keys, so a jump of 360° would spin the camera.
+#[derive(Debug, Clone, Default)]
+pub struct ChanAngles {
+    previous: Option<DVec3>,
+}
+
+impl ChanAngles {
+    /// The angles in degrees of the next frame's basis.
+    pub fn next(&mut self, b: &Basis) -> DVec3 {
+        let mut r = chan_rotation(b);
+        let Some(p) = self.previous else {
+            self.previous = Some(r);
+            return r;
+        };
+        if b.n.y.abs() >= 1.0 - 1e-12 {
+            // Looking straight up (rx = 90°: only ry − rz is defined) or down (ry + rz).
+            r.z = p.z;
+            r.y += if r.x > 0.0 { p.z } else { -p.z };
+        }
+        let near = |a: f64, p: f64| p + (a - p - 360.0 * libm::round((a - p) / 360.0));
+        let unwrap = |c: DVec3| DVec3::new(near(c.x, p.x), near(c.y, p.y), near(c.z, p.z));
+        let a = unwrap(r);
+        let b = unwrap(DVec3::new(180.0 - r.x, r.y + 180.0, r.z + 180.0));
+        let step = |c: DVec3| (c - p).abs().max_element();
+        let best = if step(b) < step(a) { b } else { a };
+        self.previous = Some(best);
+        best
+    }
+}
+
 /// Vertical field of view in degrees seen from the COP: the window's height at the COP's
 /// distance. Off-axis COPs (distort) have no place in a .chan file; their v offset is ignored.
 pub fn vertical_fov(cam: &Camera) -> f64 {
@@ -49,10 +82,23 @@ fn triple(v: DVec3) -> String {
     format!("[{}, {}, {}]", v.x, v.y, v.z)
 }
 
-/// Writes every frame's evaluated camera in `format`.
-pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Result<()> {
+/// Frames whose camera a format could not carry whole.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Dropped {
+    /// Frames with an off-axis COP (distort) written to `.chan` as if the COP were on the VPN.
+    pub off_axis: u64,
+    /// The first and last such frame (numbered from 0, as in campath).
+    pub first: u64,
+    pub last: u64,
+}
+
+/// Writes every frame's evaluated camera in `format`; says which frames lost part of their
+/// camera on the way.
+pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Result<Dropped> {
     let mut out = std::io::BufWriter::new(out);
-    let failed = crate::commands::stdout_failed;
+    let mut dropped = Dropped::default();
+    let failed = Error::stdout;
+    let mut angles = ChanAngles::default();
     match format {
         PathFormat::Csv => writeln!(
             out,
@@ -108,7 +154,14 @@ pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Re
                 if frame + 1 < frames { "," } else { "" }
             ),
             PathFormat::Chan => {
-                let r = chan_rotation(&b);
+                let r = angles.next(&b);
+                if cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0 {
+                    if dropped.off_axis == 0 {
+                        dropped.first = frame;
+                    }
+                    dropped.off_axis += 1;
+                    dropped.last = frame;
+                }
                 writeln!(
                     out,
                     "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
@@ -128,7 +181,8 @@ pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Re
     if format == PathFormat::Json {
         writeln!(out, "]").map_err(failed)?;
     }
-    out.flush().map_err(failed)
+    out.flush().map_err(failed)?;
+    Ok(dropped)
 }
 
 #[cfg(test)]

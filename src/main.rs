@@ -6,7 +6,7 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use campath::commands::{self, stdout_failed};
+use campath::commands;
 use campath::document::Document;
 use campath::frames::FrameSet;
 use campath::manifest::Shard;
@@ -129,11 +129,7 @@ fn main() -> ExitCode {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
         // The reader of standard output went away (`campath path … | head`): end quietly.
-        Err(Error::Write { path, cause })
-            if cause.kind() == std::io::ErrorKind::BrokenPipe && path == Path::new("<stdout>") =>
-        {
-            ExitCode::SUCCESS
-        }
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
             let _ = out.flush();
             eprintln!("campath: error: {e}");
@@ -184,7 +180,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             progress.finish();
             if !quiet {
                 writeln!(out, "{}", commands::render_line(&doc, &dir, &summary))
-                    .map_err(stdout_failed)?;
+                    .map_err(Error::stdout)?;
             }
         }
         Command::Preview {
@@ -197,7 +193,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
             let (png, gif) = campath::preview::write(&doc, &dir, width, count)?;
             writeln!(out, "wrote {} and {}", png.display(), gif.display())
-                .map_err(stdout_failed)?;
+                .map_err(Error::stdout)?;
         }
         Command::Plot {
             file,
@@ -209,7 +205,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             create_parent(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
             campath::plot::write(&doc, &png, every)?;
-            writeln!(out, "wrote {}", png.display()).map_err(stdout_failed)?;
+            writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
         }
         Command::Merge { dir } => {
             let frames = sequence::merge(&dir)?;
@@ -218,7 +214,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
                 "merged {frames} frame(s) into {}",
                 dir.join("hashes.txt").display()
             )
-            .map_err(stdout_failed)?;
+            .map_err(Error::stdout)?;
         }
         Command::Hash {
             file,
@@ -229,9 +225,9 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let range = frames(&doc, spec.as_deref())?;
             let mut lines = std::io::BufWriter::new(std::io::stdout());
             let timing = campath::frames::hash_frames(&doc, range, |frame, hash| {
-                writeln!(lines, "{frame} {hash}").map_err(stdout_failed)
+                writeln!(lines, "{frame} {hash}").map_err(Error::stdout)
             })?;
-            lines.flush().map_err(stdout_failed)?;
+            lines.flush().map_err(Error::stdout)?;
             if stats {
                 eprintln!("{}", commands::timing_line("hashed", "", &timing));
             }
@@ -241,7 +237,21 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             return commands::verify(&doc, &golden, out);
         }
         Command::Path { file, format } => {
-            campath::export::write_path(&Document::load(&file)?, format, out)?
+            let doc = Document::load(&file)?;
+            let dropped = campath::export::write_path(&doc, format, out)?;
+            if dropped.off_axis > 0 {
+                eprintln!(
+                    "campath: note: .chan has no place for an off-axis COP (distort): {} of {} frame(s), \
+                     campath frames {}..={} (.chan frames {}..={}), are written as if the COP were on \
+                     the VPN, so their pictures are centred; csv and json keep the COP",
+                    dropped.off_axis,
+                    doc.animation.frames,
+                    dropped.first,
+                    dropped.last,
+                    dropped.first + 1,
+                    dropped.last + 1
+                );
+            }
         }
         Command::Check { file } => commands::check(&Document::load(&file)?, out)?,
         Command::Report {
@@ -254,20 +264,20 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             let frame = frame.unwrap_or(doc.animation.frames / 2);
             let rows = campath::report::renderer_report(&doc, frame, runs.max(1))?;
             writeln!(out, "Renderer, frame {frame} of {}:\n", file.display())
-                .map_err(stdout_failed)?;
-            write!(out, "{}", campath::report::renderer_table(&rows)).map_err(stdout_failed)?;
+                .map_err(Error::stdout)?;
+            write!(out, "{}", campath::report::renderer_table(&rows)).map_err(Error::stdout)?;
             let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
             create_parent(&plot)?;
             campath::report::plot(&rows, &plot)?;
-            writeln!(out, "\nplot: {}", plot.display()).map_err(stdout_failed)?;
+            writeln!(out, "\nplot: {}", plot.display()).map_err(Error::stdout)?;
             if let Some(path) = campath::report::path_report(&doc) {
                 writeln!(
                     out,
                     "\nCamera path, speed: Uniform against a {}-step arc-length table:\n",
                     campath::report::PATH_REFERENCE_SAMPLES
                 )
-                .map_err(stdout_failed)?;
-                write!(out, "{}", campath::report::path_table(&path)).map_err(stdout_failed)?;
+                .map_err(Error::stdout)?;
+                write!(out, "{}", campath::report::path_table(&path)).map_err(Error::stdout)?;
             }
         }
         Command::Bench {
@@ -286,7 +296,7 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
                 )));
             }
             let rows = campath::bench::run(&dir, pov_frames, &chosen, &mut std::io::stderr())?;
-            write!(out, "{}", campath::bench::table(&rows)).map_err(stdout_failed)?;
+            write!(out, "{}", campath::bench::table(&rows)).map_err(Error::stdout)?;
         }
     }
     Ok(true)

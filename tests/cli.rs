@@ -373,3 +373,124 @@ fn path_exports_json_and_chan() {
     assert_eq!(rows[0][1..4], first[14..17]);
     assert!((rows[0][7] - 2.0 * 0.45f64.atan().to_degrees()).abs() < 1e-12);
 }
+
+/// R = Ry·Rx·Rz from angles in degrees, by matrix products written out here.
+fn compose_zxy(deg: [f64; 3]) -> [[f64; 3]; 3] {
+    let [x, y, z] = deg.map(f64::to_radians);
+    let rx = [
+        [1.0, 0.0, 0.0],
+        [0.0, x.cos(), -x.sin()],
+        [0.0, x.sin(), x.cos()],
+    ];
+    let ry = [
+        [y.cos(), 0.0, y.sin()],
+        [0.0, 1.0, 0.0],
+        [-y.sin(), 0.0, y.cos()],
+    ];
+    let rz = [
+        [z.cos(), -z.sin(), 0.0],
+        [z.sin(), z.cos(), 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let mul = |a: [[f64; 3]; 3], b: [[f64; 3]; 3]| {
+        let mut m = [[0.0; 3]; 3];
+        for (i, row) in m.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+            }
+        }
+        m
+    };
+    mul(ry, mul(rx, rz))
+}
+
+#[test]
+fn chan_angles_are_continuous_and_rebuild_the_camera_axes() {
+    let mut files: Vec<String> = common::EXAMPLES
+        .iter()
+        .map(|n| format!("animations/{n}.ron"))
+        .collect();
+    for data in ["orbit_pole", "pole_track", "pole_look_around"] {
+        files.push(format!("tests/data/{data}.ron"));
+    }
+    for file in files {
+        let chan = campath(&root(), &["path", &file, "--format", "chan"], &[]);
+        let csv = stdout(&campath(&root(), &["path", &file], &[]));
+        let chan: Vec<Vec<f64>> = stdout(&chan)
+            .lines()
+            .map(|l| l.split('\t').map(|c| c.parse().unwrap()).collect())
+            .collect();
+        let csv: Vec<Vec<f64>> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(chan.len(), csv.len(), "{file}");
+        for (k, (row, cam)) in chan.iter().zip(&csv).enumerate() {
+            if k > 0 {
+                for a in 4..7 {
+                    let step = (row[a] - chan[k - 1][a]).abs();
+                    assert!(
+                        step < 180.0,
+                        "{file} frame {k}: angle {} steps {step}°",
+                        a - 4
+                    );
+                }
+            }
+            // The columns of R are u, v and −n (CSV columns 5–7, 8–10, 11–13).
+            let r = compose_zxy([row[4], row[5], row[6]]);
+            for (col, (start, sign)) in [(5, 1.0), (8, 1.0), (11, -1.0)].into_iter().enumerate() {
+                for i in 0..3 {
+                    let want = sign * cam[start + i];
+                    assert!(
+                        (r[i][col] - want).abs() < 1e-9,
+                        "{file} frame {k}: R[{i}][{col}] = {} against {want}",
+                        r[i][col]
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_reader_that_goes_away_ends_path_and_hash_quietly() {
+    for args in [
+        &["path", "tests/data/long.ron"][..],
+        &["path", "tests/data/long.ron", "--format", "chan"],
+        &["hash", "animations/zoom.ron", "--frames", "0..8"],
+    ] {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_campath"))
+            .current_dir(root())
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Read one line, then close the pipe, as `| head -1` does.
+        let mut stdout = child.stdout.take().unwrap();
+        let mut byte = [0u8; 1];
+        while std::io::Read::read(&mut stdout, &mut byte).unwrap() == 1 && byte[0] != b'\n' {}
+        drop(stdout);
+        let out = child.wait_with_output().unwrap();
+        assert!(out.status.success(), "{args:?}: {:?}", out.status);
+        assert!(stderr(&out).is_empty(), "{args:?}: {}", stderr(&out));
+    }
+}
+
+#[test]
+fn distort_names_the_frames_whose_cop_chan_drops() {
+    let o = campath(
+        &root(),
+        &["path", "animations/distort.ron", "--format", "chan"],
+        &[],
+    );
+    assert!(o.status.success());
+    assert!(
+        stderr(&o).contains("71 of 72 frame(s), campath frames 1..=71 (.chan frames 2..=72)"),
+        "{}",
+        stderr(&o)
+    );
+    let csv = campath(&root(), &["path", "animations/distort.ron"], &[]);
+    assert!(stderr(&csv).is_empty());
+}
