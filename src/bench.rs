@@ -169,7 +169,9 @@ pub fn pov_scene(doc: &Document) -> Result<String> {
             list.join(", ")
         );
     }
-    pov += "#declare K = frame_number - 1;\n";
+    // Frames are numbered from 1 in animation mode; a single frame (+KFF1) is not animation
+    // mode and has frame_number 0.
+    pov += "#declare K = max(frame_number, 1) - 1;\n";
     pov += "camera { perspective location Loc[K] direction Dir[K] right Right[K] up Up[K] }\n";
     for l in &scene.lights {
         let _ = writeln!(
@@ -249,9 +251,14 @@ pub fn run(
             |p: &PathBuf, text: &str| std::fs::write(p, text).map_err(Error::write(p.clone()));
         write(&ron_path, &scene_ron(s))?;
         let file = ron_path.to_string_lossy().into_owned();
-        let frames_dir = dir.join(s.name).to_string_lossy().into_owned();
+        // Always a fresh render: frames kept from an earlier run would time nothing.
+        let frames_dir = dir.join(s.name);
+        if frames_dir.exists() {
+            std::fs::remove_dir_all(&frames_dir).map_err(Error::write(&frames_dir))?;
+        }
+        let frames_dir = frames_dir.to_string_lossy().into_owned();
         let _ = writeln!(progress, "{}: campath, PNG output …", s.name);
-        let png = run_campath(&["render", &file, "--out", &frames_dir])?;
+        let png = run_campath(&["render", &file, "--out", &frames_dir, "--force"])?;
         let _ = writeln!(progress, "{}: campath, hash only …", s.name);
         let hash = run_campath(&["hash", &file, "--stats"])?;
         let pov = if povray && pov_frames > 0 {

@@ -55,12 +55,14 @@ enum Command {
         /// Output folder [default: out/<file stem>/].
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Width of each small frame in pixels.
-        #[arg(long, default_value_t = 240)]
-        width: u32,
-        /// Frames on the contact sheet, spread evenly.
-        #[arg(long, default_value_t = 12)]
-        count: u64,
+        /// Width of each small frame in pixels, up to the file's width [default: 240, or the
+        /// file's width if smaller].
+        #[arg(long)]
+        width: Option<u32>,
+        /// Frames on the contact sheet, spread evenly, up to the file's frame count [default: 12,
+        /// or every frame if fewer].
+        #[arg(long)]
+        count: Option<u64>,
     },
     /// Draw the camera path from above and from the side, with keyframes, targets, frustums
     /// and spheres.
@@ -69,8 +71,8 @@ enum Command {
         /// Where the PNG goes [default: out/<file stem>/plot.png].
         #[arg(long)]
         out: Option<PathBuf>,
-        /// A frustum every N frames [default: about eight along the path].
-        #[arg(long)]
+        /// A frustum every N frames, N ≥ 1 [default: about eight along the path].
+        #[arg(long, value_parser = at_least_one)]
         every: Option<u64>,
     },
     /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt.
@@ -191,6 +193,8 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
         } => {
             let doc = Document::load(&file)?;
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
+            let width = width.unwrap_or(doc.raster.width.min(240));
+            let count = count.unwrap_or(doc.animation.frames.min(12));
             let (png, gif) = campath::preview::write(&doc, &dir, width, count)?;
             writeln!(out, "wrote {} and {}", png.display(), gif.display())
                 .map_err(Error::stdout)?;
@@ -261,13 +265,14 @@ fn run(command: Command, out: &mut dyn Write) -> Result<bool, Error> {
             plot,
         } => {
             let doc = Document::load(&file)?;
+            let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
+            // Measuring takes a while: find out first that the plot can be written.
+            check_writable(&plot)?;
             let frame = frame.unwrap_or(doc.animation.frames / 2);
             let rows = campath::report::renderer_report(&doc, frame, runs.max(1))?;
             writeln!(out, "Renderer, frame {frame} of {}:\n", file.display())
                 .map_err(Error::stdout)?;
             write!(out, "{}", campath::report::renderer_table(&rows)).map_err(Error::stdout)?;
-            let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
-            create_parent(&plot)?;
             campath::report::plot(&rows, &plot)?;
             writeln!(out, "\nplot: {}", plot.display()).map_err(Error::stdout)?;
             if let Some(path) = campath::report::path_report(&doc) {
@@ -348,8 +353,31 @@ impl Progress {
     }
 }
 
+/// A whole number ≥ 1.
+fn at_least_one(s: &str) -> Result<u64, String> {
+    match s.parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err("expected a whole number ≥ 1".into()),
+    }
+}
+
+/// Creates the folder `file` will be written into and checks that a file can be written there.
+fn check_writable(file: &Path) -> Result<(), Error> {
+    create_parent(file)?;
+    let mut probe = file.as_os_str().to_owned();
+    probe.push(".tmp");
+    std::fs::write(&probe, b"").map_err(Error::write(file))?;
+    std::fs::remove_file(&probe).map_err(Error::write(file))
+}
+
 /// Creates the folder a file will be written into.
 fn create_parent(file: &Path) -> Result<(), Error> {
+    if let Some(file) = file.ancestors().skip(1).find(|p| p.is_file()) {
+        return Err(Error::Usage(format!(
+            "{} is a file, not a folder",
+            file.display()
+        )));
+    }
     match file.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => {
             std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))

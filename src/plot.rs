@@ -20,7 +20,7 @@ pub const SIZE: (u32, u32) = (1400, 700);
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
 pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
-    crate::report::register_font().map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+    crate::report::register_font();
     let cams: Vec<Camera> = doc
         .cameras()
         .map(|r| r.map(|(_, c)| c))

@@ -39,7 +39,21 @@ pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
 }
 
 /// Writes `dir/preview.png` (a sheet of `count` frames) and `dir/preview.gif`; returns both paths.
+///
+/// `width` is 1 to the file's width, `count` 1 to the file's frame count.
 pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(PathBuf, PathBuf)> {
+    let frames = doc.animation.frames;
+    if !(1..=doc.raster.width).contains(&width) {
+        return Err(Error::Usage(format!(
+            "--width {width}: the preview is 1 to {} pixels wide (the file's width)",
+            doc.raster.width
+        )));
+    }
+    if !(1..=frames).contains(&count) {
+        return Err(Error::Usage(format!(
+            "--count {count}: the contact sheet shows 1 to {frames} frames (the file's frame count)"
+        )));
+    }
     doc.check_path()?;
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
     let raster = small_raster(doc, width);
@@ -47,7 +61,6 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
         raster,
         ..doc.clone()
     };
-    let frames = doc.animation.frames;
     let sheet_at = sheet_frames(frames, count);
     let step = frames.div_ceil(GIF_FRAMES).max(1);
     let (w, h) = (raster.width, raster.height);

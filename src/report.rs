@@ -146,32 +146,27 @@ pub fn renderer_table(rows: &[Measured]) -> String {
     t
 }
 
-/// Font files tried, in order, for the plot's labels.
-const FONTS: [&str; 3] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-];
+/// DejaVu Sans (free licence: src/fonts/DejaVuSans-LICENSE.txt), built in so that plots need no
+/// system font.
+static FONT: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
 
-/// Registers DejaVu Sans as plotters' "sans-serif", once.
-pub(crate) fn register_font() -> std::result::Result<(), String> {
-    use std::sync::OnceLock;
-    static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
-    DONE.get_or_init(|| {
-        let bytes = FONTS
-            .iter()
-            .find_map(|p| std::fs::read(p).ok())
-            .ok_or_else(|| format!("no font for the plot's labels; install fonts-dejavu-core (looked in {FONTS:?})"))?;
-        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, Box::leak(bytes.into_boxed_slice()))
-            .map_err(|_| "the DejaVu font could not be read".to_string())
-    })
-    .clone()
+/// Registers the built-in DejaVu Sans as plotters' "sans-serif", once.
+pub(crate) fn register_font() {
+    use std::sync::Once;
+    static DONE: Once = Once::new();
+    DONE.call_once(|| {
+        if plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT)
+            .is_err()
+        {
+            unreachable!("the built-in font is a valid TrueType file");
+        }
+    });
 }
 
 /// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG.
 pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
-    register_font().map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+    register_font();
     let (w, h) = (900u32, 600u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {

@@ -252,6 +252,49 @@ fn missing_file_is_an_io_error() {
     let o = campath(tmp.path(), &["check", "nope.ron"], &[]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("nope.ron: cannot read"));
+    // The cause is printed once.
+    assert_eq!(
+        stderr(&o).matches("No such file or directory").count(),
+        1,
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn bad_option_values_name_the_allowed_range() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    std::fs::write(tmp.path().join("a-file"), "").unwrap();
+    for (args, want) in [
+        (
+            &["render", &f, "--out", "a-file"][..],
+            "a-file is a file, not a folder",
+        ),
+        (
+            &["preview", &f, "--width", "0"],
+            "the preview is 1 to 32 pixels wide",
+        ),
+        (
+            &["preview", &f, "--width", "100000"],
+            "the preview is 1 to 32 pixels wide",
+        ),
+        (&["preview", &f, "--count", "0"], "1 to 4 frames"),
+        (&["preview", &f, "--count", "5"], "1 to 4 frames"),
+        (&["plot", &f, "--every", "0"], "expected a whole number ≥ 1"),
+        (
+            &["render", &f, "--shard", "3/3"],
+            "expected K/N with 0 ≤ K < N",
+        ),
+        (
+            &["report", &f, "--plot", "a-file/report.png"],
+            "a-file is a file, not a folder",
+        ),
+    ] {
+        let o = campath(tmp.path(), args, &[]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+    }
 }
 
 #[test]

@@ -84,6 +84,9 @@ fn povray(dir: &Path, scene: &str, w: u32, h: u32) -> Vec<u8> {
 
 #[test]
 fn projection_matches_povray_on_random_cameras() {
+    if !common::have_tool("povray", "povray") {
+        return;
+    }
     let tmp = tempfile::tempdir().unwrap();
     let mut rng = Rng(campath::bench::SplitMix(0x00C0_FFEE));
     let (w, h) = (160u32, 120u32);

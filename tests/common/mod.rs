@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -48,4 +49,28 @@ pub fn stdout(o: &Output) -> String {
 
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Whether an outside program the test needs is on PATH. When it is missing, `cargo test` skips
+/// the check with a printed reason; with `CAMPATH_REQUIRE_TOOLS=1` (set by `.ci/run`) a missing
+/// program fails the test instead.
+pub fn have_tool(program: &str, package: &str) -> bool {
+    let found = Command::new(program)
+        .arg("--version")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok();
+    if !found {
+        let why = format!("{program} is not on PATH (Debian package {package})");
+        if std::env::var_os("CAMPATH_REQUIRE_TOOLS").is_some_and(|v| v == "1") {
+            panic!("{why}, and CAMPATH_REQUIRE_TOOLS=1 makes this check mandatory");
+        }
+        // Straight to stderr, past the test harness's capture, so the skip is seen.
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: {why}; .ci/run installs it and makes this check mandatory"
+        );
+    }
+    found
 }
