@@ -1,7 +1,7 @@
 //! campath: animates the general UVN camera of the lecture notes from a RON keyframe file and
 //! ray casts each frame against spheres.
 //!
-//! The pipeline, one module per stage: [`format`] (RON file) → [`document`] (checked values) →
+//! The pipeline, one module per stage: [`format`](mod@format) (RON file) → [`document`] (checked values) →
 //! [`keyframes`] (tracks) → [`animation`] (per-frame [`camera`]) → [`render`] (ray caster over the
 //! [`scene`]) → [`output`] (PNG, hashes). [`commands`] ties them together for the binary.
 
