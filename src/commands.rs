@@ -51,19 +51,27 @@ pub fn peak_memory_mb() -> Option<f64> {
 /// time, median render time, held frames and peak memory. `detail` follows the frame count.
 pub fn timing_line(verb: &str, detail: &str, t: &Timing) -> String {
     let mut line = format!(
-        "{verb} {} frame(s){detail} in {:.2} s ({:.1} ms/frame wall, median render {:.1} ms/frame",
-        t.frames,
-        t.wall_secs,
-        t.wall_secs * 1e3 / t.frames.max(1) as f64,
-        t.median_render_secs() * 1e3
+        "{verb} {} frame(s){detail} in {:.2} s",
+        t.frames, t.wall_secs
     );
+    let mut notes = Vec::new();
+    if t.frames > 0 {
+        notes.push(format!(
+            "{:.1} ms/frame wall, median render {:.1} ms/frame",
+            t.wall_secs * 1e3 / t.frames as f64,
+            t.median_render_secs() * 1e3
+        ));
+    }
     if t.held > 0 {
-        line += &format!(", {} held (same camera as the frame before)", t.held);
+        notes.push(format!("{} held (same camera as the frame before)", t.held));
     }
     if let Some(mb) = peak_memory_mb() {
-        line += &format!(", peak memory {mb:.0} MB");
+        notes.push(format!("peak memory {mb:.0} MB"));
     }
-    line + ")"
+    if !notes.is_empty() {
+        line += &format!(" ({})", notes.join(", "));
+    }
+    line
 }
 
 /// `render`'s summary: the timing line, the frames kept, why the others were rendered, and the

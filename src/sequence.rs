@@ -221,6 +221,7 @@ pub fn render(
     options: RenderOptions,
     progress: &mut (dyn FnMut(Event) + Send),
 ) -> Result<RenderSummary> {
+    let started = std::time::Instant::now();
     check_folder(dir)?;
     let plan = plan(doc, dir, set, options.force)?;
     std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
@@ -262,7 +263,7 @@ pub fn render(
         kept: kept.len() as u64,
     });
     let size = (doc.raster.width, doc.raster.height);
-    let timing = stream_frames(
+    let mut timing = stream_frames(
         doc,
         set,
         |frame| kept.contains(&frame),
@@ -291,6 +292,8 @@ pub fn render(
     manifest.entries = entries.into_values().collect();
     manifest.complete = set.shard.is_some();
     write_atomic(&manifest_path, &manifest.text())?;
+    // The whole run, checking the frames on disk included.
+    timing.wall_secs = started.elapsed().as_secs_f64();
     Ok(RenderSummary {
         timing,
         kept: kept.len() as u64,

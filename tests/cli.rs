@@ -115,6 +115,15 @@ fn verify_names_every_differing_frame() {
         !out.contains("frame 0:") && !out.contains("frame 2:"),
         "{out}"
     );
+    assert!(
+        out.ends_with("2 of 4 frame(s) differ from bad.txt: 1, 3\n"),
+        "{out}"
+    );
+    // A render's hashes.txt, with its key column, is a golden file too.
+    let o = campath(tmp.path(), &["render", &f, "--out", "r", "--quiet"], &[]);
+    assert!(o.status.success());
+    let again = campath(tmp.path(), &["verify", &f, "r/hashes.txt"], &[]);
+    assert!(again.status.success(), "{}", stdout(&again));
 }
 
 #[test]
