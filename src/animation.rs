@@ -13,6 +13,7 @@ use glam::{DVec2, DVec3};
 
 use crate::camera::{Basis, Camera, CameraError};
 use crate::keyframes::{DirectionTrack, PathTrack, Track};
+use crate::mode::Mode;
 
 /// Where the base camera points, when no track sets it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,6 +55,17 @@ pub struct FrameError {
 }
 
 impl Animation {
+    /// The modes this animation has a track for, in the notes' order.
+    pub fn tracks(&self) -> impl Iterator<Item = Mode> + '_ {
+        Mode::ALL.into_iter().filter(|m| match m {
+            Mode::Observer => self.observer.is_some(),
+            Mode::LookAround => self.look_around.is_some(),
+            Mode::Track => self.track.is_some(),
+            Mode::Zoom => self.zoom.is_some(),
+            Mode::Distort => self.distort.is_some(),
+        })
+    }
+
     /// Frame time in seconds.
     pub fn time(&self, frame: u64) -> f64 {
         frame as f64 / self.fps

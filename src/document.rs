@@ -70,6 +70,18 @@ impl Document {
         })
     }
 
+    /// Frame `frame`'s camera. The cameras are evaluated in order from frame 0 (the up vector
+    /// near the VUV pole continues from the previous frame), so this costs O(frame).
+    pub fn camera(&self, frame: u64) -> Result<Camera> {
+        match self.cameras().nth(frame as usize) {
+            Some(c) => c.map(|(_, camera)| camera),
+            None => Err(Error::Usage(format!(
+                "frame {frame}: the animation has frames 0..{}",
+                self.animation.frames
+            ))),
+        }
+    }
+
     /// Evaluates the whole path, reporting the first frame whose camera is undefined.
     pub fn check_path(&self) -> Result<()> {
         self.cameras().try_for_each(|r| r.map(drop))
@@ -429,20 +441,15 @@ impl Checker {
         let mut out = Tracks::default();
         let mut seen: Vec<(&'static str, usize)> = Vec::new();
         for (i, spec) in specs.iter().enumerate() {
-            let field = format!("animate[{i}] ({})", spec.name());
+            let field = format!("animate[{i}] ({})", spec.mode());
             // Two tracks that set the same camera parameter conflict.
-            let sets = match spec {
-                TrackSpec::LookAround { .. } | TrackSpec::Track { .. } => "the view direction",
-                TrackSpec::Observer { .. } => "the VRP",
-                TrackSpec::Zoom { .. } => "the COP's n",
-                TrackSpec::Distort { .. } => "the COP's (u, v)",
-            };
+            let sets = spec.mode().sets();
             if let Some((_, j)) = seen.iter().find(|(s, _)| *s == sets) {
                 self.problem(
                     field.clone(),
                     format!(
                         "conflicts with animate[{j}] ({}): both set {sets}; keep one",
-                        specs[*j].name()
+                        specs[*j].mode()
                     ),
                 );
                 continue;

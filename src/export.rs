@@ -10,7 +10,7 @@ use crate::document::Document;
 use crate::error::{Error, Result};
 
 /// Output format of `campath path`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PathFormat {
     /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
     #[default]

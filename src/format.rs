@@ -3,6 +3,8 @@
 //! the only module that knows RON.
 
 use serde::Deserialize;
+
+use crate::mode::Mode;
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -103,14 +105,14 @@ pub enum TrackSpec {
 }
 
 impl TrackSpec {
-    /// The variant's name as written in the file.
-    pub fn name(&self) -> &'static str {
+    /// The mode this track animates.
+    pub fn mode(&self) -> Mode {
         match self {
-            TrackSpec::Observer { .. } => "Observer",
-            TrackSpec::LookAround { .. } => "LookAround",
-            TrackSpec::Track { .. } => "Track",
-            TrackSpec::Zoom { .. } => "Zoom",
-            TrackSpec::Distort { .. } => "Distort",
+            TrackSpec::Observer { .. } => Mode::Observer,
+            TrackSpec::LookAround { .. } => Mode::LookAround,
+            TrackSpec::Track { .. } => Mode::Track,
+            TrackSpec::Zoom { .. } => Mode::Zoom,
+            TrackSpec::Distort { .. } => Mode::Distort,
         }
     }
 }

@@ -187,3 +187,57 @@ pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, String)>> 
     })?;
     Ok(out)
 }
+
+/// Frame `frame`'s RGB8 pixels, row-major, top row first.
+pub fn render_frame(doc: &Document, frame: u64) -> Result<Vec<u8>> {
+    let camera = doc.camera(frame)?;
+    Ok(Renderer::new().render(&camera, &doc.scene, doc.raster))
+}
+
+/// A frame whose fresh render does not hash as expected.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Difference {
+    pub frame: u64,
+    pub expected: String,
+    /// The fresh render's hash; None when the animation has no such frame.
+    pub actual: Option<String>,
+}
+
+/// Renders the frames listed in `expected` (for example a hashes.txt read with
+/// [`crate::manifest::parse_hashes`]) and returns those that differ.
+///
+/// ```
+/// # use std::path::Path;
+/// # let doc = campath::document::Document::from_str(Path::new("t.ron"),
+/// #     "(frames: 3, image: (width: 8, height: 4), camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),
+/// #       scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]))").unwrap();
+/// let mut golden = campath::frames::hashes(&doc, 0..3).unwrap();
+/// golden[1].1 = "0".repeat(64);
+/// let differ = campath::frames::compare(&doc, &golden).unwrap();
+/// assert_eq!(differ.len(), 1);
+/// assert_eq!(differ[0].frame, 1);
+/// ```
+pub fn compare(doc: &Document, expected: &[(u64, String)]) -> Result<Vec<Difference>> {
+    let total = doc.animation.frames;
+    let wanted: std::collections::BTreeSet<u64> = expected.iter().map(|(f, _)| *f).collect();
+    let end = wanted.last().map_or(0, |last| (last + 1).min(total));
+    let mut actual = std::collections::BTreeMap::new();
+    stream_frames(
+        doc,
+        &FrameSet::all(0..end),
+        |frame| !wanted.contains(&frame),
+        |frame, _, pixels| {
+            actual.insert(frame, frame_hash(pixels));
+            Ok(())
+        },
+    )?;
+    Ok(expected
+        .iter()
+        .filter(|(frame, hash)| actual.get(frame) != Some(hash))
+        .map(|(frame, hash)| Difference {
+            frame: *frame,
+            expected: hash.clone(),
+            actual: actual.get(frame).cloned(),
+        })
+        .collect())
+}

@@ -1,14 +1,44 @@
 //! campath: animates the general UVN camera of the lecture notes from a RON keyframe file and
 //! ray casts each frame against spheres.
 //!
-//! The pipeline, one module per stage: [`format`](mod@format) (RON file) → [`document`] (checked values) →
-//! [`keyframes`] (tracks) → [`animation`] (per-frame [`camera`]) → [`render`] (ray caster over the
-//! [`scene`]) → [`output`] (PNG, hashes). [`commands`] ties them together for the binary.
+//! The pipeline, one module per stage: [`format`](mod@format) (the RON file) → [`document`]
+//! (checked values) → [`keyframes`] (tracks) → [`animation`] (per-frame [`camera`]) →
+//! [`render`] (ray caster over the [`scene`]) → [`frames`] (frames in order, with their keys) →
+//! [`output`], [`manifest`] and [`sequence`] (PNGs, hashes, manifests, an output folder), with
+//! [`export`] for other programs. The `campath` command line is built on top of it; a Rust
+//! program or test that uses the library alone depends on
+//! `campath = { default-features = false }` and pulls in no command-line crate.
+//!
+//! A frame-hash test in a few lines: load a file, evaluate frame 12's camera, render and hash
+//! its pixels, and compare with a `hashes.txt`:
+//!
+//! ```
+//! use campath::document::Document;
+//! use campath::frames::{compare, hashes, render_frame};
+//! use campath::manifest::parse_hashes;
+//! use campath::output::frame_hash;
+//! use std::path::Path;
+//!
+//! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("animations/zoom.ron");
+//! let mut doc = Document::load(&file)?;
+//! doc.raster.width = 64; // smaller, for a quick test
+//! doc.raster.height = 36;
+//!
+//! let camera = doc.camera(12)?;
+//! assert!(camera.cop_view.z < 0.0);
+//! let pixels = render_frame(&doc, 12)?;
+//! assert_eq!(pixels.len(), 64 * 36 * 3);
+//! let hash = frame_hash(&pixels);
+//!
+//! // A hashes.txt is `<frame> <sha256> [<key>]` per line; here, one written by hand.
+//! let golden = parse_hashes(Path::new("hashes.txt"), &format!("12 {hash}\n"))?;
+//! assert!(compare(&doc, &golden)?.is_empty());
+//! assert_eq!(hashes(&doc, 12..13)?, golden);
+//! # Ok::<(), campath::Error>(())
+//! ```
 
 pub mod animation;
-pub mod bench;
 pub mod camera;
-pub mod commands;
 pub mod document;
 pub mod error;
 pub mod export;
@@ -16,12 +46,11 @@ pub mod format;
 pub mod frames;
 pub mod keyframes;
 pub mod manifest;
+pub mod mode;
 pub mod output;
-pub mod plot;
-pub mod preview;
 pub mod render;
-pub mod report;
 pub mod scene;
 pub mod sequence;
+pub mod splitmix;
 
 pub use error::{Error, Result};

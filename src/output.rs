@@ -38,7 +38,7 @@ pub fn frame_of(name: &str) -> Option<(u64, usize)> {
 }
 
 /// PNG compression: a trade of encoding time against file size. The pixels are the same.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Compression {
     /// Fastest encoding, larger files (the default).
     #[default]

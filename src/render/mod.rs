@@ -515,7 +515,7 @@ mod tests {
 
     #[test]
     fn tiles_and_shadow_grid_give_the_brute_force_bytes() {
-        let mut gen = crate::bench::SplitMix(7);
+        let mut gen = crate::splitmix::SplitMix(7);
         let mut spheres: Vec<Sphere> = (0..300)
             .map(|_| {
                 let mut r = || gen.unit();

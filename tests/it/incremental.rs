@@ -1,16 +1,14 @@
 //! Incremental re-render: after an edit, `render` without `--force` gives exactly the folder a
 //! fresh render of the edited file gives, and rewrites only the frames the edit touched.
 
-mod common;
-
 use std::collections::BTreeMap;
 use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
+use crate::common::{root, EXAMPLES};
 use campath::document::Document;
 use campath::frames::FrameSet;
 use campath::sequence::{render, RenderOptions, RenderSummary};
-use common::{root, EXAMPLES};
 
 /// An example at 64×36, so that every frame of every example renders quickly.
 fn small_example(name: &str) -> String {

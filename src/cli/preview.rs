@@ -3,11 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::document::Document;
-use crate::error::{Error, Result};
-use crate::frames::{for_each_frame, FrameSet};
-use crate::output::{write_png, Compression};
-use crate::render::Raster;
+use super::error::{CliError, Result};
+use campath::document::Document;
+use campath::frames::{for_each_frame, FrameSet};
+use campath::output::{write_png, Compression};
+use campath::render::Raster;
+use campath::Error;
 
 /// Columns of the contact sheet.
 pub const COLUMNS: u32 = 4;
@@ -44,13 +45,13 @@ pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
 pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(PathBuf, PathBuf)> {
     let frames = doc.animation.frames;
     if !(1..=doc.raster.width).contains(&width) {
-        return Err(Error::Usage(format!(
+        return Err(CliError::Usage(format!(
             "--width {width}: the preview is 1 to {} pixels wide (the file's width)",
             doc.raster.width
         )));
     }
     if !(1..=frames).contains(&count) {
-        return Err(Error::Usage(format!(
+        return Err(CliError::Usage(format!(
             "--count {count}: the contact sheet shows 1 to {frames} frames (the file's frame count)"
         )));
     }

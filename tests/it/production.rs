@@ -1,9 +1,7 @@
 //! Production use: atomic frames, resume after SIGKILL, shards and merge, progress, refusing
 //! absurd requests and foreign folders.
 
-mod common;
-
-use common::{campath, stderr, stdout};
+use crate::common::{campath, stderr, stdout};
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
@@ -343,7 +341,12 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     assert_eq!(sheet.dimensions(), (4 * 60 + 3 * 2, 2 * 34 + 2));
     // The first tile is frame 0 rendered at 60×34 with one sample.
     let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
-    doc.raster = campath::preview::small_raster(&doc, 60);
+    doc.raster = campath::render::Raster {
+        width: 60,
+        height: 34, // 135 · 60 / 240 = 33.75, rounded
+        samples: 1,
+        adaptive: false,
+    };
     let frame0 = campath::frames::hashes(&doc, 0..1).unwrap();
     let mut tile = Vec::new();
     for y in 0..34 {
@@ -375,10 +378,9 @@ fn plot_draws_the_path_from_above_and_from_the_side() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
-    assert_eq!(img.dimensions(), campath::plot::SIZE);
+    assert_eq!(img.dimensions(), (1400, 700));
     // The blue VRP path appears in both panels; the red keyframe dots too.
-    let half = campath::plot::SIZE.0 / 2;
-    for (x0, x1) in [(0, half), (half, campath::plot::SIZE.0)] {
+    for (x0, x1) in [(0, 700), (700, 1400)] {
         let count = |rgb: [u8; 3]| {
             (x0..x1)
                 .flat_map(|x| (0..img.height()).map(move |y| (x, y)))

@@ -3,8 +3,6 @@
 //! from campath's renderer. Run with `--nocapture` to see the measured numbers that README's
 //! "Numerical behaviour" reports.
 
-mod common;
-
 use std::path::Path;
 
 use campath::camera::Camera;
@@ -15,11 +13,12 @@ use campath::Error;
 use glam::DVec3;
 
 fn load(name: &str) -> Document {
-    Document::load(&common::root().join("tests/data").join(name)).unwrap_or_else(|e| panic!("{e}"))
+    Document::load(&crate::common::root().join("tests/data").join(name))
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn load_err(name: &str) -> String {
-    match Document::load(&common::root().join("tests/data").join(name))
+    match Document::load(&crate::common::root().join("tests/data").join(name))
         .and_then(|d| d.check_path().map(|_| d))
     {
         Ok(_) => panic!("{name} must be refused"),
@@ -409,7 +408,8 @@ fn overshoot(keys: &[(f64, f64)], sample: impl Fn(f64) -> f64) -> f64 {
 }
 
 fn with_interpolation(name: &str, interp: &str) -> Document {
-    let text = std::fs::read_to_string(common::root().join("tests/data").join(name)).unwrap();
+    let text =
+        std::fs::read_to_string(crate::common::root().join("tests/data").join(name)).unwrap();
     let text = text.replace(
         "interpolation: Monotone",
         &format!("interpolation: {interp}"),
@@ -500,8 +500,8 @@ fn self_intersects(pts: &[(f64, f64)]) -> bool {
 #[test]
 fn centripetal_path_never_loops_within_a_segment() {
     for (interp, loops) in [("Centripetal", false), ("CatmullRom", true)] {
-        let text =
-            std::fs::read_to_string(common::root().join("tests/data/loop_path.ron")).unwrap();
+        let text = std::fs::read_to_string(crate::common::root().join("tests/data/loop_path.ron"))
+            .unwrap();
         let d = Document::from_str(
             Path::new("loop_path.ron"),
             &text.replace("Centripetal", interp),
@@ -620,7 +620,7 @@ fn catalogue_hashes_match_golden_at_one_and_two_threads() {
     };
     let one = run(1);
     assert_eq!(run(2), one);
-    let path = common::root().join("tests/golden/extreme.txt");
+    let path = crate::common::root().join("tests/golden/extreme.txt");
     if std::env::var_os("UPDATE_GOLDEN").is_some() {
         std::fs::write(&path, &one).unwrap();
     }

@@ -2,8 +2,6 @@
 //! panics, and the checked file's path evaluates. Fixed seeds, so every run tries the same
 //! inputs.
 
-mod common;
-
 use std::path::Path;
 
 use campath::document::Document;
@@ -40,10 +38,11 @@ fn arbitrary_bytes_never_panic() {
 
 #[test]
 fn mutated_examples_never_panic() {
-    let sources: Vec<String> = common::EXAMPLES
+    let sources: Vec<String> = crate::common::EXAMPLES
         .iter()
         .map(|n| {
-            std::fs::read_to_string(common::root().join(format!("animations/{n}.ron"))).unwrap()
+            std::fs::read_to_string(crate::common::root().join(format!("animations/{n}.ron")))
+                .unwrap()
         })
         .collect();
     // Edits: replace, insert or delete a character at a position; digits and RON punctuation
@@ -78,7 +77,8 @@ fn mutated_examples_never_panic() {
 
 #[test]
 fn number_edge_cases_in_every_numeric_field_are_errors_or_ok() {
-    let base = std::fs::read_to_string(common::root().join("animations/flythrough.ron")).unwrap();
+    let base =
+        std::fs::read_to_string(crate::common::root().join("animations/flythrough.ron")).unwrap();
     for bad in [
         "inf",
         "-inf",

@@ -7,13 +7,11 @@
 //! tests/golden/render_version.txt), so that frames rendered by an older campath are never kept
 //! as current: the update refuses changed hashes under the recorded version.
 
-mod common;
-
+use crate::common::{example, root, EXAMPLES};
 use campath::frames::{for_each_frame, FrameSet};
 use campath::manifest::parse_hashes;
 use campath::output::frame_hash;
 use campath::render::key::VERSION;
-use common::{example, root, EXAMPLES};
 
 fn hashes(name: &str) -> String {
     let mut doc = example(name);

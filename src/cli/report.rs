@@ -8,12 +8,13 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::camera::Camera;
-use crate::document::Document;
-use crate::error::{Error, Result};
-use crate::frames::median;
-use crate::render::{srgb_decode, Raster, Renderer};
-use crate::scene::Scene;
+use super::chart::{draw_error, draw_png};
+use super::error::{CliError, Result};
+use campath::camera::Camera;
+use campath::document::Document;
+use campath::frames::median;
+use campath::render::{srgb_decode, Raster, Renderer};
+use campath::scene::Scene;
 
 /// Samples per side of the reference.
 pub const REFERENCE_SAMPLES: u32 = 16;
@@ -73,11 +74,12 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
         .cameras()
         .nth(frame as usize)
         .ok_or_else(|| {
-            Error::Usage(format!(
+            CliError::Usage(format!(
                 "--frame {frame}: the animation has frames 0..{}",
                 doc.animation.frames
             ))
-        })??
+        })?
+        .map_err(CliError::from)?
         .1;
     let base = Raster {
         samples: 1,
@@ -146,35 +148,11 @@ pub fn renderer_table(rows: &[Measured]) -> String {
     t
 }
 
-/// DejaVu Sans (free licence: src/fonts/DejaVuSans-LICENSE.txt), built in so that plots need no
-/// system font.
-static FONT: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
-
-/// Registers the built-in DejaVu Sans as plotters' "sans-serif", once.
-pub(crate) fn register_font() {
-    use std::sync::Once;
-    static DONE: Once = Once::new();
-    DONE.call_once(|| {
-        if plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT)
-            .is_err()
-        {
-            unreachable!("the built-in font is a valid TrueType file");
-        }
-    });
-}
-
 /// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG.
 pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
-    register_font();
-    let (w, h) = (900u32, 600u32);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        let draw_err = |e: DrawingAreaErrorKind<_>| {
-            Error::Usage(format!("{}: cannot draw the plot: {e}", path.display()))
-        };
-        root.fill(&WHITE).map_err(draw_err)?;
+    draw_png(path, (900, 600), |root| {
+        let draw_err = draw_error(path);
         let floor = 1e-3;
         let (tmin, tmax) = rows.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
             (a.min(r.secs * 1e3), b.max(r.secs * 1e3))
@@ -197,7 +175,7 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
                 (tmin * 0.7..tmax * 1.4).log_scale(),
                 (emin * 0.7..emax * 1.4).log_scale(),
             )
-            .map_err(draw_err)?;
+            .map_err(&draw_err)?;
         chart
             .configure_mesh()
             .x_desc("median time per frame (ms)")
@@ -208,7 +186,7 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .y_label_formatter(&|v| format!("{v:.2}"))
             .label_style(("sans-serif", 16))
             .draw()
-            .map_err(draw_err)?;
+            .map_err(&draw_err)?;
         let point = |r: &Measured| (r.secs * 1e3, r.rmse_levels.max(floor));
         let plain: Vec<_> = rows
             .iter()
@@ -223,14 +201,14 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
         for (series, color, name) in [(plain, BLUE, "full grid"), (adaptive, RED, "adaptive")] {
             chart
                 .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
-                .map_err(draw_err)?
+                .map_err(&draw_err)?
                 .label(name)
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                 });
             chart
                 .draw_series(series.iter().map(|p| Circle::new(*p, 5, color.filled())))
-                .map_err(draw_err)?;
+                .map_err(&draw_err)?;
         }
         for r in rows {
             let (x, y) = point(r);
@@ -240,17 +218,16 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
                     (x, y),
                     ("sans-serif", 14),
                 )))
-                .map_err(draw_err)?;
+                .map_err(&draw_err)?;
         }
         chart
             .configure_series_labels()
             .border_style(BLACK)
             .background_style(WHITE)
             .draw()
-            .map_err(draw_err)?;
-        root.present().map_err(draw_err)?;
-    }
-    crate::output::write_png(path, &buf, (w, h), crate::output::Compression::Default)
+            .map_err(&draw_err)?;
+        Ok(())
+    })
 }
 
 /// One arc-length table resolution, measured against a 65,536-step reference.
@@ -274,7 +251,7 @@ pub const PATH_REFERENCE_SAMPLES: u32 = 1 << 16;
 /// Arc-length table resolution against accuracy and time, for the file's Observer path; None
 /// when the file has no Observer track.
 pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
-    use crate::keyframes::{PathTrack, Track, UniformSpeed};
+    use campath::keyframes::{PathTrack, Track, UniformSpeed};
     let keys = doc.animation.observer.as_ref()?.keys().to_vec();
     if keys.len() < 2 {
         return None;
@@ -357,4 +334,33 @@ pub fn path_table(rows: &[PathRow]) -> String {
         }
     }
     t
+}
+
+/// `campath report`: both tables on `out`, and the plot at `plot`.
+pub fn run(
+    file: &Path,
+    frame: Option<u64>,
+    runs: usize,
+    plot_path: &Path,
+    out: &mut dyn std::io::Write,
+) -> Result<()> {
+    let doc = Document::load(file)?;
+    // Measuring takes a while: find out first that the plot can be written.
+    super::args::check_writable(plot_path)?;
+    let frame = frame.unwrap_or(doc.animation.frames / 2);
+    let rows = renderer_report(&doc, frame, runs)?;
+    let stdout = campath::Error::stdout;
+    writeln!(out, "Renderer, frame {frame} of {}:\n", file.display()).map_err(stdout)?;
+    write!(out, "{}", renderer_table(&rows)).map_err(stdout)?;
+    plot(&rows, plot_path)?;
+    writeln!(out, "\nplot: {}", plot_path.display()).map_err(stdout)?;
+    if let Some(path) = path_report(&doc) {
+        writeln!(
+            out,
+            "\nCamera path, speed: Uniform against a {PATH_REFERENCE_SAMPLES}-step arc-length table:\n"
+        )
+        .map_err(stdout)?;
+        write!(out, "{}", path_table(&path)).map_err(stdout)?;
+    }
+    Ok(())
 }

@@ -1,9 +1,7 @@
 //! Each animation mode at its keys and between them, against values computed here from the
 //! notes' formulas and the interpolation formulas, not from campath's code.
 
-mod common;
-
-use common::doc;
+use crate::common::doc;
 use glam::DVec3;
 
 const EPS: f64 = 1e-12;
@@ -233,7 +231,7 @@ fn frames_default_to_reaching_the_last_key() {
 fn dolly_zoom_example_keeps_the_subject_scale() {
     // The subject (origin) projects with scale d / (D + d): D its depth in front of the view
     // plane, d the COP's distance behind it. The example keeps that at 1/4 on every frame.
-    let d = common::example("dolly_zoom");
+    let d = crate::common::example("dolly_zoom");
     let mut frames = 0;
     for item in d.cameras() {
         let (_, cam) = item.unwrap();

@@ -9,11 +9,14 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use crate::document::Document;
-use crate::error::{Error, Result};
+use super::error::{CliError, Result};
+use super::verbs::Stats;
+use campath::document::Document;
+use campath::splitmix::SplitMix;
+use campath::Error;
 
 /// One benchmark scene.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize)]
 pub struct BenchScene {
     pub name: &'static str,
     pub width: u32,
@@ -58,21 +61,6 @@ pub const SCENES: [BenchScene; 4] = [
         frames: 48,
     },
 ];
-
-/// SplitMix64 (Steele, Lea and Flood, 2014): a fixed-seed generator for generated scenes and
-/// test cameras, never seeded from entropy.
-pub struct SplitMix(pub u64);
-
-impl SplitMix {
-    /// The next number in [0, 1), with 53 random bits.
-    pub fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// The keyframe file of a scene: spheres resting on a huge ground sphere over a square field
 /// whose side grows with √N (constant density), one light with shadows, and an observer + track
@@ -196,43 +184,42 @@ pub fn pov_scene(doc: &Document) -> Result<String> {
 }
 
 /// One measured row.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Row {
     pub scene: BenchScene,
-    /// campath with PNG output: wall ms per frame, median render ms, peak MB.
-    pub png: (f64, f64, f64),
-    /// campath hash-only: wall ms per frame, median render ms, peak MB.
-    pub hash: (f64, f64, f64),
-    /// POV-Ray: wall ms per frame over `pov_frames` frames.
+    /// campath with PNG output.
+    pub png: Stats,
+    /// campath hash-only.
+    pub hash: Stats,
+    /// POV-Ray: wall ms per frame, and the frames it rendered.
     pub pov: Option<(f64, u64)>,
 }
 
-/// Pulls `<number> <unit>` after `key` out of a summary line.
-fn field(line: &str, key: &str) -> Option<f64> {
-    let rest = &line[line.find(key)? + key.len()..];
-    rest.split_whitespace().next()?.parse().ok()
-}
-
-fn run_campath(args: &[&str]) -> Result<(f64, f64, f64)> {
-    let exe = std::env::current_exe()
-        .map_err(|e| Error::Usage(format!("cannot find the campath executable: {e}")))?;
+/// Runs `campath ARGS --stats-json FILE` as its own process (so its peak memory is its own) and
+/// reads the numbers it wrote.
+fn run_campath(args: &[&str], stats: &Path) -> Result<Stats> {
+    let exe = std::env::current_exe().map_err(|e| CliError::missing("campath", "campath", e))?;
     let out = Command::new(exe)
         .args(args)
+        .arg("--stats-json")
+        .arg(stats)
+        .stdout(std::process::Stdio::null())
         .output()
-        .map_err(|e| Error::Usage(format!("cannot run campath {args:?}: {e}")))?;
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let line = text
-        .lines()
-        .find(|l| l.contains("median render"))
-        .ok_or_else(|| Error::Usage(format!("campath {args:?} failed:\n{text}")))?;
-    let wall = field(line, " s (").unwrap_or(f64::NAN);
-    let median = field(line, "median render").unwrap_or(f64::NAN);
-    let peak = field(line, "peak memory").unwrap_or(f64::NAN);
-    Ok((wall, median, peak))
+        .map_err(|e| CliError::missing("campath", "campath", e))?;
+    if !out.status.success() {
+        return Err(CliError::Tool {
+            tool: "campath",
+            package: "campath",
+            message: format!("{args:?} failed: {}", String::from_utf8_lossy(&out.stderr)),
+        });
+    }
+    let text = std::fs::read_to_string(stats).map_err(Error::read(stats))?;
+    serde_json::from_str(&text).map_err(|e| {
+        CliError::from(Error::Manifest {
+            path: stats.to_path_buf(),
+            message: e.to_string(),
+        })
+    })
 }
 
 /// Writes the scene files to `dir` and measures every scene.
@@ -243,7 +230,12 @@ pub fn run(
     progress: &mut dyn std::io::Write,
 ) -> Result<Vec<Row>> {
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
-    let povray = Command::new("povray").arg("--version").output().is_ok();
+    if pov_frames > 0 {
+        Command::new("povray")
+            .arg("--version")
+            .output()
+            .map_err(|e| CliError::missing("povray", "povray", e))?;
+    }
     let mut rows = Vec::new();
     for s in scenes {
         let ron_path = dir.join(format!("{}.ron", s.name));
@@ -258,10 +250,14 @@ pub fn run(
         }
         let frames_dir = frames_dir.to_string_lossy().into_owned();
         let _ = writeln!(progress, "{}: campath, PNG output …", s.name);
-        let png = run_campath(&["render", &file, "--out", &frames_dir, "--force"])?;
+        let stats = dir.join(format!("{}.stats.json", s.name));
+        let png = run_campath(
+            &["render", &file, "--out", &frames_dir, "--force", "--quiet"],
+            &stats,
+        )?;
         let _ = writeln!(progress, "{}: campath, hash only …", s.name);
-        let hash = run_campath(&["hash", &file, "--stats"])?;
-        let pov = if povray && pov_frames > 0 {
+        let hash = run_campath(&["hash", &file], &stats)?;
+        let pov = if pov_frames > 0 {
             let doc = Document::load(&ron_path)?;
             let pov_path = dir.join(format!("{}.pov", s.name));
             write(&pov_path, &pov_scene(&doc)?)?;
@@ -290,12 +286,13 @@ pub fn run(
                 ])
                 .args(aa.split(' '))
                 .output()
-                .map_err(|e| Error::Usage(format!("cannot run povray: {e}")))?;
+                .map_err(|e| CliError::missing("povray", "povray", e))?;
             if !status.status.success() {
-                return Err(Error::Usage(format!(
-                    "povray failed: {}",
-                    String::from_utf8_lossy(&status.stderr)
-                )));
+                return Err(CliError::Tool {
+                    tool: "povray",
+                    package: "povray",
+                    message: format!("failed: {}", String::from_utf8_lossy(&status.stderr)),
+                });
             }
             Some((started.elapsed().as_secs_f64() * 1e3 / n as f64, n))
         } else {
@@ -318,21 +315,52 @@ pub fn table(rows: &[Row]) -> String {
     );
     for r in rows {
         let s = &r.scene;
-        let rays =
-            (s.width as f64 * s.height as f64 * (s.samples * s.samples) as f64) / (r.hash.1 / 1e3);
+        let rays = (s.width as f64 * s.height as f64 * (s.samples * s.samples) as f64)
+            / (r.hash.median_render_ms / 1e3);
         let (pov, ratio_png, ratio_hash) = match r.pov {
             Some((ms, n)) => (
                 format!("{ms:.0} ({n} frames)"),
-                format!("{:.1}×", ms / r.png.0),
-                format!("{:.1}×", ms / r.hash.0),
+                format!("{:.1}×", ms / r.png.wall_ms_per_frame),
+                format!("{:.1}×", ms / r.hash.wall_ms_per_frame),
             ),
             None => ("—".into(), "—".into(), "—".into()),
         };
         let _ = writeln!(
             t,
             "| {} | {}×{}, {} | {} | {:.1} | {:.1} | {:.1} | {:.1} M | {:.0}, {:.0} | {pov} | {ratio_png} | {ratio_hash} |",
-            s.name, s.width, s.height, s.samples, s.spheres, r.png.0, r.hash.0, r.hash.1, rays / 1e6, r.png.2, r.hash.2
+            s.name, s.width, s.height, s.samples, s.spheres, r.png.wall_ms_per_frame, r.hash.wall_ms_per_frame,
+            r.hash.median_render_ms, rays / 1e6, r.png.peak_memory_mb.unwrap_or(f64::NAN), r.hash.peak_memory_mb.unwrap_or(f64::NAN)
         );
     }
     t
+}
+
+/// `campath bench`: the chosen scenes (all when `names` is empty), as a table or as JSON.
+pub fn command(
+    dir: &Path,
+    pov_frames: u64,
+    names: &[String],
+    json: bool,
+    out: &mut dyn std::io::Write,
+) -> Result<()> {
+    if let Some(unknown) = names.iter().find(|n| !SCENES.iter().any(|s| s.name == *n)) {
+        let known: Vec<&str> = SCENES.iter().map(|s| s.name).collect();
+        return Err(CliError::Usage(format!(
+            "--scenes: {unknown:?} is not a bench scene (the scenes are {})",
+            known.join(", ")
+        )));
+    }
+    let chosen: Vec<BenchScene> = SCENES
+        .iter()
+        .filter(|s| names.is_empty() || names.iter().any(|n| n == s.name))
+        .copied()
+        .collect();
+    let rows = run(dir, pov_frames, &chosen, &mut std::io::stderr())?;
+    let text = if json {
+        serde_json::to_string_pretty(&rows).expect("plain numbers serialise") + "\n"
+    } else {
+        table(&rows)
+    };
+    write!(out, "{text}").map_err(Error::stdout)?;
+    Ok(())
 }

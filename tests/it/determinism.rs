@@ -1,10 +1,8 @@
 //! Frame bytes do not depend on the thread count. (Debug against release: .ci/run runs the
 //! golden test in both profiles against the same committed hashes.)
 
-mod common;
-
+use crate::common::{campath, example, root, stdout};
 use campath::frames::hashes;
-use common::{campath, example, root, stdout};
 
 #[test]
 fn same_hashes_with_one_two_and_three_threads_in_process() {

@@ -6,8 +6,6 @@
 //! sphere it sees, whatever the transfer function. The two renders must agree on the sphere at
 //! ≥ 99.9% of pixels. `.ci/run` installs povray.
 
-mod common;
-
 use std::path::Path;
 use std::process::Command;
 
@@ -26,7 +24,7 @@ const COLORS: [(f64, f64, f64); 7] = [
 ];
 
 /// Fixed-seed cameras: the same on every run.
-struct Rng(campath::bench::SplitMix);
+struct Rng(campath::splitmix::SplitMix);
 
 impl Rng {
     fn next(&mut self) -> f64 {
@@ -84,11 +82,11 @@ fn povray(dir: &Path, scene: &str, w: u32, h: u32) -> Vec<u8> {
 
 #[test]
 fn projection_matches_povray_on_random_cameras() {
-    if !common::have_tool("povray", "povray") {
+    if !crate::common::have_tool("povray", "povray") {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    let mut rng = Rng(campath::bench::SplitMix(0x00C0_FFEE));
+    let mut rng = Rng(campath::splitmix::SplitMix(0x00C0_FFEE));
     let (w, h) = (160u32, 120u32);
     let (mut same, mut total) = (0usize, 0usize);
     for case in 0..24 {

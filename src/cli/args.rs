@@ -1,0 +1,173 @@
+//! Option values as the command line writes them, parsed by clap into typed values, and the
+//! command line's default paths.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use super::error::{CliError, Result};
+
+/// `--frames`: `A..B` (frames A to B − 1), `A..` (A to the end), `..B`, `A..=B` or a single `K`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameSpec {
+    start: u64,
+    /// Exclusive end; None for "to the end".
+    end: Option<u64>,
+    text_inclusive: bool,
+}
+
+impl FromStr for FrameSpec {
+    type Err = String;
+
+    fn from_str(spec: &str) -> Result<FrameSpec, String> {
+        let num = |s: &str| {
+            s.trim().parse::<u64>().map_err(|_| {
+                format!("{spec:?}: expected A..B, A.., ..B, A..=B or K with whole numbers")
+            })
+        };
+        let start = |a: &str| if a.is_empty() { Ok(0) } else { num(a) };
+        let (start, end, inclusive) = if let Some((a, b)) = spec.split_once("..=") {
+            (start(a)?, Some(num(b)?.saturating_add(1)), true)
+        } else if let Some((a, b)) = spec.split_once("..") {
+            let end = if b.is_empty() { None } else { Some(num(b)?) };
+            (start(a)?, end, false)
+        } else {
+            let k = num(spec)?;
+            (k, Some(k.saturating_add(1)), false)
+        };
+        if end.is_some_and(|e| start >= e) {
+            return Err(format!("{spec:?}: the range is empty"));
+        }
+        Ok(FrameSpec {
+            start,
+            end,
+            text_inclusive: inclusive,
+        })
+    }
+}
+
+impl FrameSpec {
+    /// The frames of an animation of `frames` frames, or an error if the spec reaches past it.
+    pub fn resolve(spec: Option<FrameSpec>, frames: u64) -> Result<Range<u64>> {
+        let Some(s) = spec else {
+            return Ok(0..frames);
+        };
+        let range = s.start..s.end.unwrap_or(frames);
+        if range.end > frames || range.start >= range.end {
+            let shown = if s.text_inclusive {
+                format!("{}..={}", range.start, range.end - 1)
+            } else {
+                format!("{}..{}", range.start, range.end)
+            };
+            return Err(CliError::Usage(format!(
+                "--frames {shown}: the animation has frames 0..{frames}"
+            )));
+        }
+        Ok(range)
+    }
+}
+
+/// PNG compression, as `--compression` names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Compression {
+    /// Fastest encoding, larger files.
+    #[default]
+    Fast,
+    /// zlib's default level.
+    Default,
+    /// Smallest files, slowest encoding.
+    Best,
+}
+
+impl From<Compression> for campath::output::Compression {
+    fn from(c: Compression) -> Self {
+        match c {
+            Compression::Fast => Self::Fast,
+            Compression::Default => Self::Default,
+            Compression::Best => Self::Best,
+        }
+    }
+}
+
+/// `campath path --format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PathFormat {
+    /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
+    #[default]
+    Csv,
+    /// An array of per-frame objects with the same fields.
+    Json,
+    /// `frame tx ty tz rx ry rz vfov` for Nuke and Blender; frames numbered from 1.
+    Chan,
+}
+
+impl From<PathFormat> for campath::export::PathFormat {
+    fn from(f: PathFormat) -> Self {
+        match f {
+            PathFormat::Csv => Self::Csv,
+            PathFormat::Json => Self::Json,
+            PathFormat::Chan => Self::Chan,
+        }
+    }
+}
+
+/// A whole number ≥ 1.
+pub fn at_least_one(s: &str) -> Result<u64, String> {
+    match s.parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err("expected a whole number ≥ 1".into()),
+    }
+}
+
+/// `out/<file stem>/`, relative to the working directory.
+pub fn default_out_dir(file: &Path) -> PathBuf {
+    let stem = file
+        .file_stem()
+        .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    Path::new("out").join(stem)
+}
+
+/// Creates the folder a file will be written into.
+pub fn create_parent(file: &Path) -> Result<()> {
+    if let Some(file) = file.ancestors().skip(1).find(|p| p.is_file()) {
+        return Err(CliError::Usage(format!(
+            "{} is a file, not a folder",
+            file.display()
+        )));
+    }
+    match file.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => {
+            std::fs::create_dir_all(dir).map_err(|e| campath::Error::write(dir)(e).into())
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Creates the folder `file` will be written into and checks that a file can be written there.
+pub fn check_writable(file: &Path) -> Result<()> {
+    create_parent(file)?;
+    let mut probe = file.as_os_str().to_owned();
+    probe.push(".tmp");
+    let failed = |e| CliError::from(campath::Error::write(file)(e));
+    std::fs::write(&probe, b"").map_err(failed)?;
+    std::fs::remove_file(&probe).map_err(failed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_specs() {
+        let r = |s: &str| FrameSpec::resolve(Some(s.parse().unwrap()), 10).unwrap();
+        assert_eq!(r("2..5"), 2..5);
+        assert_eq!(r("7.."), 7..10);
+        assert_eq!(r("..3"), 0..3);
+        assert_eq!(r("2..=4"), 2..5);
+        assert_eq!(r("9"), 9..10);
+        assert!("5..5".parse::<FrameSpec>().is_err());
+        assert!("a..b".parse::<FrameSpec>().is_err());
+        assert!(FrameSpec::resolve(Some("2..11".parse().unwrap()), 10).is_err());
+        assert!(FrameSpec::resolve(Some("10..".parse().unwrap()), 10).is_err());
+    }
+}

@@ -1,0 +1,53 @@
+//! The command line's errors: the library's, plus bad options, outside programs and drawing.
+//! Each kind has its exit status.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in a `campath` command.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    #[error(transparent)]
+    Campath(#[from] campath::Error),
+    /// An option value that cannot be used (exit 2).
+    #[error("{0}")]
+    Usage(String),
+    /// An outside program is missing or failed (exit 3).
+    #[error("{tool}: {message}")]
+    Tool {
+        tool: &'static str,
+        /// The Debian package that provides it.
+        package: &'static str,
+        message: String,
+    },
+    /// A chart could not be drawn (exit 1).
+    #[error("{}: cannot draw the chart: {message}", path.display())]
+    Draw { path: PathBuf, message: String },
+}
+
+impl CliError {
+    /// 2 for bad input or options, 3 for an outside program, 1 for the rest (I/O).
+    pub fn exit_status(&self) -> u8 {
+        match self {
+            CliError::Campath(e) if e.is_bad_input() => 2,
+            CliError::Usage(_) => 2,
+            CliError::Tool { .. } => 3,
+            _ => 1,
+        }
+    }
+
+    /// A write to standard output whose reader went away: not an error for a pipeline.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, CliError::Campath(e) if e.is_broken_pipe())
+    }
+
+    /// `tool` could not be started: missing, most likely.
+    pub fn missing(tool: &'static str, package: &'static str, cause: std::io::Error) -> CliError {
+        CliError::Tool {
+            tool,
+            package,
+            message: format!("cannot run it ({cause}); install the Debian package {package}"),
+        }
+    }
+}
+
+pub type Result<T, E = CliError> = std::result::Result<T, E>;

@@ -1,0 +1,225 @@
+//! The `campath` command line: clap definitions with typed option values, and the dispatch to the
+//! verbs (render, merge, hash, verify, path, check) and the tooling (preview, plot, report,
+//! bench). Binary-only: the library never imports clap, indicatif or plotters.
+
+mod args;
+mod bench;
+mod chart;
+mod error;
+mod plot;
+mod preview;
+mod report;
+mod verbs;
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+use args::{at_least_one, create_parent, default_out_dir, FrameSpec};
+use campath::document::Document;
+use campath::manifest::Shard;
+use campath::sequence::RenderOptions;
+use campath::Error;
+pub use error::Result;
+
+#[derive(Parser)]
+#[command(
+    name = "campath",
+    version,
+    about = "Animate a general UVN camera from a RON keyframe file and ray cast spheres"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render frames to DIR/frame_NNNN.png and DIR/hashes.txt, keeping the frames still valid.
+    Render {
+        file: PathBuf,
+        /// Output folder [default: out/<file stem>/].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Frames to render: A..B (B excluded), A.., ..B, A..=B or K.
+        #[arg(long)]
+        frames: Option<FrameSpec>,
+        /// PNG compression (the pixels are the same).
+        #[arg(long, value_enum, default_value_t)]
+        compression: args::Compression,
+        /// Render only frames k with k mod N = K, into hashes.part-K-of-N.txt (see `merge`).
+        #[arg(long, value_name = "K/N")]
+        shard: Option<Shard>,
+        /// Render every frame again, even those unchanged and complete in the output folder.
+        #[arg(long)]
+        force: bool,
+        /// Print nothing.
+        #[arg(long, short)]
+        quiet: bool,
+        /// Also write the run's numbers (frames, times, peak memory) as JSON to this file.
+        #[arg(long, value_name = "FILE")]
+        stats_json: Option<PathBuf>,
+    },
+    /// Write a contact sheet (preview.png) and an animated GIF (preview.gif) at a small size.
+    Preview {
+        file: PathBuf,
+        /// Output folder [default: out/<file stem>/].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Width of each small frame in pixels, up to the file's width [default: 240, or the
+        /// file's width if smaller].
+        #[arg(long)]
+        width: Option<u32>,
+        /// Frames on the contact sheet, spread evenly, up to the file's frame count [default: 12,
+        /// or every frame if fewer].
+        #[arg(long)]
+        count: Option<u64>,
+    },
+    /// Draw the camera path from above and from the side, with keyframes, targets, frustums
+    /// and spheres.
+    Plot {
+        file: PathBuf,
+        /// Where the PNG goes [default: out/<file stem>/plot.png].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// A frustum every N frames, N ≥ 1 [default: about eight along the path].
+        #[arg(long, value_parser = at_least_one)]
+        every: Option<u64>,
+    },
+    /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt, or refuse
+    /// naming what is missing.
+    Merge { dir: PathBuf },
+    /// Print `<frame> <sha256>` per frame without writing images.
+    Hash {
+        file: PathBuf,
+        #[arg(long)]
+        frames: Option<FrameSpec>,
+        /// Also print the timing summary to standard error.
+        #[arg(long)]
+        stats: bool,
+        /// Also write the run's numbers as JSON to this file.
+        #[arg(long, value_name = "FILE")]
+        stats_json: Option<PathBuf>,
+    },
+    /// Compare fresh renders with a hashes.txt; exit 1 naming every frame that differs.
+    Verify { file: PathBuf, golden: PathBuf },
+    /// Print the evaluated camera per frame: CSV, JSON, or .chan for Nuke and Blender.
+    Path {
+        file: PathBuf,
+        #[arg(long, value_enum, default_value_t)]
+        format: args::PathFormat,
+    },
+    /// Validate a file, report every problem, and evaluate every frame's camera.
+    Check { file: PathBuf },
+    /// Error against run time: every accuracy setting against a 16×16-sample reference.
+    Report {
+        file: PathBuf,
+        /// The frame to measure [default: the middle frame].
+        #[arg(long)]
+        frame: Option<u64>,
+        /// Timed renders per setting (the median is reported).
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        runs: u64,
+        /// Where the log-log plot goes [default: out/<file stem>/report.png].
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+    /// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table.
+    Bench {
+        /// Where the scene files and renders go.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+        /// Frames POV-Ray renders per scene (0 skips POV-Ray).
+        #[arg(long, default_value_t = 4)]
+        pov_frames: u64,
+        /// Only these scenes, comma-separated [default: all].
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// Print the rows as JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
+pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
+    match cli.command {
+        Command::Render {
+            file,
+            out: dir,
+            frames,
+            compression,
+            shard,
+            force,
+            quiet,
+            stats_json,
+        } => verbs::render(
+            verbs::RenderArgs {
+                dir: dir.unwrap_or_else(|| default_out_dir(&file)),
+                file,
+                frames,
+                shard,
+                options: RenderOptions {
+                    compression: compression.into(),
+                    force,
+                },
+                quiet,
+                stats_json,
+            },
+            out,
+        )?,
+        Command::Preview {
+            file,
+            out: dir,
+            width,
+            count,
+        } => {
+            let doc = Document::load(&file)?;
+            let dir = dir.unwrap_or_else(|| default_out_dir(&file));
+            let width = width.unwrap_or(doc.raster.width.min(240));
+            let count = count.unwrap_or(doc.animation.frames.min(12));
+            let (png, gif) = preview::write(&doc, &dir, width, count)?;
+            writeln!(out, "wrote {} and {}", png.display(), gif.display())
+                .map_err(Error::stdout)?;
+        }
+        Command::Plot {
+            file,
+            out: png,
+            every,
+        } => {
+            let doc = Document::load(&file)?;
+            let png = png.unwrap_or_else(|| default_out_dir(&file).join("plot.png"));
+            create_parent(&png)?;
+            let every = every.unwrap_or((doc.animation.frames / 8).max(1));
+            plot::write(&doc, &png, every)?;
+            writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
+        }
+        Command::Merge { dir } => verbs::merge(&dir, out)?,
+        Command::Hash {
+            file,
+            frames,
+            stats,
+            stats_json,
+        } => verbs::hash(&file, frames, stats, stats_json.as_deref())?,
+        Command::Verify { file, golden } => return verbs::verify(&file, &golden, out),
+        Command::Path { file, format } => verbs::path(&file, format, out)?,
+        Command::Check { file } => verbs::check(&file, out)?,
+        Command::Report {
+            file,
+            frame,
+            runs,
+            plot,
+        } => {
+            let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
+            report::run(&file, frame, runs as usize, &plot, out)?
+        }
+        Command::Bench {
+            out: dir,
+            pov_frames,
+            scenes,
+            json,
+        } => bench::command(&dir, pov_frames, &scenes, json, out)?,
+    }
+    Ok(true)
+}

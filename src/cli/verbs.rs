@@ -1,0 +1,321 @@
+//! The pipeline's verbs on the command line: render, merge, hash, verify, path and check. Each
+//! turns parsed options into library calls and prints what people read.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+
+use super::args::{FrameSpec, PathFormat};
+use super::error::{CliError, Result};
+use campath::document::Document;
+use campath::frames::{FrameSet, Timing};
+use campath::manifest::{list_frames, parse_hashes, Shard};
+use campath::sequence::{self, Event, RenderOptions, RenderSummary};
+use campath::Error;
+
+/// A run's numbers, for other programs (`--stats-json`; `campath bench` reads them).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Stats {
+    /// Frames rendered (or held) and delivered.
+    pub frames: u64,
+    /// Frames already valid on disk (render only).
+    pub kept: u64,
+    pub wall_secs: f64,
+    pub wall_ms_per_frame: f64,
+    pub median_render_ms: f64,
+    /// Peak resident memory of the process, where the platform tells.
+    pub peak_memory_mb: Option<f64>,
+}
+
+impl Stats {
+    fn of(t: &Timing, kept: u64) -> Stats {
+        Stats {
+            frames: t.frames,
+            kept,
+            wall_secs: t.wall_secs,
+            wall_ms_per_frame: t.wall_secs * 1e3 / t.frames.max(1) as f64,
+            median_render_ms: t.median_render_secs() * 1e3,
+            peak_memory_mb: peak_memory_mb(),
+        }
+    }
+
+    fn write(&self, path: Option<&Path>) -> Result<()> {
+        let Some(path) = path else { return Ok(()) };
+        let text = serde_json::to_string_pretty(self).expect("plain numbers serialise");
+        Ok(campath::output::write_atomic(path, &text)?)
+    }
+}
+
+/// The process's peak resident memory in MB, where the platform tells (Linux's VmHWM).
+pub fn peak_memory_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// One line for people, e.g. `rendered 96 frame(s) of 640×360 to out/x in …`: frames, wall
+/// time, median render time, held frames and peak memory. `detail` follows the frame count.
+pub fn timing_line(verb: &str, detail: &str, t: &Timing) -> String {
+    let mut line = format!(
+        "{verb} {} frame(s){detail} in {:.2} s",
+        t.frames, t.wall_secs
+    );
+    let mut notes = Vec::new();
+    if t.frames > 0 {
+        notes.push(format!(
+            "{:.1} ms/frame wall, median render {:.1} ms/frame",
+            t.wall_secs * 1e3 / t.frames as f64,
+            t.median_render_secs() * 1e3
+        ));
+    }
+    if t.held > 0 {
+        notes.push(format!("{} held (same camera as the frame before)", t.held));
+    }
+    if let Some(mb) = peak_memory_mb() {
+        notes.push(format!("peak memory {mb:.0} MB"));
+    }
+    if !notes.is_empty() {
+        line += &format!(" ({})", notes.join(", "));
+    }
+    line
+}
+
+/// `render`'s summary: the timing line, the frames kept, why the others were rendered, and the
+/// stale files removed.
+fn render_line(doc: &Document, dir: &Path, s: &RenderSummary) -> String {
+    let detail = format!(
+        " of {}×{} to {}",
+        doc.raster.width,
+        doc.raster.height,
+        dir.display()
+    );
+    let mut line = timing_line("rendered", &detail, &s.timing);
+    line += &format!("; {} kept (unchanged and complete on disk)", s.kept);
+    let r = s.reasons;
+    let why: Vec<String> = [
+        (r.missing, "new"),
+        (r.changed, "input changed"),
+        (r.damaged, "missing or damaged on disk"),
+        (r.forced, "--force"),
+    ]
+    .iter()
+    .filter(|(n, _)| *n > 0)
+    .map(|(n, what)| format!("{n} {what}"))
+    .collect();
+    if !why.is_empty() {
+        line += &format!("; rendered because: {}", why.join(", "));
+    }
+    if s.removed > 0 {
+        line += &format!("; removed {} stale frame file(s)", s.removed);
+    }
+    line
+}
+
+/// How `render` reports progress on standard error.
+enum Progress {
+    /// Nothing at all, not even the summary.
+    Quiet,
+    /// A line per finished frame (for logs and pipes).
+    Lines,
+    /// A progress bar with frames per second and an ETA (for terminals), made at the start.
+    Bar(Option<indicatif::ProgressBar>),
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Progress {
+        if quiet {
+            Progress::Quiet
+        } else if std::io::stderr().is_terminal() {
+            Progress::Bar(None)
+        } else {
+            Progress::Lines
+        }
+    }
+
+    fn event(&mut self, e: Event) {
+        match (self, e) {
+            (Progress::Bar(bar), Event::Start { frames, kept }) => {
+                let style = indicatif::ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} frames, {rate}, ETA {eta}",
+                )
+                .expect("the template is valid")
+                .with_key(
+                    "rate",
+                    |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                        let _ = write!(w, "{:.1} frames/s", s.per_sec());
+                    },
+                );
+                let b = indicatif::ProgressBar::new(frames).with_style(style);
+                b.inc(kept);
+                *bar = Some(b);
+            }
+            (Progress::Bar(Some(bar)), Event::Written(_)) => bar.inc(1),
+            (Progress::Lines, Event::Start { frames, kept }) => {
+                eprintln!("{} frame(s) to render, {kept} kept", frames - kept)
+            }
+            (Progress::Lines, Event::Written(frame)) => eprintln!("frame {frame} done"),
+            _ => {}
+        }
+    }
+
+    fn finish(self) {
+        if let Progress::Bar(Some(bar)) = self {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// The options of `campath render`.
+pub struct RenderArgs {
+    pub file: PathBuf,
+    pub dir: PathBuf,
+    pub frames: Option<FrameSpec>,
+    pub shard: Option<Shard>,
+    pub options: RenderOptions,
+    pub quiet: bool,
+    pub stats_json: Option<PathBuf>,
+}
+
+pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
+    let doc = Document::load(&a.file)?;
+    let set = FrameSet {
+        range: FrameSpec::resolve(a.frames, doc.animation.frames)?,
+        shard: a.shard,
+    };
+    let mut progress = Progress::new(a.quiet);
+    let summary = sequence::render(&doc, &a.dir, &set, a.options, &mut |e| progress.event(e))?;
+    progress.finish();
+    Stats::of(&summary.timing, summary.kept).write(a.stats_json.as_deref())?;
+    if !a.quiet {
+        writeln!(out, "{}", render_line(&doc, &a.dir, &summary)).map_err(Error::stdout)?;
+    }
+    Ok(())
+}
+
+pub fn merge(dir: &Path, out: &mut dyn Write) -> Result<()> {
+    let frames = sequence::merge(dir)?;
+    writeln!(
+        out,
+        "merged {frames} frame(s) into {}",
+        dir.join("hashes.txt").display()
+    )
+    .map_err(Error::stdout)?;
+    Ok(())
+}
+
+pub fn hash(
+    file: &Path,
+    frames: Option<FrameSpec>,
+    stats: bool,
+    stats_json: Option<&Path>,
+) -> Result<()> {
+    let doc = Document::load(file)?;
+    let range = FrameSpec::resolve(frames, doc.animation.frames)?;
+    let mut lines = std::io::BufWriter::new(std::io::stdout());
+    let timing = campath::frames::hash_frames(&doc, range, |frame, hash| {
+        writeln!(lines, "{frame} {hash}").map_err(Error::stdout)
+    })?;
+    lines.flush().map_err(Error::stdout)?;
+    if stats {
+        eprintln!("{}", timing_line("hashed", "", &timing));
+    }
+    Stats::of(&timing, 0).write(stats_json)
+}
+
+/// Compares fresh renders with a hashes.txt. Returns whether all match; prints one line per
+/// differing frame and a count.
+pub fn verify(file: &Path, golden: &Path, out: &mut dyn Write) -> Result<bool> {
+    let doc = Document::load(file)?;
+    let text = std::fs::read_to_string(golden).map_err(Error::read(golden))?;
+    let expected = parse_hashes(golden, &text)?;
+    if expected.is_empty() {
+        return Err(Error::Manifest {
+            path: golden.to_path_buf(),
+            message: "lists no frames".into(),
+        }
+        .into());
+    }
+    let differ = campath::frames::compare(&doc, &expected)?;
+    let total = doc.animation.frames;
+    for d in &differ {
+        match &d.actual {
+            Some(got) => writeln!(out, "frame {}: expected {}, got {got}", d.frame, d.expected),
+            None => writeln!(
+                out,
+                "frame {}: in {} but the animation has only {total} frames",
+                d.frame,
+                golden.display()
+            ),
+        }
+        .map_err(Error::stdout)?;
+    }
+    if differ.is_empty() {
+        writeln!(
+            out,
+            "{} frame(s) match {}",
+            expected.len(),
+            golden.display()
+        )
+    } else {
+        let frames: Vec<u64> = differ.iter().map(|d| d.frame).collect();
+        writeln!(
+            out,
+            "{} of {} frame(s) differ from {}: {}",
+            differ.len(),
+            expected.len(),
+            golden.display(),
+            list_frames(&frames)
+        )
+    }
+    .map_err(Error::stdout)?;
+    Ok(differ.is_empty())
+}
+
+pub fn path(file: &Path, format: PathFormat, out: &mut dyn Write) -> Result<()> {
+    let doc = Document::load(file)?;
+    let dropped = campath::export::write_path(&doc, format.into(), out)?;
+    if dropped.off_axis > 0 {
+        eprintln!(
+            "campath: note: .chan has no place for an off-axis COP (distort): {} of {} frame(s), \
+             campath frames {}..={} (.chan frames {}..={}), are written as if the COP were on \
+             the VPN, so their pictures are centred; csv and json keep the COP",
+            dropped.off_axis,
+            doc.animation.frames,
+            dropped.first,
+            dropped.last,
+            dropped.first + 1,
+            dropped.last + 1
+        );
+    }
+    Ok(())
+}
+
+/// A one-line summary of a valid file, after evaluating every frame's camera.
+pub fn check(file: &Path, out: &mut dyn Write) -> Result<()> {
+    let doc = Document::load(file)?;
+    doc.check_path()?;
+    let a = &doc.animation;
+    let tracks: Vec<&str> = a.tracks().map(|m| m.name()).collect();
+    writeln!(
+        out,
+        "{}: ok: {} frame(s) at {} fps, {}×{} with {}×{} samples, {} sphere(s), {} light(s), tracks: {}",
+        doc.path.display(),
+        a.frames,
+        a.fps,
+        doc.raster.width,
+        doc.raster.height,
+        doc.raster.samples,
+        doc.raster.samples,
+        doc.scene.spheres.len(),
+        doc.scene.lights.len(),
+        if tracks.is_empty() { "none".to_string() } else { tracks.join(", ") }
+    )
+    .map_err(Error::stdout)?;
+    Ok(())
+}
+
+impl From<std::convert::Infallible> for CliError {
+    fn from(e: std::convert::Infallible) -> Self {
+        match e {}
+    }
+}

@@ -1,0 +1,13 @@
+//! campath's integration tests, one binary so that the suite links once. Each module is an area;
+//! `common` holds the helpers they share.
+
+mod cli;
+mod common;
+mod determinism;
+mod extreme;
+mod fuzz;
+mod golden;
+mod incremental;
+mod modes;
+mod povray;
+mod production;
