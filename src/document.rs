@@ -13,15 +13,9 @@ use crate::format::{
 use crate::keyframes::{
     DirectionTrack, Interpolation, Key, Keyable, PathTrack, Track, UniformSpeed,
 };
-use crate::render::Raster;
+use crate::raster::{Raster, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
 use crate::scene::{Light, Scene, Sphere};
 
-/// Largest image side in pixels.
-pub const MAX_SIDE: u32 = 16_384;
-/// Largest pixel count of one frame.
-pub const MAX_PIXELS: u64 = 1 << 26;
-/// Largest samples-per-side.
-pub const MAX_SAMPLES: u32 = 16;
 /// Largest frame count.
 pub const MAX_FRAMES: u64 = 10_000_000;
 

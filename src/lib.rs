@@ -48,6 +48,7 @@ pub mod keyframes;
 pub mod manifest;
 pub mod mode;
 pub mod output;
+pub mod raster;
 pub mod render;
 pub mod scene;
 pub mod sequence;

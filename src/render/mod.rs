@@ -13,7 +13,8 @@ use rayon::prelude::*;
 use std::sync::OnceLock;
 
 use crate::camera::{window_point, Camera};
-use crate::document::MAX_SAMPLES;
+pub use crate::raster::Raster;
+use crate::raster::MAX_SAMPLES;
 use crate::scene::{Scene, Sphere};
 
 pub mod key;
@@ -22,28 +23,6 @@ mod tiles;
 
 use shadows::ShadowGrid;
 use tiles::TileBins;
-
-/// Output size and sampling.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Raster {
-    /// Pixels, ≥ 1.
-    pub width: u32,
-    /// Pixels, ≥ 1.
-    pub height: u32,
-    /// Samples per pixel side: an s×s grid at fixed positions, averaged.
-    pub samples: u32,
-    /// With s ≥ 2: trace the grid's four corner samples first, and where they see the same
-    /// sphere lit by the same lights (or all the background), average those four and skip the
-    /// rest of the grid.
-    pub adaptive: bool,
-}
-
-impl Raster {
-    /// Bytes of one RGB8 frame.
-    pub fn frame_bytes(&self) -> usize {
-        self.width as usize * self.height as usize * 3
-    }
-}
 
 /// Largest number of sample directions kept in memory (96 MB); past it, directions are
 /// normalised on the fly from the cached per-column and per-row offsets, to the same bits.

@@ -1,6 +1,7 @@
 //! campath's integration tests, one binary so that the suite links once. Each module is an area;
 //! `common` holds the helpers they share.
 
+mod architecture;
 mod cli;
 mod common;
 mod determinism;
