@@ -78,8 +78,17 @@ pub fn vertical_fov(cam: &Camera) -> f64 {
     2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z) * (180.0 / std::f64::consts::PI)
 }
 
-fn triple(v: DVec3) -> String {
-    format!("[{}, {}, {}]", v.x, v.y, v.z)
+/// One frame of `--format json`: the CSV's fields, vectors as arrays.
+#[derive(serde::Serialize)]
+struct JsonFrame {
+    frame: u64,
+    t: f64,
+    vrp: [f64; 3],
+    u: [f64; 3],
+    v: [f64; 3],
+    n: [f64; 3],
+    cop: [f64; 3],
+    window: [f64; 2],
 }
 
 /// Frames whose camera a format could not carry whole.
@@ -141,18 +150,21 @@ pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Re
                 }
                 writeln!(out, "{line}")
             }
-            PathFormat::Json => writeln!(
-                out,
-                "  {{\"frame\": {frame}, \"t\": {t}, \"vrp\": {}, \"u\": {}, \"v\": {}, \"n\": {}, \"cop\": {}, \"window\": [{}, {}]}}{}",
-                triple(vrp),
-                triple(b.u),
-                triple(b.v),
-                triple(b.n),
-                triple(cop),
-                cam.window.x,
-                cam.window.y,
-                if frame + 1 < frames { "," } else { "" }
-            ),
+            PathFormat::Json => {
+                let row = JsonFrame {
+                    frame,
+                    t,
+                    vrp: vrp.to_array(),
+                    u: b.u.to_array(),
+                    v: b.v.to_array(),
+                    n: b.n.to_array(),
+                    cop: cop.to_array(),
+                    window: cam.window.to_array(),
+                };
+                let text = serde_json::to_string(&row).expect("finite numbers serialise");
+                let comma = if frame + 1 < frames { "," } else { "" };
+                writeln!(out, "  {text}{comma}")
+            }
             PathFormat::Chan => {
                 let r = angles.next(&b);
                 if cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0 {

@@ -1,0 +1,196 @@
+//! A checked keyframe file: [`crate::format`]'s raw types turned into domain types, with every
+//! problem collected and named by its field. Nothing past this module sees an unchecked value.
+
+mod camera;
+mod image;
+mod scene;
+mod tracks;
+
+use glam::{DVec2, DVec3};
+use std::path::{Path, PathBuf};
+
+use crate::animation::{Animation, Pointing};
+use crate::camera::{Camera, CameraError};
+use crate::error::{Error, Problem, Problems, Result};
+use crate::format::{self, FileSpec, Pair, Triple};
+use crate::raster::Raster;
+use crate::scene::Scene;
+
+/// Largest frame count.
+pub const MAX_FRAMES: u64 = 10_000_000;
+
+/// A loaded, checked keyframe file.
+#[derive(Debug, Clone)]
+pub struct Document {
+    /// Where it was read from, for messages.
+    pub path: PathBuf,
+    pub raster: Raster,
+    pub animation: Animation,
+    pub scene: Scene,
+}
+
+impl Document {
+    /// Reads, parses and checks a keyframe file.
+    pub fn load(path: &Path) -> Result<Document> {
+        Document::from_spec(path, format::read(path)?)
+    }
+
+    /// Parses and checks RON text; `path` is only used in messages.
+    pub fn from_str(path: &Path, text: &str) -> Result<Document> {
+        Document::from_spec(path, format::parse(path, text)?)
+    }
+
+    pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
+        let mut c = Checker::default();
+        let doc = c.document(path, spec);
+        match doc {
+            Some(doc) if c.problems.is_empty() => Ok(doc),
+            _ => Err(Error::Invalid {
+                path: path.to_path_buf(),
+                problems: Problems(c.problems),
+            }),
+        }
+    }
+
+    /// Every frame's camera, in order, or the first frame where the camera is undefined.
+    pub fn cameras(&self) -> impl Iterator<Item = Result<(u64, Camera)>> + '_ {
+        self.animation.cameras().map(|r| {
+            r.map_err(|e| Error::Frame {
+                path: self.path.clone(),
+                frame: e.frame,
+                time: e.time,
+                message: e.cause.to_string(),
+            })
+        })
+    }
+
+    /// Frame `frame`'s camera. The cameras are evaluated in order from frame 0 (the up vector
+    /// near the VUV pole continues from the previous frame), so this costs O(frame).
+    pub fn camera(&self, frame: u64) -> Result<Camera> {
+        match self.cameras().nth(frame as usize) {
+            Some(c) => c.map(|(_, camera)| camera),
+            None => Err(Error::Usage(format!(
+                "frame {frame}: the animation has frames 0..{}",
+                self.animation.frames
+            ))),
+        }
+    }
+
+    /// Evaluates the whole path, reporting the first frame whose camera is undefined.
+    pub fn check_path(&self) -> Result<()> {
+        self.cameras().try_for_each(|r| r.map(drop))
+    }
+}
+
+#[derive(Default)]
+struct Checker {
+    problems: Vec<Problem>,
+}
+
+impl Checker {
+    fn problem(&mut self, field: impl Into<String>, message: impl Into<String>) {
+        self.problems.push(Problem::new(field, message));
+    }
+
+    fn finite(&mut self, field: &str, x: f64) -> Option<f64> {
+        if x.is_finite() {
+            Some(x)
+        } else {
+            self.problem(field, format!("must be a finite number, got {x}"));
+            None
+        }
+    }
+
+    fn triple(&mut self, field: &str, t: Triple) -> Option<DVec3> {
+        let v = DVec3::new(t.0, t.1, t.2);
+        if v.is_finite() {
+            Some(v)
+        } else {
+            self.problem(field, format!("must be finite numbers, got {t:?}"));
+            None
+        }
+    }
+
+    fn pair(&mut self, field: &str, p: Pair) -> Option<DVec2> {
+        let v = DVec2::new(p.0, p.1);
+        if v.is_finite() {
+            Some(v)
+        } else {
+            self.problem(field, format!("must be finite numbers, got {p:?}"));
+            None
+        }
+    }
+
+    fn direction(&mut self, field: &str, t: Triple) -> Option<DVec3> {
+        let v = self.triple(field, t)?;
+        if v.length() > 0.0 && v.length().is_finite() {
+            Some(v)
+        } else {
+            self.problem(field, "must be a non-zero vector");
+            None
+        }
+    }
+
+    fn color(&mut self, field: &str, t: Triple) -> Option<DVec3> {
+        let v = self.triple(field, t)?;
+        if v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::ONE).all() {
+            Some(v)
+        } else {
+            self.problem(
+                field,
+                format!("linear RGB components must lie in [0, 1], got {t:?}"),
+            );
+            None
+        }
+    }
+
+    fn positive(&mut self, field: &str, x: f64) -> Option<f64> {
+        let x = self.finite(field, x)?;
+        if x > 0.0 {
+            Some(x)
+        } else {
+            self.problem(field, format!("must be greater than 0, got {x}"));
+            None
+        }
+    }
+
+    fn fov(&mut self, field: &str, deg: f64) -> Option<f64> {
+        let deg = self.finite(field, deg)?;
+        if deg > 0.0 && deg < 180.0 {
+            Some(deg)
+        } else {
+            self.problem(
+                field,
+                format!("a field of view in degrees must lie in (0, 180), got {deg}"),
+            );
+            None
+        }
+    }
+
+    fn document(&mut self, path: &Path, spec: FileSpec) -> Option<Document> {
+        let raster = self.raster(&spec.image);
+        let scene = self.scene(&spec.scene);
+        let animation = self.animation(&spec, raster.as_ref());
+        let doc = Document {
+            path: path.to_path_buf(),
+            raster: raster?,
+            animation: animation?,
+            scene: scene?,
+        };
+        // A static camera must be well formed at its first frame; animated ones are checked
+        // frame by frame when evaluated.
+        if let Err(e) = doc.animation.camera_at(0.0, None) {
+            let field = match e {
+                CameraError::ZeroVpn if matches!(doc.animation.pointing, Pointing::Target(_)) => {
+                    "camera.tp"
+                }
+                CameraError::ZeroVpn => "camera.vpn",
+                CameraError::ZeroVuv => "camera.vuv",
+                CameraError::Parallel => "camera.vuv",
+                CameraError::CopNotBehind(_) => "camera.cop",
+            };
+            self.problem(field, format!("at t = 0 s: {e}"));
+        }
+        Some(doc)
+    }
+}
