@@ -17,6 +17,7 @@ pub use crate::raster::Raster;
 use crate::raster::MAX_SAMPLES;
 use crate::scene::{Scene, Sphere};
 
+mod bins;
 pub mod key;
 mod shadows;
 mod tiles;

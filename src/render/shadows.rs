@@ -8,6 +8,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::bins::Bins;
 use super::ViewSphere;
 
 /// Spheres binned for one light direction, in view coordinates.
@@ -19,8 +20,7 @@ pub struct ShadowGrid {
     origin: DVec2,
     inv_cell: f64,
     dims: (usize, usize),
-    offsets: Vec<u32>,
-    items: Vec<u32>,
+    bins: Bins,
     /// Spheres tested for every ray.
     always: Vec<u32>,
 }
@@ -29,49 +29,30 @@ impl ShadowGrid {
     pub fn build(spheres: &[ViewSphere], to_light: DVec3) -> ShadowGrid {
         let axes = to_light.any_orthonormal_pair();
         let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
-        let mut radii: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
-        let big = if radii.is_empty() {
-            f64::INFINITY
-        } else {
-            let mid = radii.len() / 2;
-            *radii.select_nth_unstable_by(mid, f64::total_cmp).1 * 16.0
-        };
-        let mut always = Vec::new();
+        let big = big_radius(spheres);
+        let always: Vec<u32> = (0..spheres.len() as u32)
+            .filter(|k| spheres[*k as usize].radius > big)
+            .collect();
+        let small = || spheres.iter().filter(|s| s.radius <= big);
         let mut lo = DVec2::splat(f64::INFINITY);
         let mut hi = DVec2::splat(f64::NEG_INFINITY);
-        let mut small = 0usize;
-        for (k, s) in spheres.iter().enumerate() {
-            if s.radius > big {
-                always.push(k as u32);
-            } else {
-                let c = project(s.center);
-                lo = lo.min(c - s.radius);
-                hi = hi.max(c + s.radius);
-                small += 1;
-            }
+        for s in small() {
+            lo = lo.min(project(s.center) - s.radius);
+            hi = hi.max(project(s.center) + s.radius);
         }
-        if small == 0 {
+        let count = small().count();
+        if count == 0 {
             return ShadowGrid {
                 to_light,
                 axes,
                 origin: DVec2::ZERO,
                 inv_cell: 0.0,
                 dims: (0, 0),
-                offsets: vec![0],
-                items: Vec::new(),
+                bins: Bins::build((0, 0), 0, |_| None),
                 always,
             };
         }
-        // About two cells per sphere, at most 1024 a side.
-        let extent = (hi - lo).max(DVec2::splat(1e-300));
-        let cell = (extent.x * extent.y / (2.0 * small as f64))
-            .sqrt()
-            .max(extent.x.max(extent.y) / 1024.0);
-        let dims = (
-            ((extent.x / cell).ceil() as usize).clamp(1, 1024),
-            ((extent.y / cell).ceil() as usize).clamp(1, 1024),
-        );
-        let inv_cell = 1.0 / cell;
+        let (dims, inv_cell) = grid_size(hi - lo, count);
         let cell_range = |s: &ViewSphere| {
             let c = project(s.center);
             let a = ((c - s.radius - lo) * inv_cell).floor();
@@ -80,43 +61,16 @@ impl ShadowGrid {
             let clampy = |v: f64| v.max(0.0).min(dims.1 as f64 - 1.0) as usize;
             (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
         };
-        let cells = dims.0 * dims.1;
-        let mut counts = vec![0u32; cells];
-        for s in spheres.iter().filter(|s| s.radius <= big) {
-            let (x0, x1, y0, y1) = cell_range(s);
-            for y in y0..=y1 {
-                for c in &mut counts[y * dims.0 + x0..=y * dims.0 + x1] {
-                    *c += 1;
-                }
-            }
-        }
-        let mut offsets = Vec::with_capacity(cells + 1);
-        let mut total = 0u32;
-        for c in &counts {
-            offsets.push(total);
-            total += c;
-        }
-        offsets.push(total);
-        let mut fill = offsets.clone();
-        let mut items = vec![0u32; total as usize];
-        for (k, s) in spheres.iter().enumerate().filter(|(_, s)| s.radius <= big) {
-            let (x0, x1, y0, y1) = cell_range(s);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let slot = &mut fill[y * dims.0 + x];
-                    items[*slot as usize] = k as u32;
-                    *slot += 1;
-                }
-            }
-        }
+        let bins = Bins::build(dims, spheres.len(), |k| {
+            (spheres[k].radius <= big).then(|| cell_range(&spheres[k]))
+        });
         ShadowGrid {
             to_light,
             axes,
             origin: lo,
             inv_cell,
             dims,
-            offsets,
-            items,
+            bins,
             always,
         }
     }
@@ -140,12 +94,37 @@ impl ShadowGrid {
             return false;
         }
         // Truncation is floor for these non-negative values, without a libm call.
-        let c =
-            (q.y as usize).min(self.dims.1 - 1) * self.dims.0 + (q.x as usize).min(self.dims.0 - 1);
-        self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
-            .iter()
-            .any(blocks)
+        let (x, y) = (
+            (q.x as usize).min(self.dims.0 - 1),
+            (q.y as usize).min(self.dims.1 - 1),
+        );
+        self.bins.cell(x, y).iter().any(blocks)
     }
+}
+
+/// Spheres larger than this (16 × the median radius, like a ground sphere) are tested for every
+/// ray instead of being binned, so they do not inflate the grid.
+fn big_radius(spheres: &[ViewSphere]) -> f64 {
+    let mut radii: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
+    if radii.is_empty() {
+        return f64::INFINITY;
+    }
+    let mid = radii.len() / 2;
+    *radii.select_nth_unstable_by(mid, f64::total_cmp).1 * 16.0
+}
+
+/// Cells over an `extent` holding `count` discs: about two cells per disc, at most 1024 a side.
+/// Returns the cell counts and 1 / cell size.
+fn grid_size(extent: DVec2, count: usize) -> ((usize, usize), f64) {
+    let extent = extent.max(DVec2::splat(1e-300));
+    let cell = (extent.x * extent.y / (2.0 * count as f64))
+        .sqrt()
+        .max(extent.x.max(extent.y) / 1024.0);
+    let dims = (
+        ((extent.x / cell).ceil() as usize).clamp(1, 1024),
+        ((extent.y / cell).ceil() as usize).clamp(1, 1024),
+    );
+    (dims, 1.0 / cell)
 }
 
 /// Whether sphere `s` blocks the ray from `point` along unit `dir` (t > 0). A point inside (or

@@ -5,6 +5,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::bins::Bins;
 use super::{Raster, ViewSphere};
 
 /// Tile side in pixels.
@@ -67,78 +68,38 @@ fn footprint(s: &ViewSphere, cop: DVec3, window: DVec2, raster: Raster) -> Footp
     }
 }
 
-/// Per-tile sphere lists in compressed rows: tile k's spheres are `items[offsets[k]..offsets[k+1]]`.
-pub struct TileBins {
-    tiles_x: usize,
-    offsets: Vec<u32>,
-    items: Vec<u32>,
-}
+/// Per-tile sphere lists, nearest possible hit first.
+pub struct TileBins(Bins);
 
 impl TileBins {
     pub fn build(spheres: &[ViewSphere], cop: DVec3, window: DVec2, raster: Raster) -> TileBins {
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
-        let tiles = tiles_x * tiles_y;
         let prints: Vec<Footprint> = spheres
             .iter()
             .map(|s| footprint(s, cop, window, raster))
             .collect();
-        let tile_range = |f: &Footprint| match *f {
+        let mut bins = Bins::build((tiles_x, tiles_y), spheres.len(), |k| match prints[k] {
             Footprint::Culled => None,
             Footprint::Everywhere => Some((0, tiles_x - 1, 0, tiles_y - 1)),
             Footprint::Pixels { i0, i1, j0, j1 } => {
                 Some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
             }
-        };
-        let mut counts = vec![0u32; tiles + 1];
-        for f in &prints {
-            if let Some((tx0, tx1, ty0, ty1)) = tile_range(f) {
-                for ty in ty0..=ty1 {
-                    for c in &mut counts[ty * tiles_x + tx0..=ty * tiles_x + tx1] {
-                        *c += 1;
-                    }
-                }
-            }
-        }
-        let mut offsets = Vec::with_capacity(tiles + 1);
-        let mut total = 0u32;
-        for c in &counts[..tiles] {
-            offsets.push(total);
-            total += c;
-        }
-        offsets.push(total);
-        let mut fill = offsets.clone();
-        let mut items = vec![0u32; total as usize];
-        for (k, f) in prints.iter().enumerate() {
-            if let Some((tx0, tx1, ty0, ty1)) = tile_range(f) {
-                for ty in ty0..=ty1 {
-                    for tx in tx0..=tx1 {
-                        let slot = &mut fill[ty * tiles_x + tx];
-                        items[*slot as usize] = k as u32;
-                        *slot += 1;
-                    }
-                }
-            }
-        }
+        });
         // Nearest possible hit first; ties by index, so the order is total and deterministic.
-        for t in 0..tiles {
-            items[offsets[t] as usize..offsets[t + 1] as usize].sort_unstable_by(|a, b| {
+        bins.sort_cells(|items| {
+            items.sort_unstable_by(|a, b| {
                 let (sa, sb) = (&spheres[*a as usize], &spheres[*b as usize]);
                 sa.min_dist.total_cmp(&sb.min_dist).then(a.cmp(b))
-            });
-        }
-        TileBins {
-            tiles_x,
-            offsets,
-            items,
-        }
+            })
+        });
+        TileBins(bins)
     }
 
     /// The spheres that can cover pixel (i, j), nearest first.
     #[inline]
     pub fn at(&self, i: usize, j: usize) -> &[u32] {
-        let t = (j / TILE) * self.tiles_x + i / TILE;
-        &self.items[self.offsets[t] as usize..self.offsets[t + 1] as usize]
+        self.0.cell(i / TILE, j / TILE)
     }
 }
 
