@@ -279,21 +279,23 @@ fn cubic_controls<V: Keyable>(keys: &[Key<V>]) -> Vec<Option<Controls<V>>> {
 fn spline_with_phantoms<V: Keyable>(keys: &[Key<V>]) -> Spline<f64, Knot<V>> {
     let n = keys.len();
     debug_assert!(n >= 2);
-    let mirror = |end: &Key<V>, inner: &Key<V>| {
-        splines::Key::new(
-            2.0 * end.t - inner.t,
-            Knot(end.value * 2.0 - inner.value),
-            splines::Interpolation::Linear,
-        )
-    };
+    let key =
+        |k: &Key<V>| splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation));
     let mut out = Vec::with_capacity(n + 2);
-    out.push(mirror(&keys[0], &keys[1]));
-    out.extend(
-        keys.iter()
-            .map(|k| splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation))),
-    );
-    out.push(mirror(&keys[n - 1], &keys[n - 2]));
+    out.push(key(&mirror(&keys[0], &keys[1])));
+    out.extend(keys.iter().map(key));
+    out.push(key(&mirror(&keys[n - 1], &keys[n - 2])));
     Spline::from_vec(out)
+}
+
+/// The phantom key beyond `end`: `inner` mirrored through it, in time and value, so that a
+/// Catmull-Rom end segment has a neighbour on both sides.
+fn mirror<V: Keyable>(end: &Key<V>, inner: &Key<V>) -> Key<V> {
+    Key {
+        t: 2.0 * end.t - inner.t,
+        value: end.value * 2.0 - inner.value,
+        interpolation: Interpolation::Linear,
+    }
 }
 
 /// A checked track: at least one key, times finite and strictly increasing.
@@ -360,12 +362,14 @@ impl<V: Keyable> Track<V> {
     }
 }
 
-/// A track of unit directions, interpolated on the sphere.
+/// A track of unit directions, interpolated on the sphere: segment i (keys i → i + 1) is
+/// interpolated in the tangent plane at key i, from the log map of its four neighbouring keys,
+/// and mapped back with the exp map.
 #[derive(Debug, Clone)]
 pub struct DirectionTrack {
     keys: Vec<Key<DVec3>>,
-    /// Picks the way round for keys 180° apart: the turn is about this up vector.
-    up: DVec3,
+    /// Per segment, the tangent-plane track of its four keys, built once.
+    segments: Vec<Track<DVec3>>,
 }
 
 impl DirectionTrack {
@@ -373,14 +377,43 @@ impl DirectionTrack {
     /// rotation between opposite directions: about `up`, turning towards `direction × up`.
     pub fn new(keys: Vec<Key<DVec3>>, up: DVec3) -> Self {
         assert!(!keys.is_empty(), "a track needs a key");
-        let keys = keys
+        let keys: Vec<Key<DVec3>> = keys
             .into_iter()
             .map(|k| Key {
                 value: k.value.normalize(),
                 ..k
             })
             .collect();
-        DirectionTrack { keys, up }
+        let segments = (0..keys.len().saturating_sub(1))
+            .map(|i| Self::segment(&keys, i, up))
+            .collect();
+        DirectionTrack { keys, segments }
+    }
+
+    /// Segment i's keys i − 1 … i + 2 in the tangent plane at key i (phantoms at the ends).
+    fn segment(keys: &[Key<DVec3>], i: usize, up: DVec3) -> Track<DVec3> {
+        let n = keys.len();
+        let base = keys[i].value;
+        let local = |j: usize| Key {
+            value: log_map(base, keys[j].value, up),
+            ..keys[j]
+        };
+        let window = vec![
+            if i > 0 {
+                local(i - 1)
+            } else {
+                mirror(&local(i), &local(i + 1))
+            },
+            local(i),
+            local(i + 1),
+            if i + 2 < n {
+                local(i + 2)
+            } else {
+                mirror(&local(i + 1), &local(i))
+            },
+        ];
+        // The window's own phantoms lie outside it, so segment 1 sees exactly these neighbours.
+        Track::new(window)
     }
 
     pub fn keys(&self) -> &[Key<DVec3>] {
@@ -399,35 +432,7 @@ impl DirectionTrack {
         }
         // Segment i covers [t_i, t_{i+1}).
         let i = keys.partition_point(|k| k.t <= t) - 1;
-        let base = keys[i].value;
-        let local = |j: usize| Key {
-            value: log_map(base, keys[j].value, self.up),
-            ..keys[j]
-        };
-        let mut window = Vec::with_capacity(4);
-        window.push(if i > 0 {
-            local(i - 1)
-        } else {
-            mirror(&local(i), &local(i + 1))
-        });
-        window.push(local(i));
-        window.push(local(i + 1));
-        window.push(if i + 2 < n {
-            local(i + 2)
-        } else {
-            mirror(&local(i + 1), &local(i))
-        });
-        // The window's own phantoms lie outside it, so segment 1 sees exactly these neighbours.
-        let w = Track::new(window).sample(t);
-        exp_map(base, w)
-    }
-}
-
-fn mirror(end: &Key<DVec3>, inner: &Key<DVec3>) -> Key<DVec3> {
-    Key {
-        t: 2.0 * end.t - inner.t,
-        value: end.value * 2.0 - inner.value,
-        interpolation: Interpolation::Linear,
+        exp_map(keys[i].value, self.segments[i].sample(t))
     }
 }
 
