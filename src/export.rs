@@ -106,67 +106,24 @@ pub struct Dropped {
 pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Result<Dropped> {
     let mut out = std::io::BufWriter::new(out);
     let mut dropped = Dropped::default();
-    let failed = Error::stdout;
     let mut angles = ChanAngles::default();
-    match format {
-        PathFormat::Csv => writeln!(
-            out,
-            "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h"
-        ),
-        PathFormat::Json => writeln!(out, "["),
-        PathFormat::Chan => Ok(()),
-    }
-    .map_err(failed)?;
     let frames = doc.animation.frames;
+    let header = match format {
+        PathFormat::Csv => "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h\n",
+        PathFormat::Json => "[\n",
+        PathFormat::Chan => "",
+    };
+    out.write_all(header.as_bytes()).map_err(Error::stdout)?;
     for item in doc.cameras() {
         let (frame, cam) = item?;
-        let (b, cop, vrp) = (cam.basis, cam.cop_world(), cam.vrp_world);
         let t = doc.animation.time(frame);
-        match format {
-            PathFormat::Csv => {
-                let cols = [
-                    vrp.x,
-                    vrp.y,
-                    vrp.z,
-                    b.u.x,
-                    b.u.y,
-                    b.u.z,
-                    b.v.x,
-                    b.v.y,
-                    b.v.z,
-                    b.n.x,
-                    b.n.y,
-                    b.n.z,
-                    cop.x,
-                    cop.y,
-                    cop.z,
-                    cam.window.x,
-                    cam.window.y,
-                ];
-                let mut line = format!("{frame},{t}");
-                for c in cols {
-                    line.push(',');
-                    line += &c.to_string();
-                }
-                writeln!(out, "{line}")
-            }
+        let line = match format {
+            PathFormat::Csv => csv_row(frame, t, &cam),
             PathFormat::Json => {
-                let row = JsonFrame {
-                    frame,
-                    t,
-                    vrp: vrp.to_array(),
-                    u: b.u.to_array(),
-                    v: b.v.to_array(),
-                    n: b.n.to_array(),
-                    cop: cop.to_array(),
-                    window: cam.window.to_array(),
-                };
-                let text = serde_json::to_string(&row).expect("finite numbers serialise");
                 let comma = if frame + 1 < frames { "," } else { "" };
-                writeln!(out, "  {text}{comma}")
+                format!("  {}{comma}", json_row(frame, t, &cam))
             }
             PathFormat::Chan => {
-                let r = angles.next(&b);
                 if cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0 {
                     if dropped.off_axis == 0 {
                         dropped.first = frame;
@@ -174,27 +131,57 @@ pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Re
                     dropped.off_axis += 1;
                     dropped.last = frame;
                 }
-                writeln!(
-                    out,
-                    "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
-                    frame + 1,
-                    cop.x,
-                    cop.y,
-                    cop.z,
-                    r.x,
-                    r.y,
-                    r.z,
-                    vertical_fov(&cam)
-                )
+                chan_row(frame, &cam, angles.next(&cam.basis))
             }
-        }
-        .map_err(failed)?;
+        };
+        writeln!(out, "{line}").map_err(Error::stdout)?;
     }
     if format == PathFormat::Json {
-        writeln!(out, "]").map_err(failed)?;
+        writeln!(out, "]").map_err(Error::stdout)?;
     }
-    out.flush().map_err(failed)?;
+    out.flush().map_err(Error::stdout)?;
     Ok(dropped)
+}
+
+/// frame, t, VRP, u, v, n, the COP in world coordinates, the window.
+fn csv_row(frame: u64, t: f64, cam: &Camera) -> String {
+    let (b, cop, vrp) = (cam.basis, cam.cop_world(), cam.vrp_world);
+    let mut line = format!("{frame},{t}");
+    for v in [vrp, b.u, b.v, b.n, cop] {
+        line += &format!(",{},{},{}", v.x, v.y, v.z);
+    }
+    line + &format!(",{},{}", cam.window.x, cam.window.y)
+}
+
+/// The CSV's fields as one JSON object.
+fn json_row(frame: u64, t: f64, cam: &Camera) -> String {
+    let row = JsonFrame {
+        frame,
+        t,
+        vrp: cam.vrp_world.to_array(),
+        u: cam.basis.u.to_array(),
+        v: cam.basis.v.to_array(),
+        n: cam.basis.n.to_array(),
+        cop: cam.cop_world().to_array(),
+        window: cam.window.to_array(),
+    };
+    serde_json::to_string(&row).expect("finite numbers serialise")
+}
+
+/// `frame tx ty tz rx ry rz vfov`, frames numbered from 1.
+fn chan_row(frame: u64, cam: &Camera, r: DVec3) -> String {
+    let cop = cam.cop_world();
+    format!(
+        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+        frame + 1,
+        cop.x,
+        cop.y,
+        cop.z,
+        r.x,
+        r.y,
+        r.z,
+        vertical_fov(cam)
+    )
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@
 //! # complete
 //! ```
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -277,37 +277,12 @@ pub fn parts_in(dir: &Path) -> Result<BTreeMap<Shard, PathBuf>> {
 /// exactly once by its own shard, and every listed frame's PNG exists. `frame_file` names a
 /// frame's PNG for an animation of `frames` frames.
 pub fn merge(dir: &Path, frame_file: impl Fn(u64, u64) -> PathBuf) -> Result<String> {
-    let parts = parts_in(dir)?;
     let refuse = |problems: Vec<String>| Error::Merge {
         dir: dir.to_path_buf(),
         problems,
     };
-    let name = |p: &Path| {
-        p.file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned()
-    };
-    let mut by_count: BTreeMap<u64, Vec<String>> = BTreeMap::new();
-    for (shard, path) in &parts {
-        by_count.entry(shard.count).or_default().push(name(path));
-    }
-    let Some(&n) = by_count.keys().next() else {
-        return Err(refuse(vec![
-            "holds no hashes.part-K-of-N.txt to merge".into()
-        ]));
-    };
-    if by_count.len() > 1 {
-        let groups = by_count
-            .iter()
-            .map(|(n, files)| format!("N = {n}: {}", files.join(", ")))
-            .collect::<Vec<_>>();
-        return Err(refuse(vec![format!(
-            "holds parts of {} different shard counts ({}); remove the parts of the run you do not want",
-            by_count.len(),
-            groups.join("; ")
-        )]));
-    }
+    let parts = parts_in(dir)?;
+    let n = shard_count(&parts).map_err(|p| refuse(vec![p]))?;
     let mut problems = Vec::new();
     let mut reference: Option<(String, PartHeader)> = None;
     let mut all = Manifest::default();
@@ -320,72 +295,121 @@ pub fn merge(dir: &Path, frame_file: impl Fn(u64, u64) -> PathBuf) -> Result<Str
             ));
             continue;
         };
-        let m = Manifest::read_lenient(path);
-        let file = name(path);
-        let Some(header) = m.header.clone() else {
-            problems.push(format!(
-                "{file} has no part header (written by an older campath?): run shard {shard} again"
-            ));
-            continue;
-        };
-        if header.shard != shard {
-            problems.push(format!("{file} names shard {} in its header", header.shard));
-            continue;
+        match read_part(shard, path, &mut reference, &frame_file) {
+            Ok(entries) => all.entries.extend(entries),
+            Err(mut p) => problems.append(&mut p),
         }
-        if !m.complete {
-            problems.push(format!(
-                "shard {shard} did not finish: {file} lists {} of its {} frame(s); run it again",
-                m.entries.len(),
-                header.range.clone().filter(|k| shard.contains(*k)).count()
-            ));
-            continue;
-        }
-        match &reference {
-            Some((first, h))
-                if (&h.range, h.frames, &h.sequence)
-                    != (&header.range, header.frames, &header.sequence) =>
-            {
-                problems.push(format!(
-                    "{file} was rendered from a different file, campath or frame range than {first} \
-                     (range {}..{} of {} frames against {}..{} of {}): render the stale shard again",
-                    header.range.start, header.range.end, header.frames, h.range.start, h.range.end, h.frames
-                ));
-                continue;
-            }
-            Some(_) => {}
-            None => reference = Some((file.clone(), header.clone())),
-        }
-        let mut listed = BTreeMap::new();
-        for e in &m.entries {
-            if e.key.is_none() || !header.range.contains(&e.frame) || !shard.contains(e.frame) {
-                problems.push(format!("{file}: frame {} does not belong here", e.frame));
-            } else if listed.insert(e.frame, ()).is_some() {
-                problems.push(format!("{file}: frame {} is listed twice", e.frame));
-            } else if !frame_file(e.frame, header.frames).exists() {
-                problems.push(format!(
-                    "{file}: frame {} is listed but {} is missing",
-                    e.frame,
-                    name(&frame_file(e.frame, header.frames))
-                ));
-            }
-        }
-        let missing: Vec<u64> = header
-            .range
-            .clone()
-            .filter(|k| shard.contains(*k) && !listed.contains_key(k))
-            .collect();
-        if !missing.is_empty() {
-            problems.push(format!(
-                "{file}: frame(s) {} are missing",
-                list_frames(&missing)
-            ));
-        }
-        all.entries.extend(m.entries);
     }
     if problems.is_empty() {
         Ok(all.text())
     } else {
         Err(refuse(problems))
+    }
+}
+
+fn file_of(path: &Path) -> String {
+    path.file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// The one shard count N of the parts, or why there is none.
+fn shard_count(parts: &BTreeMap<Shard, PathBuf>) -> std::result::Result<u64, String> {
+    let mut by_count: BTreeMap<u64, Vec<String>> = BTreeMap::new();
+    for (shard, path) in parts {
+        by_count.entry(shard.count).or_default().push(file_of(path));
+    }
+    match by_count.len() {
+        0 => Err("holds no hashes.part-K-of-N.txt to merge".into()),
+        1 => Ok(*by_count.keys().next().expect("one count")),
+        k => {
+            let groups: Vec<String> = by_count
+                .iter()
+                .map(|(n, files)| format!("N = {n}: {}", files.join(", ")))
+                .collect();
+            Err(format!(
+                "holds parts of {k} different shard counts ({}); remove the parts of the run you do not want",
+                groups.join("; ")
+            ))
+        }
+    }
+}
+
+/// Shard `shard`'s part file, checked: its header (against the first part's, `reference`), its
+/// completion, and its frames. Returns its entries, or every problem found.
+fn read_part(
+    shard: Shard,
+    path: &Path,
+    reference: &mut Option<(String, PartHeader)>,
+    frame_file: impl Fn(u64, u64) -> PathBuf,
+) -> std::result::Result<Vec<Entry>, Vec<String>> {
+    let m = Manifest::read_lenient(path);
+    let file = file_of(path);
+    let Some(header) = m.header.clone() else {
+        return Err(vec![format!(
+            "{file} has no part header (written by an older campath?): run shard {shard} again"
+        )]);
+    };
+    if header.shard != shard {
+        return Err(vec![format!(
+            "{file} names shard {} in its header",
+            header.shard
+        )]);
+    }
+    let expected = || header.range.clone().filter(|k| shard.contains(*k));
+    if !m.complete {
+        return Err(vec![format!(
+            "shard {shard} did not finish: {file} lists {} of its {} frame(s); run it again",
+            m.entries.len(),
+            expected().count()
+        )]);
+    }
+    match reference {
+        Some((first, h))
+            if (&h.range, h.frames, &h.sequence)
+                != (&header.range, header.frames, &header.sequence) =>
+        {
+            return Err(vec![format!(
+                "{file} was rendered from a different file, campath or frame range than {first} \
+                 (range {}..{} of {} frames against {}..{} of {}): render the stale shard again",
+                header.range.start,
+                header.range.end,
+                header.frames,
+                h.range.start,
+                h.range.end,
+                h.frames
+            )]);
+        }
+        Some(_) => {}
+        None => *reference = Some((file.clone(), header.clone())),
+    }
+    let mut problems = Vec::new();
+    let mut listed = BTreeSet::new();
+    for e in &m.entries {
+        if e.key.is_none() || !header.range.contains(&e.frame) || !shard.contains(e.frame) {
+            problems.push(format!("{file}: frame {} does not belong here", e.frame));
+        } else if !listed.insert(e.frame) {
+            problems.push(format!("{file}: frame {} is listed twice", e.frame));
+        } else if !frame_file(e.frame, header.frames).exists() {
+            let png = file_of(&frame_file(e.frame, header.frames));
+            problems.push(format!(
+                "{file}: frame {} is listed but {png} is missing",
+                e.frame
+            ));
+        }
+    }
+    let missing: Vec<u64> = expected().filter(|k| !listed.contains(k)).collect();
+    if !missing.is_empty() {
+        problems.push(format!(
+            "{file}: frame(s) {} are missing",
+            list_frames(&missing)
+        ));
+    }
+    if problems.is_empty() {
+        Ok(m.entries)
+    } else {
+        Err(problems)
     }
 }
 
@@ -444,6 +468,73 @@ mod tests {
         assert_eq!(
             Manifest::read_lenient(Path::new("/nonexistent")),
             Manifest::default()
+        );
+    }
+
+    /// Writes part K of 2 over frames 0..4 with the given sequence key and frames.
+    fn part(dir: &Path, k: u64, sequence: &str, frames: &[u64], complete: bool) {
+        let m = Manifest {
+            header: Some(PartHeader {
+                shard: Shard { index: k, count: 2 },
+                range: 0..4,
+                frames: 4,
+                sequence: sequence.into(),
+            }),
+            entries: frames
+                .iter()
+                .map(|f| Entry {
+                    frame: *f,
+                    hash: "a".repeat(64),
+                    key: Some(FrameKey("b".repeat(64))),
+                })
+                .collect(),
+            complete,
+        };
+        std::fs::write(
+            dir.join(file_name(Some(Shard { index: k, count: 2 }))),
+            m.text(),
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn merge_names_every_problem_and_joins_whole_parts() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        let png = |f: u64, _| dir.join(format!("f{f}.png"));
+        for f in 0..4 {
+            std::fs::write(png(f, 4), "").unwrap();
+        }
+        let (s1, s2) = ("1".repeat(64), "2".repeat(64));
+        part(dir, 0, &s1, &[0, 2], true);
+        part(dir, 1, &s1, &[1, 3], true);
+        let text = merge(dir, png).unwrap();
+        assert_eq!(text.lines().count(), 4);
+        assert!(text.starts_with(&format!("0 {} {}", "a".repeat(64), "b".repeat(64))));
+
+        // A part from another file, a part with a hole, a missing PNG.
+        part(dir, 1, &s2, &[1, 3], true);
+        let problems = |r: Result<String>| match r {
+            Err(Error::Merge { problems, .. }) => problems.join("\n"),
+            other => panic!("{other:?}"),
+        };
+        let p = problems(merge(dir, png));
+        assert!(p.contains("rendered from a different file"), "{p}");
+        part(dir, 1, &s1, &[1], true);
+        std::fs::remove_file(png(2, 4)).unwrap();
+        let p = problems(merge(dir, png));
+        assert!(
+            p.contains("hashes.part-1-of-2.txt: frame(s) 3 are missing"),
+            "{p}"
+        );
+        assert!(p.contains("frame 2 is listed but f2.png is missing"), "{p}");
+        part(dir, 1, &s1, &[1], false);
+        let p = problems(merge(dir, png));
+        assert!(
+            p.contains(
+                "shard 1/2 did not finish: hashes.part-1-of-2.txt lists 1 of its 2 frame(s)"
+            ),
+            "{p}"
         );
     }
 

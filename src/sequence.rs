@@ -91,22 +91,46 @@ fn recorded(dir: &Path) -> BTreeMap<u64, Vec<Entry>> {
     out
 }
 
-fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan> {
-    let total = doc.animation.frames;
-    let recorded = recorded(dir);
-    let whole = set.shard.is_none();
-    // Frame files on disk, and those whose names no frame of this file has.
+/// The frames on disk under this animation's names, and the frame files named for no frame of it
+/// (past its end, or padded for another frame count).
+fn frame_files(dir: &Path, total: u64) -> (BTreeSet<u64>, Vec<PathBuf>) {
     let mut files = BTreeSet::new();
-    let mut stale = Vec::new();
+    let mut foreign = Vec::new();
     for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         if let Some((frame, digits)) = frame_of(&name) {
             if frame < total && digits == pad_width(total) {
                 files.insert(frame);
-            } else if whole {
-                stale.push(e.path());
+            } else {
+                foreign.push(e.path());
             }
         }
+    }
+    (files, foreign)
+}
+
+/// Of the frames recorded with their current key, those whose PNG decodes to a recorded hash.
+/// Decoding is the slow part of a resume, so it runs in parallel.
+fn on_disk(dir: &Path, total: u64, check: &[(u64, Vec<&Entry>)]) -> Vec<Entry> {
+    check
+        .par_iter()
+        .filter_map(|(frame, current)| {
+            let hash = png_hash(&frame_path(dir, *frame, total))?;
+            current
+                .iter()
+                .find(|e| e.hash == hash)
+                .map(|e| (*e).clone())
+        })
+        .collect()
+}
+
+fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan> {
+    let total = doc.animation.frames;
+    let recorded = recorded(dir);
+    let whole = set.shard.is_none();
+    let (files, mut stale) = frame_files(dir, total);
+    if !whole {
+        stale.clear();
     }
     let mut sequence = Sha256::new();
     let mut reasons = Reasons::default();
@@ -137,24 +161,8 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
             }
         }
     }
-    // Decoding the PNGs is the slow part of a resume: in parallel.
-    let verified: Vec<Option<Entry>> = check
-        .par_iter()
-        .map(|(frame, current)| {
-            let hash = png_hash(&frame_path(dir, *frame, total))?;
-            current
-                .iter()
-                .find(|e| e.hash == hash)
-                .map(|e| (*e).clone())
-        })
-        .collect();
-    let mut kept = Vec::new();
-    for e in verified {
-        match e {
-            Some(e) => kept.push(e),
-            None => reasons.damaged += 1,
-        }
-    }
+    let kept = on_disk(dir, total, &check);
+    reasons.damaged = check.len() as u64 - kept.len() as u64;
     Ok(Plan {
         sequence: format!("{:x}", sequence.finalize()),
         kept,
@@ -201,6 +209,24 @@ fn remove(path: &Path) -> Result<bool> {
     }
 }
 
+/// Removes the records this run would make false: a shard removes hashes.txt (`merge` writes it
+/// again); a whole run removes the part files and the frame files of no current frame. Returns
+/// the number of frame files removed.
+fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
+    if set.shard.is_some() {
+        remove(&dir.join(manifest::file_name(None)))?;
+        return Ok(0);
+    }
+    for path in manifest::parts_in(dir)?.values() {
+        remove(path)?;
+    }
+    let mut removed = 0;
+    for path in &plan.stale {
+        removed += u64::from(remove(path)?);
+    }
+    Ok(removed)
+}
+
 /// Renders the frames of `set` to PNGs in `dir` with their manifest: hashes.txt, or
 /// hashes.part-K-of-N.txt for a shard (marked complete when the shard has finished).
 ///
@@ -225,20 +251,7 @@ pub fn render(
     check_folder(dir)?;
     let plan = plan(doc, dir, set, options.force)?;
     std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
-    let mut removed = 0;
-    match set.shard {
-        Some(_) => {
-            remove(&dir.join(manifest::file_name(None)))?;
-        }
-        None => {
-            for path in manifest::parts_in(dir)?.values() {
-                remove(path)?;
-            }
-            for path in &plan.stale {
-                removed += u64::from(remove(path)?);
-            }
-        }
-    }
+    let removed = remove_stale_records(dir, set, &plan)?;
 
     let total = doc.animation.frames;
     let manifest_path = dir.join(manifest::file_name(set.shard));
