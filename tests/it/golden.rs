@@ -2,7 +2,7 @@
 //! each, rendered at 96×54 (the file's own samples) so the test stays fast.
 //!
 //! Regenerate after an intended change of the pictures with
-//! `UPDATE_GOLDEN=1 cargo test --test golden`, look at the frames, and commit tests/golden/.
+//! `UPDATE_GOLDEN=1 cargo test --test it golden::`, look at the frames, and commit tests/golden/.
 //! New pictures need a new renderer version (`campath::render::key::VERSION`, recorded in
 //! tests/golden/render_version.txt), so that frames rendered by an older campath are never kept
 //! as current: the update refuses changed hashes under the recorded version.
@@ -60,7 +60,7 @@ fn examples_match_their_golden_hashes() {
         }
         let want = std::fs::read_to_string(&path).unwrap_or_else(|_| {
             panic!(
-                "{} is missing: run UPDATE_GOLDEN=1 cargo test --test golden",
+                "{} is missing: run UPDATE_GOLDEN=1 cargo test --test it golden::",
                 path.display()
             )
         });
@@ -75,7 +75,7 @@ fn examples_match_their_golden_hashes() {
     }
     assert_eq!(
         recorded, VERSION,
-        "the renderer version changed: UPDATE_GOLDEN=1 cargo test --test golden"
+        "the renderer version changed: UPDATE_GOLDEN=1 cargo test --test it golden::"
     );
     assert!(
         failures.is_empty(),
