@@ -140,6 +140,13 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Print a shell completion script: `campath completions bash > /etc/bash_completion.d/campath`.
+    Completions {
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff): `campath man > campath.1; man ./campath.1`.
+    Man,
 }
 
 /// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
@@ -220,6 +227,19 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             scenes,
             json,
         } => bench::command(&dir, pov_frames, &scenes, json, out)?,
+        Command::Completions { shell } => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            // clap_complete panics on a failed write: generate into memory first.
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut cmd, "campath", &mut script);
+            out.write_all(&script).map_err(Error::stdout)?;
+        }
+        Command::Man => {
+            let cmd = <Cli as clap::CommandFactory>::command();
+            clap_mangen::Man::new(cmd)
+                .render(out)
+                .map_err(Error::stdout)?;
+        }
     }
     Ok(true)
 }

@@ -489,3 +489,36 @@ fn distort_names_the_frames_whose_cop_chan_drops() {
     let csv = campath(&root(), &["path", "animations/distort.ron"], &[]);
     assert!(stderr(&csv).is_empty());
 }
+
+#[test]
+fn completions_and_the_manual_come_from_the_clap_definitions() {
+    let tmp = tempfile::tempdir().unwrap();
+    let verbs = [
+        "render", "merge", "preview", "plot", "hash", "verify", "path", "check", "report", "bench",
+    ];
+    for shell in ["bash", "zsh", "fish", "powershell"] {
+        let o = campath(tmp.path(), &["completions", shell], &[]);
+        assert!(o.status.success(), "{shell}: {}", stderr(&o));
+        for verb in verbs {
+            assert!(stdout(&o).contains(verb), "{shell} completion lacks {verb}");
+        }
+    }
+    // bash itself completes `campath re` to the two verbs that start so.
+    let script = stdout(&campath(tmp.path(), &["completions", "bash"], &[]));
+    std::fs::write(tmp.path().join("campath.bash"), script).unwrap();
+    let o = std::process::Command::new("bash")
+        .current_dir(tmp.path())
+        .args([
+            "-c",
+            "source campath.bash; COMP_WORDS=(campath re); COMP_CWORD=1; \
+             _campath campath re campath; echo \"${COMPREPLY[@]}\"",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(stdout(&o).trim(), "render report", "{}", stderr(&o));
+    let man = stdout(&campath(tmp.path(), &["man"], &[]));
+    assert!(man.contains(".TH campath 1"), "{man}");
+    for verb in verbs {
+        assert!(man.contains(verb), "the manual lacks {verb}");
+    }
+}
