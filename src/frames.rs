@@ -218,26 +218,48 @@ pub struct Difference {
 /// assert_eq!(differ[0].frame, 1);
 /// ```
 pub fn compare(doc: &Document, expected: &[(u64, String)]) -> Result<Vec<Difference>> {
+    compare_each(doc, expected, |_, _| Ok(()))
+}
+
+/// [`compare`], also handing each differing frame's fresh pixels to `each` as it is found.
+pub fn compare_each(
+    doc: &Document,
+    expected: &[(u64, String)],
+    mut each: impl FnMut(&Difference, &[u8]) -> Result<()> + Send,
+) -> Result<Vec<Difference>> {
     let total = doc.animation.frames;
-    let wanted: std::collections::BTreeSet<u64> = expected.iter().map(|(f, _)| *f).collect();
-    let end = wanted.last().map_or(0, |last| (last + 1).min(total));
-    let mut actual = std::collections::BTreeMap::new();
+    let wanted: std::collections::BTreeMap<u64, &String> =
+        expected.iter().map(|(f, h)| (*f, h)).collect();
+    let end = wanted.keys().last().map_or(0, |last| (last + 1).min(total));
+    let mut differ = Vec::new();
     stream_frames(
         doc,
         &FrameSet::all(0..end),
-        |frame| !wanted.contains(&frame),
+        |frame| !wanted.contains_key(&frame),
         |frame, _, pixels| {
-            actual.insert(frame, frame_hash(pixels));
+            let hash = frame_hash(pixels);
+            if *wanted[&frame] != hash {
+                let d = Difference {
+                    frame,
+                    expected: wanted[&frame].clone(),
+                    actual: Some(hash),
+                };
+                each(&d, pixels)?;
+                differ.push(d);
+            }
             Ok(())
         },
     )?;
-    Ok(expected
-        .iter()
-        .filter(|(frame, hash)| actual.get(frame) != Some(hash))
-        .map(|(frame, hash)| Difference {
-            frame: *frame,
-            expected: hash.clone(),
-            actual: actual.get(frame).cloned(),
-        })
-        .collect())
+    // Frames the animation does not have.
+    differ.extend(
+        wanted
+            .iter()
+            .filter(|(f, _)| **f >= total)
+            .map(|(f, h)| Difference {
+                frame: *f,
+                expected: (*h).clone(),
+                actual: None,
+            }),
+    );
+    Ok(differ)
 }

@@ -10,6 +10,7 @@ mod plot;
 mod preview;
 mod report;
 mod verbs;
+mod verify;
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -102,8 +103,20 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
     },
-    /// Compare fresh renders with a hashes.txt; exit 1 naming every frame that differs.
-    Verify { file: PathBuf, golden: PathBuf },
+    /// Compare fresh renders with golden hashes; exit 1 naming every frame that differs.
+    Verify {
+        file: PathBuf,
+        /// A hashes.txt, or a folder of golden frames with their hashes.txt (then each failing
+        /// frame gets a difference image in --save-failures).
+        golden: PathBuf,
+        /// Also write a JUnit XML report, one test case per frame (for CI).
+        #[arg(long, value_name = "PATH")]
+        junit: Option<PathBuf>,
+        /// Save the frames that differ here as PNGs (and, against a folder of golden frames,
+        /// frame_NNNN.diff.png: changed pixels in magenta over the dimmed golden frame).
+        #[arg(long, value_name = "DIR")]
+        save_failures: Option<PathBuf>,
+    },
     /// Print the evaluated camera per frame: CSV, JSON, or .chan for Nuke and Blender.
     Path {
         file: PathBuf,
@@ -209,7 +222,20 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             stats,
             stats_json,
         } => verbs::hash(&file, frames, stats, stats_json.as_deref())?,
-        Command::Verify { file, golden } => return verbs::verify(&file, &golden, out),
+        Command::Verify {
+            file,
+            golden,
+            junit,
+            save_failures,
+        } => {
+            let args = verify::VerifyArgs {
+                file,
+                golden,
+                junit,
+                save_failures,
+            };
+            return verify::verify(args, out);
+        }
         Command::Path { file, format } => verbs::path(&file, format, out)?,
         Command::Check { file } => verbs::check(&file, out)?,
         Command::Report {

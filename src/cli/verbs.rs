@@ -1,4 +1,4 @@
-//! The pipeline's verbs on the command line: render, merge, hash, verify, path and check. Each
+//! The pipeline's verbs on the command line: render, merge, hash, path and check. Each
 //! turns parsed options into library calls and prints what people read.
 
 use std::io::{IsTerminal, Write};
@@ -8,7 +8,7 @@ use super::args::{FrameSpec, PathFormat};
 use super::error::{CliError, Result};
 use campath::document::Document;
 use campath::frames::{FrameSet, Timing};
-use campath::manifest::{list_frames, parse_hashes, Shard};
+use campath::manifest::Shard;
 use campath::sequence::{self, Event, RenderOptions, RenderSummary};
 use campath::Error;
 
@@ -220,55 +220,6 @@ pub fn hash(
         eprintln!("{}", timing_line("hashed", "", &timing));
     }
     Stats::of(&timing, 0).write(stats_json)
-}
-
-/// Compares fresh renders with a hashes.txt. Returns whether all match; prints one line per
-/// differing frame and a count.
-pub fn verify(file: &Path, golden: &Path, out: &mut dyn Write) -> Result<bool> {
-    let doc = Document::load(file)?;
-    let text = std::fs::read_to_string(golden).map_err(Error::read(golden))?;
-    let expected = parse_hashes(golden, &text)?;
-    if expected.is_empty() {
-        return Err(Error::Manifest {
-            path: golden.to_path_buf(),
-            message: "lists no frames".into(),
-        }
-        .into());
-    }
-    let differ = campath::frames::compare(&doc, &expected)?;
-    let total = doc.animation.frames;
-    for d in &differ {
-        match &d.actual {
-            Some(got) => writeln!(out, "frame {}: expected {}, got {got}", d.frame, d.expected),
-            None => writeln!(
-                out,
-                "frame {}: in {} but the animation has only {total} frames",
-                d.frame,
-                golden.display()
-            ),
-        }
-        .map_err(Error::stdout)?;
-    }
-    if differ.is_empty() {
-        writeln!(
-            out,
-            "{} frame(s) match {}",
-            expected.len(),
-            golden.display()
-        )
-    } else {
-        let frames: Vec<u64> = differ.iter().map(|d| d.frame).collect();
-        writeln!(
-            out,
-            "{} of {} frame(s) differ from {}: {}",
-            differ.len(),
-            expected.len(),
-            golden.display(),
-            list_frames(&frames)
-        )
-    }
-    .map_err(Error::stdout)?;
-    Ok(differ.is_empty())
 }
 
 pub fn path(file: &Path, format: PathFormat, out: &mut dyn Write) -> Result<()> {

@@ -522,3 +522,85 @@ fn completions_and_the_manual_come_from_the_clap_definitions() {
         assert!(man.contains(verb), "the manual lacks {verb}");
     }
 }
+
+#[test]
+fn verify_for_ci_writes_junit_and_difference_images_that_mark_exactly_the_changed_pixels() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    let o = campath(
+        tmp.path(),
+        &["render", &f, "--out", "golden", "--quiet"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // One sphere's colour changes.
+    let edited = SMALL.replace("color: (0.9, 0.2, 0.2)", "color: (0.2, 0.9, 0.2)");
+    assert_ne!(edited, SMALL);
+    let e = write(tmp.path(), "edited.ron", &edited);
+    let o = campath(
+        tmp.path(),
+        &[
+            "verify",
+            &e,
+            "golden",
+            "--junit",
+            "report.xml",
+            "--save-failures",
+            "fails",
+        ],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    // Which frames differ, from `campath hash` and the golden hashes.txt alone.
+    let golden = std::fs::read_to_string(tmp.path().join("golden/hashes.txt")).unwrap();
+    let fresh = stdout(&campath(tmp.path(), &["hash", &e], &[]));
+    let failing: Vec<u64> = frames_and_hashes(&golden)
+        .lines()
+        .zip(fresh.lines())
+        .filter(|(g, f)| g != f)
+        .map(|(g, _)| g.split(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(!failing.is_empty());
+
+    let xml = std::fs::read_to_string(tmp.path().join("report.xml")).unwrap();
+    let report = roxmltree::Document::parse(&xml).unwrap();
+    let suite = report
+        .descendants()
+        .find(|n| n.has_tag_name("testsuite"))
+        .unwrap();
+    assert_eq!(suite.attribute("tests"), Some("4"));
+    assert_eq!(
+        suite.attribute("failures"),
+        Some(&*failing.len().to_string())
+    );
+    let cases: Vec<_> = suite
+        .children()
+        .filter(|n| n.has_tag_name("testcase"))
+        .collect();
+    assert_eq!(cases.len(), 4);
+    for (k, case) in cases.iter().enumerate() {
+        assert_eq!(case.attribute("name"), Some(&*format!("frame {k}")));
+        let failed = case.children().any(|n| n.has_tag_name("failure"));
+        assert_eq!(failed, failing.contains(&(k as u64)), "frame {k}");
+    }
+
+    for k in failing {
+        let rgb = |p: &str| image::open(tmp.path().join(p)).unwrap().to_rgb8();
+        let before = rgb(&format!("golden/frame_{k:04}.png"));
+        let after = rgb(&format!("fails/frame_{k:04}.png"));
+        let diff = rgb(&format!("fails/frame_{k:04}.diff.png"));
+        let mut changed = 0;
+        for (x, y, px) in diff.enumerate_pixels() {
+            let differs = before.get_pixel(x, y) != after.get_pixel(x, y);
+            changed += usize::from(differs);
+            assert_eq!(px.0 == [255, 0, 255], differs, "frame {k} pixel ({x}, {y})");
+        }
+        assert!(changed > 0);
+        assert!(
+            stdout(&o).contains(&format!("frame {k}: expected"))
+                && stdout(&o).contains(&format!("{changed} pixel(s) changed")),
+            "{}",
+            stdout(&o)
+        );
+    }
+}
