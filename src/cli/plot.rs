@@ -1,5 +1,15 @@
-//! `campath plot`: the camera path drawn from above (x, z) and from the side (x, y): the VRP's
-//! path, the Observer keyframes, the targets, a frustum every few frames, and the spheres.
+//! `campath plot`: the camera path drawn from above and from the side, drawn so that the plot
+//! agrees with the frames.
+//!
+//! - From above, the viewer is on +y looking down with +z up the page; the world is right-handed
+//!   (the notes' u = n × VUV makes a camera looking along +z with VUV = +y see −x on its right),
+//!   so +x points left. What is on a camera's right in its frames is on the right of its
+//!   frustum in the plot.
+//! - From the side, the page's horizontal axis is the path's main horizontal direction of travel
+//!   and y is up, so a path along any horizontal direction is spread across the panel.
+//! - Spheres are their true outlines at the plot's scale: a huge ground sphere is a nearly
+//!   straight line.
+//! - The legend lists only what the file has.
 
 use std::path::Path;
 
@@ -12,15 +22,28 @@ use super::error::Result;
 use campath::animation::Pointing;
 use campath::camera::Camera;
 use campath::document::Document;
-
-/// A view: world point to the panel's (horizontal, vertical).
-type Projection = fn(DVec3) -> DVec2;
+use campath::scene::Sphere;
 
 type Chart<'a, 'b> =
     ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Pixels of the whole picture.
 pub const SIZE: (u32, u32) = (1400, 700);
+
+/// A panel: world point to the page's (right, up), with its title and axis names.
+struct View {
+    title: String,
+    right: DVec3,
+    up: DVec3,
+    x_desc: String,
+    y_desc: String,
+}
+
+impl View {
+    fn project(&self, p: DVec3) -> (f64, f64) {
+        (p.dot(self.right), p.dot(self.up))
+    }
+}
 
 /// What the plot shows, gathered from the file.
 struct Marks {
@@ -61,7 +84,7 @@ impl Marks {
     fn region(&self, doc: &Document) -> (DVec3, f64) {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        let points = self.cams.iter().map(|c| c.vrp_world);
+        let points = self.cams.iter().flat_map(|c| [c.vrp_world, c.cop_world()]);
         for p in points
             .chain(self.keys.iter().copied())
             .chain(self.targets.iter().copied())
@@ -76,84 +99,177 @@ impl Marks {
         }
         ((lo + hi) * 0.5, (hi - lo).max_element() * 0.55 + 1e-9)
     }
+
+    /// The path's main horizontal direction: the principal axis of the VRPs in (x, z), or the
+    /// first camera's view direction when the camera does not move.
+    fn travel(&self) -> DVec3 {
+        let n = self.cams.len() as f64;
+        let mean = self.cams.iter().map(|c| c.vrp_world).sum::<DVec3>() / n;
+        let (mut xx, mut xz, mut zz) = (0.0, 0.0, 0.0);
+        for c in &self.cams {
+            let d = c.vrp_world - mean;
+            xx += d.x * d.x;
+            xz += d.x * d.z;
+            zz += d.z * d.z;
+        }
+        if xx + zz < 1e-18 {
+            let n = self.cams[0].basis.n;
+            let h = DVec3::new(n.x, 0.0, n.z);
+            return if h.length() > 1e-9 {
+                h.normalize()
+            } else {
+                DVec3::X
+            };
+        }
+        // The larger eigenvector of [[xx, xz], [xz, zz]].
+        let angle = 0.5 * libm::atan2(2.0 * xz, xx - zz);
+        let mut dir = DVec3::new(libm::cos(angle), 0.0, libm::sin(angle));
+        // Pointing the way the camera travels, from the first VRP to the last.
+        let first_to_last = self.cams[self.cams.len() - 1].vrp_world - self.cams[0].vrp_world;
+        if dir.dot(first_to_last) < 0.0 {
+            dir = -dir;
+        }
+        dir
+    }
 }
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
 pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
     let marks = Marks::of(doc)?;
     let (mid, half) = marks.region(doc);
+    let h = marks.travel();
+    let views = [
+        View {
+            title: "from above (+y), as the frames see left and right".into(),
+            right: DVec3::NEG_X,
+            up: DVec3::Z,
+            x_desc: "x (world units, grows to the left)".into(),
+            y_desc: "z (world units)".into(),
+        },
+        View {
+            title: format!(
+                "from the side, along the travel ({:.2}, 0, {:.2})",
+                h.x, h.z
+            ),
+            right: h,
+            up: DVec3::Y,
+            x_desc: "distance along the travel (world units)".into(),
+            y_desc: "y (world units)".into(),
+        },
+    ];
     draw_png(path, SIZE, |root| {
         let (left, right) = root.split_horizontally(SIZE.0 / 2);
-        let top: Projection = |p| DVec2::new(p.x, p.z);
-        let side: Projection = |p| DVec2::new(p.x, p.y);
-        for (title, project, area, (xl, yl)) in [
-            ("from above", top, left, ("x", "z")),
-            ("from the side", side, right, ("x", "y")),
-        ] {
-            let c = project(mid);
+        for (view, area) in views.iter().zip([left, right]) {
+            let (cx, cy) = view.project(mid);
+            let flip = view.right == DVec3::NEG_X;
             let mut chart = ChartBuilder::on(&area)
-                .caption(format!("camera path {title}"), ("sans-serif", 22))
+                .caption(&view.title, ("sans-serif", 18))
                 .margin(15)
-                .x_label_area_size(35)
-                .y_label_area_size(50)
-                .build_cartesian_2d(c.x - half..c.x + half, c.y - half..c.y + half)
+                .x_label_area_size(40)
+                .y_label_area_size(55)
+                .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)
                 .map_err(draw_error(path))?;
             chart
                 .configure_mesh()
-                .x_desc(xl)
-                .y_desc(yl)
+                .x_desc(&view.x_desc)
+                .y_desc(&view.y_desc)
+                // The top view's page x is −x: label the world's x.
+                .x_label_formatter(&|v| format!("{:.1}", if flip { -v } else { *v }))
                 .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(draw_error(path))?;
-            spheres(&mut chart, doc, project, path)?;
-            frustums(&mut chart, &marks.cams, every, half * 0.12, project, path)?;
-            path_and_keys(&mut chart, &marks, project, path)?;
+            let spans = (DVec2::new(cx, cy), half);
+            spheres(&mut chart, doc, view, spans, path)?;
+            frustums(&mut chart, &marks.cams, every, half * 0.12, view, path)?;
+            path_and_keys(&mut chart, &marks, view, half, every, doc, path)?;
         }
         Ok(())
     })
 }
 
-fn spheres(chart: &mut Chart, doc: &Document, project: Projection, path: &Path) -> Result<()> {
+/// The region `s` covers in `view` and its outline, as page points fine enough at the plot's
+/// scale. A sphere that holds the whole panel fills it; one whose centre is far from the panel
+/// is drawn only near the panel: an arc of its outline, closed into a region by a concentric arc
+/// nearer the centre than any point of the panel.
+fn outline(
+    s: &Sphere,
+    view: &View,
+    (centre, half): (DVec2, f64),
+) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    let c = view.project(s.center_world);
+    let c = DVec2::new(c.0, c.1);
+    let to_panel = centre - c;
+    let d = to_panel.length();
+    let reach = half * std::f64::consts::SQRT_2; // the panel's circumscribed circle
+    if d + reach < s.radius {
+        let (lo, hi) = (centre - 2.0 * half, centre + 2.0 * half);
+        return (
+            vec![(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)],
+            Vec::new(),
+        );
+    }
+    let (from, span) = if d > reach {
+        // Only the angles that can meet the panel.
+        let w = libm::asin(reach / d) * 1.05;
+        (libm::atan2(to_panel.y, to_panel.x) - w, 2.0 * w)
+    } else {
+        (0.0, std::f64::consts::TAU)
+    };
+    // About 200 segments across the panel's width.
+    let steps = ((s.radius * span) / (half / 100.0))
+        .ceil()
+        .clamp(64.0, 20_000.0) as usize;
+    let arc = |r: f64| -> Vec<(f64, f64)> {
+        (0..=steps)
+            .map(|k| {
+                let a = from + span * k as f64 / steps as f64;
+                (c.x + r * libm::cos(a), c.y + r * libm::sin(a))
+            })
+            .collect()
+    };
+    let edge = arc(s.radius);
+    let mut region = edge.clone();
+    if d > reach {
+        let inner = ((d - reach) * 0.99).clamp(0.0, s.radius);
+        region.extend(arc(inner).into_iter().rev());
+    }
+    (region, edge)
+}
+
+fn spheres(
+    chart: &mut Chart,
+    doc: &Document,
+    view: &View,
+    panel: (DVec2, f64),
+    path: &Path,
+) -> Result<()> {
     for s in &doc.scene.spheres {
         let col = RGBColor(
             (s.color.x * 255.0) as u8,
             (s.color.y * 255.0) as u8,
             (s.color.z * 255.0) as u8,
         );
-        let ctr = project(s.center_world);
-        let ring: Vec<(f64, f64)> = (0..=64)
-            .map(|k| {
-                let a = k as f64 / 64.0 * std::f64::consts::TAU;
-                (
-                    ctr.x + s.radius * libm::cos(a),
-                    ctr.y + s.radius * libm::sin(a),
-                )
-            })
-            .collect();
+        let (region, edge) = outline(s, view, panel);
         chart
-            .draw_series(std::iter::once(Polygon::new(ring.clone(), col.mix(0.35))))
+            .draw_series(std::iter::once(Polygon::new(region, col.mix(0.3))))
             .map_err(draw_error(path))?;
         chart
-            .draw_series(std::iter::once(PathElement::new(ring, col)))
+            .draw_series(std::iter::once(PathElement::new(edge, col)))
             .map_err(draw_error(path))?;
     }
     Ok(())
 }
 
 /// A frustum every `every` frames and at the last: lines from the COP through the window's
-/// corners, `reach` long.
+/// corners, `reach` long, the right edge (+u) drawn heavier.
 fn frustums(
     chart: &mut Chart,
     cams: &[Camera],
     every: u64,
     reach: f64,
-    project: Projection,
+    view: &View,
     path: &Path,
 ) -> Result<()> {
-    let pt = |p: DVec3| {
-        let q = project(p);
-        (q.x, q.y)
-    };
     for (k, cam) in cams.iter().enumerate() {
         if !(k as u64).is_multiple_of(every.max(1)) && k + 1 != cams.len() {
             continue;
@@ -167,68 +283,163 @@ fn frustums(
                 cop + (through - cop).normalize() * reach
             })
             .collect();
-        for corner in &corners {
+        for (i, corner) in corners.iter().enumerate() {
+            // Corners 1 and 2 are on the camera's right (+u).
+            let style = if i == 1 || i == 2 {
+                BLACK.stroke_width(2)
+            } else {
+                BLACK.mix(0.4).stroke_width(1)
+            };
             chart
                 .draw_series(std::iter::once(PathElement::new(
-                    vec![pt(cop), pt(*corner)],
-                    BLACK.mix(0.5),
+                    vec![view.project(cop), view.project(*corner)],
+                    style,
                 )))
                 .map_err(draw_error(path))?;
         }
-        let mut rim: Vec<(f64, f64)> = corners.iter().map(|p| pt(*p)).collect();
+        let mut rim: Vec<(f64, f64)> = corners.iter().map(|p| view.project(*p)).collect();
         rim.push(rim[0]);
         chart
-            .draw_series(std::iter::once(PathElement::new(rim, BLACK.mix(0.5))))
+            .draw_series(std::iter::once(PathElement::new(rim, BLACK.mix(0.4))))
             .map_err(draw_error(path))?;
     }
     Ok(())
 }
 
-/// The VRP's path, the keyframes and the targets, with the legend.
+/// The VRP's path with its start (and direction of travel) and end, the keyframes and the
+/// targets, the legend naming only what is drawn.
 fn path_and_keys<'a>(
     chart: &mut Chart<'a, 'a>,
     marks: &Marks,
-    project: Projection,
+    view: &View,
+    half: f64,
+    every: u64,
+    doc: &Document,
     path: &Path,
 ) -> Result<()> {
+    let err = draw_error(path);
     let line: Vec<(f64, f64)> = marks
         .cams
         .iter()
-        .map(|c| project(c.vrp_world))
-        .map(|p| (p.x, p.y))
+        .map(|c| view.project(c.vrp_world))
         .collect();
     chart
-        .draw_series(LineSeries::new(line, BLUE.stroke_width(2)))
-        .map_err(draw_error(path))?
+        .draw_series(LineSeries::new(line.clone(), BLUE.stroke_width(2)))
+        .map_err(&err)?
         .label("VRP path")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+    let (start, end) = (line[0], line[line.len() - 1]);
+    // The direction of travel at the start: towards the first VRP that differs enough.
+    let ahead = line
+        .iter()
+        .find(|p| (p.0 - start.0).hypot(p.1 - start.1) > half * 0.02)
+        .copied();
+    let start_color = RGBColor(0, 150, 0);
     chart
-        .draw_series(
-            marks
-                .keys
-                .iter()
-                .map(|k| project(*k))
-                .map(|p| Circle::new((p.x, p.y), 5, RED.filled())),
-        )
-        .map_err(draw_error(path))?
-        .label("keyframes")
-        .legend(|(x, y)| Circle::new((x + 10, y), 5, RED.filled()));
+        .draw_series(std::iter::once(Circle::new(start, 7, start_color.filled())))
+        .map_err(&err)?
+        .label(if ahead.is_some() {
+            "start, with the direction of travel"
+        } else {
+            "camera position (it does not move)"
+        })
+        .legend(move |(x, y)| Circle::new((x + 10, y), 6, start_color.filled()));
+    if let Some(p) = ahead {
+        let (dx, dy) = (p.0 - start.0, p.1 - start.1);
+        let len = dx.hypot(dy);
+        let (ux, uy) = (dx / len * half * 0.08, dy / len * half * 0.08);
+        let tip = (start.0 + ux, start.1 + uy);
+        let barb = |s: f64| {
+            (
+                tip.0 - ux * 0.35 - uy * 0.25 * s,
+                tip.1 - uy * 0.35 + ux * 0.25 * s,
+            )
+        };
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![start, tip, barb(1.0), tip, barb(-1.0)],
+                start_color.stroke_width(3),
+            )))
+            .map_err(&err)?;
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [
+                    (end.0 - half * 0.012, end.1 - half * 0.012),
+                    (end.0 + half * 0.012, end.1 + half * 0.012),
+                ],
+                BLACK.filled(),
+            )))
+            .map_err(&err)?
+            .label("end")
+            .legend(|(x, y)| Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], BLACK.filled()));
+    }
+    if !marks.keys.is_empty() {
+        chart
+            .draw_series(
+                marks
+                    .keys
+                    .iter()
+                    .map(|k| Circle::new(view.project(*k), 5, RED.filled())),
+            )
+            .map_err(&err)?
+            .label("Observer keyframes")
+            .legend(|(x, y)| Circle::new((x + 10, y), 5, RED.filled()));
+    }
+    if !marks.targets.is_empty() {
+        chart
+            .draw_series(
+                marks
+                    .targets
+                    .iter()
+                    .map(|t| Cross::new(view.project(*t), 6, GREEN.stroke_width(2))),
+            )
+            .map_err(&err)?
+            .label("target points (TP)")
+            .legend(|(x, y)| Cross::new((x + 10, y), 6, GREEN.stroke_width(2)));
+    }
+    // Legend entries for what has no series of its own.
+    let frustum_label =
+        format!("view frustum every {every} frame(s); heavy edges on the camera's right");
     chart
-        .draw_series(
-            marks
-                .targets
-                .iter()
-                .map(|t| project(*t))
-                .map(|p| Cross::new((p.x, p.y), 6, GREEN.stroke_width(2))),
-        )
-        .map_err(draw_error(path))?
-        .label("targets")
-        .legend(|(x, y)| Cross::new((x + 10, y), 6, GREEN.stroke_width(2)));
+        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+        .map_err(&err)?
+        .label(frustum_label)
+        .legend(|(x, y)| {
+            PathElement::new(vec![(x, y + 5), (x + 20, y - 5)], BLACK.stroke_width(2))
+        });
+    if !doc.scene.spheres.is_empty() {
+        chart
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+            .map_err(&err)?
+            .label("spheres, true size and colour")
+            .legend(|(x, y)| Circle::new((x + 10, y), 6, BLACK.mix(0.3).filled()));
+    }
+    // The legend goes in the corner farthest from the path.
+    let (x0, x1) = (chart.x_range().start, chart.x_range().end);
+    let (y0, y1) = (chart.y_range().start, chart.y_range().end);
+    let corners = [
+        ((x0, y1), SeriesLabelPosition::UpperLeft),
+        ((x1, y1), SeriesLabelPosition::UpperRight),
+        ((x0, y0), SeriesLabelPosition::LowerLeft),
+        ((x1, y0), SeriesLabelPosition::LowerRight),
+    ];
+    let clearance = |c: (f64, f64)| {
+        line.iter()
+            .map(|p| (p.0 - c.0).hypot(p.1 - c.1))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let corner = corners
+        .into_iter()
+        .max_by(|a, b| clearance(a.0).total_cmp(&clearance(b.0)))
+        .map(|c| c.1)
+        .expect("four corners");
     chart
         .configure_series_labels()
+        .position(corner)
+        .label_font(("sans-serif", 13))
         .border_style(BLACK)
-        .background_style(WHITE)
+        .background_style(WHITE.mix(0.85))
         .draw()
-        .map_err(draw_error(path))?;
+        .map_err(&err)?;
     Ok(())
 }

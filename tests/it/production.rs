@@ -413,3 +413,51 @@ fn a_terminal_gets_a_progress_bar() {
         "a terminal gets the bar, not lines"
     );
 }
+
+#[test]
+fn the_plot_from_above_agrees_with_the_frames_left_and_right() {
+    // A camera looking along +z with VUV = +y sees −x on its right (u = n × VUV): the magenta
+    // sphere at x = −3 is on the right of its frames, and must be right of the path in the plot.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("side.ron"),
+        "(frames: 3, image: (width: 64, height: 36), camera: (vpn: (0.0, 0.0, 1.0), window: (4.0, 2.25)),
+          animate: [Observer(keys: [(t: 0.0, value: (0.0, 0.0, -10.0)), (t: 0.1, value: (0.0, 0.0, -8.0))], interpolation: Linear)],
+          scene: (spheres: [(center: (-3.0, 0.0, 0.0), radius: 1.0, color: (1.0, 0.0, 1.0))]))",
+    )
+    .unwrap();
+    let o = campath(
+        tmp.path(),
+        &["render", "side.ron", "--frames", "0", "--quiet"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frame = image::open(tmp.path().join("out/side/frame_0000.png"))
+        .unwrap()
+        .to_rgb8();
+    let lit: Vec<u32> = frame
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.0 != [0, 0, 0])
+        .map(|(x, _, _)| x)
+        .collect();
+    assert!(
+        !lit.is_empty() && lit.iter().all(|x| *x > 32),
+        "the sphere is right of centre"
+    );
+    let o = campath(tmp.path(), &["plot", "side.ron", "--out", "plot.png"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plot = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
+    let mean_x = |rgb: [u8; 3]| {
+        let xs: Vec<u32> = (0..700)
+            .flat_map(|x| (0..700).map(move |y| (x, y)))
+            .filter(|&(x, y)| plot.get_pixel(x, y).0 == rgb)
+            .map(|(x, _)| x)
+            .collect();
+        assert!(xs.len() > 10, "{rgb:?} not drawn in the top view");
+        xs.iter().sum::<u32>() as f64 / xs.len() as f64
+    };
+    assert!(
+        mean_x([255, 0, 255]) > mean_x([0, 0, 255]) + 50.0,
+        "sphere right of the path"
+    );
+}
