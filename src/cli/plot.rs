@@ -27,6 +27,9 @@ use campath::scene::Sphere;
 type Chart<'a, 'b> =
     ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
+/// Page points of a line or a region.
+type Points = Vec<(f64, f64)>;
+
 /// Pixels of the whole picture.
 pub const SIZE: (u32, u32) = (1400, 700);
 
@@ -191,11 +194,7 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
 /// scale. A sphere that holds the whole panel fills it; one whose centre is far from the panel
 /// is drawn only near the panel: an arc of its outline, closed into a region by a concentric arc
 /// nearer the centre than any point of the panel.
-fn outline(
-    s: &Sphere,
-    view: &View,
-    (centre, half): (DVec2, f64),
-) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+fn outline(s: &Sphere, view: &View, (centre, half): (DVec2, f64)) -> (Points, Points) {
     let c = view.project(s.center_world);
     let c = DVec2::new(c.0, c.1);
     let to_panel = centre - c;
