@@ -148,46 +148,71 @@ pub fn renderer_table(rows: &[Measured]) -> String {
     t
 }
 
-/// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG.
+/// Whole decades around `lo..hi` (positive), as exponents.
+fn decades(lo: f64, hi: f64) -> (f64, f64) {
+    let (a, b) = (libm::floor(libm::log10(lo)), libm::ceil(libm::log10(hi)));
+    (a, if b > a { b } else { a + 1.0 })
+}
+
+/// `10^e` written plainly: 0.01, 0.1, 1, 10, 100.
+fn power_label(e: f64) -> String {
+    let v = libm::pow(10.0, e);
+    if e < 0.0 {
+        format!("{v:.*}", (-e) as usize)
+    } else {
+        format!("{v:.0}")
+    }
+}
+
+/// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG: ticks
+/// and grid lines at every decade, each point labelled beside its marker, labels moved apart
+/// where they would overlap.
 pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
-    draw_png(path, (900, 600), |root| {
-        let draw_err = draw_error(path);
-        let floor = 1e-3;
-        let (tmin, tmax) = rows.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
+    let floor = 1e-3;
+    let point = |r: &Measured| {
+        (
+            libm::log10(r.secs * 1e3),
+            libm::log10(r.rmse_levels.max(floor)),
+        )
+    };
+    let (tmin, tmax) = rows
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
             (a.min(r.secs * 1e3), b.max(r.secs * 1e3))
         });
-        let (emin, emax) = rows.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
-            (
-                a.min(r.rmse_levels.max(floor)),
-                b.max(r.rmse_levels.max(floor)),
-            )
+    let (emin, emax) = rows
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
+            let e = r.rmse_levels.max(floor);
+            (a.min(e), b.max(e))
         });
+    let (x0, x1) = decades(tmin, tmax);
+    let (y0, y1) = decades(emin, emax);
+    draw_png(path, (900, 600), |root| {
+        let draw_err = draw_error(path);
         let mut chart = ChartBuilder::on(&root)
             .caption(
-                "Error against run time (reference: 16×16 samples)",
-                ("sans-serif", 24),
+                "Error against run time (reference: 16×16 samples per pixel)",
+                ("sans-serif", 22),
             )
             .margin(20)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(
-                (tmin * 0.7..tmax * 1.4).log_scale(),
-                (emin * 0.7..emax * 1.4).log_scale(),
-            )
+            .x_label_area_size(55)
+            .y_label_area_size(75)
+            .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(&draw_err)?;
         chart
             .configure_mesh()
-            .x_desc("median time per frame (ms)")
-            .y_desc("RMSE (8-bit levels)")
-            .x_labels(8)
-            .y_labels(8)
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| format!("{v:.2}"))
+            .x_desc("median render time per frame (ms, log scale)")
+            .y_desc("RMSE against the reference (8-bit levels, log scale)")
+            .x_labels((x1 - x0) as usize + 1)
+            .y_labels((y1 - y0) as usize + 1)
+            .x_label_formatter(&|v| power_label(*v))
+            .y_label_formatter(&|v| power_label(*v))
+            .light_line_style(WHITE)
             .label_style(("sans-serif", 16))
             .draw()
             .map_err(&draw_err)?;
-        let point = |r: &Measured| (r.secs * 1e3, r.rmse_levels.max(floor));
         let plain: Vec<_> = rows
             .iter()
             .filter(|r| !r.label.contains("adaptive"))
@@ -198,7 +223,10 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .filter(|r| r.label.contains("adaptive"))
             .map(point)
             .collect();
-        for (series, color, name) in [(plain, BLUE, "full grid"), (adaptive, RED, "adaptive")] {
+        for (series, color, name) in [
+            (plain, BLUE, "full s×s grid"),
+            (adaptive, RED, "adaptive (corners first)"),
+        ] {
             chart
                 .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
                 .map_err(&draw_err)?
@@ -210,18 +238,32 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
                 .draw_series(series.iter().map(|p| Circle::new(*p, 5, color.filled())))
                 .map_err(&draw_err)?;
         }
+        // Labels right of their markers; a label that would overlap one placed before moves
+        // down a line at a time.
+        let mut placed: Vec<(i32, i32, i32)> = Vec::new(); // (x, y, width) in pixels
         for r in rows {
-            let (x, y) = point(r);
+            let text = r.label.replace("samples ", "s=");
+            let (px, py) = chart.backend_coord(&point(r));
+            let width = 8 * text.chars().count() as i32;
+            let (mut x, mut y) = (px + 9, py - 18);
+            while placed
+                .iter()
+                .any(|(ox, oy, ow)| (y - oy).abs() < 16 && x < ox + ow && *ox < x + width)
+            {
+                y += 16;
+            }
+            placed.push((x, y, width));
+            x -= px;
+            y -= py;
             chart
-                .draw_series(std::iter::once(Text::new(
-                    r.label.replace("samples ", "s="),
-                    (x, y),
-                    ("sans-serif", 14),
-                )))
+                .draw_series(std::iter::once(
+                    EmptyElement::at(point(r)) + Text::new(text, (x, y), ("sans-serif", 14)),
+                ))
                 .map_err(&draw_err)?;
         }
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
             .border_style(BLACK)
             .background_style(WHITE)
             .draw()
