@@ -46,5 +46,5 @@ pub fn draw_png(
         draw(root.clone())?;
         root.present().map_err(draw_error(path))?;
     }
-    Ok(write_png(path, &buf, size, Compression::Default)?)
+    Ok(write_png(path, &buf, size, Compression::Fast)?)
 }

@@ -11,6 +11,7 @@ mod preview;
 mod report;
 mod verbs;
 mod verify;
+mod watch;
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -153,6 +154,17 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
+    /// it and reloads its pictures; Ctrl-C stops.
+    Watch {
+        file: PathBuf,
+        /// Where the preview and its page go [default: out/<file stem>-watch/].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Width of the small frames in pixels (at most the file's width).
+        #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=16384))]
+        width: u32,
+    },
     /// Print a shell completion script: `campath completions bash > /etc/bash_completion.d/campath`.
     Completions {
         #[arg(value_enum)]
@@ -199,7 +211,8 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
             let width = width.unwrap_or(doc.raster.width.min(240));
             let count = count.unwrap_or(doc.animation.frames.min(12));
-            let (png, gif) = preview::write(&doc, &dir, width, count)?;
+            let (png, gif) = preview::write(&doc, &dir, width, count, true)?;
+            let gif = gif.expect("asked for the GIF");
             writeln!(out, "wrote {} and {}", png.display(), gif.display())
                 .map_err(Error::stdout)?;
         }
@@ -253,6 +266,16 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             scenes,
             json,
         } => bench::command(&dir, pov_frames, &scenes, json, out)?,
+        Command::Watch {
+            file,
+            out: dir,
+            width,
+        } => {
+            let dir = dir.unwrap_or_else(|| {
+                PathBuf::from(format!("{}-watch", default_out_dir(&file).display()))
+            });
+            watch::run(&file, &dir, width, out)?
+        }
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             // clap_complete panics on a failed write: generate into memory first.

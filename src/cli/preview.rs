@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use super::error::{CliError, Result};
 use campath::document::Document;
 use campath::frames::{for_each_frame, FrameSet};
-use campath::output::{write_png, Compression};
+use campath::output::{write_png_atomic, Compression};
 use campath::render::Raster;
 use campath::Error;
 
@@ -39,10 +39,17 @@ pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
     (0..count).map(|k| k * (frames - 1) / (count - 1)).collect()
 }
 
-/// Writes `dir/preview.png` (a sheet of `count` frames) and `dir/preview.gif`; returns both paths.
+/// Writes `dir/preview.png` (a sheet of `count` frames) and, with `gif`, `dir/preview.gif`
+/// (which renders every frame); returns the paths.
 ///
 /// `width` is 1 to the file's width, `count` 1 to the file's frame count.
-pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(PathBuf, PathBuf)> {
+pub fn write(
+    doc: &Document,
+    dir: &Path,
+    width: u32,
+    count: u64,
+    gif: bool,
+) -> Result<(PathBuf, Option<PathBuf>)> {
     let frames = doc.animation.frames;
     if !(1..=doc.raster.width).contains(&width) {
         return Err(CliError::Usage(format!(
@@ -77,7 +84,7 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
     for_each_frame(
         &small,
         &FrameSet::all(0..frames),
-        |_| false,
+        |frame| !gif && !sheet_at.contains(&frame),
         |frame, _, pixels| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = (
@@ -91,7 +98,7 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
                         .copy_from_slice(&pixels[src..src + (w * 3) as usize]);
                 }
             }
-            if frame % step == 0 {
+            if gif && frame % step == 0 {
                 let rgba: Vec<u8> = pixels
                     .chunks(3)
                     .flat_map(|p| [p[0], p[1], p[2], 255])
@@ -104,7 +111,10 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
         },
     )?;
     let png = dir.join("preview.png");
-    write_png(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
+    write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
+    if !gif {
+        return Ok((png, None));
+    }
     let gif = dir.join("preview.gif");
     let file = std::fs::File::create(&gif).map_err(Error::write(gif.clone()))?;
     let mut encoder =
@@ -113,5 +123,5 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64) -> Result<(Path
         .set_repeat(image::codecs::gif::Repeat::Infinite)
         .and_then(|_| encoder.encode_frames(gif_frames))
         .map_err(Error::encode(gif.clone()))?;
-    Ok((png, gif))
+    Ok((png, Some(gif)))
 }

@@ -12,3 +12,4 @@ mod incremental;
 mod modes;
 mod povray;
 mod production;
+mod watch;

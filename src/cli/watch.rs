@@ -1,0 +1,231 @@
+//! `campath watch`: check the file and re-render a small preview on every save, with a page that
+//! shows it and reloads its pictures when they change.
+//!
+//! The folder holds `preview.png` (contact sheet), `plot.png`, `first.png`, `middle.png`,
+//! `last.png`, `preview.html` and `status.js`. The page works from `file://`: every half second
+//! it loads `status.js` again (a script, which a local page may load, where it may not fetch),
+//! and reloads the pictures when the version of the last good preview changes. An invalid save
+//! prints its error, shows it on the page, and leaves the last good preview in place.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use notify::{EventKind, RecursiveMode, Watcher};
+
+use super::error::{CliError, Result};
+use super::{plot, preview};
+use campath::document::Document;
+use campath::frames::render_frame;
+use campath::output::{write_atomic, write_png_atomic, Compression};
+use campath::Error;
+
+/// What the page reads from `status.js`.
+#[derive(serde::Serialize)]
+struct Status {
+    /// Counts every check, good or bad.
+    version: u64,
+    /// The version of the preview on disk (0: none yet).
+    good: u64,
+    /// The last check's error, if it failed.
+    error: Option<String>,
+    /// Milliseconds the last good preview took, from the save.
+    ms: u64,
+    /// The frames shown as first, middle and last.
+    frames: [u64; 3],
+}
+
+/// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide.
+pub fn run(file: &Path, dir: &Path, width: u32, out: &mut dyn Write) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
+    let name = file
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
+    write_atomic(&dir.join("preview.html"), &page(&name.to_string_lossy()))?;
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
+        tool: "ctrlc",
+        package: "campath",
+        message: format!("cannot catch Ctrl-C: {e}"),
+    })?;
+    let (tx, rx) = mpsc::channel();
+    let mut watcher = notify::recommended_watcher(tx).map_err(|e| watch_error(file, e))?;
+    // The folder, not the file: editors often save by writing a new file and renaming it.
+    let folder = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    watcher
+        .watch(&folder, RecursiveMode::NonRecursive)
+        .map_err(|e| watch_error(file, e))?;
+
+    let page = dir.join("preview.html");
+    writeln!(out, "watching {}; open {}", file.display(), page.display()).map_err(Error::stdout)?;
+    let mut status = Status {
+        version: 0,
+        good: 0,
+        error: None,
+        ms: 0,
+        frames: [0; 3],
+    };
+    update(file, dir, width, Instant::now(), &mut status, out)?;
+    while !stop.load(Ordering::SeqCst) {
+        let Ok(event) = rx.recv_timeout(Duration::from_millis(100)) else {
+            continue;
+        };
+        let saved = Instant::now();
+        let ours = event.is_ok_and(|e| {
+            matches!(e.kind, EventKind::Create(_) | EventKind::Modify(_))
+                && e.paths.iter().any(|p| p.file_name() == Some(&*name))
+        });
+        if ours {
+            // A save is often several events: let them settle, then render once.
+            std::thread::sleep(Duration::from_millis(30));
+            while rx.try_recv().is_ok() {}
+            update(file, dir, width, saved, &mut status, out)?;
+        }
+    }
+    writeln!(out, "stopped").map_err(Error::stdout)?;
+    Ok(())
+}
+
+fn watch_error(file: &Path, e: notify::Error) -> CliError {
+    CliError::Tool {
+        tool: "notify",
+        package: "campath",
+        message: format!("cannot watch {}: {e}", file.display()),
+    }
+}
+
+/// Checks the file and renders the preview; an invalid file is reported, not fatal.
+fn update(
+    file: &Path,
+    dir: &Path,
+    width: u32,
+    saved: Instant,
+    status: &mut Status,
+    out: &mut dyn Write,
+) -> Result<()> {
+    status.version += 1;
+    match render(file, dir, width) {
+        Ok(frames) => {
+            status.good = status.version;
+            status.error = None;
+            status.frames = frames;
+            status.ms = saved.elapsed().as_millis() as u64;
+            writeln!(out, "updated the preview in {} ms", status.ms).map_err(Error::stdout)?;
+        }
+        // I/O trouble in the output folder ends the watch; anything about the file is shown.
+        Err(CliError::Campath(e @ Error::Write { .. })) => return Err(e.into()),
+        Err(e) => {
+            eprintln!("campath: error: {e}");
+            status.error = Some(e.to_string());
+        }
+    }
+    let json = serde_json::to_string(status).expect("plain values serialise");
+    write_atomic(
+        &dir.join("status.js"),
+        &format!("window.campathStatus = {json};\n"),
+    )?;
+    Ok(())
+}
+
+/// The preview of the file as it is now; returns the frames shown as first, middle and last.
+fn render(file: &Path, dir: &Path, width: u32) -> Result<[u64; 3]> {
+    let doc = Document::load(file)?;
+    doc.check_path()?;
+    let frames = doc.animation.frames;
+    let width = width.clamp(1, doc.raster.width);
+    preview::write(&doc, dir, width, frames.min(12), false)?;
+    plot::write(&doc, &dir.join("plot.png"), (frames / 8).max(1))?;
+    let small = Document {
+        raster: preview::small_raster(&doc, width),
+        ..doc.clone()
+    };
+    let shown = [0, (frames - 1) / 2, frames - 1];
+    for (name, frame) in ["first", "middle", "last"].iter().zip(shown) {
+        let pixels = render_frame(&small, frame)?;
+        let size = (small.raster.width, small.raster.height);
+        write_png_atomic(
+            &dir.join(format!("{name}.png")),
+            &pixels,
+            size,
+            Compression::Fast,
+        )?;
+    }
+    Ok(shown)
+}
+
+/// The page: the pictures, the file's error if the last save was invalid, and the polling.
+fn page(name: &str) -> String {
+    let name = name
+        .replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;");
+    format!(
+        r#"<!doctype html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>campath watch: {name}</title>
+<style>
+  body {{ font-family: sans-serif; margin: 1em 2em; background: #f6f6f6; color: #222; }}
+  h1 {{ font-size: 1.4em; }} h2 {{ font-size: 1.1em; margin-top: 1.5em; }}
+  .row {{ display: flex; gap: 1em; flex-wrap: wrap; }}
+  figure {{ margin: 0; }} figcaption {{ font-size: 0.9em; color: #555; }}
+  img {{ max-width: 100%; border: 1px solid #ccc; background: #fff; }}
+  #error {{ display: none; background: #b00020; color: #fff; padding: 0.6em 1em; white-space: pre-wrap; font-family: monospace; }}
+  #status {{ color: #555; }}
+</style>
+</head>
+<body>
+<h1>campath watch: {name}</h1>
+<p id="status">waiting for the first preview…</p>
+<div id="error"></div>
+<h2>First, middle and last frame</h2>
+<div class="row">
+  <figure><img data-src="first.png" src="first.png" alt="first frame"><figcaption id="cap-first">first frame</figcaption></figure>
+  <figure><img data-src="middle.png" src="middle.png" alt="middle frame"><figcaption id="cap-middle">middle frame</figcaption></figure>
+  <figure><img data-src="last.png" src="last.png" alt="last frame"><figcaption id="cap-last">last frame</figcaption></figure>
+</div>
+<h2>Contact sheet</h2>
+<img data-src="preview.png" src="preview.png" alt="contact sheet">
+<h2>Camera path</h2>
+<img data-src="plot.png" src="plot.png" alt="camera path from above and from the side">
+<script>
+  let shown = -1;
+  function apply(s) {{
+    const error = document.getElementById("error");
+    error.style.display = s.error ? "block" : "none";
+    error.textContent = s.error ? "The last save is invalid; showing the last good preview.\n" + s.error : "";
+    if (s.good === 0) return;
+    document.getElementById("status").textContent =
+      "preview " + s.good + ", rendered " + s.ms + " ms after the save";
+    ["first", "middle", "last"].forEach((k, i) =>
+      document.getElementById("cap-" + k).textContent = k + " frame (" + s.frames[i] + ")");
+    if (s.good !== shown) {{
+      shown = s.good;
+      document.querySelectorAll("img[data-src]").forEach(img => img.src = img.dataset.src + "?v=" + s.good);
+    }}
+  }}
+  function poll() {{
+    const script = document.createElement("script");
+    script.src = "status.js?t=" + Date.now();
+    script.onload = () => {{ script.remove(); if (window.campathStatus) apply(window.campathStatus); }};
+    script.onerror = () => script.remove();
+    document.head.appendChild(script);
+  }}
+  poll();
+  setInterval(poll, 500);
+</script>
+</body>
+</html>
+"#
+    )
+}

@@ -1,0 +1,122 @@
+//! `campath watch`: a save re-renders the preview within 2 s, a broken save shows its error and
+//! keeps the watcher and the last good preview, Ctrl-C exits 0, and the page shows the pictures
+//! in headless Chromium.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::common::have_tool;
+
+const FILE: &str = "(frames: 6, fps: 6.0, image: (width: 64, height: 36),
+    camera: (vrp: (0.0, 1.0, -6.0), tp: (0.0, 0.0, 0.0), window: (1.6, 0.9)),
+    animate: [Observer(keys: [(t: 0.0, value: (0.0, 1.0, -6.0)), (t: 1.0, value: (2.0, 1.0, -5.0))])],
+    scene: (lights: [(direction: (-1.0, -2.0, 1.0))], spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0, color: (0.9, 0.2, 0.2))]))";
+
+/// The page's status, once `status.js` says `want` holds for it.
+fn wait_status(
+    dir: &Path,
+    limit: Duration,
+    want: impl Fn(&serde_json::Value) -> bool,
+) -> serde_json::Value {
+    let started = Instant::now();
+    loop {
+        if let Ok(text) = std::fs::read_to_string(dir.join("status.js")) {
+            let json = text
+                .trim()
+                .trim_start_matches("window.campathStatus = ")
+                .trim_end_matches(';');
+            if let Ok(v) = serde_json::from_str::<serde_json::Value>(json) {
+                if want(&v) {
+                    return v;
+                }
+            }
+        }
+        assert!(started.elapsed() < limit, "no such status within {limit:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("w.ron"), FILE).unwrap();
+    let page = tmp.path().join("page");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(tmp.path())
+        .args(["watch", "w.ron", "--out", "page", "--width", "48"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_status(&page, Duration::from_secs(30), |s| s["good"] == 1);
+    let first = std::fs::read(page.join("first.png")).unwrap();
+
+    // A save: the sphere turns blue.
+    let saved = Instant::now();
+    std::fs::write(
+        tmp.path().join("w.ron"),
+        FILE.replace("color: (0.9, 0.2, 0.2)", "color: (0.2, 0.2, 0.9)"),
+    )
+    .unwrap();
+    wait_status(&page, Duration::from_secs(2), |s| s["good"] == 2);
+    let took = saved.elapsed();
+    assert!(took < Duration::from_secs(2), "{took:?}");
+    assert_ne!(std::fs::read(page.join("first.png")).unwrap(), first);
+    eprintln!("watch: save to new preview in {} ms", took.as_millis());
+
+    // A broken save: the error is shown, the last good preview stays, the watcher runs on.
+    std::fs::write(
+        tmp.path().join("w.ron"),
+        "(frames: 6,\n  camera: (vpn: (0.0, 0.0 1.0)))",
+    )
+    .unwrap();
+    let s = wait_status(&page, Duration::from_secs(5), |s| s["version"] == 3);
+    assert_eq!(s["good"], 2);
+    assert!(s["error"].as_str().unwrap().contains("w.ron:2:"), "{s}");
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(child.try_wait().unwrap().is_none(), "the watcher stopped");
+
+    if have_tool("chromium", "chromium") {
+        let shot = tmp.path().join("shot.png");
+        let url = format!("file://{}", page.join("preview.html").display());
+        let o = Command::new("chromium")
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                &format!("--user-data-dir={}", tmp.path().join("chrome").display()),
+                "--window-size=1300,2400",
+                "--virtual-time-budget=3000",
+                &format!("--screenshot={}", shot.display()),
+                &url,
+            ])
+            .output()
+            .unwrap();
+        let img = image::open(&shot)
+            .unwrap_or_else(|e| {
+                panic!(
+                    "no screenshot ({e}): {}",
+                    String::from_utf8_lossy(&o.stderr)
+                )
+            })
+            .to_rgb8();
+        let count = |rgb: [u8; 3]| img.pixels().filter(|p| p.0 == rgb).count();
+        // The plot's blue VRP path and the error banner of the broken save are on the page.
+        assert!(count([0, 0, 255]) > 100, "the plot is not shown");
+        assert!(count([176, 0, 32]) > 1000, "the error banner is not shown");
+    }
+
+    // Ctrl-C ends it with status 0.
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+}
