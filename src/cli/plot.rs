@@ -322,17 +322,19 @@ fn path_and_keys<'a>(
         .iter()
         .map(|c| view.project(c.vrp_world))
         .collect();
-    chart
-        .draw_series(LineSeries::new(line.clone(), BLUE.stroke_width(2)))
-        .map_err(&err)?
-        .label("VRP path")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
     let (start, end) = (line[0], line[line.len() - 1]);
     // The direction of travel at the start: towards the first VRP that differs enough.
     let ahead = line
         .iter()
         .find(|p| (p.0 - start.0).hypot(p.1 - start.1) > half * 0.02)
         .copied();
+    if ahead.is_some() {
+        chart
+            .draw_series(LineSeries::new(line.clone(), BLUE.stroke_width(2)))
+            .map_err(&err)?
+            .label("VRP path")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+    }
     let start_color = RGBColor(0, 150, 0);
     chart
         .draw_series(std::iter::once(Circle::new(start, 7, start_color.filled())))
