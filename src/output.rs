@@ -107,6 +107,8 @@ pub fn is_ours(name: &str) -> bool {
     let base = name.strip_suffix(".tmp").unwrap_or(name);
     frame_of(base).is_some()
         || manifest::part_of(base).is_some()
+        || base.ends_with(".mp4")
+        || base.ends_with(".mkv")
         || [
             "hashes.txt",
             "report.png",

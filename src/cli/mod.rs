@@ -11,6 +11,7 @@ mod preview;
 mod report;
 mod verbs;
 mod verify;
+mod video;
 mod watch;
 
 use std::io::Write;
@@ -154,6 +155,23 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
+    /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt.
+    Video {
+        file: PathBuf,
+        /// The video [default: out/<file stem>/<file stem>.mp4, or .mkv with --lossless].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Lossless RGB (FFV1 in Matroska): decoded frames hash exactly to hashes.txt.
+        #[arg(long)]
+        lossless: bool,
+        /// H.264 quality: 0 (best, largest) to 51 (worst); 18 looks lossless to most eyes.
+        #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51), conflicts_with = "lossless")]
+        crf: u8,
+        /// Print nothing.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
     /// it and reloads its pictures; Ctrl-C stops.
     Watch {
@@ -266,6 +284,23 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             scenes,
             json,
         } => bench::command(&dir, pov_frames, &scenes, json, out)?,
+        Command::Video {
+            file,
+            out: video,
+            lossless,
+            crf,
+            quiet,
+        } => video::run(
+            video::VideoArgs {
+                frames_dir: default_out_dir(&file),
+                file,
+                out: video,
+                lossless,
+                crf,
+                quiet,
+            },
+            out,
+        )?,
         Command::Watch {
             file,
             out: dir,

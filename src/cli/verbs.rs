@@ -111,8 +111,8 @@ fn render_line(doc: &Document, dir: &Path, s: &RenderSummary) -> String {
     line
 }
 
-/// How `render` reports progress on standard error.
-enum Progress {
+/// How `render` (and `video`) report progress on standard error.
+pub enum Progress {
     /// Nothing at all, not even the summary.
     Quiet,
     /// A line per finished frame (for logs and pipes).
@@ -122,7 +122,7 @@ enum Progress {
 }
 
 impl Progress {
-    fn new(quiet: bool) -> Progress {
+    pub fn new(quiet: bool) -> Progress {
         if quiet {
             Progress::Quiet
         } else if std::io::stderr().is_terminal() {
@@ -132,7 +132,7 @@ impl Progress {
         }
     }
 
-    fn event(&mut self, e: Event) {
+    pub fn event(&mut self, e: Event) {
         match (self, e) {
             (Progress::Bar(bar), Event::Start { frames, kept }) => {
                 let style = indicatif::ProgressStyle::with_template(
@@ -158,7 +158,7 @@ impl Progress {
         }
     }
 
-    fn finish(self) {
+    pub fn finish(self) {
         if let Progress::Bar(Some(bar)) = self {
             bar.finish_and_clear();
         }

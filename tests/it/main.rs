@@ -12,4 +12,5 @@ mod incremental;
 mod modes;
 mod povray;
 mod production;
+mod video;
 mod watch;

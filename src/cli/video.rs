@@ -1,0 +1,218 @@
+//! `campath video`: the sequence as a video, encoded by ffmpeg from raw RGB frames on a pipe.
+//!
+//! The frames are rendered first into the render folder (keeping those still valid), so the
+//! video holds exactly the frames of `hashes.txt`: each PNG is decoded and checked against its
+//! manifest hash on the way to ffmpeg. H.264 in MP4 (yuv420p, playable by browsers and phones)
+//! by default; `--lossless` writes FFV1 RGB in Matroska, whose decoded frames hash to the
+//! manifest's hashes. The video is written under a temporary name and renamed when ffmpeg has
+//! finished, so a killed encode leaves no video under the final name.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use super::error::{CliError, Result};
+use super::verbs::Progress;
+use campath::document::Document;
+use campath::frames::FrameSet;
+use campath::manifest::Manifest;
+use campath::output::{frame_hash, frame_path};
+use campath::sequence::{self, Event, RenderOptions};
+use campath::Error;
+
+/// The options of `campath video`.
+pub struct VideoArgs {
+    pub file: PathBuf,
+    /// The render folder the frames go into first.
+    pub frames_dir: PathBuf,
+    /// The video [default: the render folder's `<stem>.mp4`, or `.mkv` with `lossless`].
+    pub out: Option<PathBuf>,
+    pub lossless: bool,
+    /// H.264 constant rate factor, 0 (best) to 51.
+    pub crf: u8,
+    pub quiet: bool,
+}
+
+fn ffmpeg_missing(e: std::io::Error) -> CliError {
+    CliError::missing("ffmpeg", "ffmpeg", e)
+}
+
+pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
+    let started = Instant::now();
+    let doc = Document::load(&a.file)?;
+    // Before rendering anything: is there an ffmpeg to hand the frames to?
+    Command::new("ffmpeg")
+        .arg("-version")
+        .stdout(Stdio::null())
+        .status()
+        .map_err(ffmpeg_missing)?;
+    let stem = a
+        .file
+        .file_stem()
+        .map_or_else(|| "video".into(), |s| s.to_string_lossy().into_owned());
+    let ext = if a.lossless { "mkv" } else { "mp4" };
+    let video = a
+        .out
+        .clone()
+        .unwrap_or_else(|| a.frames_dir.join(format!("{stem}.{ext}")));
+    super::args::create_parent(&video)?;
+
+    let total = doc.animation.frames;
+    let mut progress = Progress::new(a.quiet);
+    let set = FrameSet::all(0..total);
+    let options = RenderOptions::default();
+    sequence::render(&doc, &a.frames_dir, &set, options, &mut |e| {
+        progress.event(e)
+    })?;
+    progress.finish();
+
+    let manifest_path = a.frames_dir.join("hashes.txt");
+    let manifest = Manifest::read_lenient(&manifest_path);
+    let hashes: std::collections::BTreeMap<u64, String> = manifest
+        .entries
+        .into_iter()
+        .map(|e| (e.frame, e.hash))
+        .collect();
+    let mut tmp = video.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    let mut child = Command::new("ffmpeg")
+        .args(ffmpeg_args(&doc, a.lossless, a.crf))
+        .arg(&tmp)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(ffmpeg_missing)?;
+    let mut stdin = child.stdin.take().expect("piped");
+    let mut progress = Progress::new(a.quiet);
+    progress.event(Event::Start {
+        frames: total,
+        kept: 0,
+    });
+    let fed = feed(&a.frames_dir, total, &hashes, &mut stdin, &mut progress);
+    drop(stdin);
+    progress.finish();
+    let result = child.wait_with_output().map_err(ffmpeg_missing)?;
+    // ffmpeg's own failure explains a pipe it stopped reading.
+    if let Err(e) = encoder_status(&result).and(fed) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    std::fs::rename(&tmp, &video).map_err(Error::write(&video))?;
+    if !a.quiet {
+        let what = if a.lossless {
+            "FFV1 lossless RGB".to_string()
+        } else {
+            format!("H.264 yuv420p, crf {}", a.crf)
+        };
+        writeln!(
+            out,
+            "wrote {} ({total} frame(s) of {}×{} at {} fps, {what}) in {:.2} s",
+            video.display(),
+            doc.raster.width,
+            doc.raster.height,
+            doc.animation.fps,
+            started.elapsed().as_secs_f64()
+        )
+        .map_err(Error::stdout)?;
+    }
+    Ok(())
+}
+
+/// ffmpeg's arguments, up to the output path: raw RGB frames on standard input.
+fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
+    let mut args: Vec<String> = [
+        "-hide_banner",
+        "-loglevel",
+        "error",
+        "-y",
+        "-f",
+        "rawvideo",
+        "-pix_fmt",
+        "rgb24",
+        "-video_size",
+    ]
+    .map(String::from)
+    .to_vec();
+    args.push(format!("{}x{}", doc.raster.width, doc.raster.height));
+    args.push("-framerate".into());
+    args.push(doc.animation.fps.to_string());
+    args.extend(["-i", "-", "-an"].map(String::from));
+    let codec: &[&str] = if lossless {
+        // FFV1 stores RGB exactly; bgr0 is its packed RGB input.
+        &[
+            "-c:v", "ffv1", "-level", "3", "-pix_fmt", "bgr0", "-f", "matroska",
+        ]
+    } else {
+        // yuv420p needs even sides: pad odd ones by a pixel.
+        &[
+            "-c:v",
+            "libx264",
+            "-pix_fmt",
+            "yuv420p",
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "-movflags",
+            "+faststart",
+            "-f",
+            "mp4",
+        ]
+    };
+    args.extend(codec.iter().map(|s| s.to_string()));
+    if !lossless {
+        args.push("-crf".into());
+        args.push(crf.to_string());
+    }
+    args
+}
+
+/// Decodes every frame's PNG, checks it against the manifest, and writes its RGB to ffmpeg.
+fn feed(
+    dir: &Path,
+    total: u64,
+    hashes: &std::collections::BTreeMap<u64, String>,
+    stdin: &mut impl Write,
+    progress: &mut Progress,
+) -> Result<()> {
+    for frame in 0..total {
+        let path = frame_path(dir, frame, total);
+        let pixels = image::open(&path)
+            .map_err(Error::encode(&path))?
+            .to_rgb8()
+            .into_raw();
+        if hashes.get(&frame) != Some(&frame_hash(&pixels)) {
+            return Err(Error::Manifest {
+                path: dir.join("hashes.txt"),
+                message: format!("frame {frame}: {} does not match its hash", path.display()),
+            }
+            .into());
+        }
+        if let Err(e) = stdin.write_all(&pixels) {
+            // ffmpeg stopped reading: its own message says why.
+            return Err(CliError::Tool {
+                tool: "ffmpeg",
+                package: "ffmpeg",
+                message: format!("stopped reading frames at frame {frame} ({e})"),
+            });
+        }
+        progress.event(Event::Written(frame));
+    }
+    Ok(())
+}
+
+fn encoder_status(result: &std::process::Output) -> Result<()> {
+    if result.status.success() {
+        return Ok(());
+    }
+    Err(CliError::Tool {
+        tool: "ffmpeg",
+        package: "ffmpeg",
+        message: format!(
+            "failed ({}): {}",
+            result.status,
+            String::from_utf8_lossy(&result.stderr).trim()
+        ),
+    })
+}

@@ -1,0 +1,130 @@
+//! `campath video`: the lossless video decodes (by ffmpeg) to exactly the frames of hashes.txt;
+//! ffprobe reads the default MP4's frame count, rate and duration; without ffmpeg the error names
+//! the package.
+
+use std::path::Path;
+use std::process::Command;
+
+use crate::common::{campath, have_tool, root, stderr};
+use campath::output::frame_hash;
+
+/// The zoom example at 96×54 (odd-free) or 95×53 (odd sides, which H.264 pads).
+fn example(dir: &Path, size: &str) -> String {
+    let text = std::fs::read_to_string(root().join("animations/zoom.ron")).unwrap();
+    std::fs::write(
+        dir.join("zoom.ron"),
+        text.replace("width: 640, height: 360", size),
+    )
+    .unwrap();
+    "zoom.ron".into()
+}
+
+#[test]
+fn the_lossless_video_decodes_to_the_frames_of_hashes_txt() {
+    if !have_tool("ffmpeg", "ffmpeg") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 96, height: 54");
+    let o = campath(tmp.path(), &["video", &f, "--lossless", "--quiet"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mkv = tmp.path().join("out/zoom/zoom.mkv");
+    let raw = Command::new("ffmpeg")
+        .args(["-v", "error", "-i"])
+        .arg(&mkv)
+        .args(["-f", "rawvideo", "-pix_fmt", "rgb24", "-"])
+        .output()
+        .unwrap();
+    assert!(
+        raw.status.success(),
+        "{}",
+        String::from_utf8_lossy(&raw.stderr)
+    );
+    let manifest = std::fs::read_to_string(tmp.path().join("out/zoom/hashes.txt")).unwrap();
+    let want: Vec<&str> = manifest
+        .lines()
+        .map(|l| l.split(' ').nth(1).unwrap())
+        .collect();
+    let got: Vec<String> = raw.stdout.chunks(96 * 54 * 3).map(frame_hash).collect();
+    assert_eq!(want.len(), 72);
+    assert_eq!(got, want);
+    // A second run keeps every frame and encodes again.
+    let o = campath(tmp.path(), &["video", &f, "--lossless"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn the_default_mp4_has_the_right_frames_rate_and_duration() {
+    if !have_tool("ffmpeg", "ffmpeg") || !have_tool("ffprobe", "ffmpeg") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 95, height: 53");
+    let o = campath(
+        tmp.path(),
+        &["video", &f, "--quiet", "--out", "clip.mp4"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let probe = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-count_frames"])
+        .args([
+            "-show_entries",
+            "stream=nb_read_frames,r_frame_rate,width,height,pix_fmt,codec_name",
+        ])
+        .args(["-show_entries", "format=duration", "-of", "json"])
+        .arg(tmp.path().join("clip.mp4"))
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&probe.stdout).unwrap();
+    let s = &v["streams"][0];
+    assert_eq!(s["codec_name"], "h264");
+    assert_eq!(s["pix_fmt"], "yuv420p");
+    assert_eq!(s["nb_read_frames"], "72");
+    assert_eq!(s["r_frame_rate"], "24/1");
+    assert_eq!(
+        (s["width"].as_u64(), s["height"].as_u64()),
+        (Some(96), Some(54))
+    );
+    let duration: f64 = v["format"]["duration"].as_str().unwrap().parse().unwrap();
+    assert!((duration - 3.0).abs() < 0.05, "duration {duration}");
+    // No temporary file is left beside it.
+    assert!(!tmp.path().join("clip.mp4.tmp").exists());
+}
+
+#[test]
+fn without_ffmpeg_the_error_names_the_package() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 32, height: 18");
+    let o = campath(tmp.path(), &["video", &f], &[("PATH", "/nonexistent")]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("Debian package ffmpeg"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!tmp.path().join("out").exists(), "nothing rendered");
+}
+
+#[test]
+fn a_killed_encode_leaves_no_video_under_its_final_name() {
+    if !have_tool("ffmpeg", "ffmpeg") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 320, height: 180");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(tmp.path())
+        .args(["video", &f, "--quiet"])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(400));
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300)); // ffmpeg sees its input end
+    assert!(!tmp.path().join("out/zoom/zoom.mp4").exists());
+    // Run again: it completes.
+    let o = campath(tmp.path(), &["video", &f, "--quiet"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(tmp.path().join("out/zoom/zoom.mp4").exists());
+}
