@@ -99,14 +99,19 @@ pub enum PathFormat {
     Json,
     /// `frame tx ty tz rx ry rz vfov` for Nuke and Blender; frames numbered from 1.
     Chan,
+    /// The whole shot as glTF 2.0: the animated camera, the spheres and the lights (binary
+    /// `.glb` when --out ends in .glb).
+    Gltf,
 }
 
-impl From<PathFormat> for campath::export::PathFormat {
-    fn from(f: PathFormat) -> Self {
-        match f {
-            PathFormat::Csv => Self::Csv,
-            PathFormat::Json => Self::Json,
-            PathFormat::Chan => Self::Chan,
+impl PathFormat {
+    /// The library's per-frame text format; None for glTF, which is written whole.
+    pub fn per_frame(self) -> Option<campath::export::PathFormat> {
+        match self {
+            PathFormat::Csv => Some(campath::export::PathFormat::Csv),
+            PathFormat::Json => Some(campath::export::PathFormat::Json),
+            PathFormat::Chan => Some(campath::export::PathFormat::Chan),
+            PathFormat::Gltf => None,
         }
     }
 }

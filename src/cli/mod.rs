@@ -119,11 +119,15 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         save_failures: Option<PathBuf>,
     },
-    /// Print the evaluated camera per frame: CSV, JSON, or .chan for Nuke and Blender.
+    /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
+    /// whole shot as glTF.
     Path {
         file: PathBuf,
         #[arg(long, value_enum, default_value_t)]
         format: args::PathFormat,
+        /// Write to this file instead of standard output (glTF: binary when it ends in .glb).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check { file: PathBuf },
@@ -267,7 +271,11 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             };
             return verify::verify(args, out);
         }
-        Command::Path { file, format } => verbs::path(&file, format, out)?,
+        Command::Path {
+            file,
+            format,
+            out: file_out,
+        } => verbs::path(&file, format, file_out.as_deref(), out)?,
         Command::Check { file } => verbs::check(&file, out)?,
         Command::Report {
             file,

@@ -222,21 +222,62 @@ pub fn hash(
     Stats::of(&timing, 0).write(stats_json)
 }
 
-pub fn path(file: &Path, format: PathFormat, out: &mut dyn Write) -> Result<()> {
+/// `campath path`: the evaluated camera per frame (or the whole shot as glTF) on standard
+/// output, or into `file_out` (binary glTF when it ends in `.glb`).
+pub fn path(
+    file: &Path,
+    format: PathFormat,
+    file_out: Option<&Path>,
+    out: &mut dyn Write,
+) -> Result<()> {
     let doc = Document::load(file)?;
-    let dropped = campath::export::write_path(&doc, format.into(), out)?;
-    if dropped.off_axis > 0 {
-        eprintln!(
-            "campath: note: .chan has no place for an off-axis COP (distort): {} of {} frame(s), \
-             campath frames {}..={} (.chan frames {}..={}), are written as if the COP were on \
-             the VPN, so their pictures are centred; csv and json keep the COP",
-            dropped.off_axis,
-            doc.animation.frames,
-            dropped.first,
-            dropped.last,
-            dropped.first + 1,
-            dropped.last + 1
-        );
+    let frames = doc.animation.frames;
+    let mut bytes = Vec::new();
+    match format.per_frame() {
+        Some(f) => {
+            let dropped = match file_out {
+                Some(_) => campath::export::write_path(&doc, f, &mut bytes)?,
+                None => campath::export::write_path(&doc, f, out)?,
+            };
+            if dropped.off_axis > 0 {
+                eprintln!(
+                    "campath: note: .chan has no place for an off-axis COP (distort): {} of {frames} frame(s), \
+                     campath frames {}..={} (.chan frames {}..={}), are written as if the COP were on \
+                     the VPN, so their pictures are centred; csv and json keep the COP",
+                    dropped.off_axis,
+                    dropped.first,
+                    dropped.last,
+                    dropped.first + 1,
+                    dropped.last + 1
+                );
+            }
+        }
+        None => {
+            let binary = file_out.is_some_and(|p| p.extension().is_some_and(|e| e == "glb"));
+            let off_axis = if binary {
+                let (glb, off_axis) = campath::export::gltf::glb(&doc)?;
+                bytes = glb;
+                off_axis
+            } else {
+                let (text, off_axis) = campath::export::gltf::gltf(&doc)?;
+                match file_out {
+                    Some(_) => bytes = text.into_bytes(),
+                    None => out.write_all(text.as_bytes()).map_err(Error::stdout)?,
+                }
+                off_axis
+            };
+            if off_axis > 0 {
+                eprintln!(
+                    "campath: note: glTF has no place for an off-axis COP (distort): {off_axis} of \
+                     {frames} frame(s) are written as if the COP were on the VPN, so their pictures \
+                     are centred; csv and json keep the COP"
+                );
+            }
+        }
+    }
+    if let Some(path) = file_out {
+        super::args::create_parent(path)?;
+        std::fs::write(path, &bytes).map_err(Error::write(path))?;
     }
     Ok(())
 }

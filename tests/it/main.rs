@@ -7,6 +7,7 @@ mod common;
 mod determinism;
 mod extreme;
 mod fuzz;
+mod gltf;
 mod golden;
 mod incremental;
 mod modes;

@@ -1,6 +1,8 @@
 //! The evaluated camera path for other tools: CSV, JSON, and the `.chan` camera-channel text
 //! that Nuke and Blender import.
 
+pub mod gltf;
+
 use std::io::Write;
 
 use glam::DVec3;

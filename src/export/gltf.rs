@@ -1,0 +1,319 @@
+//! The shot as one self-contained glTF 2.0 file: the camera animated per frame, the spheres, and
+//! the directional lights.
+//!
+//! - The camera node's translation is the COP and its rotation takes the camera's +X, +Y, −Z to
+//!   u, v, n (the columns of the rotation are u, v and −n, a proper rotation since u × v = −n),
+//!   sampled LINEAR at the frame times t = k / fps. Its `yfov` is the window's height seen from
+//!   the COP and its aspect the window's; a Zoom track animates `yfov` through
+//!   `KHR_animation_pointer` (used, not required). An off-axis COP has no place in glTF.
+//! - Spheres share one unit sphere's geometry; each is a node scaled by its radius, with a mesh
+//!   that pairs the shared geometry with its own colour.
+//! - Lights are `KHR_lights_punctual` directional lights, pointing their node's −Z along the
+//!   light's direction.
+//!
+//! Everything numeric is f32 in the file.
+
+use base64::Engine as _;
+use glam::{DMat3, DQuat, DVec3};
+use serde_json::{json, Value};
+
+use crate::camera::Camera;
+use crate::document::Document;
+use crate::error::Result;
+
+/// Segments around and rings from pole to pole of the shared unit sphere.
+const SEGMENTS: u32 = 48;
+const RINGS: u32 = 24;
+
+/// The binary buffer being laid out, with its views and accessors.
+#[derive(Default)]
+struct Buffer {
+    bytes: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Buffer {
+    /// Appends `data` as a new buffer view (4-byte aligned) and an accessor over it; returns the
+    /// accessor's index.
+    fn push(
+        &mut self,
+        data: &[u8],
+        count: usize,
+        kind: &str,
+        component: u32,
+        target: Option<u32>,
+        extra: Value,
+    ) -> usize {
+        while !self.bytes.len().is_multiple_of(4) {
+            self.bytes.push(0);
+        }
+        let mut view =
+            json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len()});
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        self.bytes.extend_from_slice(data);
+        self.views.push(view);
+        let mut accessor = json!({
+            "bufferView": self.views.len() - 1,
+            "componentType": component,
+            "count": count,
+            "type": kind,
+        });
+        if let (Value::Object(a), Value::Object(e)) = (&mut accessor, extra) {
+            a.extend(e);
+        }
+        self.accessors.push(accessor);
+        self.accessors.len() - 1
+    }
+
+    /// f32 values, `width` per element (1 SCALAR, 3 VEC3, 4 VEC4), with min and max when asked.
+    fn floats(&mut self, values: &[f32], width: usize, target: Option<u32>, bounds: bool) -> usize {
+        let kind = match width {
+            1 => "SCALAR",
+            3 => "VEC3",
+            _ => "VEC4",
+        };
+        let extra = if bounds {
+            let mut lo = vec![f32::INFINITY; width];
+            let mut hi = vec![f32::NEG_INFINITY; width];
+            for chunk in values.chunks(width) {
+                for (i, v) in chunk.iter().enumerate() {
+                    lo[i] = lo[i].min(*v);
+                    hi[i] = hi[i].max(*v);
+                }
+            }
+            json!({"min": lo, "max": hi})
+        } else {
+            json!({})
+        };
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        self.push(&bytes, values.len() / width, kind, 5126, target, extra)
+    }
+}
+
+/// The unit sphere: positions (also its normals) and triangle indices, counter-clockwise seen
+/// from outside.
+fn unit_sphere() -> (Vec<f32>, Vec<u16>) {
+    let mut positions = Vec::new();
+    for r in 0..=RINGS {
+        let polar = std::f64::consts::PI * r as f64 / RINGS as f64;
+        for s in 0..=SEGMENTS {
+            let azimuth = std::f64::consts::TAU * s as f64 / SEGMENTS as f64;
+            let (sp, cp) = (libm::sin(polar), libm::cos(polar));
+            let p = [sp * libm::cos(azimuth), cp, -sp * libm::sin(azimuth)];
+            positions.extend(p.map(|x| x as f32));
+        }
+    }
+    let row = (SEGMENTS + 1) as u16;
+    let mut indices = Vec::new();
+    for r in 0..RINGS as u16 {
+        for s in 0..SEGMENTS as u16 {
+            let (a, b) = (r * row + s, (r + 1) * row + s);
+            indices.extend([a, b, a + 1, a + 1, b, b + 1]);
+        }
+    }
+    (positions, indices)
+}
+
+/// The rotation taking the camera's +X, +Y, −Z to u, v, n.
+pub fn camera_rotation(cam: &Camera) -> DQuat {
+    let b = cam.basis;
+    DQuat::from_mat3(&DMat3::from_cols(b.u, b.v, -b.n)).normalize()
+}
+
+/// A rotation taking −Z to the unit vector `d`.
+fn aim_negative_z(d: DVec3) -> DQuat {
+    DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
+}
+
+fn f32s(v: DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// The vertical field of view in radians seen from the COP.
+fn yfov(cam: &Camera) -> f64 {
+    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z)
+}
+
+/// The glTF document (JSON) and its binary buffer; the caller embeds the buffer (`.gltf`) or
+/// appends it (`.glb`). Also returns the frames with an off-axis COP that glTF cannot carry.
+fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
+    let mut buf = Buffer::default();
+    let (positions, indices) = unit_sphere();
+    let position = buf.floats(&positions, 3, Some(34962), true);
+    let normal = buf.floats(&positions, 3, Some(34962), false);
+    let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+    let index = buf.push(
+        &index_bytes,
+        indices.len(),
+        "SCALAR",
+        5123,
+        Some(34963),
+        json!({}),
+    );
+
+    // The camera, frame by frame.
+    let (mut times, mut translations, mut rotations, mut fovs) = (vec![], vec![], vec![], vec![]);
+    let mut previous: Option<DQuat> = None;
+    let mut off_axis = 0;
+    let mut first: Option<Camera> = None;
+    for item in doc.cameras() {
+        let (frame, cam) = item?;
+        first.get_or_insert(cam);
+        times.push(doc.animation.time(frame) as f32);
+        translations.extend(f32s(cam.cop_world()));
+        let mut q = camera_rotation(&cam);
+        // q and −q are the same rotation: keep the one nearest the last, so LINEAR slerps the
+        // short way.
+        if previous.is_some_and(|p| p.dot(q) < 0.0) {
+            q = -q;
+        }
+        previous = Some(q);
+        rotations.extend([q.x, q.y, q.z, q.w].map(|x| x as f32));
+        fovs.push(yfov(&cam) as f32);
+        off_axis += u64::from(cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0);
+    }
+    let first = first.expect("an animation has a frame");
+    let time = buf.floats(&times, 1, None, true);
+    let translation = buf.floats(&translations, 3, None, false);
+    let rotation = buf.floats(&rotations, 4, None, false);
+    let zoom = doc.animation.zoom.is_some();
+    let mut samplers = vec![
+        json!({"input": time, "output": translation, "interpolation": "LINEAR"}),
+        json!({"input": time, "output": rotation, "interpolation": "LINEAR"}),
+    ];
+    let mut channels = vec![
+        json!({"sampler": 0, "target": {"node": 0, "path": "translation"}}),
+        json!({"sampler": 1, "target": {"node": 0, "path": "rotation"}}),
+    ];
+    if zoom {
+        let fov = buf.floats(&fovs, 1, None, false);
+        samplers.push(json!({"input": time, "output": fov, "interpolation": "LINEAR"}));
+        channels.push(
+            json!({"sampler": 2, "target": {"path": "pointer", "extensions": {
+            "KHR_animation_pointer": {"pointer": "/cameras/0/perspective/yfov"}}}}),
+        );
+    }
+
+    let q0 = camera_rotation(&first);
+    let mut nodes = vec![json!({
+        "name": "camera",
+        "camera": 0,
+        "translation": f32s(first.cop_world()),
+        "rotation": [q0.x as f32, q0.y as f32, q0.z as f32, q0.w as f32],
+    })];
+    let (mut meshes, mut materials) = (vec![], vec![]);
+    for (i, s) in doc.scene.spheres.iter().enumerate() {
+        materials.push(json!({
+            "name": format!("sphere {i}"),
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [s.color.x as f32, s.color.y as f32, s.color.z as f32, 1.0],
+                "metallicFactor": 0.0,
+                "roughnessFactor": 1.0,
+            },
+        }));
+        meshes.push(json!({"name": format!("sphere {i}"), "primitives": [{
+            "attributes": {"POSITION": position, "NORMAL": normal},
+            "indices": index,
+            "material": i,
+        }]}));
+        let r = s.radius as f32;
+        nodes.push(json!({
+            "name": format!("sphere {i}"),
+            "mesh": i,
+            "translation": f32s(s.center_world),
+            "scale": [r, r, r],
+        }));
+    }
+    let mut lights = vec![];
+    for (i, l) in doc.scene.lights.iter().enumerate() {
+        let q = aim_negative_z(l.direction_world);
+        lights.push(json!({
+            "name": format!("light {i}"),
+            "type": "directional",
+            "color": f32s(l.color.clamp(DVec3::ZERO, DVec3::ONE)),
+            "intensity": l.color.max_element().max(1.0) as f32,
+        }));
+        nodes.push(json!({
+            "name": format!("light {i}"),
+            "rotation": [q.x as f32, q.y as f32, q.z as f32, q.w as f32],
+            "extensions": {"KHR_lights_punctual": {"light": i}},
+        }));
+    }
+
+    let mut used = vec![];
+    if !lights.is_empty() {
+        used.push("KHR_lights_punctual");
+    }
+    if zoom {
+        used.push("KHR_animation_pointer");
+    }
+    let aspect = first.window.x / first.window.y;
+    let mut buffer = json!({"byteLength": buf.bytes.len()});
+    if embed {
+        let data = base64::engine::general_purpose::STANDARD.encode(&buf.bytes);
+        buffer["uri"] = json!(format!("data:application/octet-stream;base64,{data}"));
+    }
+    let mut gltf = json!({
+        "asset": {"version": "2.0", "generator": concat!("campath ", env!("CARGO_PKG_VERSION"))},
+        "scene": 0,
+        "scenes": [{"name": doc.path.file_stem().map_or_else(|| "shot".into(), |s| s.to_string_lossy()), "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "cameras": [{"type": "perspective", "perspective": {
+            "yfov": yfov(&first) as f32,
+            "aspectRatio": aspect as f32,
+            "znear": 0.01,
+        }}],
+        "animations": [{"name": "camera", "samplers": samplers, "channels": channels}],
+        "buffers": [buffer],
+        "bufferViews": buf.views,
+        "accessors": buf.accessors,
+    });
+    if !meshes.is_empty() {
+        gltf["meshes"] = json!(meshes);
+        gltf["materials"] = json!(materials);
+    }
+    if !lights.is_empty() {
+        gltf["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
+    }
+    if !used.is_empty() {
+        gltf["extensionsUsed"] = json!(used);
+    }
+    Ok((gltf, buf.bytes, off_axis))
+}
+
+/// The shot as `.gltf` text with the buffer embedded; and the number of frames with an off-axis
+/// COP that glTF cannot carry.
+pub fn gltf(doc: &Document) -> Result<(String, u64)> {
+    let (json, _, off_axis) = build(doc, true)?;
+    Ok((
+        serde_json::to_string_pretty(&json).expect("finite numbers serialise") + "\n",
+        off_axis,
+    ))
+}
+
+/// The shot as binary `.glb`; and the number of frames with an off-axis COP.
+pub fn glb(doc: &Document) -> Result<(Vec<u8>, u64)> {
+    let (json, mut bin, off_axis) = build(doc, false)?;
+    let mut text = serde_json::to_vec(&json).expect("finite numbers serialise");
+    while !text.len().is_multiple_of(4) {
+        text.push(b' ');
+    }
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((text.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(text);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    Ok((out, off_axis))
+}
