@@ -102,6 +102,9 @@ pub enum PathFormat {
     /// The whole shot as glTF 2.0: the animated camera, the spheres and the lights (binary
     /// `.glb` when --out ends in .glb).
     Gltf,
+    /// A Python script for Blender that builds the whole shot: camera (with lens shift for an
+    /// off-axis COP), render size and rate, spheres and lights.
+    Blender,
 }
 
 impl PathFormat {
@@ -111,7 +114,7 @@ impl PathFormat {
             PathFormat::Csv => Some(campath::export::PathFormat::Csv),
             PathFormat::Json => Some(campath::export::PathFormat::Json),
             PathFormat::Chan => Some(campath::export::PathFormat::Chan),
-            PathFormat::Gltf => None,
+            PathFormat::Gltf | PathFormat::Blender => None,
         }
     }
 }

@@ -252,6 +252,13 @@ pub fn path(
                 );
             }
         }
+        None if format == PathFormat::Blender => {
+            let text = campath::export::blender::script(&doc)?;
+            match file_out {
+                Some(_) => bytes = text.into_bytes(),
+                None => out.write_all(text.as_bytes()).map_err(Error::stdout)?,
+            }
+        }
         None => {
             let binary = file_out.is_some_and(|p| p.extension().is_some_and(|e| e == "glb"));
             let off_axis = if binary {

@@ -1,6 +1,7 @@
 //! The evaluated camera path for other tools: CSV, JSON, and the `.chan` camera-channel text
 //! that Nuke and Blender import.
 
+pub mod blender;
 pub mod gltf;
 
 use std::io::Write;

@@ -1,0 +1,199 @@
+//! Blender, for real: the script of `campath path --format blender`, run headless, gives a
+//! camera that projects test points where campath's does (to 0.01 px at every frame, distort
+//! included), and the glTF of `--format gltf`, imported by Blender's own importer, puts the camera
+//! where campath puts it (to 1e-5).
+
+use std::process::Command;
+
+use glam::DVec3;
+
+use crate::common::{campath, have_tool, root, stderr, EXAMPLES};
+
+/// Runs every job in one Blender process: build the shot from the script and record
+/// `world_to_camera_view` of the points at every frame; then import the glTF and record the
+/// camera's world matrix at every frame.
+const CHECK: &str = r#"
+import bpy, json, sys
+import numpy
+if not hasattr(numpy, "bool"):
+    numpy.bool = bool  # Debian's Blender 3.4 glTF importer predates NumPy 1.24
+from bpy_extras.object_utils import world_to_camera_view
+from mathutils import Vector
+jobs = json.load(open(sys.argv[sys.argv.index("--") + 1]))
+for job in jobs:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    exec(compile(open(job["script"]).read(), job["script"], "exec"), {"__name__": "__main__"})
+    scene = bpy.context.scene
+    camera = scene.camera
+    projections = []
+    for frame in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(frame)
+        projections.append([list(world_to_camera_view(scene, camera, Vector(p))) for p in job["points"]])
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=job["glb"])
+    scene = bpy.context.scene
+    camera = [o for o in bpy.data.objects if o.type == "CAMERA"][0]
+    poses = []
+    for frame in range(len(projections)):
+        scene.frame_set(frame)
+        m = camera.matrix_world
+        poses.append([[m[r][c] for c in range(4)] for r in range(3)])
+    json.dump({"projections": projections, "poses": poses}, open(job["out"], "w"))
+"#;
+
+#[test]
+fn blender_sees_what_campath_renders() {
+    if !have_tool("blender", "blender") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("check.py"), CHECK).unwrap();
+    // Every example, and the observer at 640×480 (another aspect than the 16:9 film back that
+    // Blender's .chan importer assumes).
+    let observer = std::fs::read_to_string(root().join("animations/observer.ron")).unwrap();
+    let four_three = observer.replace("width: 640, height: 360", "width: 640, height: 480");
+    assert_ne!(four_three, observer);
+    std::fs::write(tmp.path().join("observer_4_3.ron"), four_three).unwrap();
+    let mut names: Vec<&str> = EXAMPLES.to_vec();
+    names.push("observer_4_3");
+    let file_of = |name: &str| match name {
+        "observer_4_3" => tmp.path().join("observer_4_3.ron"),
+        _ => root().join(format!("animations/{name}.ron")),
+    };
+    let doc_of = |name: &str| campath::document::Document::load(&file_of(name)).unwrap();
+    let mut jobs = Vec::new();
+    for name in &names {
+        let file = file_of(name);
+        let script = tmp.path().join(format!("{name}.py"));
+        let glb = tmp.path().join(format!("{name}.glb"));
+        for (format, out) in [("blender", &script), ("gltf", &glb)] {
+            let o = campath(
+                tmp.path(),
+                &[
+                    "path",
+                    file.to_str().unwrap(),
+                    "--format",
+                    format,
+                    "--out",
+                    out.to_str().unwrap(),
+                ],
+                &[],
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+        // Test points: each small sphere's centre, and points a unit away from it.
+        let doc = doc_of(name);
+        let points: Vec<[f64; 3]> = doc
+            .scene
+            .spheres
+            .iter()
+            .filter(|s| s.radius < 50.0)
+            .flat_map(|s| {
+                let c = s.center_world;
+                [DVec3::ZERO, DVec3::X, DVec3::NEG_Y, DVec3::Z].map(|d| (c + d).to_array())
+            })
+            .collect();
+        jobs.push(serde_json::json!({
+            "script": script, "glb": glb, "points": points,
+            "out": tmp.path().join(format!("{name}.json")),
+        }));
+    }
+    std::fs::write(
+        tmp.path().join("jobs.json"),
+        serde_json::to_string(&jobs).unwrap(),
+    )
+    .unwrap();
+    let o = Command::new("blender")
+        .current_dir(tmp.path())
+        .args([
+            "--background",
+            "--factory-startup",
+            "--python-exit-code",
+            "1",
+        ])
+        .arg("--python")
+        .arg(tmp.path().join("check.py"))
+        .arg("--")
+        .arg(tmp.path().join("jobs.json"))
+        .output()
+        .unwrap();
+    let log = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "blender: {log}");
+
+    for (name, job) in names.iter().zip(&jobs) {
+        let doc = doc_of(name);
+        let result: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(tmp.path().join(format!("{name}.json"))).unwrap(),
+        )
+        .unwrap();
+        let (w, h) = (doc.raster.width as f64, doc.raster.height as f64);
+        let mut worst = (0.0f64, 0.0f64);
+        let mut compared = 0;
+        for (k, item) in doc.cameras().enumerate() {
+            let cam = item.unwrap().1;
+            // campath's projection: through the COP onto the view plane n = 0, window to pixels.
+            for (i, p) in job["points"].as_array().unwrap().iter().enumerate() {
+                let p = DVec3::new(
+                    p[0].as_f64().unwrap(),
+                    p[1].as_f64().unwrap(),
+                    p[2].as_f64().unwrap(),
+                );
+                let v = cam.world_to_view().transform_point3(p);
+                let c = cam.cop_view;
+                if v.z - c.z < 0.5 {
+                    continue; // behind or close to the COP
+                }
+                let s = -c.z / (v.z - c.z);
+                let (x, y) = (c.x + (v.x - c.x) * s, c.y + (v.y - c.y) * s);
+                let px = (x + cam.window.x / 2.0) / cam.window.x * w;
+                let py = (cam.window.y / 2.0 - y) / cam.window.y * h;
+                if !(0.0..=w).contains(&px) || !(0.0..=h).contains(&py) {
+                    continue; // the points the frame shows
+                }
+                let b = &result["projections"][k][i];
+                let (bx, by) = (
+                    b[0].as_f64().unwrap() * w,
+                    (1.0 - b[1].as_f64().unwrap()) * h,
+                );
+                worst.0 = worst.0.max((px - bx).abs().max((py - by).abs()));
+                compared += 1;
+            }
+            // The imported glTF camera: Blender's Z-up world is glTF's (x, −z, y).
+            let m = &result["poses"][k];
+            let col = |c: usize| {
+                let g = |r: usize| m[r][c].as_f64().unwrap();
+                DVec3::new(g(0), g(2), -g(1))
+            };
+            let b = cam.basis;
+            for (got, want) in [
+                (col(3), cam.cop_world()),
+                (col(0), b.u),
+                (col(1), b.v),
+                (col(2), -b.n),
+            ] {
+                worst.1 = worst
+                    .1
+                    .max((got - want).abs().max_element() / want.length().max(1.0));
+            }
+        }
+        eprintln!(
+            "blender {name}: {compared} projections, worst {:.2e} px; glTF camera worst {:.1e}",
+            worst.0, worst.1
+        );
+        assert!(compared > 100, "{name}: {compared}");
+        assert!(
+            worst.0 < 0.01,
+            "{name}: Blender's projection is {} px off",
+            worst.0
+        );
+        assert!(
+            worst.1 < 1e-5,
+            "{name}: the imported glTF camera is {} off",
+            worst.1
+        );
+    }
+}
