@@ -275,8 +275,9 @@ pub fn parts_in(dir: &Path) -> Result<BTreeMap<Shard, PathBuf>> {
 /// written. Refuses, naming what is wrong, unless every shard of one count N is there and
 /// complete, all were rendered from the same file and range, every frame of the range is listed
 /// exactly once by its own shard, and every listed frame's PNG exists. `frame_file` names a
-/// frame's PNG for an animation of `frames` frames.
-pub fn merge(dir: &Path, frame_file: impl Fn(u64, u64) -> PathBuf) -> Result<String> {
+/// frame's PNG for an animation of `frames` frames. Returns the text and the animation's frame
+/// count.
+pub fn merge(dir: &Path, frame_file: impl Fn(u64, u64) -> PathBuf) -> Result<(String, u64)> {
     let refuse = |problems: Vec<String>| Error::Merge {
         dir: dir.to_path_buf(),
         problems,
@@ -300,10 +301,9 @@ pub fn merge(dir: &Path, frame_file: impl Fn(u64, u64) -> PathBuf) -> Result<Str
             Err(mut p) => problems.append(&mut p),
         }
     }
-    if problems.is_empty() {
-        Ok(all.text())
-    } else {
-        Err(refuse(problems))
+    match reference {
+        Some((_, header)) if problems.is_empty() => Ok((all.text(), header.frames)),
+        _ => Err(refuse(problems)),
     }
 }
 
@@ -508,13 +508,14 @@ mod tests {
         let (s1, s2) = ("1".repeat(64), "2".repeat(64));
         part(dir, 0, &s1, &[0, 2], true);
         part(dir, 1, &s1, &[1, 3], true);
-        let text = merge(dir, png).unwrap();
+        let (text, frames) = merge(dir, png).unwrap();
+        assert_eq!(frames, 4);
         assert_eq!(text.lines().count(), 4);
         assert!(text.starts_with(&format!("0 {} {}", "a".repeat(64), "b".repeat(64))));
 
         // A part from another file, a part with a hole, a missing PNG.
         part(dir, 1, &s2, &[1, 3], true);
-        let problems = |r: Result<String>| match r {
+        let problems = |r: Result<(String, u64)>| match r {
             Err(Error::Merge { problems, .. }) => problems.join("\n"),
             other => panic!("{other:?}"),
         };

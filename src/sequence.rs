@@ -315,10 +315,29 @@ pub fn render(
     })
 }
 
-/// Merges the part files in `dir` into `dir/hashes.txt` (see [`manifest::merge`]); returns the
-/// number of frames. Writes nothing when the parts do not make a whole sequence.
+/// Merges the part files in `dir` into `dir/hashes.txt` (see [`manifest::merge`]), after
+/// checking that every listed frame's PNG decodes to its recorded hash (in parallel); returns
+/// the number of frames. Writes nothing when the parts do not make a whole, true sequence.
 pub fn merge(dir: &Path) -> Result<u64> {
-    let text = manifest::merge(dir, |frame, total| frame_path(dir, frame, total))?;
+    let (text, total) = manifest::merge(dir, |frame, total| frame_path(dir, frame, total))?;
+    let merged = Manifest::parse(&dir.join(manifest::file_name(None)), &text)?;
+    let mut damaged: Vec<u64> = merged
+        .entries
+        .par_iter()
+        .filter(|e| png_hash(&frame_path(dir, e.frame, total)).as_ref() != Some(&e.hash))
+        .map(|e| e.frame)
+        .collect();
+    damaged.sort_unstable();
+    if !damaged.is_empty() {
+        return Err(Error::Merge {
+            dir: dir.to_path_buf(),
+            problems: vec![format!(
+                "frame(s) {} do not decode to their recorded hashes (damaged or overwritten since): \
+                 run their shards again",
+                manifest::list_frames(&damaged)
+            )],
+        });
+    }
     write_atomic(&dir.join(manifest::file_name(None)), &text)?;
-    Ok(text.lines().count() as u64)
+    Ok(merged.entries.len() as u64)
 }

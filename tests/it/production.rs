@@ -259,6 +259,17 @@ fn merge_refuses_while_a_killed_shard_is_unfinished() {
         read(&tmp.path().join("farm/hashes.txt")),
         read(&tmp.path().join("single/hashes.txt"))
     );
+    // A frame damaged after its shard finished: merge names it and writes nothing.
+    std::fs::remove_file(tmp.path().join("farm/hashes.txt")).unwrap();
+    std::fs::write(tmp.path().join("farm/frame_0004.png"), b"not a png").unwrap();
+    let damaged = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert_eq!(damaged.status.code(), Some(2));
+    assert!(
+        stderr(&damaged).contains("frame(s) 4 do not decode to their recorded hashes"),
+        "{}",
+        stderr(&damaged)
+    );
+    assert!(!tmp.path().join("farm/hashes.txt").exists());
 }
 
 #[test]
