@@ -132,12 +132,14 @@ impl Progress {
         }
     }
 
-    pub fn event(&mut self, e: Event) {
-        match (self, e) {
-            (Progress::Bar(bar), Event::Start { frames, kept }) => {
-                let style = indicatif::ProgressStyle::with_template(
-                    "{bar:40} {pos}/{len} frames, {rate}, ETA {eta}",
-                )
+    /// A run of `frames` frames begins, `kept` of them already done; `verb` says what is done
+    /// to the others ("render", "encode").
+    pub fn begin(&mut self, frames: u64, kept: u64, verb: &str) {
+        match self {
+            Progress::Bar(bar) => {
+                let style = indicatif::ProgressStyle::with_template(&format!(
+                    "{{bar:40}} {{pos}}/{{len}} frames to {verb}, {{rate}}, ETA {{eta}}"
+                ))
                 .expect("the template is valid")
                 .with_key(
                     "rate",
@@ -149,10 +151,15 @@ impl Progress {
                 b.inc(kept);
                 *bar = Some(b);
             }
+            Progress::Lines => eprintln!("{} frame(s) to {verb}, {kept} kept", frames - kept),
+            Progress::Quiet => {}
+        }
+    }
+
+    pub fn event(&mut self, e: Event) {
+        match (self, e) {
+            (p, Event::Start { frames, kept }) => p.begin(frames, kept, "render"),
             (Progress::Bar(Some(bar)), Event::Written(_)) => bar.inc(1),
-            (Progress::Lines, Event::Start { frames, kept }) => {
-                eprintln!("{} frame(s) to render, {kept} kept", frames - kept)
-            }
             (Progress::Lines, Event::Written(frame)) => eprintln!("frame {frame} done"),
             _ => {}
         }

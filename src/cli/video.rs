@@ -87,10 +87,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .map_err(ffmpeg_missing)?;
     let mut stdin = child.stdin.take().expect("piped");
     let mut progress = Progress::new(a.quiet);
-    progress.event(Event::Start {
-        frames: total,
-        kept: 0,
-    });
+    progress.begin(total, 0, "encode");
     let fed = feed(&a.frames_dir, total, &hashes, &mut stdin, &mut progress);
     drop(stdin);
     progress.finish();
