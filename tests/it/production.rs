@@ -416,7 +416,7 @@ fn a_terminal_gets_a_progress_bar() {
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
-        text.contains("/48 frames,") && text.contains("ETA"),
+        text.contains("/48 frames to render,") && text.contains("ETA"),
         "{text}"
     );
     assert!(
