@@ -198,6 +198,9 @@ enum Command {
 
 /// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
 pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
+    if let Some(Err(e)) = campath::render::Simd::from_env() {
+        return Err(error::CliError::Usage(format!("CAMPATH_SIMD: {e}")));
+    }
     match cli.command {
         Command::Render {
             file,

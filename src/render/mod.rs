@@ -19,8 +19,12 @@ use crate::scene::{Scene, Sphere};
 
 mod bins;
 pub mod key;
+mod packet;
 mod shadows;
 mod tiles;
+
+use packet::RowJob;
+pub use packet::Simd;
 
 use shadows::ShadowGrid;
 use tiles::TileBins;
@@ -44,8 +48,11 @@ struct RayTable {
 }
 
 impl RayTable {
-    fn new(cop_view: DVec3, window: DVec2, raster: Raster) -> RayTable {
-        RayTable::with_cache_limit(cop_view, window, raster, CACHED_DIRECTIONS)
+    /// The table, with the directions cached when `cache` (the scalar and multi-sample paths
+    /// read them; packets of single samples compute their own).
+    fn new(cop_view: DVec3, window: DVec2, raster: Raster, cache: bool) -> RayTable {
+        let limit = if cache { CACHED_DIRECTIONS } else { 0 };
+        RayTable::with_cache_limit(cop_view, window, raster, limit)
     }
 
     fn with_cache_limit(cop_view: DVec3, window: DVec2, raster: Raster, limit: usize) -> RayTable {
@@ -133,6 +140,15 @@ struct ViewSphere {
 }
 
 impl ViewSphere {
+    /// The unit normal and the point where the primary ray along unit `d` meets the sphere at
+    /// distance `t`. The hit relative to the centre, f + t·d, has length r; the normal is that
+    /// over r.
+    #[inline(always)]
+    fn surface(&self, d: DVec3, t: f64) -> (DVec3, DVec3) {
+        let rel = self.f + d * t;
+        (rel / self.radius, self.center + rel)
+    }
+
     /// `sphere` moved camera-relative into view coordinates: the VRP is subtracted first, so a
     /// scene far from the origin keeps its precision.
     fn new(camera: &Camera, sphere: &Sphere) -> ViewSphere {
@@ -161,22 +177,45 @@ struct ViewLight {
 }
 
 /// Renders frames, keeping the ray table between frames.
-#[derive(Default)]
 pub struct Renderer {
     table: Option<RayTable>,
+    simd: Simd,
+}
+
+impl Default for Renderer {
+    fn default() -> Renderer {
+        Renderer::new()
+    }
 }
 
 impl Renderer {
+    /// A renderer on the fastest instruction path this CPU runs.
     pub fn new() -> Renderer {
-        Renderer::default()
+        Renderer {
+            table: None,
+            simd: Simd::detect(),
+        }
+    }
+
+    /// A renderer on instruction path `simd`, None if this CPU cannot run it. Every path gives
+    /// the same bytes.
+    pub fn with_simd(simd: Simd) -> Option<Renderer> {
+        simd.supported().then_some(Renderer { table: None, simd })
+    }
+
+    /// The instruction path in use.
+    pub fn simd(&self) -> Simd {
+        self.simd
     }
 
     /// Renders one frame to RGB8, row-major, top row first. Each row is rendered by one task into
     /// its own slice, so the bytes do not depend on the thread count.
     pub fn render(&mut self, camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
+        // Packets cast one sample per pixel; more samples go one ray at a time.
+        let packets = self.simd != Simd::Scalar && raster.samples == 1;
         let table = match self.table.take() {
             Some(t) if t.fits(camera.cop_view, camera.window, raster) => t,
-            _ => RayTable::new(camera.cop_view, camera.window, raster),
+            _ => RayTable::new(camera.cop_view, camera.window, raster, !packets),
         };
         let spheres: Vec<ViewSphere> = scene
             .spheres
@@ -210,6 +249,20 @@ impl Renderer {
         let width = raster.width as usize;
         let mut pixels = vec![0u8; raster.frame_bytes()];
         let encode = srgb_encoder();
+        if packets {
+            let job = RowJob {
+                ctx: &ctx,
+                table: &table,
+                bins: &bins,
+                encode,
+            };
+            pixels
+                .par_chunks_mut(width * 3)
+                .enumerate()
+                .for_each(|(j, row)| job.row(self.simd, j, row));
+            self.table = Some(table);
+            return pixels;
+        }
         pixels
             .par_chunks_mut(width * 3)
             .enumerate()
@@ -278,12 +331,9 @@ impl Shading<'_> {
         let mut seen = (index as u64) << 32;
         if self.lights.is_empty() {
             // Flat: no normal, no light loop.
-            return ((s.color * self.ambient).min(DVec3::ONE), seen);
+            return (self.color(index, DVec3::splat(self.ambient)), seen);
         }
-        // Hit point relative to the centre, f + t·d, has length r; the normal is that over r.
-        let rel = s.f + d * t;
-        let normal = rel / s.radius;
-        let point = s.center + rel;
+        let (normal, point) = s.surface(d, t);
         let mut light = DVec3::splat(self.ambient);
         for (n, l) in self.lights.iter().enumerate() {
             let facing = normal.dot(l.to_light);
@@ -298,7 +348,18 @@ impl Shading<'_> {
             light += l.color * facing;
             seen |= 1 << n.min(31);
         }
-        ((s.color * light).clamp(DVec3::ZERO, DVec3::ONE), seen)
+        (self.color(index, light), seen)
+    }
+
+    /// Sphere `index`'s linear colour under `light` (the ambient plus the lights reaching it).
+    #[inline(always)]
+    fn color(&self, index: usize, light: DVec3) -> DVec3 {
+        let c = self.spheres[index].color * light;
+        if self.lights.is_empty() {
+            c.min(DVec3::ONE)
+        } else {
+            c.clamp(DVec3::ZERO, DVec3::ONE)
+        }
     }
 
     /// The nearest hit in front of the COP among `candidates`, as (sphere index, distance). The
@@ -357,7 +418,7 @@ pub struct SrgbEncoder {
     /// sentinel above 1.
     thresholds: [f64; 256],
     /// `first[b]`: the level of the linear value b / BUCKETS.
-    first: Vec<u8>,
+    first: Box<[u8; BUCKETS + 1]>,
 }
 
 /// Buckets of the linear range. Consecutive thresholds are at least 1/(255·12.92) ≈ 3.0e-4
@@ -372,9 +433,10 @@ impl SrgbEncoder {
             *t = srgb_decode((k as f64 + 0.5) / 255.0);
         }
         let level = |x: f64| thresholds.partition_point(|&t| t <= x) as u8;
-        let first = (0..=BUCKETS)
-            .map(|b| level(b as f64 / BUCKETS as f64))
-            .collect();
+        let mut first = Box::new([0u8; BUCKETS + 1]);
+        for (b, l) in first.iter_mut().enumerate() {
+            *l = level(b as f64 / BUCKETS as f64);
+        }
         SrgbEncoder { thresholds, first }
     }
 
@@ -384,7 +446,8 @@ impl SrgbEncoder {
     pub fn encode(&self, linear: f64) -> u8 {
         let x = linear.clamp(0.0, 1.0);
         // Truncation is floor here: x ≥ 0. NaN clamps to… NaN, and `as` maps it to bucket 0.
-        let level = self.first[(x * BUCKETS as f64) as usize];
+        // The `min` only spares a bounds check: x ≤ 1 already.
+        let level = self.first[((x * BUCKETS as f64) as usize).min(BUCKETS)];
         level + (x >= self.thresholds[level as usize]) as u8
     }
 }
@@ -412,7 +475,7 @@ mod tests {
 
     /// Renders with every sphere tested for every ray (primary and shadow), in index order.
     fn brute_force(camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
-        let mut r = Renderer::new();
+        let mut r = Renderer::with_simd(Simd::Scalar).unwrap();
         let fast = r.render(camera, scene, raster);
         let table = r.table.take().unwrap();
         let dirs = table.dirs.clone().unwrap();
@@ -554,6 +617,12 @@ mod tests {
                 DVec3::new(0.0, 0.0, -1.5),
             ),
         ];
+        // Two samples go one ray at a time; one sample goes in packets on every path but
+        // `Scalar`.
+        let one = Raster {
+            samples: 1,
+            ..raster
+        };
         for (k, (vrp, vpn, cop)) in cameras.into_iter().enumerate() {
             let camera = Camera {
                 vrp_world: vrp,
@@ -561,10 +630,20 @@ mod tests {
                 cop_view: cop,
                 window: DVec2::new(1.5, 1.0),
             };
-            let fast = Renderer::new().render(&camera, &scene, raster);
-            let slow = brute_force(&camera, &scene, raster);
-            let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
-            assert_eq!(differ, 0, "camera {k}: {differ} bytes differ");
+            for raster in [raster, one] {
+                let slow = brute_force(&camera, &scene, raster);
+                for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                    let fast = Renderer::with_simd(simd)
+                        .unwrap()
+                        .render(&camera, &scene, raster);
+                    let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
+                    let name = simd.name();
+                    assert_eq!(
+                        differ, 0,
+                        "camera {k}, {raster:?}, {name}: {differ} bytes differ"
+                    );
+                }
+            }
         }
     }
 

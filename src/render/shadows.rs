@@ -9,6 +9,7 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::Bins;
+use super::packet::{Lanes, Mask, LANES};
 use super::ViewSphere;
 
 /// Spheres binned for one light direction, in view coordinates.
@@ -87,18 +88,99 @@ impl ShadowGrid {
         if self.dims.0 == 0 {
             return false;
         }
+        match self.cell_of(point) {
+            Some((x, y)) => self.bins.cell(x, y).iter().any(blocks),
+            None => false,
+        }
+    }
+
+    /// The grid cell holding `point`'s projection, None outside the grid.
+    #[inline(always)]
+    fn cell_of(&self, point: DVec3) -> Option<(usize, usize)> {
         let q = (DVec2::new(point.dot(self.axes.0), point.dot(self.axes.1)) - self.origin)
             * self.inv_cell;
         // Outside the grid no binned disc holds the point (the far edges belong to the last cells).
         if !(q.x >= 0.0 && q.y >= 0.0 && q.x <= self.dims.0 as f64 && q.y <= self.dims.1 as f64) {
-            return false;
+            return None;
         }
         // Truncation is floor for these non-negative values, without a libm call.
-        let (x, y) = (
+        Some((
             (q.x as usize).min(self.dims.0 - 1),
             (q.y as usize).min(self.dims.1 - 1),
-        );
-        self.bins.cell(x, y).iter().any(blocks)
+        ))
+    }
+}
+
+impl ShadowGrid {
+    /// `occluded` for a packet of points (x, y and z lanes) on spheres `own`, for the lanes set
+    /// in `need`: which of them the light does not reach. Each lane's tests are
+    /// [`blocks_ray`]'s; whether any sphere blocks a ray does not depend on the order of the
+    /// tests, so lanes sharing a grid cell test its spheres together.
+    #[inline(always)]
+    pub fn occluded_packet(
+        &self,
+        spheres: &[ViewSphere],
+        point: &[Lanes; 3],
+        own: &[u32; LANES],
+        need: Mask,
+    ) -> Mask {
+        let mut blocked = [false; LANES];
+        let dir = self.to_light;
+        // Tests sphere k against the lanes in `lanes`; false once all of them are blocked.
+        let test = |k: u32, lanes: &Mask, blocked: &mut Mask| {
+            let s = &spheres[k as usize];
+            for l in 0..LANES {
+                let f = [
+                    point[0][l] - s.center.x,
+                    point[1][l] - s.center.y,
+                    point[2][l] - s.center.z,
+                ];
+                let c = (f[0] * f[0] + f[1] * f[1]) + f[2] * f[2] - s.radius2;
+                let b = (f[0] * dir.x + f[1] * dir.y) + f[2] * dir.z;
+                let g = [f[0] - dir.x * b, f[1] - dir.y * b, f[2] - dir.z * b];
+                let g2 = (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2];
+                let hit = (c <= 0.0) | ((b < 0.0) & (g2 <= s.radius2));
+                blocked[l] |= lanes[l] & (own[l] != k) & hit;
+            }
+            (0..LANES).any(|l| lanes[l] & !blocked[l])
+        };
+        for &k in &self.always {
+            if !test(k, &need, &mut blocked) {
+                return blocked;
+            }
+        }
+        if self.dims.0 == 0 {
+            return blocked;
+        }
+        // Each pending lane's cell, as in `occluded`.
+        let mut cell = [usize::MAX; LANES];
+        for l in 0..LANES {
+            if need[l] && !blocked[l] {
+                let p = DVec3::new(point[0][l], point[1][l], point[2][l]);
+                if let Some((x, y)) = self.cell_of(p) {
+                    cell[l] = y * self.dims.0 + x;
+                }
+            }
+        }
+        for l in 0..LANES {
+            let here = cell[l];
+            if here == usize::MAX {
+                continue;
+            }
+            let mut lanes = [false; LANES];
+            for m in l..LANES {
+                lanes[m] = cell[m] == here;
+                if lanes[m] {
+                    cell[m] = usize::MAX;
+                }
+            }
+            for &k in self.bins.cell(here % self.dims.0, here / self.dims.0) {
+                if !test(k, &lanes, &mut blocked) {
+                    break;
+                }
+            }
+        }
+        blocked
     }
 }
 

@@ -68,8 +68,12 @@ fn footprint(s: &ViewSphere, cop: DVec3, window: DVec2, raster: Raster) -> Footp
     }
 }
 
-/// Per-tile sphere lists, nearest possible hit first.
-pub struct TileBins(Bins);
+/// Per-tile sphere lists, nearest possible hit first, and each sphere's pixel rectangle.
+pub struct TileBins {
+    bins: Bins,
+    /// Per sphere, the inclusive pixel rectangle (i0, i1, j0, j1) its projection may cover.
+    rects: Vec<[u32; 4]>,
+}
 
 impl TileBins {
     pub fn build(spheres: &[ViewSphere], cop: DVec3, window: DVec2, raster: Raster) -> TileBins {
@@ -93,13 +97,32 @@ impl TileBins {
                 sa.min_dist.total_cmp(&sb.min_dist).then(a.cmp(b))
             })
         });
-        TileBins(bins)
+        let all = [0, raster.width - 1, 0, raster.height - 1];
+        let rects = prints
+            .iter()
+            .map(|p| match *p {
+                Footprint::Culled => [1, 0, 1, 0],
+                Footprint::Everywhere => all,
+                Footprint::Pixels { i0, i1, j0, j1 } => {
+                    [i0 as u32, i1 as u32, j0 as u32, j1 as u32]
+                }
+            })
+            .collect();
+        TileBins { bins, rects }
     }
 
     /// The spheres that can cover pixel (i, j), nearest first.
     #[inline]
     pub fn at(&self, i: usize, j: usize) -> &[u32] {
-        self.0.cell(i / TILE, j / TILE)
+        self.bins.cell(i / TILE, j / TILE)
+    }
+
+    /// Whether sphere k's projection may cover a pixel of row j in columns i0..=i1.
+    #[inline(always)]
+    pub fn covers(&self, k: u32, i0: usize, i1: usize, j: usize) -> bool {
+        let [x0, x1, y0, y1] = self.rects[k as usize];
+        let (i0, i1, j) = (i0 as u32, i1 as u32, j as u32);
+        i1 >= x0 && i0 <= x1 && j >= y0 && j <= y1
     }
 }
 

@@ -200,7 +200,7 @@ fn grazing_rays_on_a_huge_sphere_do_not_speckle() {
 // ---------------------------------------------------------------------------------------------
 // Far from the origin.
 
-fn far_scene(offset: f64) -> String {
+pub fn far_scene(offset: f64) -> String {
     let o =
         |x: f64, y: f64, z: f64| format!("({:?}, {:?}, {:?})", x + offset, y + offset, z + offset);
     format!(

@@ -14,5 +14,6 @@ mod incremental;
 mod modes;
 mod povray;
 mod production;
+mod simd;
 mod video;
 mod watch;

@@ -1,0 +1,101 @@
+//! Every instruction path gives the scalar path's bytes: the examples and the stability
+//! catalogue (tests/data and the far-from-the-origin scenes), frame by frame, at one sample per
+//! pixel (the packets' case; more samples go one ray at a time on every path).
+
+use std::path::Path;
+
+use crate::common::{example, root, EXAMPLES};
+use campath::document::Document;
+use campath::render::{Renderer, Simd};
+
+/// Frames 0, middle and last of `doc` through every path this CPU runs; the number of frames
+/// compared.
+fn same_bytes_on_every_path(name: &str, doc: &Document) -> usize {
+    let last = doc.animation.frames - 1;
+    let mut compared = 0;
+    for frame in [0, last / 2, last] {
+        let camera = doc.camera(frame).unwrap();
+        let reference = Renderer::with_simd(Simd::Scalar)
+            .unwrap()
+            .render(&camera, &doc.scene, doc.raster);
+        for simd in Simd::ALL {
+            let Some(mut r) = Renderer::with_simd(simd) else {
+                continue;
+            };
+            let pixels = r.render(&camera, &doc.scene, doc.raster);
+            let differ = pixels
+                .chunks(3)
+                .zip(reference.chunks(3))
+                .filter(|(a, b)| a != b)
+                .count();
+            assert_eq!(
+                differ,
+                0,
+                "{name} frame {frame}, {}: {differ} pixels differ",
+                simd.name()
+            );
+        }
+        compared += 1;
+    }
+    compared
+}
+
+fn one_sample(mut doc: Document, max_width: u32) -> Document {
+    doc.raster.samples = 1;
+    doc.raster.adaptive = false;
+    if doc.raster.width > max_width {
+        doc.raster.height = (doc.raster.height * max_width / doc.raster.width).max(1);
+        doc.raster.width = max_width;
+    }
+    doc
+}
+
+#[test]
+fn paths_this_cpu_runs_are_listed() {
+    let paths: Vec<&str> = Simd::ALL
+        .iter()
+        .filter(|s| s.supported())
+        .map(|s| s.name())
+        .collect();
+    eprintln!("instruction paths on this CPU: {}", paths.join(", "));
+    assert!(Simd::Scalar.supported() && Simd::Baseline.supported());
+    assert!(Simd::fastest().supported());
+}
+
+#[test]
+fn examples_give_the_same_bytes_on_every_path() {
+    let mut frames = 0;
+    for name in EXAMPLES {
+        frames += same_bytes_on_every_path(name, &one_sample(example(name), 320));
+    }
+    assert_eq!(frames, 3 * EXAMPLES.len());
+}
+
+#[test]
+fn stability_catalogue_gives_the_same_bytes_on_every_path() {
+    let mut files = 0;
+    let mut entries: Vec<_> = std::fs::read_dir(root().join("tests/data"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    entries.sort();
+    for path in entries {
+        // Files that must fail to load or to evaluate are the error catalogue, not pictures.
+        let Ok(doc) = Document::load(&path) else {
+            continue;
+        };
+        if doc.check_path().is_err() {
+            continue;
+        }
+        let name = path.file_stem().unwrap().to_string_lossy().into_owned();
+        same_bytes_on_every_path(&name, &one_sample(doc, 320));
+        files += 1;
+    }
+    assert!(files >= 20, "only {files} catalogue files rendered");
+    for offset in [0.0, 1e6, 1e8] {
+        let text = crate::extreme::far_scene(offset);
+        let doc = Document::from_str(Path::new("far.ron"), &text).unwrap();
+        same_bytes_on_every_path(&format!("far {offset:e}"), &one_sample(doc, 320));
+    }
+}
