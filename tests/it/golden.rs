@@ -1,5 +1,7 @@
 //! Golden frame hashes for every example in animations/: the first, middle and last frame of
-//! each, rendered at 96×54 (the file's own samples) so the test stays fast.
+//! each, rendered at 96×54 so the test stays fast, with the file's own samples
+//! (`<name>.txt`, cast one ray at a time) and with one sample per pixel (`<name>.1spp.txt`,
+//! cast in packets on every instruction path but `scalar`).
 //!
 //! Regenerate after an intended change of the pictures with
 //! `UPDATE_GOLDEN=1 cargo test --test it golden::`, look at the frames, and commit tests/golden/.
@@ -13,10 +15,13 @@ use campath::manifest::parse_hashes;
 use campath::output::frame_hash;
 use campath::render::key::VERSION;
 
-fn hashes(name: &str) -> String {
+fn hashes(name: &str, one_sample: bool) -> String {
     let mut doc = example(name);
     doc.raster.width = 96;
     doc.raster.height = 54;
+    if one_sample {
+        doc.raster.samples = 1;
+    }
     let last = doc.animation.frames - 1;
     let mut out = String::new();
     for k in [0, last / 2, last] {
@@ -44,13 +49,16 @@ fn examples_match_their_golden_hashes() {
         .parse()
         .unwrap();
     let mut failures = Vec::new();
-    for name in EXAMPLES {
-        let path = root().join(format!("tests/golden/{name}.txt"));
-        let got = hashes(name);
+    let files = EXAMPLES
+        .iter()
+        .flat_map(|name| [(*name, ".txt", false), (*name, ".1spp.txt", true)]);
+    for (name, suffix, one_sample) in files {
+        let path = root().join(format!("tests/golden/{name}{suffix}"));
+        let got = hashes(name, one_sample);
         if update {
             let old = std::fs::read_to_string(&path).unwrap_or_default();
             assert!(
-                old == got || recorded < VERSION,
+                old.is_empty() || old == got || recorded < VERSION,
                 "{name}: the pictures changed under renderer version {recorded}: \
                  bump campath::render::key::VERSION, then update again"
             );
