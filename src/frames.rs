@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::manifest::Shard;
 use crate::output::frame_hash;
 use crate::render::key::{FrameKey, KeyBase};
-use crate::render::Renderer;
+use crate::render::{Renderer, SceneIndex};
 
 /// The frames a run covers: a range, optionally one shard of it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -48,6 +48,10 @@ pub struct Timing {
     pub render_secs: Vec<f64>,
     /// Wall-clock seconds for the whole run, output included.
     pub wall_secs: f64,
+    /// When the first frame was delivered (for the first-frame latency).
+    pub first_frame_at: Option<Instant>,
+    /// The most spheres any rendered frame had inside its view.
+    pub max_in_view: usize,
 }
 
 impl Timing {
@@ -92,6 +96,7 @@ pub fn for_each_frame(
     let started = Instant::now();
     let base = KeyBase::new(&doc.scene, doc.raster);
     let mut renderer = Renderer::new();
+    let index = SceneIndex::new(&doc.scene);
     let mut previous: Option<(Camera, Arc<Vec<u8>>)> = None;
     let mut timing = Timing::default();
     for item in doc.cameras() {
@@ -109,13 +114,15 @@ pub fn for_each_frame(
             }
             _ => {
                 let t = Instant::now();
-                let pixels = Arc::new(renderer.render(&camera, &doc.scene, doc.raster));
+                let pixels = Arc::new(renderer.render_indexed(&camera, &index, doc.raster));
                 timing.render_secs.push(t.elapsed().as_secs_f64());
+                timing.max_in_view = timing.max_in_view.max(renderer.in_view());
                 pixels
             }
         };
         sink(frame, &base.key(&camera), &pixels)?;
         timing.frames += 1;
+        timing.first_frame_at.get_or_insert_with(Instant::now);
         previous = Some((camera, pixels));
     }
     timing.wall_secs = started.elapsed().as_secs_f64();

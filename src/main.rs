@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    cli::started();
     let parsed = cli::Cli::parse();
     let stdout = std::io::stdout();
     let mut out = stdout.lock();

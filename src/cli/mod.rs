@@ -158,6 +158,10 @@ enum Command {
         /// Print the rows as JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Instead of the POV-Ray table, time the scaling scenes (100 to 1,000,000 spheres;
+        /// 720p to 4K), hash-only.
+        #[arg(long)]
+        scaling: bool,
     },
     /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
     /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt.
@@ -197,6 +201,12 @@ enum Command {
 }
 
 /// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
+/// When the process started (first called from `main`): the origin of first-frame latency.
+pub fn started() -> std::time::Instant {
+    static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+    *START.get_or_init(std::time::Instant::now)
+}
+
 pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
     if let Some(Err(e)) = campath::render::Simd::from_env() {
         return Err(error::CliError::Usage(format!("CAMPATH_SIMD: {e}")));
@@ -294,7 +304,8 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             pov_frames,
             scenes,
             json,
-        } => bench::command(&dir, pov_frames, &scenes, json, out)?,
+            scaling,
+        } => bench::command(&dir, pov_frames, &scenes, json, scaling, out)?,
         Command::Video {
             file,
             out: video,

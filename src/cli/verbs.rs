@@ -24,6 +24,12 @@ pub struct Stats {
     pub median_render_ms: f64,
     /// Peak resident memory of the process, where the platform tells.
     pub peak_memory_mb: Option<f64>,
+    /// From the process's start to the first frame delivered: loading, checking, indexing the
+    /// scene and rendering one frame.
+    pub first_frame_ms: Option<f64>,
+    /// The most spheres any rendered frame had inside its view.
+    #[serde(default)]
+    pub max_in_view: usize,
 }
 
 impl Stats {
@@ -35,6 +41,10 @@ impl Stats {
             wall_ms_per_frame: t.wall_secs * 1e3 / t.frames.max(1) as f64,
             median_render_ms: t.median_render_secs() * 1e3,
             peak_memory_mb: peak_memory_mb(),
+            first_frame_ms: t
+                .first_frame_at
+                .map(|at| (at - super::started()).as_secs_f64() * 1e3),
+            max_in_view: t.max_in_view,
         }
     }
 
@@ -67,6 +77,10 @@ pub fn timing_line(verb: &str, detail: &str, t: &Timing) -> String {
             t.wall_secs * 1e3 / t.frames as f64,
             t.median_render_secs() * 1e3
         ));
+    }
+    if let Some(at) = t.first_frame_at {
+        let ms = (at - super::started()).as_secs_f64() * 1e3;
+        notes.push(format!("first frame after {ms:.0} ms"));
     }
     if t.held > 0 {
         notes.push(format!("{} held (same camera as the frame before)", t.held));

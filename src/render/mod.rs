@@ -22,11 +22,13 @@ pub mod key;
 mod packet;
 mod shadows;
 mod tiles;
+mod world;
 
 use packet::RowJob;
 pub use packet::Simd;
+pub use world::SceneIndex;
 
-use shadows::ShadowGrid;
+use shadows::FrameShadows;
 use tiles::TileBins;
 
 /// Largest number of sample directions kept in memory (96 MB); past it, directions are
@@ -137,6 +139,8 @@ struct ViewSphere {
     /// |f| − r: no primary ray meets the sphere nearer than this.
     min_dist: f64,
     color: DVec3,
+    /// The sphere's index in the scene.
+    id: u32,
 }
 
 impl ViewSphere {
@@ -151,7 +155,7 @@ impl ViewSphere {
 
     /// `sphere` moved camera-relative into view coordinates: the VRP is subtracted first, so a
     /// scene far from the origin keeps its precision.
-    fn new(camera: &Camera, sphere: &Sphere) -> ViewSphere {
+    fn new(camera: &Camera, sphere: &Sphere, id: u32) -> ViewSphere {
         let center = camera.point_to_view(sphere.center_world);
         let f = camera.cop_view - center;
         let radius2 = sphere.radius * sphere.radius;
@@ -163,23 +167,26 @@ impl ViewSphere {
             c: f.length_squared() - radius2,
             min_dist: f.length() - sphere.radius,
             color: sphere.color,
+            id,
         }
     }
 }
 
 /// A light in view coordinates.
-struct ViewLight {
+struct ViewLight<'a> {
     /// Unit vector from a surface towards the light: −direction.
     to_light: DVec3,
     color: DVec3,
     /// Spheres binned for this light's shadow rays; None when the light casts no shadows.
-    shadows: Option<ShadowGrid>,
+    shadows: Option<FrameShadows<'a>>,
 }
 
 /// Renders frames, keeping the ray table between frames.
 pub struct Renderer {
     table: Option<RayTable>,
     simd: Simd,
+    /// Spheres inside the view pyramid in the last frame.
+    in_view: usize,
 }
 
 impl Default for Renderer {
@@ -194,13 +201,18 @@ impl Renderer {
         Renderer {
             table: None,
             simd: Simd::detect(),
+            in_view: 0,
         }
     }
 
     /// A renderer on instruction path `simd`, None if this CPU cannot run it. Every path gives
     /// the same bytes.
     pub fn with_simd(simd: Simd) -> Option<Renderer> {
-        simd.supported().then_some(Renderer { table: None, simd })
+        simd.supported().then_some(Renderer {
+            table: None,
+            simd,
+            in_view: 0,
+        })
     }
 
     /// The instruction path in use.
@@ -208,31 +220,52 @@ impl Renderer {
         self.simd
     }
 
+    /// How many spheres the last frame had inside its view pyramid (the rest were culled by the
+    /// scene's hierarchy without being moved into view coordinates).
+    pub fn in_view(&self) -> usize {
+        self.in_view
+    }
+
     /// Renders one frame to RGB8, row-major, top row first. Each row is rendered by one task into
     /// its own slice, so the bytes do not depend on the thread count.
     pub fn render(&mut self, camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
+        self.render_indexed(camera, &SceneIndex::new(scene), raster)
+    }
+
+    /// [`Renderer::render`] with the scene indexed once for many frames: a frame then costs
+    /// O(visible spheres + log N) before its rays.
+    pub fn render_indexed(
+        &mut self,
+        camera: &Camera,
+        index: &SceneIndex,
+        raster: Raster,
+    ) -> Vec<u8> {
+        let scene = index.scene;
         // Packets cast one sample per pixel; more samples go one ray at a time.
         let packets = self.simd != Simd::Scalar && raster.samples == 1;
         let table = match self.table.take() {
             Some(t) if t.fits(camera.cop_view, camera.window, raster) => t,
             _ => RayTable::new(camera.cop_view, camera.window, raster, !packets),
         };
-        let spheres: Vec<ViewSphere> = scene
-            .spheres
-            .iter()
-            .map(|s| ViewSphere::new(camera, s))
+        let spheres: Vec<ViewSphere> = index
+            .visible(camera)
+            .into_iter()
+            .map(|k| ViewSphere::new(camera, &scene.spheres[k as usize], k))
             .collect();
+        self.in_view = spheres.len();
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let lights: Vec<ViewLight> = scene
             .lights
             .iter()
-            .map(|l| {
+            .zip(&index.shadows)
+            .map(|(l, grid)| {
                 let to_light = -camera.basis.to_view(l.direction_world);
                 ViewLight {
                     to_light,
                     color: l.color,
-                    shadows: (l.shadows && spheres.len() > 1)
-                        .then(|| ShadowGrid::build(&spheres, to_light)),
+                    shadows: grid
+                        .as_ref()
+                        .map(|g| FrameShadows::new(g, camera, &scene.spheres, to_light)),
                 }
             })
             .collect();
@@ -292,7 +325,7 @@ impl Renderer {
 
 struct Shading<'a> {
     spheres: &'a [ViewSphere],
-    lights: &'a [ViewLight],
+    lights: &'a [ViewLight<'a>],
     ambient: f64,
     background: DVec3,
 }
@@ -341,7 +374,7 @@ impl Shading<'_> {
                 continue;
             }
             if let Some(grid) = &l.shadows {
-                if grid.occluded(self.spheres, point, index) {
+                if grid.occluded(point, s.id) {
                     continue;
                 }
             }
@@ -482,7 +515,8 @@ mod tests {
         let spheres: Vec<ViewSphere> = scene
             .spheres
             .iter()
-            .map(|s| ViewSphere::new(camera, s))
+            .enumerate()
+            .map(|(k, s)| ViewSphere::new(camera, s, k as u32))
             .collect();
         let enc = srgb_encoder();
         let s2 = (raster.samples * raster.samples) as usize;
@@ -511,7 +545,10 @@ mod tests {
                             let facing = normal.dot(to_light);
                             let shadowed = l.shadows
                                 && spheres.iter().enumerate().any(|(o, os)| {
-                                    o != k && shadows::blocks_ray(os, point, to_light)
+                                    o != k
+                                        && shadows::blocks_ray(
+                                            os.center, os.radius2, point, to_light,
+                                        )
                                 });
                             if facing > 0.0 && !shadowed {
                                 light += l.color * facing;

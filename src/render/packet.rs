@@ -289,7 +289,8 @@ impl Shading<'_> {
                 }
                 if let Some(grid) = &l.shadows {
                     if any(&lit) {
-                        let blocked = grid.occluded_packet(self.spheres, &point, index, lit);
+                        let ids = own.map(|k| self.spheres[k].id);
+                        let blocked = grid.occluded_packet(&point, &ids, lit);
                         for k in 0..LANES {
                             lit[k] &= !blocked[k];
                         }

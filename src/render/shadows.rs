@@ -8,15 +8,15 @@
 
 use glam::{DVec2, DVec3};
 
-use super::bins::Bins;
+use super::bins::{Bins, CellRect};
 use super::packet::{Lanes, Mask, LANES};
-use super::ViewSphere;
+use crate::camera::Camera;
+use crate::scene::Sphere;
 
-/// Spheres binned for one light direction, in view coordinates.
+/// A scene's spheres binned for one light direction, in world coordinates: built once per
+/// scene and light, used by every frame.
 pub struct ShadowGrid {
-    /// Unit vector towards the light.
-    to_light: DVec3,
-    /// Orthonormal axes of the projection plane.
+    /// Orthonormal axes of the projection plane (world).
     axes: (DVec3, DVec3),
     origin: DVec2,
     inv_cell: f64,
@@ -24,159 +24,211 @@ pub struct ShadowGrid {
     bins: Bins,
     /// Spheres tested for every ray.
     always: Vec<u32>,
+    /// The largest |coordinate| + radius of any sphere: the scale of the rounding bound.
+    extent: f64,
 }
 
 impl ShadowGrid {
-    pub fn build(spheres: &[ViewSphere], to_light: DVec3) -> ShadowGrid {
+    /// Bins `spheres` for the light arriving from `to_light` (world, unit).
+    pub fn build(spheres: &[Sphere], to_light: DVec3) -> ShadowGrid {
         let axes = to_light.any_orthonormal_pair();
         let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
         let big = big_radius(spheres);
         let always: Vec<u32> = (0..spheres.len() as u32)
             .filter(|k| spheres[*k as usize].radius > big)
             .collect();
+        let extent = spheres
+            .iter()
+            .map(|s| s.center_world.abs().max_element() + s.radius)
+            .fold(0.0, f64::max);
         let small = || spheres.iter().filter(|s| s.radius <= big);
         let mut lo = DVec2::splat(f64::INFINITY);
         let mut hi = DVec2::splat(f64::NEG_INFINITY);
         for s in small() {
-            lo = lo.min(project(s.center) - s.radius);
-            hi = hi.max(project(s.center) + s.radius);
+            lo = lo.min(project(s.center_world) - s.radius);
+            hi = hi.max(project(s.center_world) + s.radius);
         }
         let count = small().count();
         if count == 0 {
             return ShadowGrid {
-                to_light,
                 axes,
                 origin: DVec2::ZERO,
                 inv_cell: 0.0,
                 dims: (0, 0),
                 bins: Bins::build((0, 0), 0, |_| None),
                 always,
+                extent,
             };
         }
         let (dims, inv_cell) = grid_size(hi - lo, count);
-        let cell_range = |s: &ViewSphere| {
-            let c = project(s.center);
-            let a = ((c - s.radius - lo) * inv_cell).floor();
-            let b = ((c + s.radius - lo) * inv_cell).floor();
-            let clampx = |v: f64| v.max(0.0).min(dims.0 as f64 - 1.0) as usize;
-            let clampy = |v: f64| v.max(0.0).min(dims.1 as f64 - 1.0) as usize;
-            (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
-        };
-        let bins = Bins::build(dims, spheres.len(), |k| {
-            (spheres[k].radius <= big).then(|| cell_range(&spheres[k]))
-        });
-        ShadowGrid {
-            to_light,
+        let grid = ShadowGrid {
             axes,
             origin: lo,
             inv_cell,
             dims,
-            bins,
+            bins: Bins::build((0, 0), 0, |_| None),
             always,
-        }
-    }
-
-    /// Whether the ray from `point` (on sphere `own`) towards the light meets another sphere.
-    pub fn occluded(&self, spheres: &[ViewSphere], point: DVec3, own: usize) -> bool {
-        let blocks = |k: &u32| {
-            let k = *k as usize;
-            k != own && blocks_ray(&spheres[k], point, self.to_light)
+            extent,
         };
-        if self.always.iter().any(blocks) {
-            return true;
-        }
-        if self.dims.0 == 0 {
-            return false;
-        }
-        match self.cell_of(point) {
-            Some((x, y)) => self.bins.cell(x, y).iter().any(blocks),
-            None => false,
-        }
+        let bins = Bins::build(dims, spheres.len(), |k| {
+            let s = &spheres[k];
+            (s.radius <= big).then(|| grid.cell_range(project(s.center_world), s.radius))
+        });
+        ShadowGrid { bins, ..grid }
     }
 
-    /// The grid cell holding `point`'s projection, None outside the grid.
+    /// The cells a disc of `radius` about projected point `c` overlaps, clamped to the grid.
+    fn cell_range(&self, c: DVec2, radius: f64) -> CellRect {
+        let a = ((c - radius - self.origin) * self.inv_cell).floor();
+        let b = ((c + radius - self.origin) * self.inv_cell).floor();
+        let clampx = |v: f64| v.max(0.0).min(self.dims.0 as f64 - 1.0) as usize;
+        let clampy = |v: f64| v.max(0.0).min(self.dims.1 as f64 - 1.0) as usize;
+        (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
+    }
+
+    /// The cells that can hold a blocker of the shadow ray from view point `point` of `camera`,
+    /// None if no binned disc can hold it. The point reaches world coordinates through
+    /// rounding, so it is taken as a small square (1e-9 of the coordinates' scale, far above
+    /// the rounding): a point on a cell's edge looks in both cells.
     #[inline(always)]
-    fn cell_of(&self, point: DVec3) -> Option<(usize, usize)> {
-        let q = (DVec2::new(point.dot(self.axes.0), point.dot(self.axes.1)) - self.origin)
-            * self.inv_cell;
+    fn cells(&self, camera: &Camera, point: DVec3) -> Option<CellRect> {
+        if self.dims.0 == 0 {
+            return None;
+        }
+        let world = camera.point_to_world(point);
+        let err =
+            1e-9 * (camera.vrp_world.abs().max_element() + point.abs().max_element() + self.extent);
+        let q = DVec2::new(world.dot(self.axes.0), world.dot(self.axes.1)) - self.origin;
+        let (a, b) = ((q - err) * self.inv_cell, (q + err) * self.inv_cell);
+        let (w, h) = (self.dims.0 as f64, self.dims.1 as f64);
         // Outside the grid no binned disc holds the point (the far edges belong to the last cells).
-        if !(q.x >= 0.0 && q.y >= 0.0 && q.x <= self.dims.0 as f64 && q.y <= self.dims.1 as f64) {
+        if !(b.x >= 0.0 && b.y >= 0.0 && a.x <= w && a.y <= h) {
             return None;
         }
         // Truncation is floor for these non-negative values, without a libm call.
+        let cell = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
         Some((
-            (q.x as usize).min(self.dims.0 - 1),
-            (q.y as usize).min(self.dims.1 - 1),
+            cell(a.x, self.dims.0),
+            cell(b.x, self.dims.0),
+            cell(a.y, self.dims.1),
+            cell(b.y, self.dims.1),
         ))
     }
 }
 
-impl ShadowGrid {
-    /// `occluded` for a packet of points (x, y and z lanes) on spheres `own`, for the lanes set
-    /// in `need`: which of them the light does not reach. Each lane's tests are
+/// One light's shadow rays in one frame: the scene's grid, the frame's camera, and the light
+/// and its always-tested spheres in view coordinates.
+pub struct FrameShadows<'a> {
+    grid: &'a ShadowGrid,
+    camera: &'a Camera,
+    spheres: &'a [Sphere],
+    /// Unit vector towards the light, view coordinates.
+    to_light: DVec3,
+    /// The grid's always-tested spheres: (index, centre in view coordinates, r²).
+    always: Vec<(u32, DVec3, f64)>,
+}
+
+impl<'a> FrameShadows<'a> {
+    pub fn new(
+        grid: &'a ShadowGrid,
+        camera: &'a Camera,
+        spheres: &'a [Sphere],
+        to_light: DVec3,
+    ) -> FrameShadows<'a> {
+        let mut shadows = FrameShadows {
+            grid,
+            camera,
+            spheres,
+            to_light,
+            always: Vec::new(),
+        };
+        shadows.always = grid.always.iter().map(|&k| shadows.blocker(k)).collect();
+        shadows
+    }
+
+    /// Sphere k's centre in view coordinates and r², to the bits of `ViewSphere::new`.
+    #[inline(always)]
+    fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
+        let s = &self.spheres[k as usize];
+        (
+            k,
+            self.camera.point_to_view(s.center_world),
+            s.radius * s.radius,
+        )
+    }
+
+    /// Whether the ray from view point `point` (on sphere `own`) towards the light meets
+    /// another sphere.
+    pub fn occluded(&self, point: DVec3, own: u32) -> bool {
+        let dir = self.to_light;
+        let blocks = |&(k, c, r2): &(u32, DVec3, f64)| k != own && blocks_ray(c, r2, point, dir);
+        if self.always.iter().any(blocks) {
+            return true;
+        }
+        let Some((x0, x1, y0, y1)) = self.grid.cells(self.camera, point) else {
+            return false;
+        };
+        (y0..=y1).any(|y| {
+            (x0..=x1).any(|x| {
+                let cell = self.grid.bins.cell(x, y);
+                cell.iter().any(|&k| blocks(&self.blocker(k)))
+            })
+        })
+    }
+
+    /// `occluded` for a packet of view points (x, y and z lanes) on spheres `own`, for the lanes
+    /// set in `need`: which of them the light does not reach. Each lane's tests are
     /// [`blocks_ray`]'s; whether any sphere blocks a ray does not depend on the order of the
     /// tests, so lanes sharing a grid cell test its spheres together.
     #[inline(always)]
-    pub fn occluded_packet(
-        &self,
-        spheres: &[ViewSphere],
-        point: &[Lanes; 3],
-        own: &[u32; LANES],
-        need: Mask,
-    ) -> Mask {
+    pub fn occluded_packet(&self, point: &[Lanes; 3], own: &[u32; LANES], need: Mask) -> Mask {
         let mut blocked = [false; LANES];
         let dir = self.to_light;
-        // Tests sphere k against the lanes in `lanes`; false once all of them are blocked.
-        let test = |k: u32, lanes: &Mask, blocked: &mut Mask| {
-            let s = &spheres[k as usize];
+        // Tests one sphere against the lanes in `lanes`; false once all of them are blocked.
+        let test = |(k, c, r2): (u32, DVec3, f64), lanes: &Mask, blocked: &mut Mask| {
             for l in 0..LANES {
-                let f = [
-                    point[0][l] - s.center.x,
-                    point[1][l] - s.center.y,
-                    point[2][l] - s.center.z,
-                ];
-                let c = (f[0] * f[0] + f[1] * f[1]) + f[2] * f[2] - s.radius2;
+                let f = [point[0][l] - c.x, point[1][l] - c.y, point[2][l] - c.z];
+                let cc = (f[0] * f[0] + f[1] * f[1]) + f[2] * f[2] - r2;
                 let b = (f[0] * dir.x + f[1] * dir.y) + f[2] * dir.z;
                 let g = [f[0] - dir.x * b, f[1] - dir.y * b, f[2] - dir.z * b];
                 let g2 = (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2];
-                let hit = (c <= 0.0) | ((b < 0.0) & (g2 <= s.radius2));
+                let hit = (cc <= 0.0) | ((b < 0.0) & (g2 <= r2));
                 blocked[l] |= lanes[l] & (own[l] != k) & hit;
             }
             (0..LANES).any(|l| lanes[l] & !blocked[l])
         };
-        for &k in &self.always {
-            if !test(k, &need, &mut blocked) {
+        for &a in &self.always {
+            if !test(a, &need, &mut blocked) {
                 return blocked;
             }
         }
-        if self.dims.0 == 0 {
-            return blocked;
-        }
-        // Each pending lane's cell, as in `occluded`.
-        let mut cell = [usize::MAX; LANES];
+        // Each pending lane's cells; lanes with the same single cell test it together.
+        let mut cells = [None; LANES];
         for l in 0..LANES {
             if need[l] && !blocked[l] {
                 let p = DVec3::new(point[0][l], point[1][l], point[2][l]);
-                if let Some((x, y)) = self.cell_of(p) {
-                    cell[l] = y * self.dims.0 + x;
-                }
+                cells[l] = self.grid.cells(self.camera, p);
             }
         }
         for l in 0..LANES {
-            let here = cell[l];
-            if here == usize::MAX {
+            let Some(here) = cells[l] else {
                 continue;
-            }
+            };
             let mut lanes = [false; LANES];
+            let single = here.0 == here.1 && here.2 == here.3;
             for m in l..LANES {
-                lanes[m] = cell[m] == here;
+                lanes[m] = cells[m] == Some(here) && (single || m == l);
                 if lanes[m] {
-                    cell[m] = usize::MAX;
+                    cells[m] = None;
                 }
             }
-            for &k in self.bins.cell(here % self.dims.0, here / self.dims.0) {
-                if !test(k, &lanes, &mut blocked) {
-                    break;
+            'cells: for y in here.2..=here.3 {
+                for x in here.0..=here.1 {
+                    for &k in self.grid.bins.cell(x, y) {
+                        if !test(self.blocker(k), &lanes, &mut blocked) {
+                            break 'cells;
+                        }
+                    }
                 }
             }
         }
@@ -186,7 +238,7 @@ impl ShadowGrid {
 
 /// Spheres larger than this (16 × the median radius, like a ground sphere) are tested for every
 /// ray instead of being binned, so they do not inflate the grid.
-fn big_radius(spheres: &[ViewSphere]) -> f64 {
+fn big_radius(spheres: &[Sphere]) -> f64 {
     let mut radii: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
     if radii.is_empty() {
         return f64::INFINITY;
@@ -209,17 +261,18 @@ fn grid_size(extent: DVec2, count: usize) -> ((usize, usize), f64) {
     (dims, 1.0 / cell)
 }
 
-/// Whether sphere `s` blocks the ray from `point` along unit `dir` (t > 0). A point inside (or
-/// on) the sphere is blocked; outside, both roots share a sign, positive exactly when the sphere
-/// lies ahead. No epsilon is needed: the caller skips the sphere the point lies on, which, being
-/// convex, never shadows its own lit side.
+/// Whether the sphere about view point `center` with squared radius `radius2` blocks the ray
+/// from `point` along unit `dir` (t > 0). A point inside (or on) the sphere is blocked; outside,
+/// both roots share a sign, positive exactly when the sphere lies ahead. No epsilon is needed:
+/// the caller skips the sphere the point lies on, which, being convex, never shadows its own
+/// lit side.
 #[inline]
-pub fn blocks_ray(s: &ViewSphere, point: DVec3, dir: DVec3) -> bool {
-    let f = point - s.center;
-    let c = f.length_squared() - s.radius2;
+pub fn blocks_ray(center: DVec3, radius2: f64, point: DVec3, dir: DVec3) -> bool {
+    let f = point - center;
+    let c = f.length_squared() - radius2;
     if c <= 0.0 {
         return true;
     }
     let b = f.dot(dir);
-    b < 0.0 && (f - dir * b).length_squared() <= s.radius2
+    b < 0.0 && (f - dir * b).length_squared() <= radius2
 }
