@@ -13,7 +13,7 @@ use super::error::{CliError, Result};
 use campath::camera::Camera;
 use campath::document::Document;
 use campath::frames::median;
-use campath::render::{srgb_decode, Raster, Renderer};
+use campath::render::{srgb_decode, Raster, Renderer, Simd};
 use campath::scene::Scene;
 
 /// Samples per side of the reference.
@@ -34,8 +34,14 @@ pub struct Measured {
 }
 
 /// Median time of `runs` renders after one warm-up render, and the last frame.
-fn timed(camera: &Camera, scene: &Scene, raster: Raster, runs: usize) -> (f64, Vec<u8>) {
-    let mut r = Renderer::new();
+fn timed(
+    camera: &Camera,
+    scene: &Scene,
+    raster: Raster,
+    simd: Simd,
+    runs: usize,
+) -> (f64, Vec<u8>) {
+    let mut r = Renderer::with_simd(simd).unwrap_or_default();
     let mut pixels = r.render(camera, scene, raster);
     let mut secs = Vec::with_capacity(runs);
     for _ in 0..runs {
@@ -93,11 +99,19 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
             samples: REFERENCE_SAMPLES,
             ..base
         },
+        Simd::detect(),
         0,
     );
-    let mut settings: Vec<(String, Raster)> = [1, 2, 3, 4, 8]
+    let fastest = Simd::detect();
+    let mut settings: Vec<(String, Raster, Simd)> = [1, 2, 3, 4, 8]
         .iter()
-        .map(|&s| (format!("samples {s}"), Raster { samples: s, ..base }))
+        .map(|&s| {
+            (
+                format!("samples {s}"),
+                Raster { samples: s, ..base },
+                fastest,
+            )
+        })
         .collect();
     for s in [2, 4, 8] {
         settings.push((
@@ -107,11 +121,16 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
                 adaptive: true,
                 ..base
             },
+            fastest,
         ));
     }
+    // The instruction paths: all f64, all the same bytes; only the time differs.
+    for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+        settings.push((format!("samples 1, f64, {} path", simd.name()), base, simd));
+    }
     let mut out = Vec::new();
-    for (label, raster) in settings {
-        let (secs, pixels) = timed(&camera, &doc.scene, raster, runs);
+    for (label, raster, simd) in settings {
+        let (secs, pixels) = timed(&camera, &doc.scene, raster, simd, runs);
         let (rmse_levels, max_levels, rmse_linear, max_linear, changed) =
             compare(&pixels, &reference);
         out.push(Measured {
@@ -215,7 +234,8 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .map_err(&draw_err)?;
         let plain: Vec<_> = rows
             .iter()
-            .filter(|r| !r.label.contains("adaptive"))
+            // The instruction paths share samples 1's error; the plot shows the samples.
+            .filter(|r| !r.label.contains("adaptive") && !r.label.contains("path"))
             .map(point)
             .collect();
         let adaptive: Vec<_> = rows

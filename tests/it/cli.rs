@@ -323,6 +323,13 @@ fn report_prints_both_tables_and_writes_the_plot() {
         line.split('|').nth(3).unwrap().trim().parse().unwrap()
     };
     assert!(rmse("samples 8") < rmse("samples 1"));
+    // The instruction paths are rows too, each with samples 1's error exactly (same bytes).
+    assert_eq!(rmse("samples 1, f64, scalar path"), rmse("samples 1"));
+    let baseline = format!(
+        "samples 1, f64, {} path",
+        campath::render::Simd::Baseline.name()
+    );
+    assert_eq!(rmse(&baseline), rmse("samples 1"));
     let plot = image::open(tmp.path().join("plot.png")).unwrap();
     assert_eq!((plot.width(), plot.height()), (900, 600));
 }
