@@ -140,18 +140,48 @@ fn sphere_line(out: &mut String, rng: &mut SplitMix, (x, y, z): (f64, f64, f64),
     );
 }
 
-/// Spheres resting on the ground over a square field whose side grows with √N (constant
-/// density), and an observer + track fly-through across the field: (description, camera,
-/// tracks, sphere lines).
-fn fly(s: &BenchScene) -> (&'static str, String, String, String) {
-    let mut rng = SplitMix(0xB3AC_0000 + s.spheres as u64);
-    let side = (s.spheres as f64).sqrt() * 6.0;
+/// The side of a field holding `n` spheres at the fly-through's density.
+fn field_side(n: usize) -> f64 {
+    (n as f64).sqrt() * 6.0
+}
+
+/// `n` spheres of radius 0.3 to 1.5 resting on the ground over a square field of side
+/// [`field_side`], from the stream seeded `seed + n`.
+fn field_spheres(seed: u64, n: usize) -> String {
+    let mut rng = SplitMix(seed + n as u64);
+    let side = field_side(n);
     let mut spheres = String::new();
-    for _ in 0..s.spheres {
+    for _ in 0..n {
         let r = 0.3 + 1.2 * rng.unit();
         let (x, z) = ((rng.unit() - 0.5) * side, (rng.unit() - 0.5) * side);
         sphere_line(&mut spheres, &mut rng, (x, r, z), r);
     }
+    spheres
+}
+
+/// `n` spheres of radius 0.2 to 0.6 in a box `side` × 6 × `side` centred over the origin, from
+/// the stream seeded `seed + n`.
+fn cluster_spheres(seed: u64, n: usize, side: f64) -> String {
+    let mut rng = SplitMix(seed + n as u64);
+    let mut spheres = String::new();
+    for _ in 0..n {
+        let r = 0.2 + 0.4 * rng.unit();
+        let (x, y, z) = (
+            (rng.unit() - 0.5) * side,
+            r + rng.unit() * (6.0 - 2.0 * r),
+            (rng.unit() - 0.5) * side,
+        );
+        sphere_line(&mut spheres, &mut rng, (x, y, z), r);
+    }
+    spheres
+}
+
+/// Spheres resting on the ground over a square field whose side grows with √N (constant
+/// density), and an observer + track fly-through across the field: (description, camera,
+/// tracks, sphere lines).
+fn fly(s: &BenchScene) -> (&'static str, String, String, String) {
+    let side = field_side(s.spheres);
+    let spheres = field_spheres(0xB3AC_0000, s.spheres);
     let k = |f: f64| f * side;
     let secs = (s.frames - 1) as f64 / 24.0;
     let animate = format!(
@@ -178,17 +208,7 @@ fn fly(s: &BenchScene) -> (&'static str, String, String, String) {
 /// about 20 units while looking at the cluster's centre: (description, camera, tracks, sphere
 /// lines).
 fn cluster(s: &BenchScene) -> (&'static str, String, String, String) {
-    let mut rng = SplitMix(0xC1_0000 + s.spheres as u64);
-    let mut spheres = String::new();
-    for _ in 0..s.spheres {
-        let r = 0.2 + 0.4 * rng.unit();
-        let (x, y, z) = (
-            (rng.unit() - 0.5) * 20.0,
-            r + rng.unit() * (6.0 - 2.0 * r),
-            (rng.unit() - 0.5) * 20.0,
-        );
-        sphere_line(&mut spheres, &mut rng, (x, y, z), r);
-    }
+    let spheres = cluster_spheres(0xC1_0000, s.spheres, 20.0);
     let secs = (s.frames - 1) as f64 / 24.0;
     let animate = format!(
         "[Observer(keys: [(t: 0.0, value: (-20.0, 8.0, -4.0)), (t: {t1:?}, value: (-14.0, 8.0, -14.0)), (t: {t2:?}, value: (-4.0, 8.0, -20.0))])]",
@@ -202,14 +222,7 @@ fn cluster(s: &BenchScene) -> (&'static str, String, String, String) {
 /// Fly-scene spheres over a field of side 6·√N, and a camera 8 units up looking down 45°,
 /// travelling 30 units across the middle: (description, camera, tracks, sphere lines).
 fn patch(s: &BenchScene) -> (&'static str, String, String, String) {
-    let mut rng = SplitMix(0xFA7C_0000 + s.spheres as u64);
-    let side = (s.spheres as f64).sqrt() * 6.0;
-    let mut spheres = String::new();
-    for _ in 0..s.spheres {
-        let r = 0.3 + 1.2 * rng.unit();
-        let (x, z) = ((rng.unit() - 0.5) * side, (rng.unit() - 0.5) * side);
-        sphere_line(&mut spheres, &mut rng, (x, r, z), r);
-    }
+    let spheres = field_spheres(0xFA7C_0000, s.spheres);
     let secs = (s.frames - 1) as f64 / 24.0;
     // The view's upper edge is 45° − 21.6° below the horizon: no frame sees beyond ~19 units.
     let animate = format!(
@@ -228,18 +241,8 @@ fn patch(s: &BenchScene) -> (&'static str, String, String, String) {
 /// N spheres at the cluster's density (1000 per 20 × 6 × 20) in a box 20·√(N/1000) a side,
 /// orbited as the cluster is, from the same distance to the box's nearest corner.
 fn big_cluster(s: &BenchScene) -> (&'static str, String, String, String) {
-    let mut rng = SplitMix(0xB1C1_0000 + s.spheres as u64);
     let side = 20.0 * (s.spheres as f64 / 1000.0).sqrt();
-    let mut spheres = String::new();
-    for _ in 0..s.spheres {
-        let r = 0.2 + 0.4 * rng.unit();
-        let (x, y, z) = (
-            (rng.unit() - 0.5) * side,
-            r + rng.unit() * (6.0 - 2.0 * r),
-            (rng.unit() - 0.5) * side,
-        );
-        sphere_line(&mut spheres, &mut rng, (x, y, z), r);
-    }
+    let spheres = cluster_spheres(0xB1C1_0000, s.spheres, side);
     let secs = (s.frames - 1) as f64 / 24.0;
     let h = side * 0.5;
     let animate = format!(
