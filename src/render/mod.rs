@@ -254,6 +254,12 @@ impl Renderer {
             .collect();
         self.in_view = spheres.len();
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
+        let shadowed = index.shadows.iter().any(Option::is_some);
+        let centers: Option<Vec<(DVec3, f64)>> =
+            (shadowed && scene.spheres.len() <= shadows::ALL_CENTERS).then(|| {
+                let center = |s| shadows::view_center(camera, s);
+                scene.spheres.iter().map(center).collect()
+            });
         let lights: Vec<ViewLight> = scene
             .lights
             .iter()
@@ -263,9 +269,10 @@ impl Renderer {
                 ViewLight {
                     to_light,
                     color: l.color,
-                    shadows: grid
-                        .as_ref()
-                        .map(|g| FrameShadows::new(g, camera, &scene.spheres, to_light)),
+                    shadows: grid.as_ref().map(|g| {
+                        let all = centers.as_deref();
+                        FrameShadows::new(g, camera, &scene.spheres, all, to_light)
+                    }),
                 }
             })
             .collect();
@@ -471,6 +478,26 @@ impl SrgbEncoder {
             *l = level(b as f64 / BUCKETS as f64);
         }
         SrgbEncoder { thresholds, first }
+    }
+
+    /// [`SrgbEncoder::encode`] of every lane: the bucket arithmetic vectorised, the two table
+    /// lookups per value scalar.
+    #[inline(always)]
+    pub fn encode_lanes(&self, linear: &[f64; packet::LANES]) -> [u8; packet::LANES] {
+        // i32, not usize: x86 converts f64 lanes to i32 in one instruction (the values, NaN
+        // included, are `encode`'s).
+        let mut bucket = [0i32; packet::LANES];
+        let mut x = [0.0; packet::LANES];
+        for l in 0..packet::LANES {
+            x[l] = linear[l].clamp(0.0, 1.0);
+            bucket[l] = ((x[l] * BUCKETS as f64) as i32).min(BUCKETS as i32);
+        }
+        let mut out = [0u8; packet::LANES];
+        for l in 0..packet::LANES {
+            let level = self.first[bucket[l] as usize];
+            out[l] = level + (x[l] >= self.thresholds[level as usize]) as u8;
+        }
+        out
     }
 
     /// Linear [0, 1] to the nearest 8-bit sRGB level (values outside are clamped): the level

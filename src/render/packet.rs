@@ -156,11 +156,17 @@ impl RowJob<'_> {
             let covers = |k: u32| self.bins.covers(k, i0, i0 + n - 1, j);
             let (hit, index, t) = self.ctx.nearest_packet(&d, candidates, covers);
             let colors = self.ctx.shade_packet(&d, hit, &index, &t);
-            let mut bytes = [0u8; 3 * LANES];
-            for (b, c) in bytes.iter_mut().zip(colors.iter().flatten()) {
-                *b = self.encode.encode(*c);
+            // Plain calls, not `array::map`: its closure is not inlined into this function and
+            // loses the instruction set it was compiled for.
+            let enc = self.encode;
+            let levels = [
+                enc.encode_lanes(&colors[0]),
+                enc.encode_lanes(&colors[1]),
+                enc.encode_lanes(&colors[2]),
+            ];
+            for (l, px) in out.chunks_exact_mut(3).enumerate() {
+                px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
             }
-            out.copy_from_slice(&bytes[..out.len()]);
         }
     }
 
@@ -247,7 +253,7 @@ impl Shading<'_> {
         (hit, index, best)
     }
 
-    /// `Shading::shade`'s linear colours (r, g, b per lane) for a packet's hits, background
+    /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet's hits, background
     /// where a lane missed, with the shadow rays of each light cast as one packet.
     // As in `nearest_packet`; and `max` then `min` is glam's clamp (f64::clamp keeps a NaN).
     #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::manual_clamp)]
@@ -258,12 +264,16 @@ impl Shading<'_> {
         hit: Mask,
         index: &[u32; LANES],
         t: &Lanes,
-    ) -> [[f64; 3]; LANES] {
+    ) -> [Lanes; 3] {
+        let background = self.background.to_array();
         if !any(&hit) {
-            return [self.background.to_array(); LANES];
+            return background.map(|b| [b; LANES]);
         }
         // Each lane's sphere (the first for a lane that missed; its results are not used).
-        let own = index.map(|k| if k == u32::MAX { 0 } else { k as usize });
+        let mut own = [0usize; LANES];
+        for l in 0..LANES {
+            own[l] = if hit[l] { index[l] as usize } else { 0 };
+        }
         let sphere = |l: usize| &self.spheres[own[l]];
         let mut light = [[self.ambient; LANES]; 3];
         if !self.lights.is_empty() {
@@ -289,7 +299,10 @@ impl Shading<'_> {
                 }
                 if let Some(grid) = &l.shadows {
                     if any(&lit) {
-                        let ids = own.map(|k| self.spheres[k].id);
+                        let mut ids = [0u32; LANES];
+                        for k in 0..LANES {
+                            ids[k] = self.spheres[own[k]].id;
+                        }
                         let blocked = grid.occluded_packet(&point, &ids, lit);
                         for k in 0..LANES {
                             lit[k] &= !blocked[k];
@@ -304,9 +317,8 @@ impl Shading<'_> {
                 }
             }
         }
-        let background = self.background.to_array();
         let flat = self.lights.is_empty();
-        let mut out = [[0.0; 3]; LANES];
+        let mut out = [[0.0; LANES]; 3];
         for l in 0..LANES {
             let color = sphere(l).color.to_array();
             for a in 0..3 {
@@ -317,7 +329,7 @@ impl Shading<'_> {
                 } else {
                     c.max(0.0).min(1.0)
                 };
-                out[l][a] = if hit[l] { c } else { background[a] };
+                out[a][l] = if hit[l] { c } else { background[a] };
             }
         }
         out

@@ -86,22 +86,11 @@ impl ShadowGrid {
         (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
     }
 
-    /// The cells that can hold a blocker of the shadow ray from view point `point` of `camera`,
-    /// None if no binned disc can hold it. The point reaches world coordinates through
-    /// rounding, so it is taken as a small square (1e-9 of the coordinates' scale, far above
-    /// the rounding): a point on a cell's edge looks in both cells.
+    /// The clamped cell range of the grid rectangle [a, b] (in cells), None when it misses
+    /// the grid (the far edges belong to the last cells).
     #[inline(always)]
-    fn cells(&self, camera: &Camera, point: DVec3) -> Option<CellRect> {
-        if self.dims.0 == 0 {
-            return None;
-        }
-        let world = camera.point_to_world(point);
-        let err =
-            1e-9 * (camera.vrp_world.abs().max_element() + point.abs().max_element() + self.extent);
-        let q = DVec2::new(world.dot(self.axes.0), world.dot(self.axes.1)) - self.origin;
-        let (a, b) = ((q - err) * self.inv_cell, (q + err) * self.inv_cell);
+    fn clamp_cells(&self, a: DVec2, b: DVec2) -> Option<CellRect> {
         let (w, h) = (self.dims.0 as f64, self.dims.1 as f64);
-        // Outside the grid no binned disc holds the point (the far edges belong to the last cells).
         if !(b.x >= 0.0 && b.y >= 0.0 && a.x <= w && a.y <= h) {
             return None;
         }
@@ -126,6 +115,26 @@ pub struct FrameShadows<'a> {
     to_light: DVec3,
     /// The grid's always-tested spheres: (index, centre in view coordinates, r²).
     always: Vec<(u32, DVec3, f64)>,
+    /// Every sphere's centre in view coordinates and r², when the frame computed them all
+    /// (small scenes); otherwise each blocker is moved into view coordinates when tested.
+    centers: Option<&'a [(DVec3, f64)]>,
+    /// The grid's projection from view coordinates: a point p falls at
+    /// (p·axes.0 + offset.x, p·axes.1 + offset.y) on the grid's plane, relative to its origin.
+    axes: (DVec3, DVec3),
+    offset: DVec2,
+    /// The part of the rounding allowance that does not depend on the point.
+    slack: f64,
+}
+
+/// Scenes up to this many spheres have every centre moved into view coordinates once per frame
+/// for the shadow rays; larger ones move only the blockers they test, so that a frame's cost
+/// stays with what it sees.
+pub const ALL_CENTERS: usize = 1 << 16;
+
+/// Sphere `s`'s centre in view coordinates and r², to the bits of `ViewSphere::new`.
+#[inline(always)]
+pub fn view_center(camera: &Camera, s: &Sphere) -> (DVec3, f64) {
+    (camera.point_to_view(s.center_world), s.radius * s.radius)
 }
 
 impl<'a> FrameShadows<'a> {
@@ -133,6 +142,7 @@ impl<'a> FrameShadows<'a> {
         grid: &'a ShadowGrid,
         camera: &'a Camera,
         spheres: &'a [Sphere],
+        centers: Option<&'a [(DVec3, f64)]>,
         to_light: DVec3,
     ) -> FrameShadows<'a> {
         let mut shadows = FrameShadows {
@@ -141,20 +151,44 @@ impl<'a> FrameShadows<'a> {
             spheres,
             to_light,
             always: Vec::new(),
+            centers,
+            axes: (
+                camera.basis.to_view(grid.axes.0),
+                camera.basis.to_view(grid.axes.1),
+            ),
+            offset: DVec2::new(
+                camera.vrp_world.dot(grid.axes.0),
+                camera.vrp_world.dot(grid.axes.1),
+            ) - grid.origin,
+            slack: camera.vrp_world.abs().max_element() + grid.extent,
         };
         shadows.always = grid.always.iter().map(|&k| shadows.blocker(k)).collect();
         shadows
     }
 
-    /// Sphere k's centre in view coordinates and r², to the bits of `ViewSphere::new`.
+    /// Sphere k with its centre in view coordinates and r² ([`view_center`]).
     #[inline(always)]
     fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
-        let s = &self.spheres[k as usize];
-        (
-            k,
-            self.camera.point_to_view(s.center_world),
-            s.radius * s.radius,
-        )
+        let (c, r2) = match self.centers {
+            Some(all) => all[k as usize],
+            None => view_center(self.camera, &self.spheres[k as usize]),
+        };
+        (k, c, r2)
+    }
+
+    /// The cells that can hold a blocker of the shadow ray from view point `point`, None if
+    /// no binned disc can hold it. The grid lies in world coordinates and the point reaches it
+    /// through rounding, so the point is taken as a small square (1e-9 of the coordinates'
+    /// scale, far above the rounding): a point on a cell's edge looks in both cells.
+    #[inline(always)]
+    fn cells(&self, point: DVec3) -> Option<CellRect> {
+        if self.grid.dims.0 == 0 {
+            return None;
+        }
+        let q = DVec2::new(point.dot(self.axes.0), point.dot(self.axes.1)) + self.offset;
+        let err = 1e-9 * (self.slack + point.abs().max_element());
+        let g = self.grid;
+        g.clamp_cells((q - err) * g.inv_cell, (q + err) * g.inv_cell)
     }
 
     /// Whether the ray from view point `point` (on sphere `own`) towards the light meets
@@ -165,7 +199,7 @@ impl<'a> FrameShadows<'a> {
         if self.always.iter().any(blocks) {
             return true;
         }
-        let Some((x0, x1, y0, y1)) = self.grid.cells(self.camera, point) else {
+        let Some((x0, x1, y0, y1)) = self.cells(point) else {
             return false;
         };
         (y0..=y1).any(|y| {
@@ -207,7 +241,7 @@ impl<'a> FrameShadows<'a> {
         for l in 0..LANES {
             if need[l] && !blocked[l] {
                 let p = DVec3::new(point[0][l], point[1][l], point[2][l]);
-                cells[l] = self.grid.cells(self.camera, p);
+                cells[l] = self.cells(p);
             }
         }
         for l in 0..LANES {
