@@ -13,7 +13,7 @@ use super::error::{CliError, Result};
 use campath::camera::Camera;
 use campath::document::Document;
 use campath::frames::median;
-use campath::render::{srgb_decode, Raster, Renderer, Simd};
+use campath::render::{srgb_decode, Raster, Renderer, SceneIndex, Simd};
 use campath::scene::Scene;
 
 /// Samples per side of the reference.
@@ -42,11 +42,13 @@ fn timed(
     runs: usize,
 ) -> (f64, Vec<u8>) {
     let mut r = Renderer::with_simd(simd).unwrap_or_default();
-    let mut pixels = r.render(camera, scene, raster);
+    // Indexed once, as a render of many frames does.
+    let index = SceneIndex::new(scene);
+    let mut pixels = r.render_indexed(camera, &index, raster);
     let mut secs = Vec::with_capacity(runs);
     for _ in 0..runs {
         let t = Instant::now();
-        pixels = r.render(camera, scene, raster);
+        pixels = r.render_indexed(camera, &index, raster);
         secs.push(t.elapsed().as_secs_f64());
     }
     (median(&secs), pixels)
@@ -243,9 +245,16 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .filter(|r| r.label.contains("adaptive"))
             .map(point)
             .collect();
+        let mut paths: Vec<_> = rows
+            .iter()
+            .filter(|r| r.label.contains("path"))
+            .map(point)
+            .collect();
+        paths.sort_by(|a, b| a.0.total_cmp(&b.0));
         for (series, color, name) in [
             (plain, BLUE, "full s×s grid"),
             (adaptive, RED, "adaptive (corners first)"),
+            (paths, GREEN, "1 sample, each instruction path"),
         ] {
             chart
                 .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
@@ -262,7 +271,11 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
         // down a line at a time.
         let mut placed: Vec<(i32, i32, i32)> = Vec::new(); // (x, y, width) in pixels
         for r in rows {
-            let text = r.label.replace("samples ", "s=");
+            // The instruction paths by name only: their series says the rest.
+            let text = match r.label.strip_prefix("samples 1, f64, ") {
+                Some(path) => path.replace(" path", ""),
+                None => r.label.replace("samples ", "s="),
+            };
             let (px, py) = chart.backend_coord(&point(r));
             let width = 8 * text.chars().count() as i32;
             let (mut x, mut y) = (px + 9, py - 18);
