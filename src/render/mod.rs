@@ -208,10 +208,9 @@ impl Renderer {
     /// A renderer on instruction path `simd`, None if this CPU cannot run it. Every path gives
     /// the same bytes.
     pub fn with_simd(simd: Simd) -> Option<Renderer> {
-        simd.supported().then_some(Renderer {
-            table: None,
+        simd.supported().then(|| Renderer {
             simd,
-            in_view: 0,
+            ..Renderer::new()
         })
     }
 
