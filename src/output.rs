@@ -58,13 +58,16 @@ pub fn write_png(
 ) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    let level = match compression {
-        Compression::Fast => CompressionType::Fast,
-        Compression::Default => CompressionType::Default,
-        Compression::Best => CompressionType::Best,
+    // Fast: the Paeth filter on every row instead of trying each filter per row. Measured on
+    // 1080p frames of the bench scenes: 8.2 against 11.8 ms (cluster, 701 against 705 KB) and
+    // 3.7 against 4.6 ms (fly-through, 320 against 321 KB).
+    let (level, filter) = match compression {
+        Compression::Fast => (CompressionType::Fast, FilterType::Paeth),
+        Compression::Default => (CompressionType::Default, FilterType::Adaptive),
+        Compression::Best => (CompressionType::Best, FilterType::Adaptive),
     };
     let file = std::fs::File::create(path).map_err(Error::write(path))?;
-    PngEncoder::new_with_quality(BufWriter::new(file), level, FilterType::Adaptive)
+    PngEncoder::new_with_quality(BufWriter::new(file), level, filter)
         .write_image(pixels, width, height, image::ExtendedColorType::Rgb8)
         .map_err(Error::encode(path))
 }
