@@ -205,6 +205,12 @@ impl Shading<'_> {
         let mut index = [u32::MAX; LANES];
         let mut best = [f64::INFINITY; LANES];
         for &k in candidates {
+            // A sphere whose projection misses these pixels cannot be hit by their rays. (Passing
+            // it before the test below changes nothing: once every lane has stopped, it stays
+            // stopped, and the next candidate ends the search.)
+            if !covers(k) {
+                continue;
+            }
             let s = &self.spheres[k as usize];
             let mut active = [false; LANES];
             for l in 0..LANES {
@@ -212,10 +218,6 @@ impl Shading<'_> {
             }
             if !any(&active) {
                 break;
-            }
-            // A sphere whose projection misses these pixels cannot be hit by their rays.
-            if !covers(k) {
-                continue;
             }
             let (f, c, r2) = (s.f, s.c, s.radius2);
             let mut b = [0.0; LANES];

@@ -236,29 +236,56 @@ impl<'a> FrameShadows<'a> {
                 return blocked;
             }
         }
-        // Each pending lane's cells; lanes with the same single cell test it together.
-        let mut cells = [None; LANES];
+        if self.grid.dims.0 == 0 {
+            return blocked;
+        }
+        // Each pending lane's cells as one key (x0, x1, y0, y1 in 16 bits each; the grid is at
+        // most 1024 a side), the arithmetic on whole lanes as in `cells`. Lanes with the same
+        // single cell test it together.
+        let (g, (ax, ay)) = (self.grid, self.axes);
+        let mut key = [u64::MAX; LANES];
+        let mut lo = [[0.0; LANES]; 2];
+        let mut hi = [[0.0; LANES]; 2];
         for l in 0..LANES {
-            if need[l] && !blocked[l] {
-                let p = DVec3::new(point[0][l], point[1][l], point[2][l]);
-                cells[l] = self.cells(p);
+            let p = [point[0][l], point[1][l], point[2][l]];
+            let q = [
+                (p[0] * ax.x + p[1] * ax.y) + p[2] * ax.z + self.offset.x,
+                (p[0] * ay.x + p[1] * ay.y) + p[2] * ay.z + self.offset.y,
+            ];
+            let err = 1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()));
+            for a in 0..2 {
+                lo[a][l] = (q[a] - err) * g.inv_cell;
+                hi[a][l] = (q[a] + err) * g.inv_cell;
             }
         }
         for l in 0..LANES {
-            let Some(here) = cells[l] else {
-                continue;
-            };
-            let mut lanes = [false; LANES];
-            let single = here.0 == here.1 && here.2 == here.3;
-            for m in l..LANES {
-                lanes[m] = cells[m] == Some(here) && (single || m == l);
-                if lanes[m] {
-                    cells[m] = None;
+            if need[l] && !blocked[l] {
+                let a = DVec2::new(lo[0][l], lo[1][l]);
+                let b = DVec2::new(hi[0][l], hi[1][l]);
+                if let Some((x0, x1, y0, y1)) = g.clamp_cells(a, b) {
+                    key[l] =
+                        (x0 as u64) | (x1 as u64) << 16 | (y0 as u64) << 32 | (y1 as u64) << 48;
                 }
             }
-            'cells: for y in here.2..=here.3 {
-                for x in here.0..=here.1 {
-                    for &k in self.grid.bins.cell(x, y) {
+        }
+        for l in 0..LANES {
+            let here = key[l];
+            if here == u64::MAX {
+                continue;
+            }
+            let field = |shift: u32| ((here >> shift) & 0xffff) as usize;
+            let (x0, x1, y0, y1) = (field(0), field(16), field(32), field(48));
+            let single = x0 == x1 && y0 == y1;
+            let mut lanes = [false; LANES];
+            for m in l..LANES {
+                lanes[m] = key[m] == here && (single || m == l);
+                if lanes[m] {
+                    key[m] = u64::MAX;
+                }
+            }
+            'cells: for y in y0..=y1 {
+                for x in x0..=x1 {
+                    for &k in g.bins.cell(x, y) {
                         if !test(self.blocker(k), &lanes, &mut blocked) {
                             break 'cells;
                         }
