@@ -185,10 +185,26 @@ impl<'a> FrameShadows<'a> {
         if self.grid.dims.0 == 0 {
             return None;
         }
-        let q = DVec2::new(point.dot(self.axes.0), point.dot(self.axes.1)) + self.offset;
-        let err = 1e-9 * (self.slack + point.abs().max_element());
-        let g = self.grid;
-        g.clamp_cells((q - err) * g.inv_cell, (q + err) * g.inv_cell)
+        let (lo, hi) = self.square(point.to_array());
+        self.grid
+            .clamp_cells(DVec2::from_array(lo), DVec2::from_array(hi))
+    }
+
+    /// The square (in cells, unclamped) that view point `p` stands for on the grid: its
+    /// projection widened by the rounding allowance.
+    #[inline(always)]
+    fn square(&self, p: [f64; 3]) -> ([f64; 2], [f64; 2]) {
+        let (ax, ay) = self.axes;
+        let q = [
+            (p[0] * ax.x + p[1] * ax.y) + p[2] * ax.z + self.offset.x,
+            (p[0] * ay.x + p[1] * ay.y) + p[2] * ay.z + self.offset.y,
+        ];
+        let err = 1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()));
+        let inv = self.grid.inv_cell;
+        (
+            [(q[0] - err) * inv, (q[1] - err) * inv],
+            [(q[0] + err) * inv, (q[1] + err) * inv],
+        )
     }
 
     /// Whether the ray from view point `point` (on sphere `own`) towards the light meets
@@ -240,23 +256,15 @@ impl<'a> FrameShadows<'a> {
             return blocked;
         }
         // Each pending lane's cells as one key (x0, x1, y0, y1 in 16 bits each; the grid is at
-        // most 1024 a side), the arithmetic on whole lanes as in `cells`. Lanes with the same
+        // most 1024 a side), the squares computed on whole lanes. Lanes with the same
         // single cell test it together.
-        let (g, (ax, ay)) = (self.grid, self.axes);
+        let g = self.grid;
         let mut key = [u64::MAX; LANES];
         let mut lo = [[0.0; LANES]; 2];
         let mut hi = [[0.0; LANES]; 2];
         for l in 0..LANES {
-            let p = [point[0][l], point[1][l], point[2][l]];
-            let q = [
-                (p[0] * ax.x + p[1] * ax.y) + p[2] * ax.z + self.offset.x,
-                (p[0] * ay.x + p[1] * ay.y) + p[2] * ay.z + self.offset.y,
-            ];
-            let err = 1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()));
-            for a in 0..2 {
-                lo[a][l] = (q[a] - err) * g.inv_cell;
-                hi[a][l] = (q[a] + err) * g.inv_cell;
-            }
+            let (a, b) = self.square([point[0][l], point[1][l], point[2][l]]);
+            (lo[0][l], lo[1][l], hi[0][l], hi[1][l]) = (a[0], a[1], b[0], b[1]);
         }
         for l in 0..LANES {
             if need[l] && !blocked[l] {
