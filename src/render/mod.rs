@@ -294,6 +294,7 @@ impl Renderer {
                 table: &table,
                 bins: &bins,
                 encode,
+                background: scene.background.to_array().map(|c| encode.encode(c)),
             };
             pixels
                 .par_chunks_mut(width * 3)

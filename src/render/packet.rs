@@ -116,6 +116,8 @@ pub struct RowJob<'a> {
     pub table: &'a RayTable,
     pub bins: &'a TileBins,
     pub encode: &'a SrgbEncoder,
+    /// The background's sRGB levels.
+    pub background: [u8; 3],
 }
 
 impl RowJob<'_> {
@@ -155,6 +157,13 @@ impl RowJob<'_> {
             let candidates = self.bins.at(i0, j);
             let covers = |k: u32| self.bins.covers(k, i0, i0 + n - 1, j);
             let (hit, index, t) = self.ctx.nearest_packet(&d, candidates, covers);
+            if !any(&hit) {
+                // All background (sky): the frame's background levels, already encoded.
+                for px in out.chunks_exact_mut(3) {
+                    px.copy_from_slice(&self.background);
+                }
+                continue;
+            }
             let colors = self.ctx.shade_packet(&d, hit, &index, &t);
             // Plain calls, not `array::map`: its closure is not inlined into this function and
             // loses the instruction set it was compiled for.
