@@ -18,6 +18,9 @@ use super::{RayTable, Shading, SrgbEncoder};
 pub const LANES: usize = 8;
 
 pub type Lanes = [f64; LANES];
+
+/// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
+const STRETCH: usize = 32 * LANES;
 pub type Mask = [bool; LANES];
 
 /// How the renderer casts its rays. Every choice gives the same bytes; they differ in speed.
@@ -150,10 +153,18 @@ impl RowJob<'_> {
     #[inline(always)]
     fn row_packets(&self, j: usize, row: &mut [u8]) {
         let width = row.len() / 3;
+        // Directions for a stretch of the row first: one loop of independent square roots and
+        // divisions, kept out of each packet's chain of dependent work.
+        let mut dirs = [[0.0; STRETCH]; 3];
         for (p, out) in row.chunks_mut(3 * LANES).enumerate() {
             let i0 = p * LANES;
             let n = (width - i0).min(LANES);
-            let d = self.directions(i0, n, j);
+            let at = i0 % STRETCH;
+            if at == 0 {
+                self.directions(i0, (width - i0).min(STRETCH), j, &mut dirs);
+            }
+            let lane = |a: usize| -> Lanes { dirs[a][at..at + LANES].try_into().unwrap() };
+            let d = [lane(0), lane(1), lane(2)];
             let candidates = self.bins.at(i0, j);
             let covers = |k: u32| self.bins.covers(k, i0, i0 + n - 1, j);
             let (hit, index, t) = self.ctx.nearest_packet(&d, candidates, covers);
@@ -180,21 +191,20 @@ impl RowJob<'_> {
     }
 
     /// Unit directions of pixels i0..i0 + n of row j, normalised exactly as `DVec3::normalize`
-    /// does (v · (1 / √(v·v))); lanes past `n` repeat the last pixel.
+    /// does (v · (1 / √(v·v))), into `d`'s x, y and z rows; entries past `n` repeat the last
+    /// pixel.
     #[inline(always)]
-    fn directions(&self, i0: usize, n: usize, j: usize) -> [Lanes; 3] {
+    fn directions(&self, i0: usize, n: usize, j: usize, d: &mut [[f64; STRETCH]; 3]) {
         let t = self.table;
-        let mut x = [t.xs[i0 + n - 1]; LANES];
+        let mut x = [t.xs[i0 + n - 1]; STRETCH];
         x[..n].copy_from_slice(&t.xs[i0..i0 + n]);
         let (y, z) = (t.ys[j], t.dz);
-        let mut d = [[0.0; LANES]; 3];
-        for l in 0..LANES {
+        for l in 0..STRETCH {
             let recip = 1.0 / ((x[l] * x[l] + y * y) + z * z).sqrt();
             d[0][l] = x[l] * recip;
             d[1][l] = y * recip;
             d[2][l] = z * recip;
         }
-        d
     }
 }
 
