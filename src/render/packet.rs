@@ -18,10 +18,10 @@ use super::{RayTable, Shading, SrgbEncoder};
 pub const LANES: usize = 8;
 
 pub type Lanes = [f64; LANES];
+pub type Mask = [bool; LANES];
 
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
 const STRETCH: usize = 32 * LANES;
-pub type Mask = [bool; LANES];
 
 /// How the renderer casts its rays. Every choice gives the same bytes; they differ in speed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
