@@ -275,7 +275,8 @@ impl Shading<'_> {
     }
 
     /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet's hits, background
-    /// where a lane missed, with the shadow rays of each light cast as one packet.
+    /// where a lane missed, with the shadow rays of each light cast as one packet. The caller
+    /// writes a packet that hit nothing without it (`RowJob::row_packets`).
     // As in `nearest_packet`; and `max` then `min` is glam's clamp (f64::clamp keeps a NaN).
     #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::manual_clamp)]
     #[inline(always)]
@@ -287,9 +288,6 @@ impl Shading<'_> {
         t: &Lanes,
     ) -> [Lanes; 3] {
         let background = self.background.to_array();
-        if !any(&hit) {
-            return background.map(|b| [b; LANES]);
-        }
         // Each lane's sphere (the first for a lane that missed; its results are not used).
         let mut own = [0usize; LANES];
         for l in 0..LANES {
