@@ -17,6 +17,8 @@ pub use crate::raster::Raster;
 use crate::raster::MAX_SAMPLES;
 use crate::scene::{Scene, Sphere};
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod bins;
 pub mod key;
 mod packet;
@@ -127,7 +129,9 @@ impl RayTable {
 }
 
 /// A sphere in view coordinates, with the terms every primary ray shares.
+// C layout: the AVX-512 path gathers its fields by offset.
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 struct ViewSphere {
     center: DVec3,
     radius: f64,

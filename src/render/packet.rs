@@ -21,7 +21,7 @@ pub type Lanes = [f64; LANES];
 pub type Mask = [bool; LANES];
 
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
-const STRETCH: usize = 32 * LANES;
+pub(super) const STRETCH: usize = 32 * LANES;
 
 /// How the renderer casts its rays. Every choice gives the same bytes; they differ in speed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -133,7 +133,7 @@ impl RowJob<'_> {
             Simd::Avx2 => unsafe { self.row_avx2(j, row) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the caller checked `Simd::supported`, so the CPU has AVX-512F.
-            Simd::Avx512 => unsafe { self.row_avx512(j, row) },
+            Simd::Avx512 => unsafe { super::avx512::row(self, j, row) },
             _ => self.row_packets(j, row),
         }
     }
@@ -141,12 +141,6 @@ impl RowJob<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn row_avx2(&self, j: usize, row: &mut [u8]) {
-        self.row_packets(j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_avx512(&self, j: usize, row: &mut [u8]) {
         self.row_packets(j, row)
     }
 

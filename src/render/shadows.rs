@@ -19,8 +19,8 @@ pub struct ShadowGrid {
     /// Orthonormal axes of the projection plane (world).
     axes: (DVec3, DVec3),
     origin: DVec2,
-    inv_cell: f64,
-    dims: (usize, usize),
+    pub(super) inv_cell: f64,
+    pub(super) dims: (usize, usize),
     bins: Bins,
     /// Spheres tested for every ray.
     always: Vec<u32>,
@@ -108,22 +108,22 @@ impl ShadowGrid {
 /// One light's shadow rays in one frame: the scene's grid, the frame's camera, and the light
 /// and its always-tested spheres in view coordinates.
 pub struct FrameShadows<'a> {
-    grid: &'a ShadowGrid,
+    pub(super) grid: &'a ShadowGrid,
     camera: &'a Camera,
     spheres: &'a [Sphere],
     /// Unit vector towards the light, view coordinates.
-    to_light: DVec3,
+    pub(super) to_light: DVec3,
     /// The grid's always-tested spheres: (index, centre in view coordinates, r²).
-    always: Vec<(u32, DVec3, f64)>,
+    pub(super) always: Vec<(u32, DVec3, f64)>,
     /// Every sphere's centre in view coordinates and r², when the frame computed them all
     /// (small scenes); otherwise each blocker is moved into view coordinates when tested.
     centers: Option<&'a [(DVec3, f64)]>,
     /// The grid's projection from view coordinates: a point p falls at
     /// (p·axes.0 + offset.x, p·axes.1 + offset.y) on the grid's plane, relative to its origin.
-    axes: (DVec3, DVec3),
-    offset: DVec2,
+    pub(super) axes: (DVec3, DVec3),
+    pub(super) offset: DVec2,
     /// The part of the rounding allowance that does not depend on the point.
-    slack: f64,
+    pub(super) slack: f64,
 }
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame
@@ -168,7 +168,7 @@ impl<'a> FrameShadows<'a> {
 
     /// Sphere k with its centre in view coordinates and r² ([`view_center`]).
     #[inline(always)]
-    fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
+    pub(super) fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
         let (c, r2) = match self.centers {
             Some(all) => all[k as usize],
             None => view_center(self.camera, &self.spheres[k as usize]),
@@ -255,19 +255,50 @@ impl<'a> FrameShadows<'a> {
         if self.grid.dims.0 == 0 {
             return blocked;
         }
-        // Each pending lane's cells as one key (x0, x1, y0, y1 in 16 bits each; the grid is at
-        // most 1024 a side), the squares computed on whole lanes. Lanes with the same
-        // single cell test it together.
-        let g = self.grid;
-        let mut key = [u64::MAX; LANES];
         let mut lo = [[0.0; LANES]; 2];
         let mut hi = [[0.0; LANES]; 2];
         for l in 0..LANES {
             let (a, b) = self.square([point[0][l], point[1][l], point[2][l]]);
             (lo[0][l], lo[1][l], hi[0][l], hi[1][l]) = (a[0], a[1], b[0], b[1]);
         }
+        let mut pending = 0u8;
         for l in 0..LANES {
-            if need[l] && !blocked[l] {
+            pending |= ((need[l] & !blocked[l]) as u8) << l;
+        }
+        self.cell_groups(&lo, &hi, pending, |k, bits| {
+            let mut lanes = [false; LANES];
+            for (l, lane) in lanes.iter_mut().enumerate() {
+                *lane = bits >> l & 1 == 1;
+            }
+            test(self.blocker(k), &lanes, &mut blocked)
+        });
+        blocked
+    }
+}
+
+impl FrameShadows<'_> {
+    /// Walks the grid for the `pending` lanes (bit l for lane l) of a packet whose squares
+    /// ([`FrameShadows::square`]) are `lo` and `hi` (x and y lanes): `test(k, lanes)` is called
+    /// with each binned sphere k of each lane's cells and the lanes it is tested for, and
+    /// returns whether any of them is still unblocked (false ends that walk). Lanes whose
+    /// squares fall in the same single cell are walked together.
+    #[inline(always)]
+    pub(super) fn cell_groups(
+        &self,
+        lo: &[Lanes; 2],
+        hi: &[Lanes; 2],
+        pending: u8,
+        mut test: impl FnMut(u32, u8) -> bool,
+    ) {
+        if self.grid.dims.0 == 0 {
+            return;
+        }
+        // Each pending lane's cells as one key (x0, x1, y0, y1 in 16 bits each; the grid is at
+        // most 1024 a side).
+        let g = self.grid;
+        let mut key = [u64::MAX; LANES];
+        for l in 0..LANES {
+            if pending >> l & 1 == 1 {
                 let a = DVec2::new(lo[0][l], lo[1][l]);
                 let b = DVec2::new(hi[0][l], hi[1][l]);
                 if let Some((x0, x1, y0, y1)) = g.clamp_cells(a, b) {
@@ -284,24 +315,23 @@ impl<'a> FrameShadows<'a> {
             let field = |shift: u32| ((here >> shift) & 0xffff) as usize;
             let (x0, x1, y0, y1) = (field(0), field(16), field(32), field(48));
             let single = x0 == x1 && y0 == y1;
-            let mut lanes = [false; LANES];
-            for m in l..LANES {
-                lanes[m] = key[m] == here && (single || m == l);
-                if lanes[m] {
-                    key[m] = u64::MAX;
+            let mut lanes = 0u8;
+            for (m, other) in key.iter_mut().enumerate().skip(l) {
+                if *other == here && (single || m == l) {
+                    lanes |= 1 << m;
+                    *other = u64::MAX;
                 }
             }
             'cells: for y in y0..=y1 {
                 for x in x0..=x1 {
                     for &k in g.bins.cell(x, y) {
-                        if !test(self.blocker(k), &lanes, &mut blocked) {
+                        if !test(k, lanes) {
                             break 'cells;
                         }
                     }
                 }
             }
         }
-        blocked
     }
 }
 
