@@ -22,28 +22,99 @@ type M = __mmask8;
 
 const _: () = assert!(LANES == 8 && size_of::<ViewSphere>().is_multiple_of(8));
 
-/// A sphere's f64 field (slot `at`, in f64s from the start of `ViewSphere`) for each lane's
-/// sphere `own`.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn gather(spheres: &[ViewSphere], own: __m512i, at: usize) -> V {
-    let slot = _mm512_add_epi64(
-        _mm512_mul_epu32(own, _mm512_set1_epi64((size_of::<ViewSphere>() / 8) as i64)),
-        _mm512_set1_epi64(at as i64),
-    );
-    // SAFETY: every lane's `own` indexes `spheres`, and slot `at` lies inside a ViewSphere.
-    unsafe { _mm512_i64gather_pd::<8>(slot, spheres.as_ptr().cast()) }
+/// Each lane's sphere, for reading its fields: one sphere for the whole packet when every lane
+/// that hit found the same one (the common case), otherwise lane by lane. A lane that missed
+/// reads some sphere; its results are never used.
+enum SphereLanes<'a> {
+    One(&'a ViewSphere),
+    Each(&'a [ViewSphere], __m512i),
 }
 
-/// Three consecutive f64 fields (a DVec3) from slot `at`.
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn gather3(spheres: &[ViewSphere], own: __m512i, at: usize) -> [V; 3] {
-    [
-        gather(spheres, own, at),
-        gather(spheres, own, at + 1),
-        gather(spheres, own, at + 2),
-    ]
+impl<'a> SphereLanes<'a> {
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn new(spheres: &'a [ViewSphere], hit: M, index: __m512i) -> SphereLanes<'a> {
+        let mut first = [0u64; LANES];
+        // SAFETY: `first` holds LANES u64s.
+        unsafe { _mm512_storeu_si512(first.as_mut_ptr().cast(), index) };
+        let k = first[hit.trailing_zeros() as usize];
+        if _mm512_mask_cmpneq_epi64_mask(hit, index, _mm512_set1_epi64(k as i64)) == 0 {
+            SphereLanes::One(&spheres[k as usize])
+        } else {
+            SphereLanes::Each(spheres, _mm512_maskz_mov_epi64(hit, index))
+        }
+    }
+
+    /// The f64 field at byte `offset` of `ViewSphere`, and the value `one` when all lanes share
+    /// a sphere.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn field(&self, offset: usize, one: impl Fn(&ViewSphere) -> f64) -> V {
+        match *self {
+            SphereLanes::One(s) => splat(one(s)),
+            SphereLanes::Each(spheres, own) => {
+                let slot = _mm512_add_epi64(
+                    _mm512_mul_epu32(own, _mm512_set1_epi64((size_of::<ViewSphere>() / 8) as i64)),
+                    _mm512_set1_epi64((offset / 8) as i64),
+                );
+                // SAFETY: every lane's `own` indexes `spheres`, and the slot lies inside it.
+                unsafe { _mm512_i64gather_pd::<8>(slot, spheres.as_ptr().cast()) }
+            }
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn vec3(&self, offset: usize, one: impl Fn(&ViewSphere) -> glam::DVec3) -> [V; 3] {
+        [
+            self.field(offset, |s| one(s).x),
+            self.field(offset + 8, |s| one(s).y),
+            self.field(offset + 16, |s| one(s).z),
+        ]
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn f(&self) -> [V; 3] {
+        self.vec3(offset_of!(ViewSphere, f), |s| s.f)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn center(&self) -> [V; 3] {
+        self.vec3(offset_of!(ViewSphere, center), |s| s.center)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn color(&self) -> [V; 3] {
+        self.vec3(offset_of!(ViewSphere, color), |s| s.color)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn radius(&self) -> V {
+        self.field(offset_of!(ViewSphere, radius), |s| s.radius)
+    }
+
+    /// The spheres' scene indices, in 64-bit lanes.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn ids(&self) -> __m512i {
+        match *self {
+            SphereLanes::One(s) => _mm512_set1_epi64(s.id as i64),
+            SphereLanes::Each(spheres, own) => {
+                let bytes = _mm512_add_epi64(
+                    _mm512_mul_epu32(own, _mm512_set1_epi64(size_of::<ViewSphere>() as i64)),
+                    _mm512_set1_epi64(offset_of!(ViewSphere, id) as i64),
+                );
+                // SAFETY: every lane's offset is a sphere's `id` field.
+                _mm512_cvtepu32_epi64(unsafe {
+                    _mm512_i64gather_epi32::<1>(bytes, spheres.as_ptr().cast())
+                })
+            }
+        }
+    }
 }
 
 #[inline]
@@ -202,13 +273,10 @@ fn shade(ctx: &Shading, d: &[V; 3], hit: M, index: __m512i, t: V) -> [V; 3] {
     let zero = _mm512_setzero_pd();
     let one = splat(1.0);
     let spheres = ctx.spheres;
-    // Each lane's sphere (the first for a lane that missed; its results are not used).
-    let own = _mm512_maskz_mov_epi64(hit, index);
+    let fields = SphereLanes::new(spheres, hit, index);
     let mut light = [splat(ctx.ambient); 3];
     if !ctx.lights.is_empty() {
-        let f = gather3(spheres, own, offset_of!(ViewSphere, f) / 8);
-        let c = gather3(spheres, own, offset_of!(ViewSphere, center) / 8);
-        let r = gather(spheres, own, offset_of!(ViewSphere, radius) / 8);
+        let (f, c, r) = (fields.f(), fields.center(), fields.radius());
         // ViewSphere::surface: rel = f + d·t, normal = rel / r, point = centre + rel.
         let rel = [
             add(f[0], mul(d[0], t)),
@@ -221,7 +289,6 @@ fn shade(ctx: &Shading, d: &[V; 3], hit: M, index: __m512i, t: V) -> [V; 3] {
             _mm512_div_pd(rel[2], r),
         ];
         let point = [add(c[0], rel[0]), add(c[1], rel[1]), add(c[2], rel[2])];
-        let mut ids = None;
         for l in ctx.lights {
             let to = [
                 splat(l.to_light.x),
@@ -232,20 +299,7 @@ fn shade(ctx: &Shading, d: &[V; 3], hit: M, index: __m512i, t: V) -> [V; 3] {
             let mut lit = hit & _mm512_cmp_pd_mask::<_CMP_NLE_UQ>(facing, zero);
             if let Some(grid) = &l.shadows {
                 if lit != 0 {
-                    let ids = *ids.get_or_insert_with(|| {
-                        let bytes = _mm512_add_epi64(
-                            _mm512_mul_epu32(
-                                own,
-                                _mm512_set1_epi64(size_of::<ViewSphere>() as i64),
-                            ),
-                            _mm512_set1_epi64(offset_of!(ViewSphere, id) as i64),
-                        );
-                        // SAFETY: every lane's offset is a sphere's `id` field.
-                        _mm512_cvtepu32_epi64(unsafe {
-                            _mm512_i64gather_epi32::<1>(bytes, spheres.as_ptr().cast())
-                        })
-                    });
-                    lit &= !occluded(grid, &point, ids, lit);
+                    lit &= !occluded(grid, &point, fields.ids(), lit);
                 }
             }
             let color = l.color.to_array();
@@ -255,7 +309,7 @@ fn shade(ctx: &Shading, d: &[V; 3], hit: M, index: __m512i, t: V) -> [V; 3] {
             }
         }
     }
-    let color = gather3(spheres, own, offset_of!(ViewSphere, color) / 8);
+    let color = fields.color();
     let background = ctx.background.to_array();
     let flat = ctx.lights.is_empty();
     let mut out = [zero; 3];
