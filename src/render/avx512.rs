@@ -12,7 +12,7 @@
 use std::arch::x86_64::*;
 use std::mem::{offset_of, size_of};
 
-use super::packet::{RowJob, LANES};
+use super::packet::{RowJob, LANES, STRETCH};
 use super::shadows::FrameShadows;
 use super::{Shading, SrgbEncoder, ViewSphere, BUCKETS};
 
@@ -186,17 +186,29 @@ pub unsafe fn row(job: &RowJob, j: usize, row: &mut [u8]) {
     let t = job.table;
     let (y, z) = (t.ys[j], t.dz);
     let (yy, zz) = (splat(y * y), splat(z * z));
+    // A stretch of the row's unit directions, as `RowJob::directions`, computed ahead of its
+    // packets: independent square roots and divisions, out of each packet's chain of dependent
+    // work. Lanes past the row's end repeat its last pixel.
+    let mut dirs = [[_mm512_setzero_pd(); 3]; STRETCH / LANES];
     for (p, out) in row.chunks_mut(3 * LANES).enumerate() {
         let i0 = p * LANES;
         let n = (width - i0).min(LANES);
-        // Unit directions, as `RowJob::directions`: lanes past the row's end repeat its last
-        // pixel.
-        let mut xs = [t.xs[i0 + n - 1]; LANES];
-        xs[..n].copy_from_slice(&t.xs[i0..i0 + n]);
-        // SAFETY: `xs` holds LANES f64s.
-        let x = unsafe { _mm512_loadu_pd(xs.as_ptr()) };
-        let recip = _mm512_div_pd(splat(1.0), _mm512_sqrt_pd(add(add(mul(x, x), yy), zz)));
-        let d = [mul(x, recip), mul(splat(y), recip), mul(splat(z), recip)];
+        if i0 % STRETCH == 0 {
+            for (q, d) in dirs.iter_mut().enumerate() {
+                let at = i0 + q * LANES;
+                if at >= width {
+                    break;
+                }
+                let mut xs = [t.xs[width - 1]; LANES];
+                let m = (width - at).min(LANES);
+                xs[..m].copy_from_slice(&t.xs[at..at + m]);
+                // SAFETY: `xs` holds LANES f64s.
+                let x = unsafe { _mm512_loadu_pd(xs.as_ptr()) };
+                let r = _mm512_div_pd(splat(1.0), _mm512_sqrt_pd(add(add(mul(x, x), yy), zz)));
+                *d = [mul(x, r), mul(splat(y), r), mul(splat(z), r)];
+            }
+        }
+        let d = dirs[i0 % STRETCH / LANES];
         let candidates = job.bins.at(i0, j);
         let covers = |k: u32| job.bins.covers(k, i0, i0 + n - 1, j);
         let (hit, index, t) = nearest(job.ctx, &d, candidates, covers);
