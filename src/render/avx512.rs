@@ -14,6 +14,7 @@ use std::mem::{offset_of, size_of};
 
 use super::packet::{RowJob, LANES, STRETCH};
 use super::shadows::FrameShadows;
+use super::tiles::TILE;
 use super::{Shading, SrgbEncoder, ViewSphere, BUCKETS};
 
 type V = __m512d;
@@ -21,6 +22,8 @@ type V = __m512d;
 type M = __mmask8;
 
 const _: () = assert!(LANES == 8 && size_of::<ViewSphere>().is_multiple_of(8));
+// Two packets side by side lie in one tile, and a stretch holds whole pairs.
+const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
 
 /// Each lane's sphere, for reading its fields: one sphere for the whole packet when every lane
 /// that hit found the same one (the common case), otherwise lane by lane. A lane that missed
@@ -190,10 +193,11 @@ pub unsafe fn row(job: &RowJob, j: usize, row: &mut [u8]) {
     // packets: independent square roots and divisions, out of each packet's chain of dependent
     // work. Lanes past the row's end repeat its last pixel.
     let mut dirs = [[_mm512_setzero_pd(); 3]; STRETCH / LANES];
-    for (p, out) in row.chunks_mut(3 * LANES).enumerate() {
-        let i0 = p * LANES;
-        let n = (width - i0).min(LANES);
-        if i0 % STRETCH == 0 {
+    // Two packets at a time, side by side in one tile: they share its candidates, and their
+    // two chains of dependent work interleave.
+    for (p, out) in row.chunks_mut(6 * LANES).enumerate() {
+        let i0 = p * 2 * LANES;
+        if i0.is_multiple_of(STRETCH) {
             for (q, d) in dirs.iter_mut().enumerate() {
                 let at = i0 + q * LANES;
                 if at >= width {
@@ -208,73 +212,101 @@ pub unsafe fn row(job: &RowJob, j: usize, row: &mut [u8]) {
                 *d = [mul(x, r), mul(splat(y), r), mul(splat(z), r)];
             }
         }
-        let d = dirs[i0 % STRETCH / LANES];
+        let at = i0 % STRETCH / LANES;
+        let d = [dirs[at], dirs[at + 1]];
+        // Pixels in each packet; the second is empty at the end of a row of an odd packet count.
+        let n = [
+            (width - i0).min(LANES),
+            (width - i0).saturating_sub(LANES).min(LANES),
+        ];
         let candidates = job.bins.at(i0, j);
-        let covers = |k: u32| job.bins.covers(k, i0, i0 + n - 1, j);
-        let (hit, index, t) = nearest(job.ctx, &d, candidates, covers);
-        if hit == 0 {
-            for px in out.chunks_exact_mut(3) {
-                px.copy_from_slice(&job.background);
+        let covers = |k: u32, q: usize| {
+            let first = i0 + q * LANES;
+            job.bins.covers(k, first, first + n[q] - 1, j)
+        };
+        let found = nearest(job.ctx, &d, candidates, covers, [true, n[1] > 0]);
+        for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
+            let (hit, index, t) = found[q];
+            if hit == 0 {
+                for px in out.chunks_exact_mut(3) {
+                    px.copy_from_slice(&job.background);
+                }
+                continue;
             }
-            continue;
-        }
-        let colors = shade(job.ctx, &d, hit, index, t);
-        let levels = encode(job.encode, &colors);
-        for (l, px) in out.chunks_exact_mut(3).enumerate() {
-            px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
+            let colors = shade(job.ctx, &d[q], hit, index, t);
+            let levels = encode(job.encode, &colors);
+            for (l, px) in out.chunks_exact_mut(3).enumerate() {
+                px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
+            }
         }
     }
 }
 
-/// `Shading::nearest_packet`: per lane, whether it hit, which sphere (64-bit lanes) and where.
+/// `Shading::nearest_packet` for two packets (directions `d`, `covers(k, packet)`) at once:
+/// per lane of each, whether it hit, which sphere (64-bit lanes) and where. Each packet does
+/// exactly what it would alone: it passes a sphere that does not cover it, and stops for good
+/// at the first one none of its lanes would test; a packet not `live` takes no part.
 #[inline]
 #[target_feature(enable = "avx512f")]
 fn nearest(
     ctx: &Shading,
-    d: &[V; 3],
+    d: &[[V; 3]; 2],
     candidates: &[u32],
-    covers: impl Fn(u32) -> bool,
-) -> (M, __m512i, V) {
+    covers: impl Fn(u32, usize) -> bool,
+    mut live: [bool; 2],
+) -> [(M, __m512i, V); 2] {
     let zero = _mm512_setzero_pd();
-    let mut hit: M = 0;
-    let mut index = _mm512_setzero_si512();
-    let mut best = splat(f64::INFINITY);
+    let mut hit: [M; 2] = [0; 2];
+    let mut index = [_mm512_setzero_si512(); 2];
+    let mut best = [splat(f64::INFINITY); 2];
     for &k in candidates {
-        if !covers(k) {
-            continue;
-        }
         let s = &ctx.spheres[k as usize];
-        // Lanes still searching: no hit yet, or this sphere might be nearer.
-        let active = !hit | !_mm512_cmp_pd_mask::<_CMP_GE_OQ>(splat(s.min_dist), best);
-        if active == 0 {
+        let min_dist = splat(s.min_dist);
+        let mut active: [M; 2] = [0; 2];
+        for q in 0..2 {
+            if live[q] && covers(k, q) {
+                // Lanes still searching: no hit yet, or this sphere might be nearer.
+                active[q] = !hit[q] | !_mm512_cmp_pd_mask::<_CMP_GE_OQ>(min_dist, best[q]);
+                live[q] = active[q] != 0;
+            }
+        }
+        if !(live[0] | live[1]) {
             break;
         }
+        if active[0] | active[1] == 0 {
+            continue;
+        }
         let f = [splat(s.f.x), splat(s.f.y), splat(s.f.z)];
-        let b = dot(&f, d);
-        let g = [
-            sub(f[0], mul(d[0], b)),
-            sub(f[1], mul(d[1], b)),
-            sub(f[2], mul(d[2], b)),
-        ];
-        let disc = sub(splat(s.radius2), dot(&g, &g));
-        // Unlike `nearest_packet`, no branch past the roots when no lane meets the sphere: with
-        // whole registers the roots cost less than the mispredicted branches (2–3% faster).
-        let meets = active & _mm512_cmp_pd_mask::<_CMP_NLT_UQ>(disc, zero);
-        let q = neg(add(b, copysign(_mm512_sqrt_pd(disc), b)));
-        let (t0, t1) = (_mm512_div_pd(splat(s.c), q), q);
-        let lt = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t0, t1);
-        let near = _mm512_mask_blend_pd(lt, t1, t0);
-        let far = _mm512_mask_blend_pd(lt, t0, t1);
-        let near_ahead = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(near, zero);
-        let far_ahead = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(far, zero);
-        let t = _mm512_mask_blend_pd(near_ahead, far, near);
-        let root = _mm512_cmp_pd_mask::<_CMP_NEQ_UQ>(q, zero) & (near_ahead | far_ahead);
-        let take = meets & root & (!hit | _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t, best));
-        best = _mm512_mask_blend_pd(take, best, t);
-        index = _mm512_mask_mov_epi64(index, take, _mm512_set1_epi64(k as i64));
-        hit |= take;
+        let (c, radius2) = (splat(s.c), splat(s.radius2));
+        let k = _mm512_set1_epi64(k as i64);
+        for q in 0..2 {
+            let d = &d[q];
+            let b = dot(&f, d);
+            let g = [
+                sub(f[0], mul(d[0], b)),
+                sub(f[1], mul(d[1], b)),
+                sub(f[2], mul(d[2], b)),
+            ];
+            let disc = sub(radius2, dot(&g, &g));
+            // Unlike `nearest_packet`, no branch past the roots when no lane meets the sphere:
+            // with whole registers the roots cost less than the mispredicted branches.
+            let meets = active[q] & _mm512_cmp_pd_mask::<_CMP_NLT_UQ>(disc, zero);
+            let root_q = neg(add(b, copysign(_mm512_sqrt_pd(disc), b)));
+            let (t0, t1) = (_mm512_div_pd(c, root_q), root_q);
+            let lt = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t0, t1);
+            let near = _mm512_mask_blend_pd(lt, t1, t0);
+            let far = _mm512_mask_blend_pd(lt, t0, t1);
+            let near_ahead = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(near, zero);
+            let far_ahead = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(far, zero);
+            let t = _mm512_mask_blend_pd(near_ahead, far, near);
+            let root = _mm512_cmp_pd_mask::<_CMP_NEQ_UQ>(root_q, zero) & (near_ahead | far_ahead);
+            let take = meets & root & (!hit[q] | _mm512_cmp_pd_mask::<_CMP_LT_OQ>(t, best[q]));
+            best[q] = _mm512_mask_blend_pd(take, best[q], t);
+            index[q] = _mm512_mask_mov_epi64(index[q], take, k);
+            hit[q] |= take;
+        }
     }
-    (hit, index, best)
+    [(hit[0], index[0], best[0]), (hit[1], index[1], best[1])]
 }
 
 /// `Shading::shade_packet`: linear r, g and b of a packet that hit something.

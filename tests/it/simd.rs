@@ -99,3 +99,15 @@ fn stability_catalogue_gives_the_same_bytes_on_every_path() {
         same_bytes_on_every_path(&format!("far {offset:e}"), &one_sample(doc, 320));
     }
 }
+
+#[test]
+fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
+    // Widths that end a row inside the first or the second packet of a pair, or after one
+    // packet, or inside a tile.
+    for width in [1, 5, 8, 9, 13, 16, 23, 333] {
+        let mut doc = one_sample(example(EXAMPLES[0]), 320);
+        doc.raster.width = width;
+        doc.raster.height = 24;
+        same_bytes_on_every_path(&format!("{} at width {width}", EXAMPLES[0]), &doc);
+    }
+}
