@@ -17,10 +17,9 @@ pub use crate::raster::Raster;
 use crate::raster::MAX_SAMPLES;
 use crate::scene::{Scene, Sphere};
 
-#[cfg(target_arch = "x86_64")]
-mod avx512;
 mod bins;
 pub mod key;
+mod lanes;
 mod packet;
 mod shadows;
 mod tiles;
@@ -129,7 +128,7 @@ impl RayTable {
 }
 
 /// A sphere in view coordinates, with the terms every primary ray shares.
-// C layout: the AVX-512 path gathers its fields by offset.
+// C layout: packets read its fields by offset (`lanes.rs`).
 #[derive(Debug, Clone, Copy)]
 #[repr(C)]
 struct ViewSphere {
@@ -482,26 +481,6 @@ impl SrgbEncoder {
             *l = level(b as f64 / BUCKETS as f64);
         }
         SrgbEncoder { thresholds, first }
-    }
-
-    /// [`SrgbEncoder::encode`] of every lane: the bucket arithmetic vectorised, the two table
-    /// lookups per value scalar.
-    #[inline(always)]
-    pub fn encode_lanes(&self, linear: &[f64; packet::LANES]) -> [u8; packet::LANES] {
-        // i32, not usize: x86 converts f64 lanes to i32 in one instruction (the values, NaN
-        // included, are `encode`'s).
-        let mut bucket = [0i32; packet::LANES];
-        let mut x = [0.0; packet::LANES];
-        for l in 0..packet::LANES {
-            x[l] = linear[l].clamp(0.0, 1.0);
-            bucket[l] = ((x[l] * BUCKETS as f64) as i32).min(BUCKETS as i32);
-        }
-        let mut out = [0u8; packet::LANES];
-        for l in 0..packet::LANES {
-            let level = self.first[bucket[l] as usize];
-            out[l] = level + (x[l] >= self.thresholds[level as usize]) as u8;
-        }
-        out
     }
 
     /// Linear [0, 1] to the nearest 8-bit sRGB level (values outside are clamped): the level

@@ -3,22 +3,23 @@
 //!
 //! Each lane does exactly the operations, in exactly the order, of the one-ray-at-a-time code in
 //! `mod.rs` and `shadows.rs`: the same dot products, the same stable roots, the same tests. Only
-//! the control flow differs — branches become per-lane masks, and a packet leaves the sorted
+//! the control flow differs — branches become 8-bit lane masks, and a packet leaves the sorted
 //! candidate list once every lane would have left it. IEEE addition, multiplication, division
 //! and square root are correctly rounded at every vector width, Rust never fuses a multiply and
 //! an add on its own, and nothing here uses an approximate reciprocal, so every [`Simd`] path
-//! gives the scalar path's bits. The lane loops over fixed-size arrays are vectorised by the
-//! compiler for the instruction set each entry point enables.
+//! gives the scalar path's bits. The code is written once against [`Lanes`] (`lanes.rs`): one
+//! AVX-512 register, two AVX2 registers, or arrays the compiler vectorises for SSE2.
 
-use super::tiles::TileBins;
-use super::{RayTable, Shading, SrgbEncoder};
+use std::mem::offset_of;
+
+use super::lanes::{Lanes, Portable};
+use super::shadows::FrameShadows;
+use super::tiles::{TileBins, TILE};
+use super::{RayTable, Shading, SrgbEncoder, ViewSphere, BUCKETS};
 
 /// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
 /// the tile side, so a packet never straddles two tiles.
 pub const LANES: usize = 8;
-
-pub type Lanes = [f64; LANES];
-pub type Mask = [bool; LANES];
 
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
 pub(super) const STRETCH: usize = 32 * LANES;
@@ -123,6 +124,9 @@ pub struct RowJob<'a> {
     pub background: [u8; 3],
 }
 
+// Two packets side by side lie in one tile, and a stretch holds whole pairs.
+const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
+
 impl RowJob<'_> {
     /// Renders row `j` (one sample per pixel) into `row` (RGB8) in packets, with the
     /// instructions of `simd`, which must be [`Simd::supported`] and not `Scalar`.
@@ -133,224 +137,359 @@ impl RowJob<'_> {
             Simd::Avx2 => unsafe { self.row_avx2(j, row) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the caller checked `Simd::supported`, so the CPU has AVX-512F.
-            Simd::Avx512 => unsafe { super::avx512::row(self, j, row) },
-            _ => self.row_packets(j, row),
+            Simd::Avx512 => unsafe { self.row_avx512(j, row) },
+            _ => self.row_packets::<Portable>(j, row),
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn row_avx2(&self, j: usize, row: &mut [u8]) {
-        self.row_packets(j, row)
+        self.row_packets::<super::lanes::Ymm2>(j, row)
     }
 
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn row_avx512(&self, j: usize, row: &mut [u8]) {
+        self.row_packets::<super::lanes::Zmm>(j, row)
+    }
+
+    /// Two packets at a time, side by side in one tile: they share its candidates, and their
+    /// two chains of dependent work interleave.
     #[inline(always)]
-    fn row_packets(&self, j: usize, row: &mut [u8]) {
+    fn row_packets<V: Lanes>(&self, j: usize, row: &mut [u8]) {
         let width = row.len() / 3;
-        // Directions for a stretch of the row first: one loop of independent square roots and
-        // divisions, kept out of each packet's chain of dependent work.
-        let mut dirs = [[0.0; STRETCH]; 3];
-        for (p, out) in row.chunks_mut(3 * LANES).enumerate() {
-            let i0 = p * LANES;
-            let n = (width - i0).min(LANES);
-            let at = i0 % STRETCH;
-            if at == 0 {
-                self.directions(i0, (width - i0).min(STRETCH), j, &mut dirs);
-            }
-            let lane = |a: usize| -> Lanes { dirs[a][at..at + LANES].try_into().unwrap() };
-            let d = [lane(0), lane(1), lane(2)];
-            let candidates = self.bins.at(i0, j);
-            let covers = |k: u32| self.bins.covers(k, i0, i0 + n - 1, j);
-            let (hit, index, t) = self.ctx.nearest_packet(&d, candidates, covers);
-            if !any(&hit) {
-                // All background (sky): the frame's background levels, already encoded.
-                for px in out.chunks_exact_mut(3) {
-                    px.copy_from_slice(&self.background);
-                }
-                continue;
-            }
-            let colors = self.ctx.shade_packet(&d, hit, &index, &t);
-            // Plain calls, not `array::map`: its closure is not inlined into this function and
-            // loses the instruction set it was compiled for.
-            let enc = self.encode;
-            let levels = [
-                enc.encode_lanes(&colors[0]),
-                enc.encode_lanes(&colors[1]),
-                enc.encode_lanes(&colors[2]),
-            ];
-            for (l, px) in out.chunks_exact_mut(3).enumerate() {
-                px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
-            }
-        }
-    }
-
-    /// Unit directions of pixels i0..i0 + n of row j, normalised exactly as `DVec3::normalize`
-    /// does (v · (1 / √(v·v))), into `d`'s x, y and z rows; entries past `n` repeat the last
-    /// pixel.
-    #[inline(always)]
-    fn directions(&self, i0: usize, n: usize, j: usize, d: &mut [[f64; STRETCH]; 3]) {
         let t = self.table;
-        let mut x = [t.xs[i0 + n - 1]; STRETCH];
-        x[..n].copy_from_slice(&t.xs[i0..i0 + n]);
         let (y, z) = (t.ys[j], t.dz);
-        for l in 0..STRETCH {
-            let recip = 1.0 / ((x[l] * x[l] + y * y) + z * z).sqrt();
-            d[0][l] = x[l] * recip;
-            d[1][l] = y * recip;
-            d[2][l] = z * recip;
+        let (yy, zz) = (V::splat(y * y), V::splat(z * z));
+        // A stretch of the row's unit directions, normalised exactly as `DVec3::normalize`
+        // does (v · (1 / √(v·v))), computed ahead of its packets: independent square roots and
+        // divisions, out of each packet's chain of dependent work. Lanes past the row's end
+        // repeat its last pixel.
+        let mut dirs = [[V::splat(0.0); 3]; STRETCH / LANES];
+        for (p, out) in row.chunks_mut(6 * LANES).enumerate() {
+            let i0 = p * 2 * LANES;
+            if i0.is_multiple_of(STRETCH) {
+                for (q, d) in dirs.iter_mut().enumerate() {
+                    let at = i0 + q * LANES;
+                    if at >= width {
+                        break;
+                    }
+                    let mut xs = [t.xs[width - 1]; LANES];
+                    let m = (width - at).min(LANES);
+                    xs[..m].copy_from_slice(&t.xs[at..at + m]);
+                    let x = V::load(&xs);
+                    let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
+                    *d = [x.mul(r), V::splat(y).mul(r), V::splat(z).mul(r)];
+                }
+            }
+            let at = i0 % STRETCH / LANES;
+            let d = [dirs[at], dirs[at + 1]];
+            // Pixels in each packet; the second is empty when a row ends after the first.
+            let n = [
+                (width - i0).min(LANES),
+                (width - i0).saturating_sub(LANES).min(LANES),
+            ];
+            let candidates = self.bins.at(i0, j);
+            let covers = |k: u32, q: usize| {
+                let first = i0 + q * LANES;
+                self.bins.covers(k, first, first + n[q] - 1, j)
+            };
+            let found = self
+                .ctx
+                .nearest_packets(&d, candidates, covers, [true, n[1] > 0]);
+            for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
+                let (hit, index, t) = found[q];
+                if hit == 0 {
+                    // All background (sky): the frame's background levels, already encoded.
+                    for px in out.chunks_exact_mut(3) {
+                        px.copy_from_slice(&self.background);
+                    }
+                    continue;
+                }
+                let colors = self.ctx.shade_packet(&d[q], hit, index, t);
+                // Plain calls, not `array::map`: its closure is not inlined into the function
+                // compiled for the instruction set, and would run its intrinsics out of line.
+                let enc = self.encode;
+                let levels = [
+                    enc.encode_lanes(colors[0]),
+                    enc.encode_lanes(colors[1]),
+                    enc.encode_lanes(colors[2]),
+                ];
+                for (l, px) in out.chunks_exact_mut(3).enumerate() {
+                    px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
+                }
+            }
         }
     }
 }
 
+/// (a·b for x and y) + z: glam's dot product order.
+#[inline(always)]
+fn dot<V: Lanes>(a: &[V; 3], b: &[V; 3]) -> V {
+    a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
+}
+
+#[inline(always)]
+fn splat3<V: Lanes>(v: glam::DVec3) -> [V; 3] {
+    [V::splat(v.x), V::splat(v.y), V::splat(v.z)]
+}
+
+/// Per lane of a packet: whether it hit (a mask), which sphere, and where.
+type Found<V> = (u8, <V as Lanes>::Index, V);
+
 impl Shading<'_> {
-    /// `Shading::nearest` for a packet: per lane, whether it hit, which sphere and where. A lane
-    /// takes part in a candidate exactly while the one-ray search would still be running.
-    // The negated comparisons keep the scalar code's treatment of NaN exactly.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    /// `Shading::nearest` for two packets (directions `d`, `covers(k, packet)`) at once. Each
+    /// packet does exactly what it would alone: it passes a sphere that does not cover it, and
+    /// stops for good at the first one none of its lanes would test; a packet not `live` takes
+    /// no part. A lane takes part in a candidate exactly while the one-ray search would still be
+    /// running.
     #[inline(always)]
-    fn nearest_packet(
+    fn nearest_packets<V: Lanes>(
         &self,
-        d: &[Lanes; 3],
+        d: &[[V; 3]; 2],
         candidates: &[u32],
-        covers: impl Fn(u32) -> bool,
-    ) -> (Mask, [u32; LANES], Lanes) {
-        let mut hit = [false; LANES];
-        let mut index = [u32::MAX; LANES];
-        let mut best = [f64::INFINITY; LANES];
+        covers: impl Fn(u32, usize) -> bool,
+        mut live: [bool; 2],
+    ) -> [Found<V>; 2] {
+        let zero = V::splat(0.0);
+        let mut hit = [0u8; 2];
+        let mut index = [V::index(0); 2];
+        let mut best = [V::splat(f64::INFINITY); 2];
         for &k in candidates {
-            // A sphere whose projection misses these pixels cannot be hit by their rays. (Passing
-            // it before the test below changes nothing: once every lane has stopped, it stays
-            // stopped, and the next candidate ends the search.)
-            if !covers(k) {
-                continue;
-            }
             let s = &self.spheres[k as usize];
-            let mut active = [false; LANES];
-            for l in 0..LANES {
-                active[l] = !hit[l] || !(s.min_dist >= best[l]);
+            let min_dist = V::splat(s.min_dist);
+            let mut active = [0u8; 2];
+            for q in 0..2 {
+                if live[q] && covers(k, q) {
+                    // Lanes still searching: no hit yet, or this sphere might be nearer.
+                    active[q] = !hit[q] | !min_dist.ge(best[q]);
+                    live[q] = active[q] != 0;
+                }
             }
-            if !any(&active) {
+            if !(live[0] | live[1]) {
                 break;
             }
-            let (f, c, r2) = (s.f, s.c, s.radius2);
-            let mut b = [0.0; LANES];
-            let mut disc = [0.0; LANES];
-            let mut meets = [false; LANES];
-            for l in 0..LANES {
-                b[l] = (f.x * d[0][l] + f.y * d[1][l]) + f.z * d[2][l];
-                let g = [
-                    f.x - d[0][l] * b[l],
-                    f.y - d[1][l] * b[l],
-                    f.z - d[2][l] * b[l],
-                ];
-                disc[l] = r2 - ((g[0] * g[0] + g[1] * g[1]) + g[2] * g[2]);
-                meets[l] = active[l] & !(disc[l] < 0.0);
-            }
-            // Most candidates miss every lane: no square root or division for them.
-            if !any(&meets) {
+            if active[0] | active[1] == 0 {
                 continue;
             }
-            for l in 0..LANES {
-                let (b, disc) = (b[l], disc[l]);
-                let q = -(b + disc.sqrt().copysign(b));
-                let (t0, t1) = (c / q, q);
-                let lt = t0 < t1;
-                let near = if lt { t0 } else { t1 };
-                let far = if lt { t1 } else { t0 };
-                let t = if near > 0.0 { near } else { far };
-                let root = (q != 0.0) & ((near > 0.0) | (far > 0.0));
-                let take = meets[l] & root & (!hit[l] | (t < best[l]));
-                best[l] = if take { t } else { best[l] };
-                index[l] = if take { k } else { index[l] };
-                hit[l] |= take;
+            let f = splat3::<V>(s.f);
+            let (c, radius2, k) = (V::splat(s.c), V::splat(s.radius2), V::index(k as u64));
+            for q in 0..2 {
+                // `nearest_positive_root`, lane by lane. No branch past the discriminant when
+                // no lane meets the sphere: the roots cost less than the mispredicted branches.
+                let d = &d[q];
+                let b = dot(&f, d);
+                let g = [
+                    f[0].sub(d[0].mul(b)),
+                    f[1].sub(d[1].mul(b)),
+                    f[2].sub(d[2].mul(b)),
+                ];
+                let disc = radius2.sub(dot(&g, &g));
+                let meets = active[q] & !disc.lt(zero);
+                let root_q = b.add(disc.sqrt().copysign(b)).neg();
+                let (t0, t1) = (c.div(root_q), root_q);
+                let lt = t0.lt(t1);
+                let near = V::blend(lt, t1, t0);
+                let far = V::blend(lt, t0, t1);
+                let (near_ahead, far_ahead) = (near.gt(zero), far.gt(zero));
+                let t = V::blend(near_ahead, far, near);
+                let root = !root_q.eq(zero) & (near_ahead | far_ahead);
+                let take = meets & root & (!hit[q] | t.lt(best[q]));
+                best[q] = V::blend(take, best[q], t);
+                index[q] = V::index_blend(take, index[q], k);
+                hit[q] |= take;
             }
         }
-        (hit, index, best)
+        [(hit[0], index[0], best[0]), (hit[1], index[1], best[1])]
     }
 
-    /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet's hits, background
-    /// where a lane missed, with the shadow rays of each light cast as one packet. The caller
-    /// writes a packet that hit nothing without it (`RowJob::row_packets`).
-    // As in `nearest_packet`; and `max` then `min` is glam's clamp (f64::clamp keeps a NaN).
-    #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::manual_clamp)]
+    /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet with a hit,
+    /// background where a lane missed, with the shadow rays of each light cast as one packet.
     #[inline(always)]
-    fn shade_packet(
-        &self,
-        d: &[Lanes; 3],
-        hit: Mask,
-        index: &[u32; LANES],
-        t: &Lanes,
-    ) -> [Lanes; 3] {
-        let background = self.background.to_array();
-        // Each lane's sphere (the first for a lane that missed; its results are not used).
-        let mut own = [0usize; LANES];
-        for l in 0..LANES {
-            own[l] = if hit[l] { index[l] as usize } else { 0 };
-        }
-        let sphere = |l: usize| &self.spheres[own[l]];
-        let mut light = [[self.ambient; LANES]; 3];
+    fn shade_packet<V: Lanes>(&self, d: &[V; 3], hit: u8, index: V::Index, t: V) -> [V; 3] {
+        let (zero, one) = (V::splat(0.0), V::splat(1.0));
+        let fields = SphereLanes::<V>::new(self.spheres, hit, index);
+        let mut light = [V::splat(self.ambient); 3];
         if !self.lights.is_empty() {
-            // ViewSphere::surface, lane by lane: rel = f + d·t, normal = rel / r, point = centre + rel.
-            let mut normal = [[0.0; LANES]; 3];
-            let mut point = [[0.0; LANES]; 3];
-            for l in 0..LANES {
-                let s = sphere(l);
-                let (f, c, r) = (s.f.to_array(), s.center.to_array(), s.radius);
-                for a in 0..3 {
-                    let rel = f[a] + d[a][l] * t[l];
-                    normal[a][l] = rel / r;
-                    point[a][l] = c[a] + rel;
-                }
-            }
+            let f = fields.vec3(offset_of!(ViewSphere, f), |s| s.f);
+            let c = fields.vec3(offset_of!(ViewSphere, center), |s| s.center);
+            let r = fields.field(offset_of!(ViewSphere, radius), |s| s.radius);
+            // ViewSphere::surface: rel = f + d·t, normal = rel / r, point = centre + rel.
+            let rel = [
+                f[0].add(d[0].mul(t)),
+                f[1].add(d[1].mul(t)),
+                f[2].add(d[2].mul(t)),
+            ];
+            let normal = [rel[0].div(r), rel[1].div(r), rel[2].div(r)];
+            let point = [c[0].add(rel[0]), c[1].add(rel[1]), c[2].add(rel[2])];
             for l in self.lights {
-                let (to, color) = (l.to_light, l.color.to_array());
-                let mut facing = [0.0; LANES];
-                let mut lit = [false; LANES];
-                for k in 0..LANES {
-                    facing[k] = (normal[0][k] * to.x + normal[1][k] * to.y) + normal[2][k] * to.z;
-                    lit[k] = hit[k] & !(facing[k] <= 0.0);
-                }
+                let facing = dot(&normal, &splat3(l.to_light));
+                let mut lit = hit & !facing.le(zero);
                 if let Some(grid) = &l.shadows {
-                    if any(&lit) {
-                        let mut ids = [0u32; LANES];
-                        for k in 0..LANES {
-                            ids[k] = self.spheres[own[k]].id;
-                        }
-                        let blocked = grid.occluded_packet(&point, &ids, lit);
-                        for k in 0..LANES {
-                            lit[k] &= !blocked[k];
-                        }
+                    if lit != 0 {
+                        lit &= !occluded(grid, &point, fields.ids(), lit);
                     }
                 }
+                let color = l.color.to_array();
                 for a in 0..3 {
-                    for k in 0..LANES {
-                        let add = light[a][k] + color[a] * facing[k];
-                        light[a][k] = if lit[k] { add } else { light[a][k] };
-                    }
+                    let add = light[a].add(V::splat(color[a]).mul(facing));
+                    light[a] = V::blend(lit, light[a], add);
                 }
             }
         }
+        let color = fields.vec3(offset_of!(ViewSphere, color), |s| s.color);
+        let background = self.background.to_array();
         let flat = self.lights.is_empty();
-        let mut out = [[0.0; LANES]; 3];
-        for l in 0..LANES {
-            let color = sphere(l).color.to_array();
-            for a in 0..3 {
-                // Shading::color: clamp to [0, 1], or only to 1 for a flat scene.
-                let c = color[a] * light[a][l];
-                let c = if flat {
-                    c.min(1.0)
-                } else {
-                    c.max(0.0).min(1.0)
-                };
-                out[a][l] = if hit[l] { c } else { background[a] };
-            }
+        let mut out = [zero; 3];
+        for a in 0..3 {
+            // Shading::color: clamp to [0, 1] as glam does (max, then min), or only to 1 for a
+            // flat scene.
+            let c = color[a].mul(light[a]);
+            let c = if flat {
+                c.min(one)
+            } else {
+                c.max(zero).min(one)
+            };
+            out[a] = V::blend(hit, V::splat(background[a]), c);
         }
         out
     }
 }
 
-/// Whether any lane is set.
+/// Each lane's sphere, for reading its fields: one sphere for the whole packet when every lane
+/// that hit found the same one (the common case), otherwise lane by lane. A lane that missed
+/// reads some sphere; its results are never used.
+enum SphereLanes<'a, V: Lanes> {
+    One(&'a ViewSphere),
+    Each(&'a [ViewSphere], V::Index),
+}
+
+impl<'a, V: Lanes> SphereLanes<'a, V> {
+    #[inline(always)]
+    fn new(spheres: &'a [ViewSphere], hit: u8, index: V::Index) -> SphereLanes<'a, V> {
+        let k = V::index_store(index)[hit.trailing_zeros() as usize];
+        if V::index_eq(index, V::index(k)) & hit == hit {
+            SphereLanes::One(&spheres[k as usize])
+        } else {
+            SphereLanes::Each(spheres, V::index_blend(hit, V::index(0), index))
+        }
+    }
+
+    /// The f64 field at byte `offset` of `ViewSphere`, which `one` reads from a sphere.
+    #[inline(always)]
+    fn field(&self, offset: usize, one: impl Fn(&ViewSphere) -> f64) -> V {
+        match *self {
+            SphereLanes::One(s) => V::splat(one(s)),
+            SphereLanes::Each(spheres, own) => V::gather(spheres, own, offset),
+        }
+    }
+
+    #[inline(always)]
+    fn vec3(&self, offset: usize, one: impl Fn(&ViewSphere) -> glam::DVec3) -> [V; 3] {
+        [
+            self.field(offset, |s| one(s).x),
+            self.field(offset + 8, |s| one(s).y),
+            self.field(offset + 16, |s| one(s).z),
+        ]
+    }
+
+    /// The spheres' scene indices.
+    #[inline(always)]
+    fn ids(&self) -> V::Index {
+        match *self {
+            SphereLanes::One(s) => V::index(s.id as u64),
+            SphereLanes::Each(spheres, own) => V::gather_ids(spheres, own),
+        }
+    }
+}
+
+/// `FrameShadows::occluded` for a packet of view points on spheres `own`, for the lanes in
+/// `need`: which of them the light does not reach. Whether any sphere blocks a ray does not
+/// depend on the order of the tests, so lanes sharing a grid cell test its spheres together.
 #[inline(always)]
-pub fn any(m: &Mask) -> bool {
-    m.iter().fold(false, |a, &b| a | b)
+fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8) -> u8 {
+    let mut blocked = 0u8;
+    for &(k, c, r2) in &sh.always {
+        blocked |= need & blocks(sh, point, own, k, c, r2);
+        if need & !blocked == 0 {
+            return blocked;
+        }
+    }
+    if sh.grid.dims.0 == 0 {
+        return blocked;
+    }
+    // FrameShadows::square on whole lanes.
+    let (ax, ay) = sh.axes;
+    let q = [
+        dot(point, &splat3(ax)).add(V::splat(sh.offset.x)),
+        dot(point, &splat3(ay)).add(V::splat(sh.offset.y)),
+    ];
+    let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
+    let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
+    let inv = V::splat(sh.grid.inv_cell);
+    let lo = [
+        q[0].sub(err).mul(inv).store(),
+        q[1].sub(err).mul(inv).store(),
+    ];
+    let hi = [
+        q[0].add(err).mul(inv).store(),
+        q[1].add(err).mul(inv).store(),
+    ];
+    sh.cell_groups(&lo, &hi, need & !blocked, |k, lanes| {
+        let (k, c, r2) = sh.blocker(k);
+        blocked |= lanes & blocks(sh, point, own, k, c, r2);
+        lanes & !blocked != 0
+    });
+    blocked
+}
+
+/// The lanes whose shadow ray sphere k (centre `c`, r² `r2`, in view coordinates) blocks, as
+/// `blocks_ray`, leaving out lanes on sphere k itself.
+#[inline(always)]
+fn blocks<V: Lanes>(
+    sh: &FrameShadows,
+    point: &[V; 3],
+    own: V::Index,
+    k: u32,
+    c: glam::DVec3,
+    r2: f64,
+) -> u8 {
+    let (zero, r2) = (V::splat(0.0), V::splat(r2));
+    let dir = splat3::<V>(sh.to_light);
+    let f = [
+        point[0].sub(V::splat(c.x)),
+        point[1].sub(V::splat(c.y)),
+        point[2].sub(V::splat(c.z)),
+    ];
+    let cc = dot(&f, &f).sub(r2);
+    let b = dot(&f, &dir);
+    let g = [
+        f[0].sub(dir[0].mul(b)),
+        f[1].sub(dir[1].mul(b)),
+        f[2].sub(dir[2].mul(b)),
+    ];
+    let g2 = dot(&g, &g);
+    let hit = cc.le(zero) | (b.lt(zero) & g2.le(r2));
+    hit & !V::index_eq(own, V::index(k as u64))
+}
+
+impl SrgbEncoder {
+    /// [`SrgbEncoder::encode`] of every lane: clamp and bucket on whole lanes, the two table
+    /// lookups per value one at a time.
+    #[inline(always)]
+    fn encode_lanes<V: Lanes>(&self, linear: V) -> [u8; LANES] {
+        let (zero, one) = (V::splat(0.0), V::splat(1.0));
+        // f64::clamp(0, 1), which keeps a NaN.
+        let x = V::blend(linear.lt(zero), linear, zero);
+        let x = V::blend(x.gt(one), x, one);
+        let bucket = x.mul(V::splat(BUCKETS as f64)).to_i32(BUCKETS as i32);
+        let x = x.store();
+        let mut out = [0u8; LANES];
+        for l in 0..LANES {
+            let level = self.first[bucket[l] as usize];
+            out[l] = level + (x[l] >= self.thresholds[level as usize]) as u8;
+        }
+        out
+    }
 }

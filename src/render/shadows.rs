@@ -9,7 +9,7 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::{Bins, CellRect};
-use super::packet::{Lanes, Mask, LANES};
+use super::packet::LANES;
 use crate::camera::Camera;
 use crate::scene::Sphere;
 
@@ -225,55 +225,6 @@ impl<'a> FrameShadows<'a> {
             })
         })
     }
-
-    /// `occluded` for a packet of view points (x, y and z lanes) on spheres `own`, for the lanes
-    /// set in `need`: which of them the light does not reach. Each lane's tests are
-    /// [`blocks_ray`]'s; whether any sphere blocks a ray does not depend on the order of the
-    /// tests, so lanes sharing a grid cell test its spheres together.
-    #[inline(always)]
-    pub fn occluded_packet(&self, point: &[Lanes; 3], own: &[u32; LANES], need: Mask) -> Mask {
-        let mut blocked = [false; LANES];
-        let dir = self.to_light;
-        // Tests one sphere against the lanes in `lanes`; false once all of them are blocked.
-        let test = |(k, c, r2): (u32, DVec3, f64), lanes: &Mask, blocked: &mut Mask| {
-            for l in 0..LANES {
-                let f = [point[0][l] - c.x, point[1][l] - c.y, point[2][l] - c.z];
-                let cc = (f[0] * f[0] + f[1] * f[1]) + f[2] * f[2] - r2;
-                let b = (f[0] * dir.x + f[1] * dir.y) + f[2] * dir.z;
-                let g = [f[0] - dir.x * b, f[1] - dir.y * b, f[2] - dir.z * b];
-                let g2 = (g[0] * g[0] + g[1] * g[1]) + g[2] * g[2];
-                let hit = (cc <= 0.0) | ((b < 0.0) & (g2 <= r2));
-                blocked[l] |= lanes[l] & (own[l] != k) & hit;
-            }
-            (0..LANES).any(|l| lanes[l] & !blocked[l])
-        };
-        for &a in &self.always {
-            if !test(a, &need, &mut blocked) {
-                return blocked;
-            }
-        }
-        if self.grid.dims.0 == 0 {
-            return blocked;
-        }
-        let mut lo = [[0.0; LANES]; 2];
-        let mut hi = [[0.0; LANES]; 2];
-        for l in 0..LANES {
-            let (a, b) = self.square([point[0][l], point[1][l], point[2][l]]);
-            (lo[0][l], lo[1][l], hi[0][l], hi[1][l]) = (a[0], a[1], b[0], b[1]);
-        }
-        let mut pending = 0u8;
-        for l in 0..LANES {
-            pending |= ((need[l] & !blocked[l]) as u8) << l;
-        }
-        self.cell_groups(&lo, &hi, pending, |k, bits| {
-            let mut lanes = [false; LANES];
-            for (l, lane) in lanes.iter_mut().enumerate() {
-                *lane = bits >> l & 1 == 1;
-            }
-            test(self.blocker(k), &lanes, &mut blocked)
-        });
-        blocked
-    }
 }
 
 impl FrameShadows<'_> {
@@ -285,8 +236,8 @@ impl FrameShadows<'_> {
     #[inline(always)]
     pub(super) fn cell_groups(
         &self,
-        lo: &[Lanes; 2],
-        hi: &[Lanes; 2],
+        lo: &[[f64; LANES]; 2],
+        hi: &[[f64; LANES]; 2],
         pending: u8,
         mut test: impl FnMut(u32, u8) -> bool,
     ) {
