@@ -13,7 +13,7 @@
 use std::mem::offset_of;
 
 use super::lanes::{Lanes, Portable};
-use super::shadows::FrameShadows;
+use super::shadows::{cell_key, FrameShadows};
 use super::tiles::{TileBins, TILE};
 use super::{RayTable, Shading, SrgbEncoder, ViewSphere, BUCKETS};
 
@@ -428,20 +428,42 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
     let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
     let inv = V::splat(sh.grid.inv_cell);
-    let lo = [
-        q[0].sub(err).mul(inv).store(),
-        q[1].sub(err).mul(inv).store(),
-    ];
-    let hi = [
-        q[0].add(err).mul(inv).store(),
-        q[1].add(err).mul(inv).store(),
-    ];
-    sh.cell_groups(&lo, &hi, need & !blocked, |k, lanes| {
+    let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];
+    let hi = [q[0].add(err).mul(inv), q[1].add(err).mul(inv)];
+    // ShadowGrid::clamp_cells on whole lanes: lanes whose square misses the grid (or is NaN)
+    // have no cells; the others' ranges are clamped to it.
+    let zero = V::splat(0.0);
+    let (w, h) = sh.grid.dims;
+    let on_grid = hi[0].ge(zero) & hi[1].ge(zero);
+    let on_grid = on_grid & lo[0].le(V::splat(w as f64)) & lo[1].le(V::splat(h as f64));
+    let pending = need & !blocked & on_grid;
+    if pending == 0 {
+        return blocked;
+    }
+    let (x0, x1) = (cell_index(lo[0], w), cell_index(hi[0], w));
+    let (y0, y1) = (cell_index(lo[1], h), cell_index(hi[1], h));
+    let mut key = [u64::MAX; LANES];
+    for l in 0..LANES {
+        if pending >> l & 1 == 1 {
+            let at = |c: [i32; LANES]| c[l] as u64;
+            key[l] = cell_key(at(x0), at(x1), at(y0), at(y1));
+        }
+    }
+    sh.cell_groups(key, |k, lanes| {
         let (k, c, r2) = sh.blocker(k);
         blocked |= lanes & blocks(sh, point, own, k, c, r2);
         lanes & !blocked != 0
     });
     blocked
+}
+
+/// `(v.max(0.0) as usize).min(n - 1)` per lane, for lanes that are not NaN: the cell of a
+/// grid coordinate, clamped to a side of `n` cells.
+#[inline(always)]
+fn cell_index<V: Lanes>(v: V, n: usize) -> [i32; LANES] {
+    let last = n as i32 - 1;
+    // Clamped as floats first, so that no lane is out of the conversion's range.
+    v.max(V::splat(0.0)).min(V::splat(last as f64)).to_i32(last)
 }
 
 /// The lanes whose shadow ray sphere k (centre `c`, r² `r2`, in view coordinates) blocks, as

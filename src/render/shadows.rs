@@ -228,36 +228,14 @@ impl<'a> FrameShadows<'a> {
 }
 
 impl FrameShadows<'_> {
-    /// Walks the grid for the `pending` lanes (bit l for lane l) of a packet whose squares
-    /// ([`FrameShadows::square`]) are `lo` and `hi` (x and y lanes): `test(k, lanes)` is called
-    /// with each binned sphere k of each lane's cells and the lanes it is tested for, and
-    /// returns whether any of them is still unblocked (false ends that walk). Lanes whose
-    /// squares fall in the same single cell are walked together.
+    /// Walks the grid for a packet's lanes: `key[l]` is lane l's clamped cell range
+    /// (x0, x1, y0, y1 in 16 bits each, see [`cell_key`]), `u64::MAX` for a lane with nothing
+    /// to test. `test(k, lanes)` is called with each binned sphere k of each lane's cells and
+    /// the lanes it is tested for, and returns whether any of them is still unblocked (false
+    /// ends that walk). Lanes whose squares fall in the same single cell are walked together.
     #[inline(always)]
-    pub(super) fn cell_groups(
-        &self,
-        lo: &[[f64; LANES]; 2],
-        hi: &[[f64; LANES]; 2],
-        pending: u8,
-        mut test: impl FnMut(u32, u8) -> bool,
-    ) {
-        if self.grid.dims.0 == 0 {
-            return;
-        }
-        // Each pending lane's cells as one key (x0, x1, y0, y1 in 16 bits each; the grid is at
-        // most 1024 a side).
+    pub(super) fn cell_groups(&self, mut key: [u64; LANES], mut test: impl FnMut(u32, u8) -> bool) {
         let g = self.grid;
-        let mut key = [u64::MAX; LANES];
-        for l in 0..LANES {
-            if pending >> l & 1 == 1 {
-                let a = DVec2::new(lo[0][l], lo[1][l]);
-                let b = DVec2::new(hi[0][l], hi[1][l]);
-                if let Some((x0, x1, y0, y1)) = g.clamp_cells(a, b) {
-                    key[l] =
-                        (x0 as u64) | (x1 as u64) << 16 | (y0 as u64) << 32 | (y1 as u64) << 48;
-                }
-            }
-        }
         for l in 0..LANES {
             let here = key[l];
             if here == u64::MAX {
@@ -284,6 +262,13 @@ impl FrameShadows<'_> {
             }
         }
     }
+}
+
+/// The key of the clamped cell range (x0, x1, y0, y1) for [`FrameShadows::cell_groups`]: 16
+/// bits each (the grid is at most 1024 a side).
+#[inline(always)]
+pub(super) fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
+    x0 | x1 << 16 | y0 << 32 | y1 << 48
 }
 
 /// Spheres larger than this (16 × the median radius, like a ground sphere) are tested for every
