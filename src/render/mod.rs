@@ -243,8 +243,9 @@ impl Renderer {
         raster: Raster,
     ) -> Vec<u8> {
         let scene = index.scene;
-        // Packets cast one sample per pixel; more samples go one ray at a time.
-        let packets = self.simd != Simd::Scalar && raster.samples == 1;
+        // Packets cast one sample per pixel, or s×s averaged; adaptive sampling goes one ray at a
+        // time.
+        let packets = self.simd != Simd::Scalar && (raster.samples == 1 || !raster.adaptive);
         let table = match self.table.take() {
             Some(t) if t.fits(camera.cop_view, camera.window, raster) => t,
             _ => RayTable::new(camera.cop_view, camera.window, raster, !packets),
@@ -298,6 +299,7 @@ impl Renderer {
                 bins: &bins,
                 encode,
                 background: scene.background.to_array().map(|c| encode.encode(c)),
+                samples: raster.samples as usize,
             };
             pixels
                 .par_chunks_mut(width * 3)
@@ -664,12 +666,16 @@ mod tests {
                 DVec3::new(0.0, 0.0, -1.5),
             ),
         ];
-        // Two samples go one ray at a time; one sample goes in packets on every path but
-        // `Scalar`.
+        // Every path but `Scalar` casts one sample, and 2×2 or 3×3 samples averaged, in packets.
         let one = Raster {
             samples: 1,
             ..raster
         };
+        let three = Raster {
+            samples: 3,
+            ..raster
+        };
+
         for (k, (vrp, vpn, cop)) in cameras.into_iter().enumerate() {
             let camera = Camera {
                 vrp_world: vrp,
@@ -677,7 +683,7 @@ mod tests {
                 cop_view: cop,
                 window: DVec2::new(1.5, 1.0),
             };
-            for raster in [raster, one] {
+            for raster in [raster, one, three] {
                 let slow = brute_force(&camera, &scene, raster);
                 for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
                     let fast = Renderer::with_simd(simd)

@@ -13,13 +13,18 @@
 use std::mem::offset_of;
 
 use super::lanes::{Lanes, Portable};
-use super::shadows::{cell_key, FrameShadows};
+use super::shadows::{cell_key, cell_range, FrameShadows};
 use super::tiles::{TileBins, TILE};
 use super::{RayTable, Shading, SrgbEncoder, ViewSphere, BUCKETS};
+use crate::raster::MAX_SAMPLES;
 
 /// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
 /// the tile side, so a packet never straddles two tiles.
 pub const LANES: usize = 8;
+
+/// Most samples in one group of pixels (`RowJob::row_samples`): a pixel at 16×16, or four at
+/// 2×2.
+const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
 
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
 pub(super) const STRETCH: usize = 32 * LANES;
@@ -122,25 +127,36 @@ pub struct RowJob<'a> {
     pub encode: &'a SrgbEncoder,
     /// The background's sRGB levels.
     pub background: [u8; 3],
+    /// Samples per pixel side: 1, or s ≥ 2 for s×s samples averaged (not adaptive).
+    pub samples: usize,
 }
 
 // Two packets side by side lie in one tile, and a stretch holds whole pairs.
 const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
 
 impl RowJob<'_> {
-    /// Renders row `j` (one sample per pixel) into `row` (RGB8) in packets, with the
-    /// instructions of `simd`, which must be [`Simd::supported`] and not `Scalar`.
+    /// Renders row `j` into `row` (RGB8) in packets, with the instructions of `simd`, which
+    /// must be [`Simd::supported`] and not `Scalar`.
     pub fn row(&self, simd: Simd, j: usize, row: &mut [u8]) {
+        let one = self.samples == 1;
         match simd {
+            // SAFETY (both x86 arms): the caller checked `Simd::supported`, so the CPU has
+            // AVX2, or AVX-512F.
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: the caller checked `Simd::supported`, so the CPU has AVX2.
-            Simd::Avx2 => unsafe { self.row_avx2(j, row) },
+            Simd::Avx2 if one => unsafe { self.row_avx2(j, row) },
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: the caller checked `Simd::supported`, so the CPU has AVX-512F.
-            Simd::Avx512 => unsafe { self.row_avx512(j, row) },
-            _ => self.row_packets::<Portable>(j, row),
+            Simd::Avx2 => unsafe { self.row_samples_avx2(j, row) },
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 if one => unsafe { self.row_avx512(j, row) },
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => unsafe { self.row_samples_avx512(j, row) },
+            _ if one => self.row_packets::<Portable>(j, row),
+            _ => self.row_samples::<Portable>(j, row),
         }
     }
+
+    // One function per path and per kind of row: each is compiled on its own, so the
+    // single-sample loop keeps its registers and layout.
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
@@ -152,6 +168,93 @@ impl RowJob<'_> {
     #[target_feature(enable = "avx512f")]
     fn row_avx512(&self, j: usize, row: &mut [u8]) {
         self.row_packets::<super::lanes::Zmm>(j, row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn row_samples_avx2(&self, j: usize, row: &mut [u8]) {
+        self.row_samples::<super::lanes::Ymm2>(j, row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn row_samples_avx512(&self, j: usize, row: &mut [u8]) {
+        self.row_samples::<super::lanes::Zmm>(j, row)
+    }
+
+    /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
+    /// each sample's colour, summed in sample order and divided by s². The samples of a group of
+    /// pixels in one tile (4 pixels at 2×2, else 1) go in packets of 8 in (pixel, sample) order,
+    /// two packets at a time; the last packet's spare lanes repeat its last sample.
+    #[inline(always)]
+    fn row_samples<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+        let s = self.samples;
+        let s2 = s * s;
+        let t = self.table;
+        let group = if s == 2 { 4 } else { 1 };
+        let background = self.ctx.background.to_array();
+        // Each sample's linear colour, for one group.
+        let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
+        // Sample `at` of a group (in (pixel, sample) order): its column in `t.xs` past the
+        // group's first, and its row in `t.ys` past the pixel row's first.
+        let mut column = [0u16; MAX_GROUP_SAMPLES];
+        let mut line = [0u16; MAX_GROUP_SAMPLES];
+        for at in 0..group * s2 {
+            let (pixel, k) = (at / s2, at % s2);
+            column[at] = (pixel * s + k % s) as u16;
+            line[at] = (k / s) as u16;
+        }
+        for (g, out) in row.chunks_mut(3 * group).enumerate() {
+            let i0 = g * group;
+            let pixels = out.len() / 3;
+            let n = pixels * s2;
+            let candidates = self.bins.at(i0, j);
+            let covers = |k: u32, _: usize| self.bins.covers(k, i0, i0 + pixels - 1, j);
+            for first in (0..n).step_by(2 * LANES) {
+                // The directions of samples first .. first + 16, as `RayTable::compute`.
+                let mut d = [[V::splat(0.0); 3]; 2];
+                for (q, d) in d.iter_mut().enumerate() {
+                    let mut xs = [0.0; LANES];
+                    let mut ys = [0.0; LANES];
+                    for l in 0..LANES {
+                        let at = (first + q * LANES + l).min(n - 1);
+                        xs[l] = t.xs[i0 * s + column[at] as usize];
+                        ys[l] = t.ys[j * s + line[at] as usize];
+                    }
+                    let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
+                    let r = V::splat(1.0).div(x.mul(x).add(y.mul(y)).add(z.mul(z)).sqrt());
+                    *d = [x.mul(r), y.mul(r), z.mul(r)];
+                }
+                let live = [true, first + LANES < n];
+                let found = self.ctx.nearest_packets(&d, candidates, covers, live);
+                for q in 0..2 {
+                    let (hit, index, t) = found[q];
+                    let c = if hit == 0 {
+                        let [r, g, b] = background;
+                        [[r; LANES], [g; LANES], [b; LANES]]
+                    } else {
+                        let c = self.ctx.shade_packet(&d[q], hit, index, t);
+                        [c[0].store(), c[1].store(), c[2].store()]
+                    };
+                    let start = (first + q * LANES).min(n);
+                    let end = (start + LANES).min(n);
+                    for (l, color) in colors[start..end].iter_mut().enumerate() {
+                        *color = [c[0][l], c[1][l], c[2][l]];
+                    }
+                }
+            }
+            for (p, px) in out.chunks_exact_mut(3).enumerate() {
+                let mut sum = [0.0; 3];
+                for c in &colors[p * s2..(p + 1) * s2] {
+                    for a in 0..3 {
+                        sum[a] += c[a];
+                    }
+                }
+                for a in 0..3 {
+                    px[a] = self.encode.encode(sum[a] / s2 as f64);
+                }
+            }
+        }
     }
 
     /// Two packets at a time, side by side in one tile: they share its candidates, and their
@@ -449,11 +552,36 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
             key[l] = cell_key(at(x0), at(x1), at(y0), at(y1));
         }
     }
-    sh.cell_groups(key, |k, lanes| {
-        let (k, c, r2) = sh.blocker(k);
-        blocked |= lanes & blocks(sh, point, own, k, c, r2);
-        lanes & !blocked != 0
-    });
+    // Inlined into the caller, which is compiled for its instruction set.
+    // Lanes whose squares fall in the same single cell test its spheres together. (Written out
+    // here, not behind a closure: the tests must be inlined into the function compiled for the
+    // instruction set.)
+    for l in 0..LANES {
+        let here = key[l];
+        if here == u64::MAX {
+            continue;
+        }
+        let (x0, x1, y0, y1) = cell_range(here);
+        let single = x0 == x1 && y0 == y1;
+        let mut lanes = 0u8;
+        for (m, other) in key.iter_mut().enumerate().skip(l) {
+            if *other == here && (single || m == l) {
+                lanes |= 1 << m;
+                *other = u64::MAX;
+            }
+        }
+        'cells: for y in y0..=y1 {
+            for x in x0..=x1 {
+                for &k in sh.cell(x, y) {
+                    let (k, c, r2) = sh.blocker(k);
+                    blocked |= lanes & blocks(sh, point, own, k, c, r2);
+                    if lanes & !blocked == 0 {
+                        break 'cells;
+                    }
+                }
+            }
+        }
+    }
     blocked
 }
 

@@ -9,7 +9,6 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::{Bins, CellRect};
-use super::packet::LANES;
 use crate::camera::Camera;
 use crate::scene::Sphere;
 
@@ -228,39 +227,10 @@ impl<'a> FrameShadows<'a> {
 }
 
 impl FrameShadows<'_> {
-    /// Walks the grid for a packet's lanes: `key[l]` is lane l's clamped cell range
-    /// (x0, x1, y0, y1 in 16 bits each, see [`cell_key`]), `u64::MAX` for a lane with nothing
-    /// to test. `test(k, lanes)` is called with each binned sphere k of each lane's cells and
-    /// the lanes it is tested for, and returns whether any of them is still unblocked (false
-    /// ends that walk). Lanes whose squares fall in the same single cell are walked together.
+    /// The binned spheres of grid cell (x, y).
     #[inline(always)]
-    pub(super) fn cell_groups(&self, mut key: [u64; LANES], mut test: impl FnMut(u32, u8) -> bool) {
-        let g = self.grid;
-        for l in 0..LANES {
-            let here = key[l];
-            if here == u64::MAX {
-                continue;
-            }
-            let field = |shift: u32| ((here >> shift) & 0xffff) as usize;
-            let (x0, x1, y0, y1) = (field(0), field(16), field(32), field(48));
-            let single = x0 == x1 && y0 == y1;
-            let mut lanes = 0u8;
-            for (m, other) in key.iter_mut().enumerate().skip(l) {
-                if *other == here && (single || m == l) {
-                    lanes |= 1 << m;
-                    *other = u64::MAX;
-                }
-            }
-            'cells: for y in y0..=y1 {
-                for x in x0..=x1 {
-                    for &k in g.bins.cell(x, y) {
-                        if !test(k, lanes) {
-                            break 'cells;
-                        }
-                    }
-                }
-            }
-        }
+    pub(super) fn cell(&self, x: usize, y: usize) -> &[u32] {
+        self.grid.bins.cell(x, y)
     }
 }
 
@@ -269,6 +239,13 @@ impl FrameShadows<'_> {
 #[inline(always)]
 pub(super) fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
     x0 | x1 << 16 | y0 << 32 | y1 << 48
+}
+
+/// The cell range (x0, x1, y0, y1) of a [`cell_key`].
+#[inline(always)]
+pub(super) fn cell_range(key: u64) -> CellRect {
+    let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
+    (field(0), field(16), field(32), field(48))
 }
 
 /// Spheres larger than this (16 × the median radius, like a ground sphere) are tested for every

@@ -1,6 +1,7 @@
 //! Every instruction path gives the scalar path's bytes: the examples and the stability
 //! catalogue (tests/data and the far-from-the-origin scenes), frame by frame, at one sample per
-//! pixel (the packets' case; more samples go one ray at a time on every path).
+//! pixel and at s×s samples averaged (the packets' cases; adaptive sampling goes one ray at a time
+//! on every path).
 
 use std::path::Path;
 
@@ -109,5 +110,22 @@ fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
         doc.raster.width = width;
         doc.raster.height = 24;
         same_bytes_on_every_path(&format!("{} at width {width}", EXAMPLES[0]), &doc);
+    }
+}
+
+#[test]
+fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
+    // s×s samples averaged go in packets of samples (4 pixels a group at 2×2, one pixel
+    // otherwise); adaptive sampling stays one ray at a time. Widths end inside a group.
+    for (name, samples, width) in [
+        (EXAMPLES[0], 2, 97),
+        (EXAMPLES[1], 3, 45),
+        (EXAMPLES[2], 4, 33),
+        (EXAMPLES[3], 5, 17),
+        (EXAMPLES[4], 2, 9),
+    ] {
+        let mut doc = one_sample(example(name), width);
+        doc.raster.samples = samples;
+        same_bytes_on_every_path(&format!("{name} at {samples}×{samples} samples"), &doc);
     }
 }
