@@ -243,9 +243,8 @@ impl Renderer {
         raster: Raster,
     ) -> Vec<u8> {
         let scene = index.scene;
-        // Packets cast one sample per pixel, or s×s averaged; adaptive sampling goes one ray at a
-        // time.
-        let packets = self.simd != Simd::Scalar && (raster.samples == 1 || !raster.adaptive);
+        // Every path but `Scalar` casts in packets, whatever the sampling.
+        let packets = self.simd != Simd::Scalar;
         let table = match self.table.take() {
             Some(t) if t.fits(camera.cop_view, camera.window, raster) => t,
             _ => RayTable::new(camera.cop_view, camera.window, raster, !packets),
@@ -300,6 +299,7 @@ impl Renderer {
                 encode,
                 background: scene.background.to_array().map(|c| encode.encode(c)),
                 samples: raster.samples as usize,
+                adaptive: raster.adaptive && raster.samples >= 2,
             };
             pixels
                 .par_chunks_mut(width * 3)

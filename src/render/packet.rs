@@ -26,6 +26,15 @@ pub const LANES: usize = 8;
 /// 2×2.
 const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
 
+/// A sample of a group of pixels: its column in the ray table's `xs` past the group's first
+/// pixel's, and its line in `ys` past the pixel row's first.
+type Sample = (u16, u16);
+
+/// Sample k (row-major in the s×s grid) of pixel p of a group.
+fn sample(s: usize, p: usize, k: usize) -> Sample {
+    ((p * s + k % s) as u16, (k / s) as u16)
+}
+
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
 pub(super) const STRETCH: usize = 32 * LANES;
 
@@ -127,8 +136,10 @@ pub struct RowJob<'a> {
     pub encode: &'a SrgbEncoder,
     /// The background's sRGB levels.
     pub background: [u8; 3],
-    /// Samples per pixel side: 1, or s ≥ 2 for s×s samples averaged (not adaptive).
+    /// Samples per pixel side: 1, or s ≥ 2 for s×s samples averaged.
     pub samples: usize,
+    /// With s ≥ 2: the corners first, the rest only where they disagree.
+    pub adaptive: bool,
 }
 
 // Two packets side by side lie in one tile, and a stretch holds whole pairs.
@@ -151,7 +162,17 @@ impl RowJob<'_> {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx512 => unsafe { self.row_samples_avx512(j, row) },
             _ if one => self.row_packets::<Portable>(j, row),
-            _ => self.row_samples::<Portable>(j, row),
+            _ => self.row_several::<Portable>(j, row),
+        }
+    }
+
+    /// A row of several samples a pixel, adaptive or not.
+    #[inline(always)]
+    fn row_several<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+        if self.adaptive {
+            self.row_adaptive::<V>(j, row)
+        } else {
+            self.row_samples::<V>(j, row)
         }
     }
 
@@ -173,76 +194,33 @@ impl RowJob<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn row_samples_avx2(&self, j: usize, row: &mut [u8]) {
-        self.row_samples::<super::lanes::Ymm2>(j, row)
+        self.row_several::<super::lanes::Ymm2>(j, row)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn row_samples_avx512(&self, j: usize, row: &mut [u8]) {
-        self.row_samples::<super::lanes::Zmm>(j, row)
+        self.row_several::<super::lanes::Zmm>(j, row)
     }
 
     /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
     /// each sample's colour, summed in sample order and divided by s². The samples of a group of
-    /// pixels in one tile (4 pixels at 2×2, else 1) go in packets of 8 in (pixel, sample) order,
-    /// two packets at a time; the last packet's spare lanes repeat its last sample.
+    /// pixels in one tile (4 pixels at 2×2, else 1) are cast together ([`RowJob::cast`]).
     #[inline(always)]
     fn row_samples<V: Lanes>(&self, j: usize, row: &mut [u8]) {
         let s = self.samples;
         let s2 = s * s;
-        let t = self.table;
         let group = if s == 2 { 4 } else { 1 };
-        let background = self.ctx.background.to_array();
-        // Each sample's linear colour, for one group.
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
-        // Sample `at` of a group (in (pixel, sample) order): its column in `t.xs` past the
-        // group's first, and its row in `t.ys` past the pixel row's first.
-        let mut column = [0u16; MAX_GROUP_SAMPLES];
-        let mut line = [0u16; MAX_GROUP_SAMPLES];
-        for at in 0..group * s2 {
-            let (pixel, k) = (at / s2, at % s2);
-            column[at] = (pixel * s + k % s) as u16;
-            line[at] = (k / s) as u16;
-        }
+        // The group's samples in (pixel, sample) order.
+        let list: Vec<Sample> = (0..group * s2)
+            .map(|at| sample(s, at / s2, at % s2))
+            .collect();
         for (g, out) in row.chunks_mut(3 * group).enumerate() {
             let i0 = g * group;
             let pixels = out.len() / 3;
             let n = pixels * s2;
-            let candidates = self.bins.at(i0, j);
-            let covers = |k: u32, _: usize| self.bins.covers(k, i0, i0 + pixels - 1, j);
-            for first in (0..n).step_by(2 * LANES) {
-                // The directions of samples first .. first + 16, as `RayTable::compute`.
-                let mut d = [[V::splat(0.0); 3]; 2];
-                for (q, d) in d.iter_mut().enumerate() {
-                    let mut xs = [0.0; LANES];
-                    let mut ys = [0.0; LANES];
-                    for l in 0..LANES {
-                        let at = (first + q * LANES + l).min(n - 1);
-                        xs[l] = t.xs[i0 * s + column[at] as usize];
-                        ys[l] = t.ys[j * s + line[at] as usize];
-                    }
-                    let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
-                    let r = V::splat(1.0).div(x.mul(x).add(y.mul(y)).add(z.mul(z)).sqrt());
-                    *d = [x.mul(r), y.mul(r), z.mul(r)];
-                }
-                let live = [true, first + LANES < n];
-                let found = self.ctx.nearest_packets(&d, candidates, covers, live);
-                for q in 0..2 {
-                    let (hit, index, t) = found[q];
-                    let c = if hit == 0 {
-                        let [r, g, b] = background;
-                        [[r; LANES], [g; LANES], [b; LANES]]
-                    } else {
-                        let c = self.ctx.shade_packet(&d[q], hit, index, t);
-                        [c[0].store(), c[1].store(), c[2].store()]
-                    };
-                    let start = (first + q * LANES).min(n);
-                    let end = (start + LANES).min(n);
-                    for (l, color) in colors[start..end].iter_mut().enumerate() {
-                        *color = [c[0][l], c[1][l], c[2][l]];
-                    }
-                }
-            }
+            self.cast::<V, false>(j, i0, pixels, &list[..n], &mut colors, &mut []);
             for (p, px) in out.chunks_exact_mut(3).enumerate() {
                 let mut sum = [0.0; 3];
                 for c in &colors[p * s2..(p + 1) * s2] {
@@ -252,6 +230,128 @@ impl RowJob<'_> {
                 }
                 for a in 0..3 {
                     px[a] = self.encode.encode(sum[a] / s2 as f64);
+                }
+            }
+        }
+    }
+
+    /// Row `j` with adaptive s×s samples, as `Shading::pixel_adaptive` does it: each pixel's
+    /// four corner samples first, and the average of those where all four saw the same sphere
+    /// lit by the same lights; elsewhere every sample, the corners reused, summed in order.
+    /// The corners of four pixels of one tile go in two packets.
+    #[inline(always)]
+    fn row_adaptive<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+        let s = self.samples;
+        let s2 = s * s;
+        let corners = [0, s - 1, s * (s - 1), s2 - 1];
+        let corner_list: Vec<Sample> = (0..4)
+            .flat_map(|p| corners.map(|k| sample(s, p, k)))
+            .collect();
+        let mut shaded = [[0.0; 3]; 4 * 4];
+        let mut seen = [0u64; 4 * 4];
+        let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
+        let mut rest: Vec<Sample> = Vec::with_capacity(s2);
+        for (g, out) in row.chunks_mut(3 * 4).enumerate() {
+            let i0 = g * 4;
+            let pixels = out.len() / 3;
+            let n = 4 * pixels;
+            self.cast::<V, true>(j, i0, pixels, &corner_list[..n], &mut shaded, &mut seen);
+            for (p, px) in out.chunks_exact_mut(3).enumerate() {
+                let (c, what) = (&shaded[4 * p..4 * p + 4], &seen[4 * p..4 * p + 4]);
+                let color = if what.iter().all(|w| *w == what[0]) {
+                    let mut sum = [0.0; 3];
+                    for a in 0..3 {
+                        sum[a] = (((c[0][a] + c[1][a]) + c[2][a]) + c[3][a]) / 4.0;
+                    }
+                    sum
+                } else {
+                    // The other samples of this pixel, cast in its own column range.
+                    rest.clear();
+                    rest.extend(
+                        (0..s2)
+                            .filter(|k| !corners.contains(k))
+                            .map(|k| sample(s, 0, k)),
+                    );
+                    let i = i0 + p;
+                    self.cast::<V, false>(j, i, 1, &rest, &mut colors, &mut []);
+                    let mut sum = [0.0; 3];
+                    let mut others = colors.iter();
+                    for k in 0..s2 {
+                        let v = match corners.iter().position(|&c| c == k) {
+                            Some(m) => c[m],
+                            None => *others.next().unwrap(),
+                        };
+                        for a in 0..3 {
+                            sum[a] += v[a];
+                        }
+                    }
+                    sum.map(|x| x / s2 as f64)
+                };
+                for a in 0..3 {
+                    px[a] = self.encode.encode(color[a]);
+                }
+            }
+        }
+    }
+
+    /// Casts the samples `list` of pixels i0 .. i0 + `pixels` of row `j` (one tile), in packets
+    /// of 8, two at a time (the last packet's spare lanes repeat the last sample): each one's
+    /// linear colour into `colors`, and, when `SEEN`, what it saw into `seen`
+    /// (`Shading::shade`'s `Seen`).
+    #[inline(always)]
+    fn cast<V: Lanes, const SEEN: bool>(
+        &self,
+        j: usize,
+        i0: usize,
+        pixels: usize,
+        list: &[Sample],
+        colors: &mut [[f64; 3]],
+        seen: &mut [u64],
+    ) {
+        let (s, t, n) = (self.samples, self.table, list.len());
+        let background = self.ctx.background.to_array();
+        let candidates = self.bins.at(i0, j);
+        let covers = |k: u32, _: usize| self.bins.covers(k, i0, i0 + pixels - 1, j);
+        for first in (0..n).step_by(2 * LANES) {
+            // Directions as `RayTable::compute` makes them.
+            let mut d = [[V::splat(0.0); 3]; 2];
+            for (q, d) in d.iter_mut().enumerate() {
+                let mut xs = [0.0; LANES];
+                let mut ys = [0.0; LANES];
+                for l in 0..LANES {
+                    let (column, line) = list[(first + q * LANES + l).min(n - 1)];
+                    xs[l] = t.xs[i0 * s + column as usize];
+                    ys[l] = t.ys[j * s + line as usize];
+                }
+                let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
+                let r = V::splat(1.0).div(x.mul(x).add(y.mul(y)).add(z.mul(z)).sqrt());
+                *d = [x.mul(r), y.mul(r), z.mul(r)];
+            }
+            let live = [true, first + LANES < n];
+            let found = self.ctx.nearest_packets(&d, candidates, covers, live);
+            for q in 0..2 {
+                let (hit, index, t) = found[q];
+                let (c, lights) = if hit == 0 {
+                    let [r, g, b] = background;
+                    ([[r; LANES], [g; LANES], [b; LANES]], [0; LANES])
+                } else {
+                    let (c, lights) = self.ctx.shade_packet::<V, SEEN>(&d[q], hit, index, t);
+                    ([c[0].store(), c[1].store(), c[2].store()], lights)
+                };
+                let start = (first + q * LANES).min(n);
+                let end = (start + LANES).min(n);
+                for (l, color) in colors[start..end].iter_mut().enumerate() {
+                    *color = [c[0][l], c[1][l], c[2][l]];
+                }
+                if SEEN {
+                    let index = V::index_store(index);
+                    for (l, what) in seen[start..end].iter_mut().enumerate() {
+                        *what = if hit >> l & 1 == 1 {
+                            index[l] << 32 | lights[l] as u64
+                        } else {
+                            u64::MAX
+                        };
+                    }
                 }
             }
         }
@@ -310,7 +410,7 @@ impl RowJob<'_> {
                     }
                     continue;
                 }
-                let colors = self.ctx.shade_packet(&d[q], hit, index, t);
+                let (colors, _) = self.ctx.shade_packet::<V, false>(&d[q], hit, index, t);
                 // Plain calls, not `array::map`: its closure is not inlined into the function
                 // compiled for the instruction set, and would run its intrinsics out of line.
                 let enc = self.encode;
@@ -410,7 +510,14 @@ impl Shading<'_> {
     /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet with a hit,
     /// background where a lane missed, with the shadow rays of each light cast as one packet.
     #[inline(always)]
-    fn shade_packet<V: Lanes>(&self, d: &[V; 3], hit: u8, index: V::Index, t: V) -> [V; 3] {
+    fn shade_packet<V: Lanes, const SEEN: bool>(
+        &self,
+        d: &[V; 3],
+        hit: u8,
+        index: V::Index,
+        t: V,
+    ) -> ([V; 3], [u32; LANES]) {
+        let mut lights = [0u32; LANES];
         let (zero, one) = (V::splat(0.0), V::splat(1.0));
         let fields = SphereLanes::<V>::new(self.spheres, hit, index);
         let mut light = [V::splat(self.ambient); 3];
@@ -426,7 +533,7 @@ impl Shading<'_> {
             ];
             let normal = [rel[0].div(r), rel[1].div(r), rel[2].div(r)];
             let point = [c[0].add(rel[0]), c[1].add(rel[1]), c[2].add(rel[2])];
-            for l in self.lights {
+            for (n, l) in self.lights.iter().enumerate() {
                 let facing = dot(&normal, &splat3(l.to_light));
                 let mut lit = hit & !facing.le(zero);
                 if let Some(grid) = &l.shadows {
@@ -438,6 +545,12 @@ impl Shading<'_> {
                 for a in 0..3 {
                     let add = light[a].add(V::splat(color[a]).mul(facing));
                     light[a] = V::blend(lit, light[a], add);
+                }
+                if SEEN {
+                    // `Seen`'s light bits: which lights reach each lane's point.
+                    for (k, bits) in lights.iter_mut().enumerate() {
+                        *bits |= ((lit >> k & 1) as u32) << n.min(31);
+                    }
                 }
             }
         }
@@ -456,7 +569,7 @@ impl Shading<'_> {
             };
             out[a] = V::blend(hit, V::splat(background[a]), c);
         }
-        out
+        (out, lights)
     }
 }
 

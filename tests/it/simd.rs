@@ -1,7 +1,6 @@
 //! Every instruction path gives the scalar path's bytes: the examples and the stability
 //! catalogue (tests/data and the far-from-the-origin scenes), frame by frame, at one sample per
-//! pixel and at s×s samples averaged (the packets' cases; adaptive sampling goes one ray at a time
-//! on every path).
+//! pixel and at s×s samples, adaptive or not (every path but `scalar` casts them in packets).
 
 use std::path::Path;
 
@@ -115,17 +114,23 @@ fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
 
 #[test]
 fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
-    // s×s samples averaged go in packets of samples (4 pixels a group at 2×2, one pixel
-    // otherwise); adaptive sampling stays one ray at a time. Widths end inside a group.
+    // s×s samples go in packets of samples (4 pixels a group at 2×2, one pixel otherwise), and
+    // adaptive sampling casts four pixels' corners together, then each disagreeing pixel's
+    // other samples. Widths end inside a group.
     for (name, samples, width) in [
         (EXAMPLES[0], 2, 97),
         (EXAMPLES[1], 3, 45),
         (EXAMPLES[2], 4, 33),
         (EXAMPLES[3], 5, 17),
         (EXAMPLES[4], 2, 9),
+        (EXAMPLES[5], 8, 14),
     ] {
-        let mut doc = one_sample(example(name), width);
-        doc.raster.samples = samples;
-        same_bytes_on_every_path(&format!("{name} at {samples}×{samples} samples"), &doc);
+        for adaptive in [false, true] {
+            let mut doc = one_sample(example(name), width);
+            doc.raster.samples = samples;
+            doc.raster.adaptive = adaptive;
+            let how = if adaptive { ", adaptive" } else { "" };
+            same_bytes_on_every_path(&format!("{name} at {samples}×{samples}{how}"), &doc);
+        }
     }
 }
