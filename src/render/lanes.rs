@@ -9,8 +9,11 @@
 //! comparison.
 //!
 //! The x86 forms call intrinsics from methods without `#[target_feature]`: they are inlined into
-//! `RowJob::row_avx512` and `RowJob::row_avx2`, which the dispatcher enters only after checking
-//! the CPU, and are used nowhere else (`Zmm` and `Ymm2` are private to the renderer).
+//! the row functions compiled for AVX-512F or AVX2 (`RowJob::row_avx512` and the like), which
+//! the dispatcher enters only after checking the CPU, and are used nowhere else (`Zmm` and
+//! `Ymm2` are private to the renderer). A closure between the two (`array::map`, a callback)
+//! may be left out of line and compiled without the instruction set, which turns every
+//! intrinsic in it into a call: no closure in the packet code calls one.
 
 // The portable lane loops index their arrays by lane, as the compiler vectorises them best.
 #![allow(clippy::needless_range_loop)]

@@ -675,7 +675,6 @@ mod tests {
             samples: 3,
             ..raster
         };
-
         for (k, (vrp, vpn, cop)) in cameras.into_iter().enumerate() {
             let camera = Camera {
                 vrp_world: vrp,

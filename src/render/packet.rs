@@ -1,5 +1,5 @@
-//! Ray packets: [`LANES`] neighbouring pixels of a row cast together, primary and shadow rays
-//! alike, and the choice of CPU instructions that runs them.
+//! Ray packets: [`LANES`] neighbouring pixels of a row (or samples of neighbouring pixels) cast
+//! together, primary and shadow rays alike, and the choice of CPU instructions that runs them.
 //!
 //! Each lane does exactly the operations, in exactly the order, of the one-ray-at-a-time code in
 //! `mod.rs` and `shadows.rs`: the same dot products, the same stable roots, the same tests. Only
@@ -36,7 +36,7 @@ fn sample(s: usize, p: usize, k: usize) -> Sample {
 }
 
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
-pub(super) const STRETCH: usize = 32 * LANES;
+const STRETCH: usize = 32 * LANES;
 
 /// How the renderer casts its rays. Every choice gives the same bytes; they differ in speed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -224,9 +224,7 @@ impl<'a> FrameShadows<'a> {
             })
         })
     }
-}
 
-impl FrameShadows<'_> {
     /// The binned spheres of grid cell (x, y).
     #[inline(always)]
     pub(super) fn cell(&self, x: usize, y: usize) -> &[u32] {
@@ -234,8 +232,8 @@ impl FrameShadows<'_> {
     }
 }
 
-/// The key of the clamped cell range (x0, x1, y0, y1) for [`FrameShadows::cell_groups`]: 16
-/// bits each (the grid is at most 1024 a side).
+/// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
+/// lanes: 16 bits each (the grid is at most 1024 a side).
 #[inline(always)]
 pub(super) fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
     x0 | x1 << 16 | y0 << 32 | y1 << 48
