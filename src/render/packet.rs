@@ -250,7 +250,15 @@ impl RowJob<'_> {
         let mut shaded = [[0.0; 3]; 4 * 4];
         let mut seen = [0u64; 4 * 4];
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
-        let mut rest: Vec<Sample> = Vec::with_capacity(s2);
+        // A disagreeing pixel's other samples, and where each sample's colour comes from: a
+        // corner (its index among the four) or the next of those others.
+        let rest: Vec<Sample> = (0..s2)
+            .filter(|k| !corners.contains(k))
+            .map(|k| sample(s, 0, k))
+            .collect();
+        let corner_of: Vec<Option<usize>> = (0..s2)
+            .map(|k| corners.iter().position(|&c| c == k))
+            .collect();
         for (g, out) in row.chunks_mut(3 * 4).enumerate() {
             let i0 = g * 4;
             let pixels = out.len() / 3;
@@ -266,18 +274,11 @@ impl RowJob<'_> {
                     sum
                 } else {
                     // The other samples of this pixel, cast in its own column range.
-                    rest.clear();
-                    rest.extend(
-                        (0..s2)
-                            .filter(|k| !corners.contains(k))
-                            .map(|k| sample(s, 0, k)),
-                    );
-                    let i = i0 + p;
-                    self.cast::<V, false>(j, i, 1, &rest, &mut colors, &mut []);
+                    self.cast::<V, false>(j, i0 + p, 1, &rest, &mut colors, &mut []);
                     let mut sum = [0.0; 3];
                     let mut others = colors.iter();
-                    for k in 0..s2 {
-                        let v = match corners.iter().position(|&c| c == k) {
+                    for corner in &corner_of {
+                        let v = match *corner {
                             Some(m) => c[m],
                             None => *others.next().unwrap(),
                         };
