@@ -371,6 +371,9 @@ impl RowJob<'_> {
         // divisions, out of each packet's chain of dependent work. Lanes past the row's end
         // repeat its last pixel.
         let mut dirs = [[V::splat(0.0); 3]; STRETCH / LANES];
+        // The stretch's nearest hits, found ahead of its shading: the searches of successive
+        // pairs are independent, and a short loop lets their square roots and divisions overlap.
+        let mut founds = [[(0u8, V::index(0), V::splat(0.0)); 2]; STRETCH / (2 * LANES)];
         for (p, out) in row.chunks_mut(6 * LANES).enumerate() {
             let i0 = p * 2 * LANES;
             if i0.is_multiple_of(STRETCH) {
@@ -386,22 +389,31 @@ impl RowJob<'_> {
                     let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
                     *d = [x.mul(r), V::splat(y).mul(r), V::splat(z).mul(r)];
                 }
+                for (pair, found) in founds.iter_mut().enumerate() {
+                    let i0 = i0 + pair * 2 * LANES;
+                    if i0 >= width {
+                        break;
+                    }
+                    let d = [dirs[2 * pair], dirs[2 * pair + 1]];
+                    // Pixels in each packet; the second is empty when a row ends after the
+                    // first.
+                    let n = [
+                        (width - i0).min(LANES),
+                        (width - i0).saturating_sub(LANES).min(LANES),
+                    ];
+                    let candidates = self.bins.at(i0, j);
+                    let covers = |k: u32, q: usize| {
+                        let first = i0 + q * LANES;
+                        self.bins.covers(k, first, first + n[q] - 1, j)
+                    };
+                    *found = self
+                        .ctx
+                        .nearest_packets(&d, candidates, covers, [true, n[1] > 0]);
+                }
             }
             let at = i0 % STRETCH / LANES;
             let d = [dirs[at], dirs[at + 1]];
-            // Pixels in each packet; the second is empty when a row ends after the first.
-            let n = [
-                (width - i0).min(LANES),
-                (width - i0).saturating_sub(LANES).min(LANES),
-            ];
-            let candidates = self.bins.at(i0, j);
-            let covers = |k: u32, q: usize| {
-                let first = i0 + q * LANES;
-                self.bins.covers(k, first, first + n[q] - 1, j)
-            };
-            let found = self
-                .ctx
-                .nearest_packets(&d, candidates, covers, [true, n[1] > 0]);
+            let found = founds[at / 2];
             for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
                 let (hit, index, t) = found[q];
                 if hit == 0 {
@@ -659,6 +671,30 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     }
     let (x0, x1) = (cell_index(lo[0], w), cell_index(hi[0], w));
     let (y0, y1) = (cell_index(lo[1], h), cell_index(hi[1], h));
+    // The cells of all pending lanes together. Testing a lane against a sphere outside its own
+    // cells cannot change its answer: every sphere that blocks its ray is binned in its cells.
+    // So when the lanes' cells make a small rectangle, its spheres are tested on all of them.
+    let (mut cx, mut cy) = ((i32::MAX, 0), (i32::MAX, 0));
+    for l in 0..LANES {
+        if pending >> l & 1 == 1 {
+            cx = (cx.0.min(x0[l]), cx.1.max(x1[l]));
+            cy = (cy.0.min(y0[l]), cy.1.max(y1[l]));
+        }
+    }
+    if (cx.1 - cx.0 + 1) * (cy.1 - cy.0 + 1) <= UNION_CELLS {
+        'union: for y in cy.0 as usize..=cy.1 as usize {
+            for x in cx.0 as usize..=cx.1 as usize {
+                for &k in sh.cell(x, y) {
+                    let (k, c, r2) = sh.blocker(k);
+                    blocked |= pending & blocks(sh, point, own, k, c, r2);
+                    if pending & !blocked == 0 {
+                        break 'union;
+                    }
+                }
+            }
+        }
+        return blocked;
+    }
     let mut key = [u64::MAX; LANES];
     for l in 0..LANES {
         if pending >> l & 1 == 1 {
@@ -698,6 +734,9 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     }
     blocked
 }
+
+/// The most grid cells that a shadow packet walks for all its lanes together.
+const UNION_CELLS: i32 = 4;
 
 /// `(v.max(0.0) as usize).min(n - 1)` per lane, for lanes that are not NaN: the cell of a
 /// grid coordinate, clamped to a side of `n` cells.
