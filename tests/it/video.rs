@@ -112,13 +112,24 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    let f = example(tmp.path(), "width: 320, height: 180");
+    // Large enough that the encode lasts well past the moment ffmpeg opens its output.
+    let f = example(tmp.path(), "width: 1280, height: 720");
     let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
         .current_dir(tmp.path())
         .args(["video", &f, "--quiet"])
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(400));
+    // Killed while ffmpeg writes: once its output exists under the temporary name.
+    let partial = tmp.path().join("out/zoom/zoom.mp4.tmp");
+    let started = std::time::Instant::now();
+    while !partial.exists() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "campath finished before its encode could be killed"
+        );
+        assert!(started.elapsed().as_secs() < 120, "no encode began");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
     std::thread::sleep(std::time::Duration::from_millis(300)); // ffmpeg sees its input end
