@@ -371,66 +371,63 @@ impl RowJob<'_> {
         // divisions, out of each packet's chain of dependent work. Lanes past the row's end
         // repeat its last pixel.
         let mut dirs = [[V::splat(0.0); 3]; STRETCH / LANES];
-        // The stretch's nearest hits, found ahead of its shading: the searches of successive
-        // pairs are independent, and a short loop lets their square roots and divisions overlap.
-        let mut founds = [[(0u8, V::index(0), V::splat(0.0)); 2]; STRETCH / (2 * LANES)];
-        for (p, out) in row.chunks_mut(6 * LANES).enumerate() {
-            let i0 = p * 2 * LANES;
-            if i0.is_multiple_of(STRETCH) {
-                for (q, d) in dirs.iter_mut().enumerate() {
-                    let at = i0 + q * LANES;
-                    if at >= width {
-                        break;
-                    }
-                    let mut xs = [t.xs[width - 1]; LANES];
-                    let m = (width - at).min(LANES);
-                    xs[..m].copy_from_slice(&t.xs[at..at + m]);
-                    let x = V::load(&xs);
-                    let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
-                    *d = [x.mul(r), V::splat(y).mul(r), V::splat(z).mul(r)];
-                }
-                for (pair, found) in founds.iter_mut().enumerate() {
-                    let i0 = i0 + pair * 2 * LANES;
-                    if i0 >= width {
-                        break;
-                    }
-                    let d = [dirs[2 * pair], dirs[2 * pair + 1]];
-                    // Pixels in each packet; the second is empty when a row ends after the
-                    // first.
-                    let n = [
-                        (width - i0).min(LANES),
-                        (width - i0).saturating_sub(LANES).min(LANES),
-                    ];
-                    let candidates = self.bins.at(i0, j);
-                    let covers = |k: u32, q: usize| {
-                        let first = i0 + q * LANES;
-                        self.bins.covers(k, first, first + n[q] - 1, j)
-                    };
-                    *found = self
-                        .ctx
-                        .nearest_packets(&d, candidates, covers, [true, n[1] > 0]);
+        // The stretch's nearest hits, then its colours, then its levels, each stage a short loop
+        // over independent packets, so that one packet's square roots, divisions and table
+        // lookups overlap the next one's.
+        let mut founds = [(0u8, V::index(0), V::splat(0.0)); STRETCH / LANES];
+        let mut colors = [[V::splat(0.0); 3]; STRETCH / LANES];
+        for (s, out) in row.chunks_mut(3 * STRETCH).enumerate() {
+            let i0 = s * STRETCH;
+            let packets = (out.len() / 3).div_ceil(LANES);
+            for (q, d) in dirs[..packets].iter_mut().enumerate() {
+                let at = i0 + q * LANES;
+                let mut xs = [t.xs[width - 1]; LANES];
+                let m = (width - at).min(LANES);
+                xs[..m].copy_from_slice(&t.xs[at..at + m]);
+                let x = V::load(&xs);
+                let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
+                *d = [x.mul(r), V::splat(y).mul(r), V::splat(z).mul(r)];
+            }
+            for pair in 0..packets.div_ceil(2) {
+                let i0 = i0 + pair * 2 * LANES;
+                let d = [dirs[2 * pair], dirs[2 * pair + 1]];
+                // Pixels in each packet; the second is empty when a row ends after the first.
+                let n = [
+                    (width - i0).min(LANES),
+                    (width - i0).saturating_sub(LANES).min(LANES),
+                ];
+                let candidates = self.bins.at(i0, j);
+                let covers = |k: u32, q: usize| {
+                    let first = i0 + q * LANES;
+                    self.bins.covers(k, first, first + n[q] - 1, j)
+                };
+                let found = self
+                    .ctx
+                    .nearest_packets(&d, candidates, covers, [true, n[1] > 0]);
+                founds[2 * pair] = found[0];
+                founds[2 * pair + 1] = found[1];
+            }
+            for q in 0..packets {
+                let (hit, index, t) = founds[q];
+                if hit != 0 {
+                    colors[q] = self.ctx.shade_packet::<V, false>(&dirs[q], hit, index, t).0;
                 }
             }
-            let at = i0 % STRETCH / LANES;
-            let d = [dirs[at], dirs[at + 1]];
-            let found = founds[at / 2];
             for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
-                let (hit, index, t) = found[q];
-                if hit == 0 {
+                if founds[q].0 == 0 {
                     // All background (sky): the frame's background levels, already encoded.
                     for px in out.chunks_exact_mut(3) {
                         px.copy_from_slice(&self.background);
                     }
                     continue;
                 }
-                let (colors, _) = self.ctx.shade_packet::<V, false>(&d[q], hit, index, t);
                 // Plain calls, not `array::map`: its closure is not inlined into the function
                 // compiled for the instruction set, and would run its intrinsics out of line.
                 let enc = self.encode;
                 let levels = [
-                    enc.encode_lanes(colors[0]),
-                    enc.encode_lanes(colors[1]),
-                    enc.encode_lanes(colors[2]),
+                    enc.encode_lanes(colors[q][0]),
+                    enc.encode_lanes(colors[q][1]),
+                    enc.encode_lanes(colors[q][2]),
                 ];
                 for (l, px) in out.chunks_exact_mut(3).enumerate() {
                     px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
