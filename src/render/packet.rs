@@ -26,6 +26,32 @@ pub const LANES: usize = 8;
 /// 2×2.
 const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
 
+/// Pixels `first` .. `first + pixels` of row `row`, inside one tile.
+#[derive(Clone, Copy)]
+struct Span {
+    row: usize,
+    first: usize,
+    pixels: usize,
+}
+
+/// The packets of a group of samples between the stages of [`RowJob::cast`]: their
+/// directions, then their nearest hits. Made once per row.
+struct Stages<V: Lanes> {
+    dirs: [[V; 3]; MAX_GROUP_SAMPLES / LANES],
+    founds: [Found<V>; MAX_GROUP_SAMPLES / LANES],
+}
+
+impl<V: Lanes> Stages<V> {
+    #[inline(always)]
+    fn new() -> Self {
+        let zero = V::splat(0.0);
+        Stages {
+            dirs: [[zero; 3]; MAX_GROUP_SAMPLES / LANES],
+            founds: [(0, V::index(0), zero); MAX_GROUP_SAMPLES / LANES],
+        }
+    }
+}
+
 /// A sample of a group of pixels: its column in the ray table's `xs` past the group's first
 /// pixel's, and its line in `ys` past the pixel row's first.
 type Sample = (u16, u16);
@@ -210,8 +236,13 @@ impl RowJob<'_> {
     fn row_samples<V: Lanes>(&self, j: usize, row: &mut [u8]) {
         let s = self.samples;
         let s2 = s * s;
-        let group = if s == 2 { 4 } else { 1 };
+        // Four pixels a group, or as many as fit (a group stays inside a tile).
+        let group = [4, 2, 1]
+            .into_iter()
+            .find(|g| g * s2 <= MAX_GROUP_SAMPLES)
+            .unwrap_or(1);
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
+        let mut stages = Stages::<V>::new();
         // The group's samples in (pixel, sample) order.
         let list: Vec<Sample> = (0..group * s2)
             .map(|at| sample(s, at / s2, at % s2))
@@ -220,7 +251,12 @@ impl RowJob<'_> {
             let i0 = g * group;
             let pixels = out.len() / 3;
             let n = pixels * s2;
-            self.cast::<V, false>(j, i0, pixels, &list[..n], &mut colors, &mut []);
+            let span = Span {
+                row: j,
+                first: i0,
+                pixels,
+            };
+            self.cast::<V, false>(span, &list[..n], &mut stages, &mut colors, &mut []);
             for (p, px) in out.chunks_exact_mut(3).enumerate() {
                 let mut sum = [0.0; 3];
                 for c in &colors[p * s2..(p + 1) * s2] {
@@ -250,6 +286,7 @@ impl RowJob<'_> {
         let mut shaded = [[0.0; 3]; 4 * 4];
         let mut seen = [0u64; 4 * 4];
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
+        let mut stages = Stages::<V>::new();
         // A disagreeing pixel's other samples, and where each sample's colour comes from: a
         // corner (its index among the four) or the next of those others.
         let rest: Vec<Sample> = (0..s2)
@@ -263,7 +300,12 @@ impl RowJob<'_> {
             let i0 = g * 4;
             let pixels = out.len() / 3;
             let n = 4 * pixels;
-            self.cast::<V, true>(j, i0, pixels, &corner_list[..n], &mut shaded, &mut seen);
+            let span = Span {
+                row: j,
+                first: i0,
+                pixels,
+            };
+            self.cast::<V, true>(span, &corner_list[..n], &mut stages, &mut shaded, &mut seen);
             for (p, px) in out.chunks_exact_mut(3).enumerate() {
                 let (c, what) = (&shaded[4 * p..4 * p + 4], &seen[4 * p..4 * p + 4]);
                 let color = if what.iter().all(|w| *w == what[0]) {
@@ -274,7 +316,12 @@ impl RowJob<'_> {
                     sum
                 } else {
                     // The other samples of this pixel, cast in its own column range.
-                    self.cast::<V, false>(j, i0 + p, 1, &rest, &mut colors, &mut []);
+                    let span = Span {
+                        row: j,
+                        first: i0 + p,
+                        pixels: 1,
+                    };
+                    self.cast::<V, false>(span, &rest, &mut stages, &mut colors, &mut []);
                     let mut sum = [0.0; 3];
                     let mut others = colors.iter();
                     for corner in &corner_of {
@@ -295,64 +342,73 @@ impl RowJob<'_> {
         }
     }
 
-    /// Casts the samples `list` of pixels i0 .. i0 + `pixels` of row `j` (one tile), in packets
-    /// of 8, two at a time (the last packet's spare lanes repeat the last sample): each one's
-    /// linear colour into `colors`, and, when `SEEN`, what it saw into `seen`
-    /// (`Shading::shade`'s `Seen`).
+    /// Casts the samples `list` of the pixels of `span`, in packets of 8 (the last packet's
+    /// spare lanes repeat the last sample): each one's linear colour into `colors`, and, when
+    /// `SEEN`, what it saw into `seen` (`Shading::shade`'s `Seen`).
     #[inline(always)]
     fn cast<V: Lanes, const SEEN: bool>(
         &self,
-        j: usize,
-        i0: usize,
-        pixels: usize,
+        span: Span,
         list: &[Sample],
+        stages: &mut Stages<V>,
         colors: &mut [[f64; 3]],
         seen: &mut [u64],
     ) {
         let (s, t, n) = (self.samples, self.table, list.len());
+        let Span {
+            row: j,
+            first: i0,
+            pixels,
+        } = span;
         let background = self.ctx.background.to_array();
         let candidates = self.bins.at(i0, j);
         let covers = |k: u32, _: usize| self.bins.covers(k, i0, i0 + pixels - 1, j);
-        for first in (0..n).step_by(2 * LANES) {
+        // Stage by stage, as `row_packets`: every packet's directions, then the nearest hits
+        // two packets at a time, then the colours.
+        let packets = n.div_ceil(LANES);
+        let Stages { dirs, founds } = stages;
+        for (q, d) in dirs[..packets].iter_mut().enumerate() {
             // Directions as `RayTable::compute` makes them.
-            let mut d = [[V::splat(0.0); 3]; 2];
-            for (q, d) in d.iter_mut().enumerate() {
-                let mut xs = [0.0; LANES];
-                let mut ys = [0.0; LANES];
-                for l in 0..LANES {
-                    let (column, line) = list[(first + q * LANES + l).min(n - 1)];
-                    xs[l] = t.xs[i0 * s + column as usize];
-                    ys[l] = t.ys[j * s + line as usize];
-                }
-                let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
-                let r = V::splat(1.0).div(x.mul(x).add(y.mul(y)).add(z.mul(z)).sqrt());
-                *d = [x.mul(r), y.mul(r), z.mul(r)];
+            let mut xs = [0.0; LANES];
+            let mut ys = [0.0; LANES];
+            for l in 0..LANES {
+                let (column, line) = list[(q * LANES + l).min(n - 1)];
+                xs[l] = t.xs[i0 * s + column as usize];
+                ys[l] = t.ys[j * s + line as usize];
             }
-            let live = [true, first + LANES < n];
+            let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
+            let r = V::splat(1.0).div(x.mul(x).add(y.mul(y)).add(z.mul(z)).sqrt());
+            *d = [x.mul(r), y.mul(r), z.mul(r)];
+        }
+        for pair in 0..packets.div_ceil(2) {
+            let d = [dirs[2 * pair], dirs[2 * pair + 1]];
+            let live = [true, 2 * pair + 1 < packets];
             let found = self.ctx.nearest_packets(&d, candidates, covers, live);
-            for q in 0..2 {
-                let (hit, index, t) = found[q];
-                let (c, lights) = if hit == 0 {
-                    let [r, g, b] = background;
-                    ([[r; LANES], [g; LANES], [b; LANES]], [0; LANES])
-                } else {
-                    let (c, lights) = self.ctx.shade_packet::<V, SEEN>(&d[q], hit, index, t);
-                    ([c[0].store(), c[1].store(), c[2].store()], lights)
-                };
-                let start = (first + q * LANES).min(n);
-                let end = (start + LANES).min(n);
-                for (l, color) in colors[start..end].iter_mut().enumerate() {
-                    *color = [c[0][l], c[1][l], c[2][l]];
-                }
-                if SEEN {
-                    let index = V::index_store(index);
-                    for (l, what) in seen[start..end].iter_mut().enumerate() {
-                        *what = if hit >> l & 1 == 1 {
-                            index[l] << 32 | lights[l] as u64
-                        } else {
-                            u64::MAX
-                        };
-                    }
+            founds[2 * pair] = found[0];
+            founds[2 * pair + 1] = found[1];
+        }
+        for q in 0..packets {
+            let (hit, index, t) = founds[q];
+            let (c, lights) = if hit == 0 {
+                let [r, g, b] = background;
+                ([[r; LANES], [g; LANES], [b; LANES]], [0; LANES])
+            } else {
+                let (c, lights) = self.ctx.shade_packet::<V, SEEN>(&dirs[q], hit, index, t);
+                ([c[0].store(), c[1].store(), c[2].store()], lights)
+            };
+            let start = q * LANES;
+            let end = (start + LANES).min(n);
+            for (l, color) in colors[start..end].iter_mut().enumerate() {
+                *color = [c[0][l], c[1][l], c[2][l]];
+            }
+            if SEEN {
+                let index = V::index_store(index);
+                for (l, what) in seen[start..end].iter_mut().enumerate() {
+                    *what = if hit >> l & 1 == 1 {
+                        index[l] << 32 | lights[l] as u64
+                    } else {
+                        u64::MAX
+                    };
                 }
             }
         }
