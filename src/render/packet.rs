@@ -274,69 +274,74 @@ impl RowJob<'_> {
     /// Row `j` with adaptive s×s samples, as `Shading::pixel_adaptive` does it: each pixel's
     /// four corner samples first, and the average of those where all four saw the same sphere
     /// lit by the same lights; elsewhere every sample, the corners reused, summed in order.
-    /// The corners of four pixels of one tile go in two packets.
+    /// A tile's pixels go together: all their corners, then the other samples of the pixels
+    /// whose corners disagree.
     #[inline(always)]
     fn row_adaptive<V: Lanes>(&self, j: usize, row: &mut [u8]) {
         let s = self.samples;
         let s2 = s * s;
         let corners = [0, s - 1, s * (s - 1), s2 - 1];
-        let corner_list: Vec<Sample> = (0..4)
+        let corner_list: Vec<Sample> = (0..TILE)
             .flat_map(|p| corners.map(|k| sample(s, p, k)))
             .collect();
-        let mut shaded = [[0.0; 3]; 4 * 4];
-        let mut seen = [0u64; 4 * 4];
+        let mut shaded = [[0.0; 3]; 4 * TILE];
+        let mut seen = [0u64; 4 * TILE];
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
         let mut stages = Stages::<V>::new();
-        // A disagreeing pixel's other samples, and where each sample's colour comes from: a
-        // corner (its index among the four) or the next of those others.
-        let rest: Vec<Sample> = (0..s2)
-            .filter(|k| !corners.contains(k))
-            .map(|k| sample(s, 0, k))
-            .collect();
+        // A pixel's samples other than its corners, and where each sample's colour comes from:
+        // a corner (its index among the four) or the next of those others.
+        let others: Vec<usize> = (0..s2).filter(|k| !corners.contains(k)).collect();
         let corner_of: Vec<Option<usize>> = (0..s2)
             .map(|k| corners.iter().position(|&c| c == k))
             .collect();
-        for (g, out) in row.chunks_mut(3 * 4).enumerate() {
-            let i0 = g * 4;
+        // The other samples of the disagreeing pixels of a tile, as many pixels a cast as fit.
+        let per_cast = (MAX_GROUP_SAMPLES / others.len().max(1)).min(TILE);
+        let mut rest: Vec<Sample> = Vec::with_capacity(MAX_GROUP_SAMPLES);
+        let mut disagree = Vec::with_capacity(TILE);
+        for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
+            let i0 = g * TILE;
             let pixels = out.len() / 3;
-            let n = 4 * pixels;
             let span = Span {
                 row: j,
                 first: i0,
                 pixels,
             };
+            let n = 4 * pixels;
             self.cast::<V, true>(span, &corner_list[..n], &mut stages, &mut shaded, &mut seen);
+            disagree.clear();
             for (p, px) in out.chunks_exact_mut(3).enumerate() {
                 let (c, what) = (&shaded[4 * p..4 * p + 4], &seen[4 * p..4 * p + 4]);
-                let color = if what.iter().all(|w| *w == what[0]) {
-                    let mut sum = [0.0; 3];
+                if what.iter().all(|w| *w == what[0]) {
                     for a in 0..3 {
-                        sum[a] = (((c[0][a] + c[1][a]) + c[2][a]) + c[3][a]) / 4.0;
+                        let sum = (((c[0][a] + c[1][a]) + c[2][a]) + c[3][a]) / 4.0;
+                        px[a] = self.encode.encode(sum);
                     }
-                    sum
                 } else {
-                    // The other samples of this pixel, cast in its own column range.
-                    let span = Span {
-                        row: j,
-                        first: i0 + p,
-                        pixels: 1,
-                    };
-                    self.cast::<V, false>(span, &rest, &mut stages, &mut colors, &mut []);
+                    disagree.push(p);
+                }
+            }
+            for chunk in disagree.chunks(per_cast) {
+                rest.clear();
+                for &p in chunk {
+                    rest.extend(others.iter().map(|&k| sample(s, p, k)));
+                }
+                self.cast::<V, false>(span, &rest, &mut stages, &mut colors, &mut []);
+                for (m, &p) in chunk.iter().enumerate() {
+                    let c = &shaded[4 * p..4 * p + 4];
                     let mut sum = [0.0; 3];
-                    let mut others = colors.iter();
+                    let mut next = colors[m * others.len()..].iter();
                     for corner in &corner_of {
                         let v = match *corner {
                             Some(m) => c[m],
-                            None => *others.next().unwrap(),
+                            None => *next.next().unwrap(),
                         };
                         for a in 0..3 {
                             sum[a] += v[a];
                         }
                     }
-                    sum.map(|x| x / s2 as f64)
-                };
-                for a in 0..3 {
-                    px[a] = self.encode.encode(color[a]);
+                    for a in 0..3 {
+                        out[3 * p + a] = self.encode.encode(sum[a] / s2 as f64);
+                    }
                 }
             }
         }
