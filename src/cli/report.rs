@@ -267,9 +267,15 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
                 .draw_series(series.iter().map(|p| Circle::new(*p, 5, color.filled())))
                 .map_err(&draw_err)?;
         }
-        // Labels right of their markers; a label that would overlap one placed before moves
-        // down a line at a time.
-        let mut placed: Vec<(i32, i32, i32)> = Vec::new(); // (x, y, width) in pixels
+        // Labels right of their markers; a label that would overlap a marker or a label placed
+        // before moves down a line at a time.
+        let mut placed: Vec<(i32, i32, i32)> = rows
+            .iter()
+            .map(|r| {
+                let (px, py) = chart.backend_coord(&point(r));
+                (px - 6, py - 8, 12)
+            })
+            .collect(); // (x, y, width) in pixels
         for r in rows {
             // The instruction paths by name only: their series says the rest.
             let text = match r.label.strip_prefix("samples 1, f64, ") {
