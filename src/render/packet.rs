@@ -9,6 +9,12 @@
 //! an add on its own, and nothing here uses an approximate reciprocal, so every [`Simd`] path
 //! gives the scalar path's bits. The code is written once against [`Lanes`] (`lanes.rs`): one
 //! AVX-512 register, two AVX2 registers, or arrays the compiler vectorises for SSE2.
+//!
+//! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
+//! a row is taken a stretch at a time and stage by stage: every packet's directions, then every
+//! packet's nearest hit (two packets of a tile together), then every colour, then every sRGB
+//! level. Each stage is a short loop over independent packets, which the CPU overlaps; taken
+//! packet by packet, the same work ran 15–20% slower.
 
 use std::mem::offset_of;
 
@@ -419,8 +425,9 @@ impl RowJob<'_> {
         }
     }
 
-    /// Two packets at a time, side by side in one tile: they share its candidates, and their
-    /// two chains of dependent work interleave.
+    /// Row `j` at one sample a pixel, a stretch at a time and stage by stage; the two packets of
+    /// a tile's row are searched together: they share its candidates, and their chains of
+    /// dependent work interleave.
     #[inline(always)]
     fn row_packets<V: Lanes>(&self, j: usize, row: &mut [u8]) {
         let width = row.len() / 3;

@@ -233,7 +233,7 @@ impl<'a> FrameShadows<'a> {
 }
 
 /// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
-/// lanes: 16 bits each (the grid is at most 1024 a side).
+/// lanes: 16 bits each (the grid is at most 4096 a side).
 #[inline(always)]
 pub(super) fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
     x0 | x1 << 16 | y0 << 32 | y1 << 48
@@ -257,7 +257,7 @@ fn big_radius(spheres: &[Sphere]) -> f64 {
     *radii.select_nth_unstable_by(mid, f64::total_cmp).1 * 16.0
 }
 
-/// Cells over an `extent` holding `count` discs: about eight cells per disc, at most 1024 a side
+/// Cells over an `extent` holding `count` discs: about eight cells per disc, at most 4096 a side
 /// (fewer spheres to test per shadow ray than with two, which measured 4% slower on fly1000; a
 /// shadow packet whose lanes span a few cells walks them once).
 /// Returns the cell counts and 1 / cell size.
@@ -265,10 +265,10 @@ fn grid_size(extent: DVec2, count: usize) -> ((usize, usize), f64) {
     let extent = extent.max(DVec2::splat(1e-300));
     let cell = (extent.x * extent.y / (8.0 * count as f64))
         .sqrt()
-        .max(extent.x.max(extent.y) / 1024.0);
+        .max(extent.x.max(extent.y) / 4096.0);
     let dims = (
-        ((extent.x / cell).ceil() as usize).clamp(1, 1024),
-        ((extent.y / cell).ceil() as usize).clamp(1, 1024),
+        ((extent.x / cell).ceil() as usize).clamp(1, 4096),
+        ((extent.y / cell).ceil() as usize).clamp(1, 4096),
     );
     (dims, 1.0 / cell)
 }
