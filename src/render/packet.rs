@@ -28,8 +28,9 @@ use crate::raster::MAX_SAMPLES;
 /// the tile side, so a packet never straddles two tiles.
 pub const LANES: usize = 8;
 
-/// Most samples in one group of pixels (`RowJob::row_samples`): a pixel at 16×16, or four at
-/// 2×2.
+/// Most samples in one cast (`RowJob::cast`): a group of pixels at s×s samples holds four of
+/// them up to 8×8, two up to 11×11 and one above; adaptive sampling fits as many pixels' other
+/// samples as it can.
 const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
 
 /// Pixels `first` .. `first + pixels` of row `row`, inside one tile.
@@ -237,7 +238,8 @@ impl RowJob<'_> {
 
     /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
     /// each sample's colour, summed in sample order and divided by s². The samples of a group of
-    /// pixels in one tile (4 pixels at 2×2, else 1) are cast together ([`RowJob::cast`]).
+    /// pixels in one tile (4 pixels up to 8×8, 2 up to 11×11, else 1) are cast together
+    /// ([`RowJob::cast`]), stage by stage.
     #[inline(always)]
     fn row_samples<V: Lanes>(&self, j: usize, row: &mut [u8]) {
         let s = self.samples;

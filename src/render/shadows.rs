@@ -2,7 +2,8 @@
 //!
 //! Every shadow ray runs parallel to the light, so projected along it each ray is a single
 //! point, and only spheres whose projected disc holds that point can block it. Discs are binned
-//! into a uniform grid over the plane orthogonal to the light; a query looks at one cell. Spheres
+//! into a uniform grid over the plane orthogonal to the light; a query looks at the few cells
+//! under a small square about its point (a packet of queries, at the cells of all of them). Spheres
 //! much larger than the typical one (a ground sphere) are kept in a list tested for every ray,
 //! so they do not inflate the grid.
 

@@ -103,8 +103,8 @@ fn stability_catalogue_gives_the_same_bytes_on_every_path() {
 #[test]
 fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
     // Widths that end a row inside the first or the second packet of a pair, or after one
-    // packet, or inside a tile.
-    for width in [1, 5, 8, 9, 13, 16, 23, 333] {
+    // packet, or inside a tile, or a stretch of 256 pixels after an odd number of packets.
+    for width in [1, 5, 8, 9, 13, 16, 23, 260, 280, 333] {
         let mut doc = one_sample(example(EXAMPLES[0]), 320);
         doc.raster.width = width;
         doc.raster.height = 24;
@@ -114,9 +114,10 @@ fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
 
 #[test]
 fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
-    // s×s samples go in packets of samples (4 pixels a group at 2×2, one pixel otherwise), and
-    // adaptive sampling casts four pixels' corners together, then each disagreeing pixel's
-    // other samples. Widths end inside a group.
+    // s×s samples go in packets of samples, pixels in groups of 4 up to 8×8, of 2 up to 11×11
+    // and alone above; adaptive sampling casts a tile's corners together, then the other
+    // samples of its disagreeing pixels, as many pixels a cast as fit. Widths end inside a
+    // group or a tile; 7×7 and 10×10 make an odd number of packets.
     for (name, samples, width) in [
         (EXAMPLES[0], 2, 97),
         (EXAMPLES[1], 3, 45),
@@ -124,6 +125,9 @@ fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
         (EXAMPLES[3], 5, 17),
         (EXAMPLES[4], 2, 9),
         (EXAMPLES[5], 8, 14),
+        (EXAMPLES[0], 7, 21),
+        (EXAMPLES[1], 10, 19),
+        (EXAMPLES[2], 16, 6),
     ] {
         for adaptive in [false, true] {
             let mut doc = one_sample(example(name), width);

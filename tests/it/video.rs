@@ -112,8 +112,15 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    // Large enough that the encode lasts well past the moment ffmpeg opens its output.
-    let f = example(tmp.path(), "width: 1280, height: 720");
+    // One sample a pixel: a quick render (this test also runs unoptimised), then an encode that
+    // lasts well past the moment ffmpeg opens its output.
+    let f = example(tmp.path(), "width: 320, height: 180");
+    let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
+    std::fs::write(
+        tmp.path().join(&f),
+        text.replace("samples: 2", "samples: 1"),
+    )
+    .unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
         .current_dir(tmp.path())
         .args(["video", &f, "--quiet"])
