@@ -18,6 +18,7 @@
 
 use std::mem::offset_of;
 
+use super::bins::CellRect;
 use super::lanes::{Lanes, Portable};
 use super::shadows::{cell_key, cell_range, FrameShadows};
 use super::tiles::{TileBins, TILE};
@@ -749,18 +750,8 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
         }
     }
     if (cx.1 - cx.0 + 1) * (cy.1 - cy.0 + 1) <= UNION_CELLS {
-        'union: for y in cy.0 as usize..=cy.1 as usize {
-            for x in cx.0 as usize..=cx.1 as usize {
-                for &k in sh.cell(x, y) {
-                    let (k, c, r2) = sh.blocker(k);
-                    blocked |= pending & blocks(sh, point, own, k, c, r2);
-                    if pending & !blocked == 0 {
-                        break 'union;
-                    }
-                }
-            }
-        }
-        return blocked;
+        let cells = (cx.0 as usize, cx.1 as usize, cy.0 as usize, cy.1 as usize);
+        return walk(sh, point, own, cells, pending, blocked);
     }
     let mut key = [u64::MAX; LANES];
     for l in 0..LANES {
@@ -769,17 +760,14 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
             key[l] = cell_key(at(x0), at(x1), at(y0), at(y1));
         }
     }
-    // Inlined into the caller, which is compiled for its instruction set.
-    // Lanes whose squares fall in the same single cell test its spheres together. (Written out
-    // here, not behind a closure: the tests must be inlined into the function compiled for the
-    // instruction set.)
+    // Lanes whose squares fall in the same single cell test its spheres together.
     for l in 0..LANES {
         let here = key[l];
         if here == u64::MAX {
             continue;
         }
-        let (x0, x1, y0, y1) = cell_range(here);
-        let single = x0 == x1 && y0 == y1;
+        let cells = cell_range(here);
+        let single = cells.0 == cells.1 && cells.2 == cells.3;
         let mut lanes = 0u8;
         for (m, other) in key.iter_mut().enumerate().skip(l) {
             if *other == here && (single || m == l) {
@@ -787,14 +775,30 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
                 *other = u64::MAX;
             }
         }
-        'cells: for y in y0..=y1 {
-            for x in x0..=x1 {
-                for &k in sh.cell(x, y) {
-                    let (k, c, r2) = sh.blocker(k);
-                    blocked |= lanes & blocks(sh, point, own, k, c, r2);
-                    if lanes & !blocked == 0 {
-                        break 'cells;
-                    }
+        blocked = walk(sh, point, own, cells, lanes, blocked);
+    }
+    blocked
+}
+
+/// `blocked` with the lanes in `lanes` that a sphere of grid cells `cells` blocks added, until
+/// every one of them is blocked. A function, not a closure, so that it is inlined into the one
+/// compiled for the instruction set.
+#[inline(always)]
+fn walk<V: Lanes>(
+    sh: &FrameShadows,
+    point: &[V; 3],
+    own: V::Index,
+    (x0, x1, y0, y1): CellRect,
+    lanes: u8,
+    mut blocked: u8,
+) -> u8 {
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            for &k in sh.cell(x, y) {
+                let (k, c, r2) = sh.blocker(k);
+                blocked |= lanes & blocks(sh, point, own, k, c, r2);
+                if lanes & !blocked == 0 {
+                    return blocked;
                 }
             }
         }
