@@ -242,6 +242,21 @@ impl Renderer {
         index: &SceneIndex,
         raster: Raster,
     ) -> Vec<u8> {
+        let mut pixels = Vec::new();
+        self.render_indexed_into(camera, index, raster, &mut pixels);
+        pixels
+    }
+
+    /// [`Renderer::render_indexed`] into `pixels`, which is resized to the frame and whose
+    /// every byte is written, whatever it held: a frame buffer can be reused without the cost
+    /// of fresh zeroed pages.
+    pub fn render_indexed_into(
+        &mut self,
+        camera: &Camera,
+        index: &SceneIndex,
+        raster: Raster,
+        pixels: &mut Vec<u8>,
+    ) {
         let scene = index.scene;
         // Every path but `Scalar` casts in packets, whatever the sampling.
         let packets = self.simd != Simd::Scalar;
@@ -289,7 +304,11 @@ impl Renderer {
         let s2 = (raster.samples * raster.samples) as usize;
         let adaptive = raster.adaptive && raster.samples >= 2;
         let width = raster.width as usize;
-        let mut pixels = vec![0u8; raster.frame_bytes()];
+        if pixels.len() != raster.frame_bytes() {
+            // Fresh zeroed pages (calloc), faulted in by the threads that write the rows, not
+            // zeroed here on one thread first.
+            *pixels = vec![0u8; raster.frame_bytes()];
+        }
         let encode = srgb_encoder();
         if packets {
             let job = RowJob {
@@ -306,7 +325,7 @@ impl Renderer {
                 .enumerate()
                 .for_each(|(j, row)| job.row(self.simd, j, row));
             self.table = Some(table);
-            return pixels;
+            return;
         }
         pixels
             .par_chunks_mut(width * 3)
@@ -331,7 +350,6 @@ impl Renderer {
                 }
             });
         self.table = Some(table);
-        pixels
     }
 }
 
@@ -694,6 +712,50 @@ mod tests {
                         differ, 0,
                         "camera {k}, {raster:?}, {name}: {differ} bytes differ"
                     );
+                }
+            }
+        }
+    }
+
+    /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
+    /// of the wrong size), every path and kind of sampling gives the fresh frame.
+    #[test]
+    fn a_reused_buffer_is_overwritten_everywhere() {
+        let scene = Scene {
+            background: DVec3::new(0.2, 0.3, 0.5),
+            ambient: 0.1,
+            lights: vec![Light {
+                direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
+                color: DVec3::splat(0.8),
+                shadows: true,
+            }],
+            spheres: vec![Sphere {
+                center_world: DVec3::ZERO,
+                radius: 1.0,
+                color: DVec3::new(0.9, 0.4, 0.1),
+            }],
+        };
+        let camera = Camera {
+            vrp_world: DVec3::new(0.0, 0.5, -4.0),
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.5),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let index = SceneIndex::new(&scene);
+        for (samples, adaptive) in [(1, false), (3, false), (4, true)] {
+            // 261 pixels a row: a stretch, and packets, end inside the row.
+            let raster = Raster {
+                width: 261,
+                height: 7,
+                samples,
+                adaptive,
+            };
+            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                let mut r = Renderer::with_simd(simd).unwrap();
+                let fresh = r.render_indexed(&camera, &index, raster);
+                for mut buffer in [vec![0xa5; fresh.len()], vec![0xa5; 5], Vec::new()] {
+                    r.render_indexed_into(&camera, &index, raster, &mut buffer);
+                    assert!(buffer == fresh, "{} {raster:?}", simd.name());
                 }
             }
         }
