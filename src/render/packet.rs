@@ -724,6 +724,8 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     ];
     let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
     let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
+    // FrameShadows::low on whole lanes.
+    let low = dot(point, &splat3(sh.up)).add(V::splat(sh.height)).sub(err);
     let inv = V::splat(sh.grid.inv_cell);
     let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];
     let hi = [q[0].add(err).mul(inv), q[1].add(err).mul(inv)];
@@ -751,7 +753,7 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     }
     if (cx.1 - cx.0 + 1) * (cy.1 - cy.0 + 1) <= UNION_CELLS {
         let cells = (cx.0 as usize, cx.1 as usize, cy.0 as usize, cy.1 as usize);
-        return walk(sh, point, own, cells, pending, blocked);
+        return walk(sh, point, own, low, cells, pending, blocked);
     }
     let mut key = [u64::MAX; LANES];
     for l in 0..LANES {
@@ -775,28 +777,35 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
                 *other = u64::MAX;
             }
         }
-        blocked = walk(sh, point, own, cells, lanes, blocked);
+        blocked = walk(sh, point, own, low, cells, lanes, blocked);
     }
     blocked
 }
 
 /// `blocked` with the lanes in `lanes` that a sphere of grid cells `cells` blocks added, until
-/// every one of them is blocked. A function, not a closure, so that it is inlined into the one
+/// every one of them is blocked. A cell is read down to the first sphere whose top is below
+/// every open lane's `low`. A function, not a closure, so that it is inlined into the one
 /// compiled for the instruction set.
 #[inline(always)]
 fn walk<V: Lanes>(
     sh: &FrameShadows,
     point: &[V; 3],
     own: V::Index,
+    low: V,
     (x0, x1, y0, y1): CellRect,
     lanes: u8,
     mut blocked: u8,
 ) -> u8 {
+    let tops = &sh.grid.tops;
     for y in y0..=y1 {
         for x in x0..=x1 {
             for &k in sh.cell(x, y) {
+                let reach = lanes & !blocked & V::splat(tops[k as usize]).ge(low);
+                if reach == 0 {
+                    break;
+                }
                 let (k, c, r2) = sh.blocker(k);
-                blocked |= lanes & blocks(sh, point, own, k, c, r2);
+                blocked |= reach & blocks(sh, point, own, k, c, r2);
                 if lanes & !blocked == 0 {
                     return blocked;
                 }
@@ -865,5 +874,61 @@ impl SrgbEncoder {
             out[l] = level + (x[l] >= self.thresholds[level as usize]) as u8;
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::lanes::Portable;
+    use super::super::shadows::tests::{any_blocker, cluster, Cluster};
+    use super::super::shadows::{view_center, ShadowGrid};
+    use super::*;
+
+    /// A shadow packet's answer per lane is the one-ray answer of testing every sphere: eight
+    /// points at a time from spheres next to each other in the list, so that a packet's lanes
+    /// lie on different spheres and in cells near or far apart (the union walk and the walks
+    /// per group of lanes), with the light's tops cutting each cell short.
+    #[test]
+    fn shadow_packets_find_every_blocker() {
+        let Cluster {
+            spheres,
+            camera,
+            lights,
+            points,
+        } = cluster();
+        let centers: Vec<_> = spheres.iter().map(|s| view_center(&camera, s)).collect();
+        for direction in lights {
+            let to_light = -direction.normalize();
+            let grid = ShadowGrid::build(&spheres, to_light);
+            let view_light = camera.basis.to_view(to_light);
+            for all in [None, Some(&centers[..])] {
+                let frame = FrameShadows::new(&grid, &camera, &spheres, all, view_light);
+                // Neighbouring points of a sphere (lanes in one cell or a few), and every 7th
+                // point (lanes on different spheres, cells far apart).
+                let picked = [1, 7].map(|n| points.iter().step_by(n).copied().collect::<Vec<_>>());
+                for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {
+                    let mut xyz = [[0.0; LANES]; 3];
+                    let mut own = [0u64; LANES];
+                    for l in 0..LANES {
+                        let (point, o) = lanes[l.min(lanes.len() - 1)];
+                        for a in 0..3 {
+                            xyz[a][l] = point[a];
+                        }
+                        own[l] = o as u64;
+                    }
+                    let point = xyz.map(|a| Portable::load(&a));
+                    let need = (0xffu16 >> (LANES - lanes.len())) as u8;
+                    let got = occluded::<Portable>(&frame, &point, own, need);
+                    for (l, &lane) in lanes.iter().enumerate() {
+                        let every = any_blocker(&spheres, &camera, view_light, lane);
+                        assert_eq!(
+                            got >> l & 1 == 1,
+                            every,
+                            "packet {p}, lane {l}, {direction}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }

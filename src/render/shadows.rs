@@ -26,6 +26,12 @@ pub struct ShadowGrid {
     always: Vec<u32>,
     /// The largest |coordinate| + radius of any sphere: the scale of the rounding bound.
     extent: f64,
+    /// Unit vector towards the light (world).
+    to_light: DVec3,
+    /// Each sphere's top: how far its highest point lies towards the light (c·to_light + r).
+    /// A sphere can block only a ray that starts below its top, so every cell lists its
+    /// spheres highest top first and a ray stops reading a cell at the first one below it.
+    pub(super) tops: Vec<f64>,
 }
 
 impl ShadowGrid {
@@ -58,6 +64,8 @@ impl ShadowGrid {
                 bins: Bins::build((0, 0), 0, |_| None),
                 always,
                 extent,
+                to_light,
+                tops: Vec::new(),
             };
         }
         let (dims, inv_cell) = grid_size(hi - lo, count);
@@ -69,10 +77,20 @@ impl ShadowGrid {
             bins: Bins::build((0, 0), 0, |_| None),
             always,
             extent,
+            to_light,
+            tops: spheres
+                .iter()
+                .map(|s| s.center_world.dot(to_light) + s.radius)
+                .collect(),
         };
-        let bins = Bins::build(dims, spheres.len(), |k| {
+        let mut bins = Bins::build(dims, spheres.len(), |k| {
             let s = &spheres[k];
             (s.radius <= big).then(|| grid.cell_range(project(s.center_world), s.radius))
+        });
+        // Highest top first; equal tops keep their order (the sort is stable).
+        let tops = &grid.tops;
+        bins.sort_cells(|cell| {
+            cell.sort_by(|&a, &b| tops[b as usize].total_cmp(&tops[a as usize]))
         });
         ShadowGrid { bins, ..grid }
     }
@@ -124,6 +142,9 @@ pub struct FrameShadows<'a> {
     pub(super) offset: DVec2,
     /// The part of the rounding allowance that does not depend on the point.
     pub(super) slack: f64,
+    /// A view point p lies p·up + height towards the light, on the scale of the grid's tops.
+    pub(super) up: DVec3,
+    pub(super) height: f64,
 }
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame
@@ -161,6 +182,8 @@ impl<'a> FrameShadows<'a> {
                 camera.vrp_world.dot(grid.axes.1),
             ) - grid.origin,
             slack: camera.vrp_world.abs().max_element() + grid.extent,
+            up: camera.basis.to_view(grid.to_light),
+            height: camera.vrp_world.dot(grid.to_light),
         };
         shadows.always = grid.always.iter().map(|&k| shadows.blocker(k)).collect();
         shadows
@@ -199,7 +222,7 @@ impl<'a> FrameShadows<'a> {
             (p[0] * ax.x + p[1] * ax.y) + p[2] * ax.z + self.offset.x,
             (p[0] * ay.x + p[1] * ay.y) + p[2] * ay.z + self.offset.y,
         ];
-        let err = 1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()));
+        let err = self.allowance(p);
         let inv = self.grid.inv_cell;
         (
             [(q[0] - err) * inv, (q[1] - err) * inv],
@@ -218,12 +241,31 @@ impl<'a> FrameShadows<'a> {
         let Some((x0, x1, y0, y1)) = self.cells(point) else {
             return false;
         };
+        let low = self.low(point.to_array());
+        let tops = &self.grid.tops;
         (y0..=y1).any(|y| {
             (x0..=x1).any(|x| {
                 let cell = self.grid.bins.cell(x, y);
-                cell.iter().any(|&k| blocks(&self.blocker(k)))
+                let reach = cell.iter().take_while(|&&k| tops[k as usize] >= low);
+                reach.map(|&k| self.blocker(k)).any(|b| blocks(&b))
             })
         })
+    }
+
+    /// How far view point `p` lies towards the light, less the rounding allowance: a sphere
+    /// whose top is below this cannot block its ray. (Blocking needs the point inside the
+    /// sphere or the sphere ahead along the ray: either way (p − c)·to_light ≤ r.)
+    #[inline(always)]
+    fn low(&self, p: [f64; 3]) -> f64 {
+        let up = self.up;
+        let h = (p[0] * up.x + p[1] * up.y) + p[2] * up.z + self.height;
+        h - self.allowance(p)
+    }
+
+    /// The rounding allowance at view point `p`: 1e-9 of the coordinates' scale.
+    #[inline(always)]
+    fn allowance(&self, p: [f64; 3]) -> f64 {
+        1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()))
     }
 
     /// The binned spheres of grid cell (x, y).
@@ -288,4 +330,109 @@ pub fn blocks_ray(center: DVec3, radius2: f64, point: DVec3, dir: DVec3) -> bool
     }
     let b = f.dot(dir);
     b < 0.0 && (f - dir * b).length_squared() <= radius2
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+    use crate::camera::Basis;
+    use crate::splitmix::SplitMix;
+    use glam::DVec2;
+
+    /// A cluster of spheres over a ground sphere, a camera beside it, two slanted lights
+    /// (world directions of travel), and 40 view points spread over each sphere (a spiral,
+    /// the lit side and the dark) with the sphere each lies on.
+    pub(in crate::render) struct Cluster {
+        pub spheres: Vec<Sphere>,
+        pub camera: Camera,
+        pub lights: [DVec3; 2],
+        pub points: Vec<(DVec3, u32)>,
+    }
+
+    pub(in crate::render) fn cluster() -> Cluster {
+        let mut gen = SplitMix(11);
+        let mut spheres: Vec<Sphere> = (0..300)
+            .map(|_| {
+                let mut r = || gen.unit();
+                Sphere {
+                    center_world: DVec3::new(r() * 20.0 - 10.0, r() * 5.0, r() * 20.0 - 10.0),
+                    radius: 0.2 + r() * 0.7,
+                    color: DVec3::ONE,
+                }
+            })
+            .collect();
+        spheres.push(Sphere {
+            center_world: DVec3::new(0.0, -10_000.0, 0.0),
+            radius: 10_000.0,
+            color: DVec3::ONE,
+        });
+        let camera = Camera {
+            vrp_world: DVec3::new(-15.0, 7.0, -9.0),
+            basis: Basis::from_vpn_vuv(DVec3::new(1.0, -0.3, 0.6), DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.2),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let mut points = Vec::new();
+        for (own, s) in spheres.iter().enumerate() {
+            let center = view_center(&camera, s).0;
+            for k in 0..40 {
+                let z = 1.0 - (k as f64 + 0.5) / 20.0;
+                let a = k as f64 * 2.399963;
+                let w = (1.0 - z * z).sqrt();
+                let normal = DVec3::new(w * a.cos(), z, w * a.sin());
+                points.push((center + normal * s.radius, own as u32));
+            }
+        }
+        let lights = [DVec3::new(-0.6, -1.0, 0.4), DVec3::new(0.9, -0.2, -0.1)];
+        Cluster {
+            spheres,
+            camera,
+            lights,
+            points,
+        }
+    }
+
+    /// Whether any sphere but `own` blocks the ray from `point` towards `to_light` (view).
+    pub(in crate::render) fn any_blocker(
+        spheres: &[Sphere],
+        camera: &Camera,
+        to_light: DVec3,
+        (point, own): (DVec3, u32),
+    ) -> bool {
+        spheres.iter().enumerate().any(|(o, other)| {
+            let (c, r2) = view_center(camera, other);
+            o as u32 != own && blocks_ray(c, r2, point, to_light)
+        })
+    }
+
+    /// The grid (cells, and each cell read down to the first top below the point) finds a
+    /// blocker exactly when testing every sphere does.
+    #[test]
+    fn the_grid_and_its_tops_find_every_blocker() {
+        let Cluster {
+            spheres,
+            camera,
+            lights,
+            points,
+        } = cluster();
+        for direction in lights {
+            let to_light = -direction.normalize();
+            let grid = ShadowGrid::build(&spheres, to_light);
+            let view_light = camera.basis.to_view(to_light);
+            let frame = FrameShadows::new(&grid, &camera, &spheres, None, view_light);
+            let mut blocked = 0;
+            for (k, &(point, own)) in points.iter().enumerate() {
+                let every = any_blocker(&spheres, &camera, view_light, (point, own));
+                assert_eq!(
+                    frame.occluded(point, own),
+                    every,
+                    "point {k} on sphere {own}, light {direction}"
+                );
+                blocked += every as usize;
+            }
+            // Neither answer is vacuous.
+            let lit = points.len() - blocked;
+            assert!(blocked > 1000 && lit > 1000, "{blocked} blocked, {lit} lit");
+        }
+    }
 }
