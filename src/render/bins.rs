@@ -1,7 +1,7 @@
 //! Items binned into a grid of cells, in compressed rows: the one binning structure of screen
 //! tiles (primary rays) and of the shadow grid (shadow rays).
 
-/// Cell k's items are `items[offsets[k]..offsets[k + 1]]`, in increasing item order.
+/// Cell k's items are `items[offsets[k]..offsets[k + 1]]`, in the order they were binned.
 pub struct Bins {
     /// Cells per row.
     width: usize,
@@ -16,10 +16,20 @@ impl Bins {
     /// Bins items `0..n` into a `dims.0` × `dims.1` grid: item k goes into every cell of
     /// `rect(k)` (None: into none). `rect` is called twice per item, so it must be pure.
     pub fn build(dims: (usize, usize), n: usize, rect: impl Fn(usize) -> Option<CellRect>) -> Bins {
+        Bins::build_in_order(dims, 0..n, rect)
+    }
+
+    /// [`Bins::build`] with the items taken in the order of `order`, which every cell's list
+    /// keeps.
+    pub fn build_in_order(
+        dims: (usize, usize),
+        order: impl Iterator<Item = usize> + Clone,
+        rect: impl Fn(usize) -> Option<CellRect>,
+    ) -> Bins {
         let width = dims.0;
         let cells = dims.0 * dims.1;
         let mut counts = vec![0u32; cells];
-        for (x0, x1, y0, y1) in (0..n).filter_map(&rect) {
+        for (x0, x1, y0, y1) in order.clone().filter_map(&rect) {
             for y in y0..=y1 {
                 for c in &mut counts[y * width + x0..=y * width + x1] {
                     *c += 1;
@@ -35,7 +45,7 @@ impl Bins {
         offsets.push(total);
         let mut fill = offsets.clone();
         let mut items = vec![0u32; total as usize];
-        for k in 0..n {
+        for k in order {
             if let Some((x0, x1, y0, y1)) = rect(k) {
                 for y in y0..=y1 {
                     for slot in &mut fill[y * width + x0..=y * width + x1] {
@@ -58,13 +68,6 @@ impl Bins {
         let k = y * self.width + x;
         &self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]
     }
-
-    /// Reorders every cell's items with `sort`.
-    pub fn sort_cells(&mut self, mut sort: impl FnMut(&mut [u32])) {
-        for k in 0..self.offsets.len() - 1 {
-            sort(&mut self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]);
-        }
-    }
 }
 
 #[cfg(test)]
@@ -86,5 +89,10 @@ mod tests {
         assert_eq!(bins.cell(1, 0), [1]);
         assert_eq!(bins.cell(2, 1), [1, 3]);
         assert_eq!(bins.cell(0, 1), [0, 1]);
+        // Taken in another order, every cell keeps it.
+        let bins = Bins::build_in_order((3, 2), [3, 1, 2, 0].into_iter(), |k| rects[k]);
+        assert_eq!(bins.cell(0, 0), [1, 0]);
+        assert_eq!(bins.cell(2, 1), [3, 1]);
+        assert_eq!(bins.cell(1, 1), [1]);
     }
 }

@@ -452,10 +452,13 @@ impl RowJob<'_> {
             let packets = (out.len() / 3).div_ceil(LANES);
             for (q, d) in dirs[..packets].iter_mut().enumerate() {
                 let at = i0 + q * LANES;
-                let mut xs = [t.xs[width - 1]; LANES];
-                let m = (width - at).min(LANES);
-                xs[..m].copy_from_slice(&t.xs[at..at + m]);
-                let x = V::load(&xs);
+                let x = if at + LANES <= width {
+                    V::load(t.xs[at..at + LANES].try_into().expect("LANES values"))
+                } else {
+                    let mut xs = [t.xs[width - 1]; LANES];
+                    xs[..width - at].copy_from_slice(&t.xs[at..width]);
+                    V::load(&xs)
+                };
                 let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
                 *d = [x.mul(r), V::splat(y).mul(r), V::splat(z).mul(r)];
             }

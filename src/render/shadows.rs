@@ -83,14 +83,13 @@ impl ShadowGrid {
                 .map(|s| s.center_world.dot(to_light) + s.radius)
                 .collect(),
         };
-        let mut bins = Bins::build(dims, spheres.len(), |k| {
+        // Binned highest top first (equal tops by index), so every cell lists them so.
+        let tops = &grid.tops;
+        let mut order: Vec<usize> = (0..spheres.len()).collect();
+        order.sort_by(|&a, &b| tops[b].total_cmp(&tops[a]).then(a.cmp(&b)));
+        let bins = Bins::build_in_order(dims, order.into_iter(), |k| {
             let s = &spheres[k];
             (s.radius <= big).then(|| grid.cell_range(project(s.center_world), s.radius))
-        });
-        // Highest top first; equal tops keep their order (the sort is stable).
-        let tops = &grid.tops;
-        bins.sort_cells(|cell| {
-            cell.sort_by(|&a, &b| tops[b as usize].total_cmp(&tops[a as usize]))
         });
         ShadowGrid { bins, ..grid }
     }
