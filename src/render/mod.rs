@@ -480,14 +480,20 @@ pub struct SrgbEncoder {
     /// `thresholds[k]` is the linear value whose encoding is level k + ½; the last entry is a
     /// sentinel above 1.
     thresholds: [f64; 256],
-    /// `first[b]`: the level of the linear value b / BUCKETS.
-    first: Box<[u8; BUCKETS + 1]>,
+    /// `buckets[b]`: the level of the linear value b / BUCKETS, plus [`SPLIT`] when a threshold
+    /// falls inside the bucket (values in it are that level or the next).
+    buckets: Box<[u16; BUCKETS + 1]>,
 }
 
-/// Buckets of the linear range. Consecutive thresholds are at least 1/(255·12.92) ≈ 3.0e-4
-/// apart (the linear toe is the steepest part), more than a bucket's 2.4e-4, so a bucket holds
-/// at most one threshold and one comparison finishes the lookup.
-const BUCKETS: usize = 4096;
+/// Buckets of the linear range, a power of two so that x·BUCKETS is exact and its floor is the
+/// bucket of x. Consecutive thresholds are at least 1/(255·12.92) ≈ 3.0e-4 apart (the linear
+/// toe is the steepest part), far more than a bucket's 1.5e-5: a bucket holds at most one
+/// threshold, and only 255 of the 65,536 hold one, so nearly every value is looked up with no
+/// comparison at all.
+const BUCKETS: usize = 1 << 16;
+
+/// The flag of a bucket that a threshold splits.
+const SPLIT: u16 = 0x100;
 
 impl SrgbEncoder {
     fn new() -> SrgbEncoder {
@@ -495,12 +501,22 @@ impl SrgbEncoder {
         for (k, t) in thresholds.iter_mut().take(255).enumerate() {
             *t = srgb_decode((k as f64 + 0.5) / 255.0);
         }
-        let level = |x: f64| thresholds.partition_point(|&t| t <= x) as u8;
-        let mut first = Box::new([0u8; BUCKETS + 1]);
-        for (b, l) in first.iter_mut().enumerate() {
-            *l = level(b as f64 / BUCKETS as f64);
+        let mut buckets = Box::new([0u16; BUCKETS + 1]);
+        let mut level = 0;
+        for (b, entry) in buckets.iter_mut().enumerate() {
+            // The level of b / BUCKETS: the thresholds at or below it.
+            let start = b as f64 / BUCKETS as f64;
+            while thresholds[level] <= start {
+                level += 1;
+            }
+            let end = (b + 1) as f64 / BUCKETS as f64;
+            let split = thresholds[level] < end && b < BUCKETS;
+            *entry = level as u16 | if split { SPLIT } else { 0 };
         }
-        SrgbEncoder { thresholds, first }
+        SrgbEncoder {
+            thresholds,
+            buckets,
+        }
     }
 
     /// Linear [0, 1] to the nearest 8-bit sRGB level (values outside are clamped): the level
@@ -510,8 +526,20 @@ impl SrgbEncoder {
         let x = linear.clamp(0.0, 1.0);
         // Truncation is floor here: x ≥ 0. NaN clamps to… NaN, and `as` maps it to bucket 0.
         // The `min` only spares a bounds check: x ≤ 1 already.
-        let level = self.first[((x * BUCKETS as f64) as usize).min(BUCKETS)];
-        level + (x >= self.thresholds[level as usize]) as u8
+        let entry = self.buckets[((x * BUCKETS as f64) as usize).min(BUCKETS)];
+        self.finish(entry, x)
+    }
+
+    /// The level of `x` from its bucket's entry: the bucket's level, or the next one when x
+    /// is at or above the threshold that splits the bucket.
+    #[inline(always)]
+    fn finish(&self, entry: u16, x: f64) -> u8 {
+        let level = entry as u8;
+        if entry & SPLIT == 0 {
+            level
+        } else {
+            level + (x >= self.thresholds[level as usize]) as u8
+        }
     }
 }
 
@@ -782,14 +810,24 @@ mod tests {
         assert_eq!(enc.encode(0.5), 188);
         assert_eq!(enc.encode(-1.0), 0);
         assert_eq!(enc.encode(2.0), 255);
-        // Exactly at and just below every threshold, against the plain binary search.
+        // Exactly at and just below every threshold, and at both ends of every bucket,
+        // against the plain binary search.
+        let slow = |x: f64| enc.thresholds.partition_point(|&th| th <= x) as u8;
         for k in 0..255 {
             let t = srgb_decode((k as f64 + 0.5) / 255.0);
-            let slow = |x: f64| enc.thresholds.partition_point(|&th| th <= x) as u8;
             for x in [t, t.next_down(), t.next_up()] {
                 assert_eq!(enc.encode(x), slow(x), "x = {x}");
             }
         }
+        for b in 0..=BUCKETS {
+            let start = b as f64 / BUCKETS as f64;
+            for x in [start, start.next_down(), start.next_up()] {
+                assert_eq!(enc.encode(x), slow(x.clamp(0.0, 1.0)), "x = {x}");
+            }
+        }
+        // 255 buckets are split, one by each threshold.
+        let split = enc.buckets.iter().filter(|&&e| e & SPLIT != 0).count();
+        assert_eq!(split, 255);
     }
 
     #[test]

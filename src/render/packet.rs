@@ -22,7 +22,7 @@ use super::bins::CellRect;
 use super::lanes::{Lanes, Portable};
 use super::shadows::{cell_key, cell_range, FrameShadows};
 use super::tiles::{TileBins, TILE};
-use super::{RayTable, Shading, SrgbEncoder, ViewSphere, BUCKETS};
+use super::{RayTable, Shading, SrgbEncoder, ViewSphere, BUCKETS, SPLIT};
 use crate::raster::MAX_SAMPLES;
 
 /// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
@@ -861,8 +861,8 @@ fn blocks<V: Lanes>(
 }
 
 impl SrgbEncoder {
-    /// [`SrgbEncoder::encode`] of every lane: clamp and bucket on whole lanes, the two table
-    /// lookups per value one at a time.
+    /// [`SrgbEncoder::encode`] of every lane: clamp and bucket on whole lanes, then a table
+    /// read per value, and a comparison only for values in a bucket that a threshold splits.
     #[inline(always)]
     fn encode_lanes<V: Lanes>(&self, linear: V) -> [u8; LANES] {
         let (zero, one) = (V::splat(0.0), V::splat(1.0));
@@ -870,11 +870,19 @@ impl SrgbEncoder {
         let x = V::blend(linear.lt(zero), linear, zero);
         let x = V::blend(x.gt(one), x, one);
         let bucket = x.mul(V::splat(BUCKETS as f64)).to_i32(BUCKETS as i32);
-        let x = x.store();
+        let mut entries = [0u16; LANES];
         let mut out = [0u8; LANES];
+        let mut any = 0;
         for l in 0..LANES {
-            let level = self.first[bucket[l] as usize];
-            out[l] = level + (x[l] >= self.thresholds[level as usize]) as u8;
+            entries[l] = self.buckets[bucket[l] as usize];
+            out[l] = entries[l] as u8;
+            any |= entries[l];
+        }
+        if any & SPLIT != 0 {
+            let x = x.store();
+            for l in 0..LANES {
+                out[l] = self.finish(entries[l], x[l]);
+            }
         }
         out
     }
@@ -886,6 +894,37 @@ mod tests {
     use super::super::shadows::tests::{any_blocker, cluster, Cluster};
     use super::super::shadows::{view_center, ShadowGrid};
     use super::*;
+
+    /// Eight values at a time, [`SrgbEncoder::encode_lanes`] is [`SrgbEncoder::encode`]: at,
+    /// just below and just above every threshold (values in split buckets, mixed with others),
+    /// at bucket edges, and outside [0, 1] and NaN.
+    #[test]
+    fn lanes_encode_as_one_value_does() {
+        let enc = super::super::srgb_encoder();
+        let mut xs = vec![
+            -1.0,
+            -0.0,
+            0.0,
+            1.0,
+            2.0,
+            f64::NAN,
+            f64::INFINITY,
+            1.0f64.next_down(),
+        ];
+        for k in 0..255 {
+            let t = enc.thresholds[k];
+            xs.extend([t.next_down(), t, t.next_up(), (k as f64 + 0.3) / 255.0]);
+        }
+        for b in (0..=BUCKETS).step_by(97) {
+            let start = b as f64 / BUCKETS as f64;
+            xs.extend([start.next_down(), start, start.next_up()]);
+        }
+        for lanes in xs.chunks_exact(LANES) {
+            let got = enc.encode_lanes(Portable::load(lanes.try_into().unwrap()));
+            let want: Vec<u8> = lanes.iter().map(|&x| enc.encode(x)).collect();
+            assert_eq!(got[..], want[..], "{lanes:?}");
+        }
+    }
 
     /// A shadow packet's answer per lane is the one-ray answer of testing every sphere: eight
     /// points at a time from spheres next to each other in the list, so that a packet's lanes
