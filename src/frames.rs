@@ -176,6 +176,7 @@ pub fn stream_frames(
     done: impl FnMut(u64) -> bool,
     mut consume: impl FnMut(u64, &FrameKey, &[u8]) -> Result<()> + Send,
 ) -> Result<Timing> {
+    let started = Instant::now();
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, FrameKey, Arc<Vec<u8>>)>(1);
         let consumer = scope.spawn(move || -> Result<()> {
@@ -194,7 +195,10 @@ pub fn stream_frames(
         consumer
             .join()
             .expect("the frame consumer does not panic")?;
-        rendered
+        // The run ends when the last frame is written or hashed, not when it is rendered.
+        let mut timing = rendered?;
+        timing.wall_secs = started.elapsed().as_secs_f64();
+        Ok(timing)
     })
 }
 
