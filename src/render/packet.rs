@@ -497,14 +497,20 @@ impl RowJob<'_> {
                 }
                 // Plain calls, not `array::map`: its closure is not inlined into the function
                 // compiled for the instruction set, and would run its intrinsics out of line.
+                // Each level straight to its pixel: in the row for a whole packet, through a
+                // packet's worth of pixels at the row's end.
                 let enc = self.encode;
-                let levels = [
-                    enc.encode_lanes(colors[q][0]),
-                    enc.encode_lanes(colors[q][1]),
-                    enc.encode_lanes(colors[q][2]),
-                ];
-                for (l, px) in out.chunks_exact_mut(3).enumerate() {
-                    px.copy_from_slice(&[levels[0][l], levels[1][l], levels[2][l]]);
+                if let Ok(rgb) = <&mut [u8; 3 * LANES]>::try_from(&mut *out) {
+                    enc.encode_into::<V>(colors[q][0], rgb, 0);
+                    enc.encode_into::<V>(colors[q][1], rgb, 1);
+                    enc.encode_into::<V>(colors[q][2], rgb, 2);
+                } else {
+                    let mut rgb = [0u8; 3 * LANES];
+                    enc.encode_into::<V>(colors[q][0], &mut rgb, 0);
+                    enc.encode_into::<V>(colors[q][1], &mut rgb, 1);
+                    enc.encode_into::<V>(colors[q][2], &mut rgb, 2);
+                    let n = out.len();
+                    out.copy_from_slice(&rgb[..n]);
                 }
             }
         }
@@ -861,30 +867,29 @@ fn blocks<V: Lanes>(
 }
 
 impl SrgbEncoder {
-    /// [`SrgbEncoder::encode`] of every lane: clamp and bucket on whole lanes, then a table
-    /// read per value, and a comparison only for values in a bucket that a threshold splits.
+    /// [`SrgbEncoder::encode`] of every lane, written to channel `a` of eight RGB pixels:
+    /// clamp and bucket on whole lanes, then a table read per value, and a comparison only for
+    /// values in a bucket that a threshold splits.
     #[inline(always)]
-    fn encode_lanes<V: Lanes>(&self, linear: V) -> [u8; LANES] {
+    fn encode_into<V: Lanes>(&self, linear: V, rgb: &mut [u8; 3 * LANES], a: usize) {
         let (zero, one) = (V::splat(0.0), V::splat(1.0));
         // f64::clamp(0, 1), which keeps a NaN.
         let x = V::blend(linear.lt(zero), linear, zero);
         let x = V::blend(x.gt(one), x, one);
         let bucket = x.mul(V::splat(BUCKETS as f64)).to_i32(BUCKETS as i32);
-        let mut entries = [0u16; LANES];
-        let mut out = [0u8; LANES];
         let mut any = 0;
         for l in 0..LANES {
-            entries[l] = self.buckets[bucket[l] as usize];
-            out[l] = entries[l] as u8;
-            any |= entries[l];
+            let entry = self.buckets[bucket[l] as usize];
+            rgb[3 * l + a] = entry as u8;
+            any |= entry;
         }
         if any & SPLIT != 0 {
             let x = x.store();
             for l in 0..LANES {
-                out[l] = self.finish(entries[l], x[l]);
+                let entry = self.buckets[bucket[l] as usize];
+                rgb[3 * l + a] = self.finish(entry, x[l]);
             }
         }
-        out
     }
 }
 
@@ -895,7 +900,8 @@ mod tests {
     use super::super::shadows::{view_center, ShadowGrid};
     use super::*;
 
-    /// Eight values at a time, [`SrgbEncoder::encode_lanes`] is [`SrgbEncoder::encode`]: at,
+    /// Eight values at a time, [`SrgbEncoder::encode_into`] is [`SrgbEncoder::encode`], in its
+    /// channel and nowhere else: at,
     /// just below and just above every threshold (values in split buckets, mixed with others),
     /// at bucket edges, and outside [0, 1] and NaN.
     #[test]
@@ -919,10 +925,16 @@ mod tests {
             let start = b as f64 / BUCKETS as f64;
             xs.extend([start.next_down(), start, start.next_up()]);
         }
-        for lanes in xs.chunks_exact(LANES) {
-            let got = enc.encode_lanes(Portable::load(lanes.try_into().unwrap()));
-            let want: Vec<u8> = lanes.iter().map(|&x| enc.encode(x)).collect();
-            assert_eq!(got[..], want[..], "{lanes:?}");
+        for (k, lanes) in xs.chunks_exact(LANES).enumerate() {
+            let a = k % 3;
+            let mut rgb = [7u8; 3 * LANES];
+            enc.encode_into(Portable::load(lanes.try_into().unwrap()), &mut rgb, a);
+            for (l, px) in rgb.chunks(3).enumerate() {
+                let want: Vec<u8> = (0..3)
+                    .map(|c| if c == a { enc.encode(lanes[l]) } else { 7 })
+                    .collect();
+                assert_eq!(px, want, "{lanes:?}, channel {a}");
+            }
         }
     }
 
