@@ -25,8 +25,8 @@ mod shadows;
 mod tiles;
 mod world;
 
-use packet::RowJob;
 pub use packet::Simd;
+use packet::{RowJob, LANES};
 pub use world::SceneIndex;
 
 use shadows::FrameShadows;
@@ -316,7 +316,10 @@ impl Renderer {
                 table: &table,
                 bins: &bins,
                 encode,
-                background: scene.background.to_array().map(|c| encode.encode(c)),
+                background: [scene.background.to_array().map(|c| encode.encode(c)); LANES]
+                    .concat()
+                    .try_into()
+                    .expect("LANES pixels"),
                 samples: raster.samples as usize,
                 adaptive: raster.adaptive && raster.samples >= 2,
             };

@@ -168,8 +168,8 @@ pub struct RowJob<'a> {
     pub table: &'a RayTable,
     pub bins: &'a TileBins,
     pub encode: &'a SrgbEncoder,
-    /// The background's sRGB levels.
-    pub background: [u8; 3],
+    /// The background's sRGB levels, for a packet's eight pixels.
+    pub background: [u8; 3 * LANES],
     /// Samples per pixel side: 1, or s ≥ 2 for s×s samples averaged.
     pub samples: usize,
     /// With s ≥ 2: the corners first, the rest only where they disagree.
@@ -490,9 +490,8 @@ impl RowJob<'_> {
             for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
                 if founds[q].0 == 0 {
                     // All background (sky): the frame's background levels, already encoded.
-                    for px in out.chunks_exact_mut(3) {
-                        px.copy_from_slice(&self.background);
-                    }
+                    let n = out.len();
+                    out.copy_from_slice(&self.background[..n]);
                     continue;
                 }
                 // Plain calls, not `array::map`: its closure is not inlined into the function
