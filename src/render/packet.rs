@@ -663,19 +663,29 @@ impl Shading<'_> {
 }
 
 /// Each lane's sphere, for reading its fields: one sphere for the whole packet when every lane
-/// that hit found the same one (the common case), otherwise lane by lane. A lane that missed
-/// reads some sphere; its results are never used.
+/// that hit found the same one (the common case), two at a sphere's edge, otherwise lane by
+/// lane (gathers, which cost far more than two reads and a blend). A lane that missed reads
+/// some sphere; its results are never used.
 enum SphereLanes<'a, V: Lanes> {
     One(&'a ViewSphere),
+    /// The second sphere's lanes, and the two spheres.
+    Two(u8, &'a ViewSphere, &'a ViewSphere),
     Each(&'a [ViewSphere], V::Index),
 }
 
 impl<'a, V: Lanes> SphereLanes<'a, V> {
     #[inline(always)]
     fn new(spheres: &'a [ViewSphere], hit: u8, index: V::Index) -> SphereLanes<'a, V> {
-        let k = V::index_store(index)[hit.trailing_zeros() as usize];
-        if V::index_eq(index, V::index(k)) & hit == hit {
-            SphereLanes::One(&spheres[k as usize])
+        let lanes = V::index_store(index);
+        let k = lanes[hit.trailing_zeros() as usize];
+        let rest = hit & !V::index_eq(index, V::index(k));
+        if rest == 0 {
+            return SphereLanes::One(&spheres[k as usize]);
+        }
+        let k2 = lanes[rest.trailing_zeros() as usize];
+        let second = V::index_eq(index, V::index(k2));
+        if rest & !second == 0 {
+            SphereLanes::Two(second, &spheres[k as usize], &spheres[k2 as usize])
         } else {
             SphereLanes::Each(spheres, V::index_blend(hit, V::index(0), index))
         }
@@ -686,6 +696,7 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
     fn field(&self, offset: usize, one: impl Fn(&ViewSphere) -> f64) -> V {
         match *self {
             SphereLanes::One(s) => V::splat(one(s)),
+            SphereLanes::Two(second, a, b) => V::blend(second, V::splat(one(a)), V::splat(one(b))),
             SphereLanes::Each(spheres, own) => V::gather(spheres, own, offset),
         }
     }
@@ -704,6 +715,9 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
     fn ids(&self) -> V::Index {
         match *self {
             SphereLanes::One(s) => V::index(s.id as u64),
+            SphereLanes::Two(second, a, b) => {
+                V::index_blend(second, V::index(a.id as u64), V::index(b.id as u64))
+            }
             SphereLanes::Each(spheres, own) => V::gather_ids(spheres, own),
         }
     }
