@@ -730,6 +730,10 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
 fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8) -> u8 {
     let mut blocked = 0u8;
     for &(k, c, r2) in &sh.always {
+        // Lanes on the sphere itself (points on a ground sphere) skip it.
+        if need & !V::index_eq(own, V::index(k as u64)) == 0 {
+            continue;
+        }
         blocked |= need & blocks(sh, point, own, k, c, r2);
         if need & !blocked == 0 {
             return blocked;
