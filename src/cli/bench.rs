@@ -617,18 +617,7 @@ pub fn command(
     out: &mut dyn std::io::Write,
 ) -> Result<()> {
     let cpu = cpu_features();
-    if scaling {
-        let rows = run_scaling(dir, &scaling_scenes(), &mut std::io::stderr())?;
-        let text = if json {
-            let value = serde_json::json!({"cpu": cpu, "scaling": rows});
-            serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
-        } else {
-            format!("CPU: {cpu}\n\n{}", scaling_table(&rows))
-        };
-        write!(out, "{text}").map_err(Error::stdout)?;
-        return Ok(());
-    }
-    let all = scenes();
+    let all = if scaling { scaling_scenes() } else { scenes() };
     if let Some(unknown) = names.iter().find(|n| !all.iter().any(|s| s.name == **n)) {
         let known: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
         return Err(CliError::Usage(format!(
@@ -640,6 +629,17 @@ pub fn command(
         .into_iter()
         .filter(|s| names.is_empty() || names.contains(&s.name))
         .collect();
+    if scaling {
+        let rows = run_scaling(dir, &chosen, &mut std::io::stderr())?;
+        let text = if json {
+            let value = serde_json::json!({"cpu": cpu, "scaling": rows});
+            serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
+        } else {
+            format!("CPU: {cpu}\n\n{}", scaling_table(&rows))
+        };
+        write!(out, "{text}").map_err(Error::stdout)?;
+        return Ok(());
+    }
     let rows = run(dir, pov_frames, &chosen, &mut std::io::stderr())?;
     let text = if json {
         let value = serde_json::json!({"cpu": cpu, "rows": rows});

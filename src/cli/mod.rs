@@ -152,7 +152,8 @@ enum Command {
         /// Frames POV-Ray renders per scene (0 skips POV-Ray).
         #[arg(long, default_value_t = 4)]
         pov_frames: u64,
-        /// Only these scenes, comma-separated [default: all].
+        /// Only these scenes (of the table, or with --scaling of the scaling scenes),
+        /// comma-separated [default: all].
         #[arg(long, value_delimiter = ',')]
         scenes: Vec<String>,
         /// Print the rows as JSON instead of a table.

@@ -62,6 +62,13 @@ impl Bins {
         }
     }
 
+    /// Reorders every cell's items with `sort`.
+    pub fn sort_cells(&mut self, mut sort: impl FnMut(&mut [u32])) {
+        for k in 0..self.offsets.len() - 1 {
+            sort(&mut self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]);
+        }
+    }
+
     /// The items of cell (x, y).
     #[inline]
     pub fn cell(&self, x: usize, y: usize) -> &[u32] {

@@ -84,12 +84,22 @@ impl ShadowGrid {
                 .collect(),
         };
         // Binned highest top first (equal tops by index), so every cell lists them so.
-        let tops = &grid.tops;
-        let mut order: Vec<usize> = (0..spheres.len()).collect();
-        order.sort_by(|&a, &b| tops[b].total_cmp(&tops[a]).then(a.cmp(&b)));
-        let bins = Bins::build_in_order(dims, order.into_iter(), |k| {
-            let s = &spheres[k];
-            (s.radius <= big).then(|| grid.cell_range(project(s.center_world), s.radius))
+        // Each disc's cells are found in index order, and kept small (the grid is at most 4096
+        // a side), so that binning in the other order reads them, not the spheres, at random.
+        let rects: Vec<Option<[u16; 4]>> = spheres
+            .iter()
+            .map(|s| {
+                (s.radius <= big).then(|| {
+                    let (x0, x1, y0, y1) = grid.cell_range(project(s.center_world), s.radius);
+                    [x0, x1, y0, y1].map(|c| c as u16)
+                })
+            })
+            .collect();
+        let mut order: Vec<(f64, u32)> = grid.tops.iter().zip(0..).map(|(&t, k)| (t, k)).collect();
+        order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let order = order.iter().map(|&(_, k)| k as usize);
+        let bins = Bins::build_in_order(dims, order, |k| {
+            rects[k].map(|r| (r[0] as usize, r[1] as usize, r[2] as usize, r[3] as usize))
         });
         ShadowGrid { bins, ..grid }
     }

@@ -83,20 +83,21 @@ impl TileBins {
             .iter()
             .map(|s| footprint(s, cop, window, raster))
             .collect();
-        // Nearest possible hit first; ties by index, so the order is total and deterministic.
-        // Binned in that order, every tile's list comes out in it.
-        let mut order: Vec<u32> = (0..spheres.len() as u32).collect();
-        order.sort_unstable_by(|a, b| {
-            let (sa, sb) = (&spheres[*a as usize], &spheres[*b as usize]);
-            sa.min_dist.total_cmp(&sb.min_dist).then(a.cmp(b))
-        });
-        let order = order.iter().map(|&k| k as usize);
-        let bins = Bins::build_in_order((tiles_x, tiles_y), order, |k| match prints[k] {
+        let mut bins = Bins::build((tiles_x, tiles_y), spheres.len(), |k| match prints[k] {
             Footprint::Culled => None,
             Footprint::Everywhere => Some((0, tiles_x - 1, 0, tiles_y - 1)),
             Footprint::Pixels { i0, i1, j0, j1 } => {
                 Some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
             }
+        });
+        // Nearest possible hit first; ties by index, so the order is total and deterministic.
+        // Sorted tile by tile: one sort of every sphere in view (binned in that order) costs
+        // more once hundreds of thousands are in view, its reads scattered over all of them.
+        bins.sort_cells(|items| {
+            items.sort_unstable_by(|a, b| {
+                let (sa, sb) = (&spheres[*a as usize], &spheres[*b as usize]);
+                sa.min_dist.total_cmp(&sb.min_dist).then(a.cmp(b))
+            })
         });
         let all = [0, raster.width - 1, 0, raster.height - 1];
         let rects = prints
