@@ -750,7 +750,8 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     ];
     let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
     let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
-    // FrameShadows::low on whole lanes.
+    // How far each point lies towards the light, less the allowance (`FrameShadows::up`):
+    // a sphere whose top is below this cannot block the lane's ray.
     let low = dot(point, &splat3(sh.up)).add(V::splat(sh.height)).sub(err);
     let inv = V::splat(sh.grid.inv_cell);
     let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];

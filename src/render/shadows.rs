@@ -151,7 +151,10 @@ pub struct FrameShadows<'a> {
     pub(super) offset: DVec2,
     /// The part of the rounding allowance that does not depend on the point.
     pub(super) slack: f64,
-    /// A view point p lies p·up + height towards the light, on the scale of the grid's tops.
+    /// A view point p lies p·up + height towards the light, on the scale of the grid's tops:
+    /// a sphere whose top is below that, less the rounding allowance, cannot block its ray.
+    /// (Blocking needs the point inside the sphere or the sphere ahead along the ray: either
+    /// way (p − c)·to_light ≤ r.)
     pub(super) up: DVec3,
     pub(super) height: f64,
 }
@@ -250,25 +253,14 @@ impl<'a> FrameShadows<'a> {
         let Some((x0, x1, y0, y1)) = self.cells(point) else {
             return false;
         };
-        let low = self.low(point.to_array());
-        let tops = &self.grid.tops;
+        // Every sphere of the cells (the packet code stops at the first top below the point;
+        // here, the same cut cost more than the tests it saved).
         (y0..=y1).any(|y| {
             (x0..=x1).any(|x| {
                 let cell = self.grid.bins.cell(x, y);
-                let reach = cell.iter().take_while(|&&k| tops[k as usize] >= low);
-                reach.map(|&k| self.blocker(k)).any(|b| blocks(&b))
+                cell.iter().any(|&k| blocks(&self.blocker(k)))
             })
         })
-    }
-
-    /// How far view point `p` lies towards the light, less the rounding allowance: a sphere
-    /// whose top is below this cannot block its ray. (Blocking needs the point inside the
-    /// sphere or the sphere ahead along the ray: either way (p − c)·to_light ≤ r.)
-    #[inline(always)]
-    fn low(&self, p: [f64; 3]) -> f64 {
-        let up = self.up;
-        let h = (p[0] * up.x + p[1] * up.y) + p[2] * up.z + self.height;
-        h - self.allowance(p)
     }
 
     /// The rounding allowance at view point `p`: 1e-9 of the coordinates' scale.
@@ -414,10 +406,10 @@ pub(super) mod tests {
         })
     }
 
-    /// The grid (cells, and each cell read down to the first top below the point) finds a
-    /// blocker exactly when testing every sphere does.
+    /// The grid finds a blocker exactly when testing every sphere does (the packet code's
+    /// test, which also cuts each cell at the point's height, is in `packet.rs`).
     #[test]
-    fn the_grid_and_its_tops_find_every_blocker() {
+    fn the_grid_finds_every_blocker() {
         let Cluster {
             spheres,
             camera,
