@@ -142,7 +142,8 @@ struct FrameBuffers {
 }
 
 impl FrameBuffers {
-    /// More than a run holds at once: the previous frame, one in the channel, one being consumed.
+    /// More than a run holds at once: the frame being rendered, the previous one (held for a
+    /// repeated camera, and sent to the consumer), and the one the consumer is still on.
     const MOST: usize = 4;
 
     /// A buffer that no one else holds, or a new empty one. Its old bytes are all overwritten

@@ -449,19 +449,35 @@ pub fn run(
             std::fs::remove_dir_all(&frames_dir).map_err(Error::write(&frames_dir))?;
         }
         let frames_dir = frames_dir.to_string_lossy().into_owned();
+        // campath renders the frames POV-Ray renders (all of them without POV-Ray): both
+        // processes then spread their start-up over the same frames.
+        let n = if pov_frames > 0 {
+            pov_frames.min(s.frames)
+        } else {
+            s.frames
+        };
+        let range = format!("0..{n}");
         let _ = writeln!(progress, "{}: campath, PNG output …", s.name);
         let stats = dir.join(format!("{}.stats.json", s.name));
         let png = run_campath(
-            &["render", &file, "--out", &frames_dir, "--force", "--quiet"],
+            &[
+                "render",
+                &file,
+                "--frames",
+                &range,
+                "--out",
+                &frames_dir,
+                "--force",
+                "--quiet",
+            ],
             &stats,
         )?;
         let _ = writeln!(progress, "{}: campath, hash only …", s.name);
-        let hash = run_campath(&["hash", &file], &stats)?;
+        let hash = run_campath(&["hash", &file, "--frames", &range], &stats)?;
         let pov = if pov_frames > 0 {
             let doc = Document::load(&ron_path)?;
             let pov_path = dir.join(format!("{}.pov", s.name));
             write(&pov_path, &pov_scene(&doc)?)?;
-            let n = pov_frames.min(s.frames);
             let out_dir = dir.join(format!("{}-pov", s.name));
             std::fs::create_dir_all(&out_dir).map_err(Error::write(out_dir.clone()))?;
             let aa = if s.samples > 1 {

@@ -149,8 +149,9 @@ enum Command {
         /// Where the scene files and renders go.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
-        /// Frames POV-Ray renders per scene (0 skips POV-Ray).
-        #[arg(long, default_value_t = 4)]
+        /// Frames POV-Ray renders per scene, and campath with it, from frame 0 (0 skips
+        /// POV-Ray; campath then renders every frame).
+        #[arg(long, default_value_t = 8)]
         pov_frames: u64,
         /// Only these scenes (of the table, or with --scaling of the scaling scenes),
         /// comma-separated [default: all].

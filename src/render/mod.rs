@@ -247,9 +247,9 @@ impl Renderer {
         pixels
     }
 
-    /// [`Renderer::render_indexed`] into `pixels`, which is resized to the frame and whose
-    /// every byte is written, whatever it held: a frame buffer can be reused without the cost
-    /// of fresh zeroed pages.
+    /// [`Renderer::render_indexed`] into `pixels`, every byte of which is written, whatever it
+    /// held: a frame buffer can be reused without the cost of fresh zeroed pages. A buffer of
+    /// another length is replaced by a fresh one.
     pub fn render_indexed_into(
         &mut self,
         camera: &Camera,

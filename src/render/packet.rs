@@ -748,6 +748,7 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
         dot(point, &splat3(ax)).add(V::splat(sh.offset.x)),
         dot(point, &splat3(ay)).add(V::splat(sh.offset.y)),
     ];
+    // FrameShadows::allowance on whole lanes.
     let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
     let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
     // How far each point lies towards the light, less the allowance (`FrameShadows::up`):

@@ -30,7 +30,8 @@ pub struct ShadowGrid {
     to_light: DVec3,
     /// Each sphere's top: how far its highest point lies towards the light (c·to_light + r).
     /// A sphere can block only a ray that starts below its top, so every cell lists its
-    /// spheres highest top first and a ray stops reading a cell at the first one below it.
+    /// spheres highest top first, and a shadow packet stops reading a cell at the first one
+    /// below all its open lanes (`walk` in `packet.rs`; the scalar path reads them all).
     pub(super) tops: Vec<f64>,
 }
 
