@@ -645,23 +645,20 @@ pub fn command(
         .into_iter()
         .filter(|s| names.is_empty() || names.contains(&s.name))
         .collect();
-    if scaling {
+    let (value, rows_table) = if scaling {
         let rows = run_scaling(dir, &chosen, &mut std::io::stderr())?;
-        let text = if json {
-            let value = serde_json::json!({"cpu": cpu, "scaling": rows});
-            serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
-        } else {
-            format!("CPU: {cpu}\n\n{}", scaling_table(&rows))
-        };
-        write!(out, "{text}").map_err(Error::stdout)?;
-        return Ok(());
-    }
-    let rows = run(dir, pov_frames, &chosen, &mut std::io::stderr())?;
+        (
+            serde_json::json!({"cpu": cpu, "scaling": rows}),
+            scaling_table(&rows),
+        )
+    } else {
+        let rows = run(dir, pov_frames, &chosen, &mut std::io::stderr())?;
+        (serde_json::json!({"cpu": cpu, "rows": rows}), table(&rows))
+    };
     let text = if json {
-        let value = serde_json::json!({"cpu": cpu, "rows": rows});
         serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
     } else {
-        format!("CPU: {cpu}\n\n{}", table(&rows))
+        format!("CPU: {cpu}\n\n{rows_table}")
     };
     write!(out, "{text}").map_err(Error::stdout)?;
     Ok(())

@@ -500,14 +500,14 @@ impl RowJob<'_> {
                 // packet's worth of pixels at the row's end.
                 let enc = self.encode;
                 if let Ok(rgb) = <&mut [u8; 3 * LANES]>::try_from(&mut *out) {
-                    enc.encode_into::<V>(colors[q][0], rgb, 0);
-                    enc.encode_into::<V>(colors[q][1], rgb, 1);
-                    enc.encode_into::<V>(colors[q][2], rgb, 2);
+                    for (a, &linear) in colors[q].iter().enumerate() {
+                        enc.encode_into::<V>(linear, rgb, a);
+                    }
                 } else {
                     let mut rgb = [0u8; 3 * LANES];
-                    enc.encode_into::<V>(colors[q][0], &mut rgb, 0);
-                    enc.encode_into::<V>(colors[q][1], &mut rgb, 1);
-                    enc.encode_into::<V>(colors[q][2], &mut rgb, 2);
+                    for (a, &linear) in colors[q].iter().enumerate() {
+                        enc.encode_into::<V>(linear, &mut rgb, a);
+                    }
                     let n = out.len();
                     out.copy_from_slice(&rgb[..n]);
                 }
@@ -915,14 +915,13 @@ impl SrgbEncoder {
 #[cfg(test)]
 mod tests {
     use super::super::lanes::Portable;
-    use super::super::shadows::tests::{any_blocker, cluster, Cluster};
-    use super::super::shadows::{view_center, ShadowGrid};
+    use super::super::shadows::tests::cluster;
+    use super::super::shadows::view_center;
     use super::*;
 
     /// Eight values at a time, [`SrgbEncoder::encode_into`] is [`SrgbEncoder::encode`], in its
-    /// channel and nowhere else: at,
-    /// just below and just above every threshold (values in split buckets, mixed with others),
-    /// at bucket edges, and outside [0, 1] and NaN.
+    /// channel and nowhere else: at, just below and just above every threshold (values in split
+    /// buckets, mixed with others), at bucket edges, and outside [0, 1] and NaN.
     #[test]
     fn lanes_encode_as_one_value_does() {
         let enc = super::super::srgb_encoder();
@@ -963,22 +962,19 @@ mod tests {
     /// per group of lanes), with the light's tops cutting each cell short.
     #[test]
     fn shadow_packets_find_every_blocker() {
-        let Cluster {
-            spheres,
-            camera,
-            lights,
-            points,
-        } = cluster();
-        let centers: Vec<_> = spheres.iter().map(|s| view_center(&camera, s)).collect();
-        for direction in lights {
-            let to_light = -direction.normalize();
-            let grid = ShadowGrid::build(&spheres, to_light);
-            let view_light = camera.basis.to_view(to_light);
+        let c = cluster();
+        let centers: Vec<_> = c
+            .spheres
+            .iter()
+            .map(|s| view_center(&c.camera, s))
+            .collect();
+        // Neighbouring points of a sphere (lanes in one cell or a few), and every 7th point
+        // (lanes on different spheres, cells far apart).
+        let picked = [1, 7].map(|n| c.points.iter().step_by(n).copied().collect::<Vec<_>>());
+        for light in &c.lights {
             for all in [None, Some(&centers[..])] {
-                let frame = FrameShadows::new(&grid, &camera, &spheres, all, view_light);
-                // Neighbouring points of a sphere (lanes in one cell or a few), and every 7th
-                // point (lanes on different spheres, cells far apart).
-                let picked = [1, 7].map(|n| points.iter().step_by(n).copied().collect::<Vec<_>>());
+                let frame =
+                    FrameShadows::new(&light.grid, &c.camera, &c.spheres, all, light.to_light);
                 for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {
                     let mut xyz = [[0.0; LANES]; 3];
                     let mut own = [0u64; LANES];
@@ -993,7 +989,8 @@ mod tests {
                     let need = (0xffu16 >> (LANES - lanes.len())) as u8;
                     let got = occluded::<Portable>(&frame, &point, own, need);
                     for (l, &lane) in lanes.iter().enumerate() {
-                        let every = any_blocker(&spheres, &camera, view_light, lane);
+                        let every = c.any_blocker(light.to_light, lane);
+                        let direction = light.direction;
                         assert_eq!(
                             got >> l & 1 == 1,
                             every,

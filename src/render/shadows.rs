@@ -341,14 +341,22 @@ pub(super) mod tests {
     use crate::splitmix::SplitMix;
     use glam::DVec2;
 
-    /// A cluster of spheres over a ground sphere, a camera beside it, two slanted lights
-    /// (world directions of travel), and 40 view points spread over each sphere (a spiral,
-    /// the lit side and the dark) with the sphere each lies on.
+    /// A cluster of spheres over a ground sphere, a camera beside it, two slanted lights with
+    /// their grids, and 40 view points spread over each sphere (a spiral, the lit side and the
+    /// dark) with the sphere each lies on.
     pub(in crate::render) struct Cluster {
         pub spheres: Vec<Sphere>,
         pub camera: Camera,
-        pub lights: [DVec3; 2],
+        pub lights: Vec<ClusterLight>,
         pub points: Vec<(DVec3, u32)>,
+    }
+
+    /// One of [`Cluster`]'s lights: its world direction of travel, its grid, and the unit
+    /// vector towards it in view coordinates.
+    pub(in crate::render) struct ClusterLight {
+        pub direction: DVec3,
+        pub grid: ShadowGrid,
+        pub to_light: DVec3,
     }
 
     pub(in crate::render) fn cluster() -> Cluster {
@@ -385,7 +393,17 @@ pub(super) mod tests {
                 points.push((center + normal * s.radius, own as u32));
             }
         }
-        let lights = [DVec3::new(-0.6, -1.0, 0.4), DVec3::new(0.9, -0.2, -0.1)];
+        let lights = [DVec3::new(-0.6, -1.0, 0.4), DVec3::new(0.9, -0.2, -0.1)]
+            .into_iter()
+            .map(|direction| {
+                let to_light = -direction.normalize();
+                ClusterLight {
+                    direction,
+                    grid: ShadowGrid::build(&spheres, to_light),
+                    to_light: camera.basis.to_view(to_light),
+                }
+            })
+            .collect();
         Cluster {
             spheres,
             camera,
@@ -394,46 +412,41 @@ pub(super) mod tests {
         }
     }
 
-    /// Whether any sphere but `own` blocks the ray from `point` towards `to_light` (view).
-    pub(in crate::render) fn any_blocker(
-        spheres: &[Sphere],
-        camera: &Camera,
-        to_light: DVec3,
-        (point, own): (DVec3, u32),
-    ) -> bool {
-        spheres.iter().enumerate().any(|(o, other)| {
-            let (c, r2) = view_center(camera, other);
-            o as u32 != own && blocks_ray(c, r2, point, to_light)
-        })
+    impl Cluster {
+        /// Whether any sphere but `own` blocks the ray from `point` towards the light
+        /// (`to_light`, view coordinates).
+        pub(in crate::render) fn any_blocker(
+            &self,
+            to_light: DVec3,
+            (point, own): (DVec3, u32),
+        ) -> bool {
+            self.spheres.iter().enumerate().any(|(o, other)| {
+                let (c, r2) = view_center(&self.camera, other);
+                o as u32 != own && blocks_ray(c, r2, point, to_light)
+            })
+        }
     }
 
     /// The grid finds a blocker exactly when testing every sphere does (the packet code's
     /// test, which also cuts each cell at the point's height, is in `packet.rs`).
     #[test]
     fn the_grid_finds_every_blocker() {
-        let Cluster {
-            spheres,
-            camera,
-            lights,
-            points,
-        } = cluster();
-        for direction in lights {
-            let to_light = -direction.normalize();
-            let grid = ShadowGrid::build(&spheres, to_light);
-            let view_light = camera.basis.to_view(to_light);
-            let frame = FrameShadows::new(&grid, &camera, &spheres, None, view_light);
+        let c = cluster();
+        for light in &c.lights {
+            let frame = FrameShadows::new(&light.grid, &c.camera, &c.spheres, None, light.to_light);
             let mut blocked = 0;
-            for (k, &(point, own)) in points.iter().enumerate() {
-                let every = any_blocker(&spheres, &camera, view_light, (point, own));
+            for (k, &(point, own)) in c.points.iter().enumerate() {
+                let every = c.any_blocker(light.to_light, (point, own));
                 assert_eq!(
                     frame.occluded(point, own),
                     every,
-                    "point {k} on sphere {own}, light {direction}"
+                    "point {k} on sphere {own}, light {}",
+                    light.direction
                 );
                 blocked += every as usize;
             }
             // Neither answer is vacuous.
-            let lit = points.len() - blocked;
+            let lit = c.points.len() - blocked;
             assert!(blocked > 1000 && lit > 1000, "{blocked} blocked, {lit} lit");
         }
     }

@@ -116,6 +116,7 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
     // lasts well past the moment ffmpeg opens its output.
     let f = example(tmp.path(), "width: 320, height: 180");
     let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
+    assert!(text.contains("samples: 2"), "the example's sampling moved");
     std::fs::write(
         tmp.path().join(&f),
         text.replace("samples: 2", "samples: 1"),
