@@ -69,6 +69,27 @@ impl Bins {
         }
     }
 
+    /// Rewrites every cell's items with `edit`, given the cell (x, y) and its items: it may
+    /// reorder them and drop some, but not add any, so the cells are rewritten in place.
+    pub fn edit_cells(&mut self, mut edit: impl FnMut((usize, usize), &mut Vec<u32>)) {
+        let mut cell = Vec::new();
+        let (mut start, mut write) = (0, 0);
+        for k in 0..self.offsets.len() - 1 {
+            let end = self.offsets[k + 1] as usize;
+            cell.clear();
+            cell.extend_from_slice(&self.items[start..end]);
+            edit((k % self.width, k / self.width), &mut cell);
+            assert!(cell.len() <= end - start, "a cell gained items");
+            // Cells before this one only shrank, so the write never passes the read.
+            self.items[write..write + cell.len()].copy_from_slice(&cell);
+            self.offsets[k] = write as u32;
+            write += cell.len();
+            start = end;
+        }
+        *self.offsets.last_mut().expect("one offset past the cells") = write as u32;
+        self.items.truncate(write);
+    }
+
     /// The items of cell (x, y).
     #[inline]
     pub fn cell(&self, x: usize, y: usize) -> &[u32] {
@@ -101,5 +122,29 @@ mod tests {
         assert_eq!(bins.cell(0, 0), [1, 0]);
         assert_eq!(bins.cell(2, 1), [3, 1]);
         assert_eq!(bins.cell(1, 1), [1]);
+    }
+
+    #[test]
+    fn edited_cells_keep_their_own_items() {
+        // 2×2 cells: item 0 everywhere, item 1 in the top row, item 2 in cell (1, 1).
+        let rects = [Some((0, 1, 0, 1)), Some((0, 1, 0, 0)), Some((1, 1, 1, 1))];
+        let mut bins = Bins::build((2, 2), 3, |k| rects[k]);
+        let mut seen = Vec::new();
+        bins.edit_cells(|(x, y), items| {
+            seen.push((x, y));
+            // Cell (0, 0) drops item 0, cell (1, 0) drops item 1, cell (1, 1) reverses its
+            // items.
+            match (x, y) {
+                (0, 0) => items.retain(|&k| k != 0),
+                (1, 0) => items.retain(|&k| k != 1),
+                (1, 1) => items.reverse(),
+                _ => {}
+            }
+        });
+        assert_eq!(seen, [(0, 0), (1, 0), (0, 1), (1, 1)]);
+        assert_eq!(bins.cell(0, 0), [1]);
+        assert_eq!(bins.cell(1, 0), [0]);
+        assert_eq!(bins.cell(0, 1), [0]);
+        assert_eq!(bins.cell(1, 1), [2, 0]);
     }
 }

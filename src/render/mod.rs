@@ -293,7 +293,7 @@ impl Renderer {
                 }
             })
             .collect();
-        let bins = TileBins::build(&spheres, camera.cop_view, camera.window, raster);
+        let bins = TileBins::build(&spheres, &table, raster);
         let ctx = Shading {
             spheres: &spheres,
             lights: &lights,

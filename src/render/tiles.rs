@@ -6,7 +6,7 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::Bins;
-use super::{Raster, ViewSphere};
+use super::{Raster, RayTable, ViewSphere};
 
 /// Tile side in pixels.
 pub const TILE: usize = 16;
@@ -68,6 +68,158 @@ fn footprint(s: &ViewSphere, cop: DVec3, window: DVec2, raster: Raster) -> Footp
     }
 }
 
+/// A sphere without screen bounds whose outside the COP is in (a ground, seen from above it),
+/// placed tile by tile. A tile's rays (every sample of its pixels, from the ray table) lie
+/// between four planes through the COP, one per edge: the sphere is met by none of them when it
+/// lies wholly outside one plane, and no nearer than where the part of it inside a plane begins.
+/// Those bounds depend on a tile's column or row alone.
+struct Wide {
+    index: u32,
+    /// Centre − COP, its length, and the radius.
+    p: DVec3,
+    dist: f64,
+    radius: f64,
+    /// |p| − r: no ray meets the sphere nearer.
+    min_dist: f64,
+    /// Per tile column, then per tile row: the nearest the tiles' rays can meet the sphere, or
+    /// None when they cannot.
+    columns: Vec<Option<f64>>,
+    rows: Vec<Option<f64>>,
+}
+
+impl Wide {
+    fn new(index: u32, s: &ViewSphere, table: &RayTable, raster: Raster) -> Option<Wide> {
+        let p = -s.f;
+        let (d, r, dz) = (p.length(), s.radius, table.dz);
+        if !(d > r && d.is_finite() && dz > 0.0) {
+            return None;
+        }
+        // Rounding allowance: far above the error of a computed hit or plane distance.
+        let slack = 1e-9 * (d + r);
+        // The part of the sphere inside the plane with unit outward normal n (a half-space
+        // through the COP): None when the centre is further out than r; otherwise its nearest
+        // point, no nearer than √(d² − h²) − √(r² − h²) for the centre h outside (d − r when
+        // inside), which grows with h.
+        let inside = |n: DVec3| -> Option<f64> {
+            let h = n.normalize().dot(p);
+            if h > r + slack {
+                return None;
+            }
+            let h = (h - slack).clamp(0.0, r);
+            Some(((d - h) * (d + h)).sqrt() - ((r - h) * (r + h)).sqrt() - slack)
+        };
+        let s_ = raster.samples as usize;
+        let edges = |n: u32| {
+            (0..(n as usize).div_ceil(TILE))
+                .map(move |t| (t * TILE * s_, ((t + 1) * TILE).min(n as usize) * s_ - 1))
+        };
+        // A column's rays have x/z between its first and last samples' (xs grow); a row's
+        // have y/z between its last and first samples' (ys shrink).
+        let both = |a: Option<f64>, b: Option<f64>| Some(a?.max(b?));
+        let columns = edges(raster.width)
+            .map(|(i0, i1)| {
+                let (x0, x1) = (table.xs[i0], table.xs[i1]);
+                both(
+                    inside(DVec3::new(-dz, 0.0, x0)),
+                    inside(DVec3::new(dz, 0.0, -x1)),
+                )
+            })
+            .collect();
+        let rows = edges(raster.height)
+            .map(|(j0, j1)| {
+                let (y0, y1) = (table.ys[j0], table.ys[j1]);
+                both(
+                    inside(DVec3::new(0.0, dz, -y0)),
+                    inside(DVec3::new(0.0, -dz, y1)),
+                )
+            })
+            .collect();
+        Some(Wide {
+            index,
+            p,
+            dist: d,
+            radius: r,
+            min_dist: s.min_dist,
+            columns,
+            rows,
+        })
+    }
+
+    /// A lower bound on where a ray of tile (tx, ty) meets the sphere, or None when none can:
+    /// from the tile's column and row, then from its cone (made once a tile, in `cone`, for
+    /// the spheres that its column and row do not rule out).
+    fn nearest(
+        &self,
+        tx: usize,
+        ty: usize,
+        cone: &mut Option<Option<TileCone>>,
+        table: &RayTable,
+        raster: Raster,
+    ) -> Option<f64> {
+        let near = self.columns[tx]?.max(self.rows[ty]?).max(self.min_dist);
+        match cone.get_or_insert_with(|| TileCone::new(table, raster, tx, ty)) {
+            Some(cone) => Some(near.max(self.in_cone(cone)?)),
+            None => Some(near),
+        }
+    }
+
+    /// A lower bound on where a ray of `cone` meets the sphere, or None when none can: rays
+    /// meet it within the angle α (sin α = r/d) of its centre, and the nearer the further
+    /// they are from it. Each allowance is far above rounding, on the side of keeping it.
+    fn in_cone(&self, cone: &TileCone) -> Option<f64> {
+        let (d, r) = (self.dist, self.radius);
+        // The smallest angle φ between a ray of the cone and the centre: the angle γ to the
+        // axis less the half-angle β, as cos(γ − β), or 0 inside the cone.
+        let cos_g = (cone.axis.dot(self.p) / d).clamp(-1.0, 1.0);
+        let cos_b = cone.cos_half;
+        let cos_phi = if cos_g >= cos_b {
+            1.0
+        } else {
+            let sin = |c: f64| (1.0 - c * c).max(0.0).sqrt();
+            (cos_g * cos_b + sin(cos_g) * sin(cos_b) + 1e-12).min(1.0)
+        };
+        // Along a ray at angle φ, p·u = d·cos φ, and the sphere is met at
+        // t = p·u − √(r² − d² + (p·u)²), which shrinks as p·u grows.
+        let pu = d * cos_phi;
+        let disc = (r - d) * (r + d) + pu * pu;
+        if pu <= 0.0 || disc < -1e-12 * d * d {
+            return None;
+        }
+        Some(pu - disc.max(0.0).sqrt() - 1e-9 * (d + r))
+    }
+}
+
+/// The directions of a tile's rays (every sample of its pixels, from the ray table), within a
+/// cone: a unit axis and the cosine of the half-angle, widened past rounding.
+#[derive(Clone, Copy)]
+struct TileCone {
+    axis: DVec3,
+    cos_half: f64,
+}
+
+impl TileCone {
+    /// Tile (tx, ty)'s cone, or None when it is 90° wide or more (no bound then).
+    fn new(table: &RayTable, raster: Raster, tx: usize, ty: usize) -> Option<TileCone> {
+        let s = raster.samples as usize;
+        let last = |t: usize, n: u32| ((t + 1) * TILE).min(n as usize) * s - 1;
+        // Sample positions grow along xs and shrink along ys, so the tile's are between its
+        // first and last.
+        let xs = [table.xs[tx * TILE * s], table.xs[last(tx, raster.width)]];
+        let ys = [table.ys[ty * TILE * s], table.ys[last(ty, raster.height)]];
+        let corners = [
+            DVec3::new(xs[0], ys[0], table.dz).normalize(),
+            DVec3::new(xs[1], ys[0], table.dz).normalize(),
+            DVec3::new(xs[0], ys[1], table.dz).normalize(),
+            DVec3::new(xs[1], ys[1], table.dz).normalize(),
+        ];
+        let axis = (corners[0] + corners[1] + corners[2] + corners[3]).normalize();
+        // Directions through the tile's rectangle of the view plane make a convex set, so every
+        // one is within the largest angle to a corner.
+        let cos_half = corners.iter().map(|c| axis.dot(*c)).fold(1.0, f64::min) - 1e-12;
+        (cos_half > 0.0 && axis.is_finite()).then_some(TileCone { axis, cos_half })
+    }
+}
+
 /// Per-tile sphere lists, nearest possible hit first, and each sphere's pixel rectangle.
 pub struct TileBins {
     bins: Bins,
@@ -76,12 +228,22 @@ pub struct TileBins {
 }
 
 impl TileBins {
-    pub fn build(spheres: &[ViewSphere], cop: DVec3, window: DVec2, raster: Raster) -> TileBins {
+    pub fn build(spheres: &[ViewSphere], table: &RayTable, raster: Raster) -> TileBins {
+        let (cop, window) = (table.cop_view, table.window);
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
         let prints: Vec<Footprint> = spheres
             .iter()
             .map(|s| footprint(s, cop, window, raster))
+            .collect();
+        // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
+        // placed tile by tile, once the others are sorted: left out where no ray of the tile
+        // meets them, and ordered by the nearest hit a ray of the tile can have.
+        let mut wide: Vec<Wide> = spheres
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| prints[k] == Footprint::Everywhere)
+            .filter_map(|(k, s)| Wide::new(k as u32, s, table, raster))
             .collect();
         let mut bins = Bins::build((tiles_x, tiles_y), spheres.len(), |k| match prints[k] {
             Footprint::Culled => None,
@@ -93,12 +255,41 @@ impl TileBins {
         // Nearest possible hit first; ties by index, so the order is total and deterministic.
         // Sorted tile by tile: one sort of every sphere in view (binned in that order) costs
         // more once hundreds of thousands are in view, its reads scattered over all of them.
-        bins.sort_cells(|items| {
-            items.sort_unstable_by(|a, b| {
-                let (sa, sb) = (&spheres[*a as usize], &spheres[*b as usize]);
-                sa.min_dist.total_cmp(&sb.min_dist).then(a.cmp(b))
-            })
-        });
+        let key = |k: u32| (spheres[k as usize].min_dist, k);
+        let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        bins.sort_cells(|items| items.sort_unstable_by(|&a, &b| before(key(a), key(b))));
+        if !wide.is_empty() {
+            let mut keyed: Vec<(f64, u32)> = Vec::with_capacity(wide.len());
+            wide.sort_unstable_by_key(|w| w.index);
+            // They were binned into every tile; each tile's list is merged anew from its other
+            // spheres and the wide ones that its rays can meet, by their bounds there.
+            let mut is_wide = vec![false; spheres.len()];
+            for w in &wide {
+                is_wide[w.index as usize] = true;
+            }
+            let mut rest: Vec<u32> = Vec::new();
+            bins.edit_cells(|(tx, ty), items| {
+                keyed.clear();
+                let mut cone = None;
+                keyed.extend(
+                    wide.iter().filter_map(|w| {
+                        Some((w.nearest(tx, ty, &mut cone, table, raster)?, w.index))
+                    }),
+                );
+                keyed.sort_unstable_by(|&a, &b| before(a, b));
+                rest.clear();
+                rest.extend(items.iter().filter(|&&k| !is_wide[k as usize]));
+                items.clear();
+                let mut rest = &rest[..];
+                for &w in &keyed {
+                    let at = rest.partition_point(|&k| before(key(k), w).is_lt());
+                    items.extend_from_slice(&rest[..at]);
+                    items.push(w.1);
+                    rest = &rest[at..];
+                }
+                items.extend_from_slice(rest);
+            });
+        }
         let all = [0, raster.width - 1, 0, raster.height - 1];
         let rects = prints
             .iter()
@@ -130,7 +321,226 @@ impl TileBins {
 
 #[cfg(test)]
 mod tests {
+    use super::super::{nearest_positive_root, Shading};
     use super::*;
+    use crate::camera::{Basis, Camera};
+    use crate::scene::Sphere;
+
+    /// Every sample's nearest hit through its tile's list is the nearest of every sphere, with
+    /// a ground sphere (radius 10³ and 10⁵) placed tile by tile: left out of tiles above its
+    /// horizon, and after nearer spheres where its own hits are further. Cameras level, looking
+    /// down with a roll, grazing the ground with the COP off the axis, and looking up.
+    #[test]
+    fn tiles_find_the_nearest_hit_of_every_sample() {
+        let mut gen = crate::splitmix::SplitMix(11);
+        let mut spheres: Vec<Sphere> = (0..80)
+            .map(|_| {
+                let mut r = || gen.unit();
+                Sphere {
+                    center_world: DVec3::new(r() * 80.0 - 40.0, r() * 5.0, r() * 80.0 - 10.0),
+                    radius: 0.3 + r() * 2.0,
+                    color: DVec3::ONE,
+                }
+            })
+            .collect();
+        let cameras = [
+            (
+                DVec3::new(0.0, 2.0, -20.0),
+                DVec3::Z,
+                DVec3::Y,
+                DVec3::new(0.0, 0.0, -1.0),
+            ),
+            (
+                DVec3::new(-5.0, 8.0, -30.0),
+                DVec3::new(0.2, -0.4, 1.0),
+                DVec3::new(0.3, 1.0, 0.0),
+                DVec3::new(0.0, 0.0, -1.2),
+            ),
+            (
+                DVec3::new(3.0, 0.05, -25.0),
+                DVec3::new(-0.1, 0.0, 1.0),
+                DVec3::Y,
+                DVec3::new(0.4, 0.03, -0.9),
+            ),
+            (
+                DVec3::new(0.0, 1.0, -20.0),
+                DVec3::new(0.0, 1.0, 0.6),
+                DVec3::Y,
+                -DVec3::Z,
+            ),
+        ];
+        let (mut dropped, mut after) = (0, 0);
+        let (mut met, mut close) = (0, 0);
+        for radius in [1e3, 1e5] {
+            spheres.push(Sphere {
+                center_world: DVec3::new(0.0, -radius, 0.0),
+                radius,
+                color: DVec3::ONE,
+            });
+            let ground = spheres.len() as u32 - 1;
+            for &(vrp, vpn, vuv, cop) in &cameras {
+                let camera = Camera {
+                    vrp_world: vrp,
+                    basis: Basis::from_vpn_vuv(vpn, vuv).unwrap(),
+                    cop_view: cop,
+                    window: DVec2::new(1.6, 0.9),
+                };
+                let view: Vec<ViewSphere> = spheres
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
+                    .collect();
+                let shading = Shading {
+                    spheres: &view,
+                    lights: &[],
+                    ambient: 0.0,
+                    background: DVec3::ZERO,
+                };
+                for samples in [1, 3] {
+                    let raster = Raster {
+                        width: 96,
+                        height: 72,
+                        samples,
+                        adaptive: false,
+                    };
+                    let table = RayTable::new(cop, camera.window, raster, true);
+                    let bins = TileBins::build(&view, &table, raster);
+                    let wide = Wide::new(ground, &view[ground as usize], &table, raster);
+                    let g = &view[ground as usize];
+                    // Per tile, the ground's bound and its nearest hit by a sample.
+                    let mut bound = vec![(None, f64::INFINITY); 6 * 5];
+                    let mut scratch = [DVec3::ZERO; 9];
+                    for j in 0..72 {
+                        for i in 0..96 {
+                            let list = bins.at(i, j);
+                            let (tx, ty) = (i / TILE, j / TILE);
+                            let tile = &mut bound[ty * 6 + tx];
+                            // With the COP inside the ground, it is in every tile.
+                            tile.0 = match &wide {
+                                Some(w) => w.nearest(tx, ty, &mut None, &table, raster),
+                                None => Some(g.min_dist),
+                            };
+                            for d in table.pixel(i, j, &mut scratch) {
+                                if let Some(t) = nearest_positive_root(g.f, g.c, g.radius2, *d) {
+                                    tile.1 = tile.1.min(t);
+                                }
+                            }
+                            if i % TILE == 0 && j % TILE == 0 {
+                                match list.iter().position(|&k| k == ground) {
+                                    None => dropped += 1,
+                                    Some(at) => after += (at > 0) as usize,
+                                }
+                            }
+                            for d in table.pixel(i, j, &mut scratch) {
+                                let mut every: Option<(usize, f64)> = None;
+                                for (k, s) in view.iter().enumerate() {
+                                    let t = nearest_positive_root(s.f, s.c, s.radius2, *d);
+                                    if let Some(t) = t.filter(|&t| every.is_none_or(|b| t < b.1)) {
+                                        every = Some((k, t));
+                                    }
+                                }
+                                let fast = shading.nearest(*d, list);
+                                assert_eq!(fast, every, "ground {radius}, pixel ({i}, {j})");
+                            }
+                        }
+                    }
+                    // The bound is below every hit of the tile's samples, and not far below the
+                    // nearest.
+                    for &(near, t) in &bound {
+                        if t.is_finite() {
+                            let near = near.expect("a tile whose samples meet the ground keeps it");
+                            assert!(near <= t, "bound {near} above a hit at {t}");
+                            met += 1;
+                            close += (t - near < 0.1 * t) as usize;
+                        }
+                    }
+                }
+            }
+            spheres.pop();
+        }
+        // The placement was exercised: the ground left out of some tiles, and later than first
+        // in others.
+        assert!(
+            dropped > 20 && after > 20,
+            "dropped {dropped}, after {after}"
+        );
+        // Within 10% of the nearest hit in most tiles.
+        assert!(close * 4 > met * 3, "{close} of {met} tiles");
+    }
+
+    /// A sphere without screen bounds that a ray at a tile's edge or corner barely enters
+    /// (10⁻⁶ of its radius deep) stays in the tile's list, and the ray finds it: for every
+    /// tile, edge and corner, with one sample a pixel and 3×3, and the COP off the axis.
+    #[test]
+    fn a_grazing_hit_keeps_a_wide_sphere_in_its_tile() {
+        let (cop, window) = (DVec3::new(0.2, -0.1, -1.0), DVec2::new(1.6, 1.0));
+        let r = 1e4;
+        for samples in [1, 3] {
+            let raster = Raster {
+                width: 40,
+                height: 24,
+                samples,
+                adaptive: false,
+            };
+            let table = RayTable::new(cop, window, raster, true);
+            let s = samples as usize;
+            let mut scratch = [DVec3::ZERO; 9];
+            for (tx, ty) in (0..3).flat_map(|tx| (0..2).map(move |ty| (tx, ty))) {
+                let (i0, j0) = (tx * TILE, ty * TILE);
+                let (i1, j1) = (((tx + 1) * TILE).min(40) - 1, ((ty + 1) * TILE).min(24) - 1);
+                // The middle sample of each edge and each corner sample (samples are row-major
+                // in a pixel), and the way out of the tile there: columns grow along x, rows
+                // downwards.
+                let (mid_i, mid_j) = ((i0 + i1) / 2, (j0 + j1) / 2);
+                let edges = [
+                    ((i0, mid_j), s / 2 * s, -DVec3::X),
+                    ((i1, mid_j), s / 2 * s + s - 1, DVec3::X),
+                    ((mid_i, j0), s / 2, DVec3::Y),
+                    ((mid_i, j1), (s - 1) * s + s / 2, -DVec3::Y),
+                    ((i0, j0), 0, DVec3::new(-1.0, 1.0, 0.0)),
+                    ((i1, j0), s - 1, DVec3::new(1.0, 1.0, 0.0)),
+                    ((i0, j1), (s - 1) * s, DVec3::new(-1.0, -1.0, 0.0)),
+                    ((i1, j1), s * s - 1, DVec3::new(1.0, -1.0, 0.0)),
+                ];
+                for ((i, j), k, out) in edges {
+                    let d = table.pixel(i, j, &mut scratch)[k];
+                    let n = (out - d * d.dot(out)).normalize();
+                    let center = cop + d * 50.0 + n * (r * (1.0 - 1e-6));
+                    let f = cop - center;
+                    let sphere = ViewSphere {
+                        center,
+                        radius: r,
+                        radius2: r * r,
+                        f,
+                        c: f.length_squared() - r * r,
+                        min_dist: f.length() - r,
+                        color: DVec3::ONE,
+                        id: 0,
+                    };
+                    let view = [sphere];
+                    assert_eq!(
+                        footprint(&sphere, cop, window, raster),
+                        Footprint::Everywhere
+                    );
+                    let bins = TileBins::build(&view, &table, raster);
+                    let shading = Shading {
+                        spheres: &view,
+                        lights: &[],
+                        ambient: 0.0,
+                        background: DVec3::ZERO,
+                    };
+                    let t = nearest_positive_root(f, sphere.c, sphere.radius2, d);
+                    assert!(t.is_some(), "the ray meets the sphere");
+                    let found = shading.nearest(d, bins.at(i, j));
+                    assert_eq!(
+                        found,
+                        t.map(|t| (0, t)),
+                        "tile ({tx}, {ty}), pixel ({i}, {j})"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn tangent_slopes_touch_the_circle() {
