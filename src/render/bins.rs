@@ -69,21 +69,24 @@ impl Bins {
         }
     }
 
-    /// Rewrites every cell's items with `edit`, given the cell (x, y) and its items: it may
-    /// reorder them and drop some, but not add any, so the cells are rewritten in place.
-    pub fn edit_cells(&mut self, mut edit: impl FnMut((usize, usize), &mut Vec<u32>)) {
-        let mut cell = Vec::new();
+    /// Rewrites every cell's items in place with `edit`, given the cell (x, y) and its items:
+    /// it may reorder them and drop some, leaving the ones to keep first, and returns how many
+    /// it keeps.
+    pub fn edit_cells(&mut self, mut edit: impl FnMut((usize, usize), &mut [u32]) -> usize) {
         let (mut start, mut write) = (0, 0);
         for k in 0..self.offsets.len() - 1 {
             let end = self.offsets[k + 1] as usize;
-            cell.clear();
-            cell.extend_from_slice(&self.items[start..end]);
-            edit((k % self.width, k / self.width), &mut cell);
-            assert!(cell.len() <= end - start, "a cell gained items");
+            let kept = edit(
+                (k % self.width, k / self.width),
+                &mut self.items[start..end],
+            );
+            assert!(kept <= end - start, "a cell gained items");
             // Cells before this one only shrank, so the write never passes the read.
-            self.items[write..write + cell.len()].copy_from_slice(&cell);
+            if write != start {
+                self.items.copy_within(start..start + kept, write);
+            }
             self.offsets[k] = write as u32;
-            write += cell.len();
+            write += kept;
             start = end;
         }
         *self.offsets.last_mut().expect("one offset past the cells") = write as u32;
@@ -135,10 +138,17 @@ mod tests {
             // Cell (0, 0) drops item 0, cell (1, 0) drops item 1, cell (1, 1) reverses its
             // items.
             match (x, y) {
-                (0, 0) => items.retain(|&k| k != 0),
-                (1, 0) => items.retain(|&k| k != 1),
-                (1, 1) => items.reverse(),
-                _ => {}
+                (0, 0) | (1, 0) => {
+                    let drop = if x == 0 { 0 } else { 1 };
+                    let at = items.iter().position(|&k| k == drop).unwrap();
+                    items[at..].rotate_left(1);
+                    items.len() - 1
+                }
+                (1, 1) => {
+                    items.reverse();
+                    items.len()
+                }
+                _ => items.len(),
             }
         });
         assert_eq!(seen, [(0, 0), (1, 0), (0, 1), (1, 1)]);

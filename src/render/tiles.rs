@@ -267,7 +267,6 @@ impl TileBins {
             for w in &wide {
                 is_wide[w.index as usize] = true;
             }
-            let mut rest: Vec<u32> = Vec::new();
             bins.edit_cells(|(tx, ty), items| {
                 keyed.clear();
                 let mut cone = None;
@@ -277,17 +276,22 @@ impl TileBins {
                     }),
                 );
                 keyed.sort_unstable_by(|&a, &b| before(a, b));
-                rest.clear();
-                rest.extend(items.iter().filter(|&&k| !is_wide[k as usize]));
-                items.clear();
-                let mut rest = &rest[..];
-                for &w in &keyed {
-                    let at = rest.partition_point(|&k| before(key(k), w).is_lt());
-                    items.extend_from_slice(&rest[..at]);
-                    items.push(w.1);
-                    rest = &rest[at..];
+                // The others, in their order, to the front; then each wide sphere the tile
+                // keeps into its place among them (the slots the wide ones held make room).
+                let mut n = 0;
+                for i in 0..items.len() {
+                    if !is_wide[items[i] as usize] {
+                        items[n] = items[i];
+                        n += 1;
+                    }
                 }
-                items.extend_from_slice(rest);
+                for &w in &keyed {
+                    let at = items[..n].partition_point(|&k| before(key(k), w).is_lt());
+                    items.copy_within(at..n, at + 1);
+                    items[at] = w.1;
+                    n += 1;
+                }
+                n
             });
         }
         let all = [0, raster.width - 1, 0, raster.height - 1];
