@@ -534,8 +534,10 @@ impl Shading<'_> {
     /// `Shading::nearest` for two packets (directions `d`, `covers(k, packet)`) at once. Each
     /// packet does exactly what it would alone: it passes a sphere that does not cover it, and
     /// stops for good at the first one none of its lanes would test; a packet not `live` takes
-    /// no part. A lane takes part in a candidate exactly while the one-ray search would still be
-    /// running.
+    /// no part. A lane takes part in a candidate while the one-ray search would still be
+    /// running; it may also test a sphere that its tile placed by a bound of its own, below
+    /// spheres with a larger `min_dist` (a ground, `tiles.rs`), after the one-ray search has
+    /// stopped — a hit there is no nearer than that bound, so the answer is the same.
     #[inline(always)]
     fn nearest_packets<V: Lanes>(
         &self,

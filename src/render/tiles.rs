@@ -1,7 +1,8 @@
 //! Screen tiles: each tile lists the spheres whose projection can cover it, nearest first, so a
 //! primary ray tests only those and stops once no remaining sphere can be nearer than its hit.
-//! Spheres wholly behind the COP are culled; a sphere the COP's plane cuts (or the COP is inside)
-//! projects without bound and goes into every tile.
+//! Spheres wholly behind the COP are culled. A sphere the COP's plane cuts projects without
+//! bound: when the COP is inside it, it goes into every tile; when outside (a ground seen from
+//! above it), into the tiles whose rays can meet it, at the nearest hit they can have there.
 
 use glam::{DVec2, DVec3};
 
@@ -108,11 +109,7 @@ impl Wide {
             let h = (h - slack).clamp(0.0, r);
             Some(((d - h) * (d + h)).sqrt() - ((r - h) * (r + h)).sqrt() - slack)
         };
-        let s_ = raster.samples as usize;
-        let edges = |n: u32| {
-            (0..(n as usize).div_ceil(TILE))
-                .map(move |t| (t * TILE * s_, ((t + 1) * TILE).min(n as usize) * s_ - 1))
-        };
+        let edges = |n: u32| (0..(n as usize).div_ceil(TILE)).map(move |t| samples(t, n, raster));
         // A column's rays have x/z between its first and last samples' (xs grow); a row's
         // have y/z between its last and first samples' (ys shrink).
         let both = |a: Option<f64>, b: Option<f64>| Some(a?.max(b?));
@@ -179,14 +176,23 @@ impl Wide {
             (cos_g * cos_b + sin(cos_g) * sin(cos_b) + 1e-12).min(1.0)
         };
         // Along a ray at angle φ, p·u = d·cos φ, and the sphere is met at
-        // t = p·u − √(r² − d² + (p·u)²), which shrinks as p·u grows.
+        // t = p·u − √(r² − d² + (p·u)²), which shrinks as p·u grows. Near tangency a computed
+        // hit is only good to about √(10⁻¹⁶·d²) = 10⁻⁸·d (the rounding of the square root's
+        // argument), so the bound keeps √(10⁻¹² d²) = 10⁻⁶·d below the exact one there.
         let pu = d * cos_phi;
         let disc = (r - d) * (r + d) + pu * pu;
         if pu <= 0.0 || disc < -1e-12 * d * d {
             return None;
         }
-        Some(pu - disc.max(0.0).sqrt() - 1e-9 * (d + r))
+        Some(pu - (disc + 1e-12 * d * d).max(0.0).sqrt() - 1e-9 * (d + r))
     }
+}
+
+/// The first and last of the ray table's sample positions (in `xs` or `ys`) in tile column or
+/// row `t` of an image side of `n` pixels.
+fn samples(t: usize, n: u32, raster: Raster) -> (usize, usize) {
+    let s = raster.samples as usize;
+    (t * TILE * s, ((t + 1) * TILE).min(n as usize) * s - 1)
 }
 
 /// The directions of a tile's rays (every sample of its pixels, from the ray table), within a
@@ -200,12 +206,12 @@ struct TileCone {
 impl TileCone {
     /// Tile (tx, ty)'s cone, or None when it is 90° wide or more (no bound then).
     fn new(table: &RayTable, raster: Raster, tx: usize, ty: usize) -> Option<TileCone> {
-        let s = raster.samples as usize;
-        let last = |t: usize, n: u32| ((t + 1) * TILE).min(n as usize) * s - 1;
         // Sample positions grow along xs and shrink along ys, so the tile's are between its
         // first and last.
-        let xs = [table.xs[tx * TILE * s], table.xs[last(tx, raster.width)]];
-        let ys = [table.ys[ty * TILE * s], table.ys[last(ty, raster.height)]];
+        let (i0, i1) = samples(tx, raster.width, raster);
+        let (j0, j1) = samples(ty, raster.height, raster);
+        let xs = [table.xs[i0], table.xs[i1]];
+        let ys = [table.ys[j0], table.ys[j1]];
         let corners = [
             DVec3::new(xs[0], ys[0], table.dz).normalize(),
             DVec3::new(xs[1], ys[0], table.dz).normalize(),
@@ -239,7 +245,7 @@ impl TileBins {
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are sorted: left out where no ray of the tile
         // meets them, and ordered by the nearest hit a ray of the tile can have.
-        let mut wide: Vec<Wide> = spheres
+        let wide: Vec<Wide> = spheres
             .iter()
             .enumerate()
             .filter(|&(k, _)| prints[k] == Footprint::Everywhere)
@@ -260,7 +266,6 @@ impl TileBins {
         bins.sort_cells(|items| items.sort_unstable_by(|&a, &b| before(key(a), key(b))));
         if !wide.is_empty() {
             let mut keyed: Vec<(f64, u32)> = Vec::with_capacity(wide.len());
-            wide.sort_unstable_by_key(|w| w.index);
             // They were binned into every tile; each tile's list is merged anew from its other
             // spheres and the wide ones that its rays can meet, by their bounds there.
             let mut is_wide = vec![false; spheres.len()];
@@ -285,6 +290,9 @@ impl TileBins {
                         n += 1;
                     }
                 }
+                // A wide sphere already put back counts at its min_dist here, below its bound
+                // for the tile but not below an earlier one in `keyed`, so the order searched
+                // stays sorted.
                 for &w in &keyed {
                     let at = items[..n].partition_point(|&k| before(key(k), w).is_lt());
                     items.copy_within(at..n, at + 1);
@@ -420,10 +428,12 @@ mod tests {
                             let (tx, ty) = (i / TILE, j / TILE);
                             let tile = &mut bound[ty * 6 + tx];
                             // With the COP inside the ground, it is in every tile.
-                            tile.0 = match &wide {
-                                Some(w) => w.nearest(tx, ty, &mut None, &table, raster),
-                                None => Some(g.min_dist),
-                            };
+                            if i % TILE == 0 && j % TILE == 0 {
+                                tile.0 = match &wide {
+                                    Some(w) => w.nearest(tx, ty, &mut None, &table, raster),
+                                    None => Some(g.min_dist),
+                                };
+                            }
                             for d in table.pixel(i, j, &mut scratch) {
                                 if let Some(t) = nearest_positive_root(g.f, g.c, g.radius2, *d) {
                                     tile.1 = tile.1.min(t);
@@ -544,6 +554,74 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Near tangency a computed hit is only good to about 10⁻⁸ of the distance, and the bound
+    /// stays below it: a huge sphere (radius 10³ to 10⁷, the COP 10⁻⁶ to 10⁻¹⁵ of it above its
+    /// surface) that the ray of each tile's corner furthest from its cone's axis touches,
+    /// turned a rounding step at a time through tangency. Where the ray meets it, the tile
+    /// keeps it, no nearer than the hit.
+    #[test]
+    fn a_tangent_ray_is_never_nearer_than_its_tiles_bound() {
+        let cop = DVec3::new(0.0, 0.0, -1.0);
+        let mut hits = 0;
+        for (w, h, side) in [(32, 32, 2.0), (40, 24, 1.6)] {
+            let window = DVec2::new(side, side * h as f64 / w as f64);
+            let raster = Raster {
+                width: w,
+                height: h,
+                samples: 1,
+                adaptive: false,
+            };
+            let table = RayTable::new(cop, window, raster, true);
+            let mut scratch = [DVec3::ZERO; 1];
+            for tx in 0..(w as usize).div_ceil(TILE) {
+                for ty in 0..(h as usize).div_ceil(TILE) {
+                    let cone = TileCone::new(&table, raster, tx, ty).unwrap();
+                    let (i0, i1) = (tx * TILE, ((tx + 1) * TILE).min(w as usize) - 1);
+                    let (j0, j1) = (ty * TILE, ((ty + 1) * TILE).min(h as usize) - 1);
+                    let mut dir = |(i, j): (usize, usize)| table.pixel(i, j, &mut scratch)[0];
+                    let u = [(i0, j0), (i1, j0), (i0, j1), (i1, j1)]
+                        .map(&mut dir)
+                        .into_iter()
+                        .min_by(|a, b| a.dot(cone.axis).total_cmp(&b.dot(cone.axis)))
+                        .unwrap();
+                    // In the plane of the axis and u, at right angles to u, away from the axis.
+                    let away = (u * u.dot(cone.axis) - cone.axis).normalize();
+                    for r in [1e3_f64, 1e5, 1e7] {
+                        for above in [1e-6, 1e-9, 1e-12, 1e-15] {
+                            let d = r * (1.0 + above);
+                            let cos_a = (1.0 - (r / d) * (r / d)).max(0.0).sqrt();
+                            for step in -50..=50 {
+                                let ca = (cos_a + step as f64 * 2.5e-17 / cos_a).clamp(0.0, 1.0);
+                                let center = cop + (u * ca + away * (1.0 - ca * ca).sqrt()) * d;
+                                let f = cop - center;
+                                let sphere = ViewSphere {
+                                    center,
+                                    radius: r,
+                                    radius2: r * r,
+                                    f,
+                                    c: f.length_squared() - r * r,
+                                    min_dist: f.length() - r,
+                                    color: DVec3::ONE,
+                                    id: 0,
+                                };
+                                let Some(t) = nearest_positive_root(f, sphere.c, r * r, u) else {
+                                    continue;
+                                };
+                                hits += 1;
+                                let wide = Wide::new(0, &sphere, &table, raster).unwrap();
+                                let near = wide.nearest(tx, ty, &mut None, &table, raster);
+                                let near =
+                                    near.expect("a tile whose ray meets the sphere keeps it");
+                                assert!(near <= t, "r {r}, {above} above: bound {near} > hit {t}");
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits > 1000, "{hits} hits");
     }
 
     #[test]
