@@ -482,6 +482,21 @@ mod tests {
         assert!(close * 4 > met * 3, "{close} of {met} tiles");
     }
 
+    /// A sphere given in view coordinates, as `ViewSphere::new` makes it.
+    fn in_view(center: DVec3, r: f64, cop: DVec3) -> ViewSphere {
+        let f = cop - center;
+        ViewSphere {
+            center,
+            radius: r,
+            radius2: r * r,
+            f,
+            c: f.length_squared() - r * r,
+            min_dist: f.length() - r,
+            color: DVec3::ONE,
+            id: 0,
+        }
+    }
+
     /// A sphere without screen bounds that a ray at a tile's edge or corner barely enters
     /// (10⁻⁶ of its radius deep) stays in the tile's list, and the ray finds it: for every
     /// tile, edge and corner, with one sample a pixel and 3×3, and the COP off the axis.
@@ -519,18 +534,8 @@ mod tests {
                 for ((i, j), k, out) in edges {
                     let d = table.pixel(i, j, &mut scratch)[k];
                     let n = (out - d * d.dot(out)).normalize();
-                    let center = cop + d * 50.0 + n * (r * (1.0 - 1e-6));
-                    let f = cop - center;
-                    let sphere = ViewSphere {
-                        center,
-                        radius: r,
-                        radius2: r * r,
-                        f,
-                        c: f.length_squared() - r * r,
-                        min_dist: f.length() - r,
-                        color: DVec3::ONE,
-                        id: 0,
-                    };
+                    let sphere = in_view(cop + d * 50.0 + n * (r * (1.0 - 1e-6)), r, cop);
+                    let f = sphere.f;
                     let view = [sphere];
                     assert_eq!(
                         footprint(&sphere, cop, window, raster),
@@ -595,17 +600,8 @@ mod tests {
                             for step in -50..=50 {
                                 let ca = (cos_a + step as f64 * 2.5e-17 / cos_a).clamp(0.0, 1.0);
                                 let center = cop + (u * ca + away * (1.0 - ca * ca).sqrt()) * d;
-                                let f = cop - center;
-                                let sphere = ViewSphere {
-                                    center,
-                                    radius: r,
-                                    radius2: r * r,
-                                    f,
-                                    c: f.length_squared() - r * r,
-                                    min_dist: f.length() - r,
-                                    color: DVec3::ONE,
-                                    id: 0,
-                                };
+                                let sphere = in_view(center, r, cop);
+                                let f = sphere.f;
                                 let Some(t) = nearest_positive_root(f, sphere.c, r * r, u) else {
                                     continue;
                                 };
