@@ -268,10 +268,7 @@ impl TileBins {
             let mut keyed: Vec<(f64, u32)> = Vec::with_capacity(wide.len());
             // They were binned into every tile; each tile's list is merged anew from its other
             // spheres and the wide ones that its rays can meet, by their bounds there.
-            let mut is_wide = vec![false; spheres.len()];
-            for w in &wide {
-                is_wide[w.index as usize] = true;
-            }
+            let is_wide = |k: u32| wide.iter().any(|w| w.index == k);
             bins.edit_cells(|(tx, ty), items| {
                 keyed.clear();
                 let mut cone = None;
@@ -285,7 +282,7 @@ impl TileBins {
                 // keeps into its place among them (the slots the wide ones held make room).
                 let mut n = 0;
                 for i in 0..items.len() {
-                    if !is_wide[items[i] as usize] {
+                    if !is_wide(items[i]) {
                         items[n] = items[i];
                         n += 1;
                     }
@@ -402,12 +399,7 @@ mod tests {
                     .enumerate()
                     .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
                     .collect();
-                let shading = Shading {
-                    spheres: &view,
-                    lights: &[],
-                    ambient: 0.0,
-                    background: DVec3::ZERO,
-                };
+                let shading = unlit(&view);
                 for samples in [1, 3] {
                     let raster = Raster {
                         width: 96,
@@ -482,6 +474,16 @@ mod tests {
         assert!(close * 4 > met * 3, "{close} of {met} tiles");
     }
 
+    /// The primary-ray search over `spheres`, with no lights.
+    fn unlit(spheres: &[ViewSphere]) -> Shading<'_> {
+        Shading {
+            spheres,
+            lights: &[],
+            ambient: 0.0,
+            background: DVec3::ZERO,
+        }
+    }
+
     /// A sphere given in view coordinates, as `ViewSphere::new` makes it.
     fn in_view(center: DVec3, r: f64, cop: DVec3) -> ViewSphere {
         let f = cop - center;
@@ -542,12 +544,7 @@ mod tests {
                         Footprint::Everywhere
                     );
                     let bins = TileBins::build(&view, &table, raster);
-                    let shading = Shading {
-                        spheres: &view,
-                        lights: &[],
-                        ambient: 0.0,
-                        background: DVec3::ZERO,
-                    };
+                    let shading = unlit(&view);
                     let t = nearest_positive_root(f, sphere.c, sphere.radius2, d);
                     assert!(t.is_some(), "the ray meets the sphere");
                     let found = shading.nearest(d, bins.at(i, j));
