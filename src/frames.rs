@@ -9,9 +9,9 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::manifest::Shard;
-use crate::output::frame_hash;
+use crate::output::FrameHasher;
 use crate::render::key::{FrameKey, KeyBase};
-use crate::render::{Renderer, SceneIndex};
+use crate::render::{PreparedFrame, Renderer, SceneIndex};
 
 /// The frames a run covers: a range, optionally one shard of it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -84,50 +84,75 @@ pub fn keys(doc: &Document) -> impl Iterator<Item = Result<(u64, FrameKey)>> + '
         .map(move |item| item.map(|(frame, camera)| (frame, base.key(&camera))))
 }
 
-/// Renders the frames of `set` in order and calls `sink` with each frame's key and RGB8 pixels;
+/// Renders the frames of `set` in order and calls `sink` with each frame's key, RGB8 pixels
+/// and hash ([`crate::output::frame_hash`], computed row by row as the rows are rendered);
 /// frames for which `done` says true are passed over without rendering. A frame whose camera
 /// equals the previous rendered frame's is not rendered again.
 pub fn for_each_frame(
     doc: &Document,
     set: &FrameSet,
     mut done: impl FnMut(u64) -> bool,
-    mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>) -> Result<()>,
+    mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>, &str) -> Result<()>,
 ) -> Result<Timing> {
     let started = Instant::now();
     let base = KeyBase::new(&doc.scene, doc.raster);
     let mut renderer = Renderer::new();
     let index = SceneIndex::new(&doc.scene);
-    let mut previous: Option<(Camera, Arc<Vec<u8>>)> = None;
+    let end = set.range.end;
+    let mut wanted = doc
+        .cameras()
+        .take_while(|item| item.as_ref().map_or(true, |(frame, _)| *frame < end))
+        .filter(|item| {
+            item.as_ref()
+                .map_or(true, |&(frame, _)| set.contains(frame) && !done(frame))
+        })
+        .peekable();
+    let mut previous: Option<(Camera, Arc<Vec<u8>>, String)> = None;
+    // The next frame to render, prepared while the one before it rendered.
+    let mut prepared: Option<(Camera, PreparedFrame)> = None;
     let mut buffers = FrameBuffers::default();
     let mut timing = Timing::default();
-    for item in doc.cameras() {
+    while let Some(item) = wanted.next() {
         let (frame, camera) = item?;
-        if frame >= set.range.end {
-            break;
-        }
-        if !set.contains(frame) || done(frame) {
-            continue;
-        }
-        let pixels = match previous.take() {
-            Some((cam, pixels)) if cam == camera => {
+        let (pixels, hash) = match previous.take() {
+            Some((cam, pixels, hash)) if cam == camera => {
                 timing.held += 1;
-                pixels
+                (pixels, hash)
             }
-            _ => {
+            stale => {
+                // Let go of the previous frame first: once the consumer has too, its buffer is
+                // the one rendered into.
+                drop(stale);
                 let t = Instant::now();
+                let this = match prepared.take() {
+                    Some((cam, p)) if cam == camera => p,
+                    _ => renderer.prepare(&camera, &index, doc.raster),
+                };
+                // The next frame that is not this one again.
+                let next = match wanted.peek() {
+                    Some(Ok((_, cam))) if *cam != camera => Some(*cam),
+                    _ => None,
+                };
                 let mut pixels = buffers.take();
                 let buffer = Arc::get_mut(&mut pixels).expect("a taken buffer is not shared");
-                renderer.render_indexed_into(&camera, &index, doc.raster, buffer);
+                let mut hasher = FrameHasher::default();
+                let mut in_order = |row: &[u8]| hasher.update(row);
+                let ((), ahead) = rayon::join(
+                    || this.render_into(buffer, &mut in_order),
+                    || next.map(|cam| (cam, renderer.prepare(&cam, &index, doc.raster))),
+                );
+                prepared = ahead;
+                let hash = hasher.finish();
                 timing.render_secs.push(t.elapsed().as_secs_f64());
-                timing.max_in_view = timing.max_in_view.max(renderer.in_view());
+                timing.max_in_view = timing.max_in_view.max(this.in_view());
                 buffers.keep(&pixels);
-                pixels
+                (pixels, hash)
             }
         };
-        sink(frame, &base.key(&camera), &pixels)?;
+        sink(frame, &base.key(&camera), &pixels, &hash)?;
         timing.frames += 1;
         timing.first_frame_at.get_or_insert_with(Instant::now);
-        previous = Some((camera, pixels));
+        previous = Some((camera, pixels, hash));
     }
     timing.wall_secs = started.elapsed().as_secs_f64();
     Ok(timing)
@@ -142,8 +167,8 @@ struct FrameBuffers {
 }
 
 impl FrameBuffers {
-    /// More than a run holds at once: the frame being rendered, the previous one (held for a
-    /// repeated camera, and sent to the consumer), and the one the consumer is still on.
+    /// More than a run holds at once: the frame being rendered, the one sent to the consumer,
+    /// and the one the consumer is still on.
     const MOST: usize = 4;
 
     /// A buffer that no one else holds, or a new empty one. Its old bytes are all overwritten
@@ -168,28 +193,29 @@ impl FrameBuffers {
     }
 }
 
-/// [`for_each_frame`] with `consume` on a second thread, so a frame is written or hashed while
-/// the next one renders. At most one frame waits between them: memory stays flat in the number
-/// of frames. The first error of either side is returned.
+/// [`for_each_frame`] with `consume` on a second thread, so a frame is written while the next
+/// one renders. At most one frame waits between them: memory stays flat in the number of
+/// frames. The first error of either side is returned.
 pub fn stream_frames(
     doc: &Document,
     set: &FrameSet,
     done: impl FnMut(u64) -> bool,
-    mut consume: impl FnMut(u64, &FrameKey, &[u8]) -> Result<()> + Send,
+    mut consume: impl FnMut(u64, &FrameKey, &[u8], &str) -> Result<()> + Send,
 ) -> Result<Timing> {
     let started = Instant::now();
     std::thread::scope(|scope| {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<(u64, FrameKey, Arc<Vec<u8>>)>(1);
+        type Sent = (u64, FrameKey, Arc<Vec<u8>>, String);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Sent>(1);
         let consumer = scope.spawn(move || -> Result<()> {
-            for (frame, key, pixels) in rx {
-                consume(frame, &key, &pixels)?;
+            for (frame, key, pixels, hash) in rx {
+                consume(frame, &key, &pixels, &hash)?;
             }
             Ok(())
         });
-        let rendered = for_each_frame(doc, set, done, |frame, key, pixels| {
+        let rendered = for_each_frame(doc, set, done, |frame, key, pixels, hash| {
             // A failed send means the consumer stopped on an error: stop rendering too; the
             // consumer's error is the one reported.
-            tx.send((frame, key.clone(), Arc::clone(pixels)))
+            tx.send((frame, key.clone(), Arc::clone(pixels), hash.to_string()))
                 .map_err(|_| Error::Usage("the frame consumer stopped".into()))
         });
         drop(tx);
@@ -203,19 +229,19 @@ pub fn stream_frames(
     })
 }
 
-/// Renders `frames` and hashes each on its own thread while the next renders (SHA-256 is
-/// sequential within a frame); `each` sees every (frame, hash) in order, as it is ready, and
-/// may stop the run by returning an error.
+/// Renders `frames`, each hashed row by row as its rows are rendered (on the same threads, so
+/// hashing overlaps rendering and the frame is not read again); `each` sees every (frame, hash)
+/// in order, as it is ready, and may stop the run by returning an error.
 pub fn hash_frames(
     doc: &Document,
     frames: Range<u64>,
-    mut each: impl FnMut(u64, &str) -> Result<()> + Send,
+    mut each: impl FnMut(u64, &str) -> Result<()>,
 ) -> Result<Timing> {
-    stream_frames(
+    for_each_frame(
         doc,
         &FrameSet::all(frames),
         |_| false,
-        |frame, _, pixels| each(frame, &frame_hash(pixels)),
+        |frame, _, _, hash| each(frame, hash),
     )
 }
 
@@ -286,13 +312,12 @@ pub fn compare_each(
         doc,
         &FrameSet::all(0..end),
         |frame| !wanted.contains_key(&frame),
-        |frame, _, pixels| {
-            let hash = frame_hash(pixels);
-            if *wanted[&frame] != hash {
+        |frame, _, pixels, hash| {
+            if wanted[&frame] != hash {
                 let d = Difference {
                     frame,
                     expected: wanted[&frame].clone(),
-                    actual: Some(hash),
+                    actual: Some(hash.to_string()),
                 };
                 each(&d, pixels)?;
                 differ.push(d);
@@ -312,4 +337,56 @@ pub fn compare_each(
             }),
     );
     Ok(differ)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::frame_hash;
+    use std::path::Path;
+
+    /// Frames 0–2 share a camera, 3–5 move, 6–9 keep frame 5's.
+    const HOLDS: &str = "(frames: 10, fps: 10.0, image: (width: 40, height: 24),
+        camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),
+        animate: [Observer(keys: [(t: 0.0, value: (0.0, 0.0, -4.0)), (t: 0.2, value: (0.0, 0.0, -4.0)),
+            (t: 0.5, value: (1.5, 0.5, -4.0))], interpolation: Linear)],
+        scene: (lights: [(direction: (-0.5, -1.0, 0.7))], spheres: [
+            (center: (0.0, 0.0, 0.0), radius: 1.0), (center: (1.2, 0.3, -1.0), radius: 0.4)]))";
+
+    /// Each delivered frame, against the frame rendered on its own by a fresh renderer: frames
+    /// passed over, held frames and frames prepared while the one before rendered.
+    #[test]
+    fn every_frame_delivered_is_the_frame_rendered_alone() {
+        let doc = Document::from_str(Path::new("holds.ron"), HOLDS).unwrap();
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut seen = Vec::new();
+            let timing = pool
+                .install(|| {
+                    for_each_frame(
+                        &doc,
+                        &FrameSet::all(0..10),
+                        |frame| frame == 1 || frame == 4,
+                        |frame, _, pixels, hash| {
+                            seen.push((frame, pixels.to_vec(), hash.to_string()));
+                            Ok(())
+                        },
+                    )
+                })
+                .unwrap();
+            let frames: Vec<u64> = seen.iter().map(|s| s.0).collect();
+            assert_eq!(frames, [0, 2, 3, 5, 6, 7, 8, 9]);
+            // Frame 2 repeats frame 0, and 6–9 repeat 5; 5 was prepared while 3 rendered.
+            assert_eq!((timing.frames, timing.held), (8, 5));
+            for (frame, pixels, hash) in &seen {
+                let alone = render_frame(&doc, *frame).unwrap();
+                assert!(*pixels == alone, "frame {frame}, {threads} threads");
+                assert_eq!(*hash, frame_hash(&alone), "frame {frame}");
+            }
+            assert_ne!(seen[1].2, seen[2].2, "the camera moves from frame 2 to 3");
+        }
+    }
 }

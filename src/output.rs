@@ -12,7 +12,24 @@ use crate::manifest;
 
 /// Lower-case hex SHA-256 of raw RGB8 pixels.
 pub fn frame_hash(pixels: &[u8]) -> String {
-    format!("{:x}", Sha256::digest(pixels))
+    let mut h = FrameHasher::default();
+    h.update(pixels);
+    h.finish()
+}
+
+/// [`frame_hash`] fed a frame's bytes a piece at a time, in order (a row at a time as the
+/// rows are rendered).
+#[derive(Default)]
+pub struct FrameHasher(Sha256);
+
+impl FrameHasher {
+    pub fn update(&mut self, bytes: &[u8]) {
+        self.0.update(bytes);
+    }
+
+    pub fn finish(self) -> String {
+        format!("{:x}", self.0.finalize())
+    }
 }
 
 /// Digits of zero padding for frame numbers: enough for `frames − 1`, at least 4.

@@ -19,8 +19,7 @@ use crate::error::{Error, Result};
 use crate::frames::{keys, stream_frames, FrameSet, Timing};
 use crate::manifest::{self, Entry, Manifest, PartHeader};
 use crate::output::{
-    frame_hash, frame_of, frame_path, is_ours, pad_width, png_hash, write_atomic, write_png_atomic,
-    Compression,
+    frame_of, frame_path, is_ours, pad_width, png_hash, write_atomic, write_png_atomic, Compression,
 };
 
 /// Why frames of the run were rendered rather than kept.
@@ -280,7 +279,7 @@ pub fn render(
         doc,
         set,
         |frame| kept.contains(&frame),
-        |frame, key, pixels| {
+        |frame, key, pixels, hash| {
             write_png_atomic(
                 &frame_path(dir, frame, total),
                 pixels,
@@ -289,7 +288,7 @@ pub fn render(
             )?;
             let entry = Entry {
                 frame,
-                hash: frame_hash(pixels),
+                hash: hash.to_string(),
                 key: Some(key.clone()),
             };
             writeln!(file, "{entry}").map_err(Error::write(&manifest_path))?;

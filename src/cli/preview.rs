@@ -85,7 +85,7 @@ pub fn write(
         &small,
         &FrameSet::all(0..frames),
         |frame| !gif && !sheet_at.contains(&frame),
-        |frame, _, pixels| {
+        |frame, _, pixels, _| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = (
                     slot as u32 % COLUMNS * (w + GAP),

@@ -10,7 +10,7 @@
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use crate::camera::{window_point, Camera};
 pub use crate::raster::Raster;
@@ -21,6 +21,7 @@ mod bins;
 pub mod key;
 mod lanes;
 mod packet;
+mod rows;
 mod shadows;
 mod tiles;
 mod world;
@@ -29,6 +30,7 @@ pub use packet::Simd;
 use packet::{RowJob, LANES};
 pub use world::SceneIndex;
 
+use rows::rows_in_order;
 use shadows::FrameShadows;
 use tiles::TileBins;
 
@@ -186,10 +188,8 @@ struct ViewLight<'a> {
 
 /// Renders frames, keeping the ray table between frames.
 pub struct Renderer {
-    table: Option<RayTable>,
+    table: Option<Arc<RayTable>>,
     simd: Simd,
-    /// Spheres inside the view pyramid in the last frame.
-    in_view: usize,
 }
 
 impl Default for Renderer {
@@ -204,7 +204,6 @@ impl Renderer {
         Renderer {
             table: None,
             simd: Simd::detect(),
-            in_view: 0,
         }
     }
 
@@ -222,12 +221,6 @@ impl Renderer {
         self.simd
     }
 
-    /// How many spheres the last frame had inside its view pyramid (the rest were culled by the
-    /// scene's hierarchy without being moved into view coordinates).
-    pub fn in_view(&self) -> usize {
-        self.in_view
-    }
-
     /// Renders one frame to RGB8, row-major, top row first. Each row is rendered by one task into
     /// its own slice, so the bytes do not depend on the thread count.
     pub fn render(&mut self, camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
@@ -243,36 +236,56 @@ impl Renderer {
         raster: Raster,
     ) -> Vec<u8> {
         let mut pixels = Vec::new();
-        self.render_indexed_into(camera, index, raster, &mut pixels);
+        self.render_indexed_into(camera, index, raster, &mut pixels, &mut |_| {});
         pixels
     }
 
     /// [`Renderer::render_indexed`] into `pixels`, every byte of which is written, whatever it
     /// held: a frame buffer can be reused without the cost of fresh zeroed pages. A buffer of
-    /// another length is replaced by a fresh one.
+    /// another length is replaced by a fresh one. `in_order` sees the frame's rows once each, in
+    /// order, as they are finished.
     pub fn render_indexed_into(
         &mut self,
         camera: &Camera,
         index: &SceneIndex,
         raster: Raster,
         pixels: &mut Vec<u8>,
+        in_order: &mut (dyn FnMut(&[u8]) + Send),
     ) {
+        self.prepare(camera, index, raster)
+            .render_into(pixels, in_order);
+    }
+
+    /// Everything frame `camera` needs before its rays: the spheres in view moved into view
+    /// coordinates, the lights' shadow work, the tile lists. A run prepares the next frame
+    /// while this one's rows render.
+    pub fn prepare<'a>(
+        &mut self,
+        camera: &Camera,
+        index: &'a SceneIndex,
+        raster: Raster,
+    ) -> PreparedFrame<'a> {
         let scene = index.scene;
         // Every path but `Scalar` casts in packets, whatever the sampling.
         let packets = self.simd != Simd::Scalar;
-        let table = match self.table.take() {
-            Some(t) if t.fits(camera.cop_view, camera.window, raster) => t,
-            _ => RayTable::new(camera.cop_view, camera.window, raster, !packets),
+        let table = match &self.table {
+            Some(t) if t.fits(camera.cop_view, camera.window, raster) => Arc::clone(t),
+            _ => Arc::new(RayTable::new(
+                camera.cop_view,
+                camera.window,
+                raster,
+                !packets,
+            )),
         };
+        self.table = Some(Arc::clone(&table));
         let spheres: Vec<ViewSphere> = index
             .visible(camera)
             .into_iter()
             .map(|k| ViewSphere::new(camera, &scene.spheres[k as usize], k))
             .collect();
-        self.in_view = spheres.len();
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
-        let centers: Option<Vec<(DVec3, f64)>> =
+        let centers: Option<Arc<[(DVec3, f64)]>> =
             (shadowed && scene.spheres.len() <= shadows::ALL_CENTERS).then(|| {
                 let center = |s| shadows::view_center(camera, s);
                 scene.spheres.iter().map(center).collect()
@@ -287,20 +300,55 @@ impl Renderer {
                     to_light,
                     color: l.color,
                     shadows: grid.as_ref().map(|g| {
-                        let all = centers.as_deref();
+                        let all = centers.clone();
                         FrameShadows::new(g, camera, &scene.spheres, all, to_light)
                     }),
                 }
             })
             .collect();
         let bins = TileBins::build(&spheres, &table, raster);
-        let ctx = Shading {
-            spheres: &spheres,
-            lights: &lights,
+        PreparedFrame {
+            simd: self.simd,
+            raster,
+            table,
+            spheres,
+            lights,
+            bins,
             ambient: scene.ambient,
             background: scene.background,
-        };
+        }
+    }
+}
 
+/// A frame made ready for its rays by [`Renderer::prepare`].
+pub struct PreparedFrame<'a> {
+    simd: Simd,
+    raster: Raster,
+    table: Arc<RayTable>,
+    spheres: Vec<ViewSphere>,
+    lights: Vec<ViewLight<'a>>,
+    bins: TileBins,
+    ambient: f64,
+    background: DVec3,
+}
+
+impl PreparedFrame<'_> {
+    /// How many spheres the frame has inside its view pyramid (the rest were culled by the
+    /// scene's hierarchy without being moved into view coordinates).
+    pub fn in_view(&self) -> usize {
+        self.spheres.len()
+    }
+
+    /// Renders the frame into `pixels` (see [`Renderer::render_indexed_into`]), each row by one
+    /// task into its own slice, so the bytes do not depend on the thread count.
+    pub fn render_into(&self, pixels: &mut Vec<u8>, in_order: &mut (dyn FnMut(&[u8]) + Send)) {
+        let (raster, table, bins) = (self.raster, &*self.table, &self.bins);
+        let ctx = Shading {
+            spheres: &self.spheres,
+            lights: &self.lights,
+            ambient: self.ambient,
+            background: self.background,
+        };
         let s2 = (raster.samples * raster.samples) as usize;
         let adaptive = raster.adaptive && raster.samples >= 2;
         let width = raster.width as usize;
@@ -310,30 +358,27 @@ impl Renderer {
             *pixels = vec![0u8; raster.frame_bytes()];
         }
         let encode = srgb_encoder();
-        if packets {
+        if self.simd != Simd::Scalar {
             let job = RowJob {
                 ctx: &ctx,
-                table: &table,
-                bins: &bins,
+                table,
+                bins,
                 encode,
-                background: [scene.background.to_array().map(|c| encode.encode(c)); LANES]
+                background: [self.background.to_array().map(|c| encode.encode(c)); LANES]
                     .concat()
                     .try_into()
                     .expect("LANES pixels"),
                 samples: raster.samples as usize,
-                adaptive: raster.adaptive && raster.samples >= 2,
+                adaptive,
             };
-            pixels
-                .par_chunks_mut(width * 3)
-                .enumerate()
-                .for_each(|(j, row)| job.row(self.simd, j, row));
-            self.table = Some(table);
+            let simd = self.simd;
+            rows_in_order(pixels, width * 3, |j, row| job.row(simd, j, row), in_order);
             return;
         }
-        pixels
-            .par_chunks_mut(width * 3)
-            .enumerate()
-            .for_each(|(j, row)| {
+        rows_in_order(
+            pixels,
+            width * 3,
+            |j, row| {
                 let mut scratch = [DVec3::ZERO; (MAX_SAMPLES * MAX_SAMPLES) as usize];
                 for (i, px) in row.chunks_exact_mut(3).enumerate() {
                     let samples = table.pixel(i, j, &mut scratch);
@@ -351,8 +396,9 @@ impl Renderer {
                     px[1] = encode.encode(c.y);
                     px[2] = encode.encode(c.z);
                 }
-            });
-        self.table = Some(table);
+            },
+            in_order,
+        );
     }
 }
 
@@ -785,8 +831,11 @@ mod tests {
                 let mut r = Renderer::with_simd(simd).unwrap();
                 let fresh = r.render_indexed(&camera, &index, raster);
                 for mut buffer in [vec![0xa5; fresh.len()], vec![0xa5; 5], Vec::new()] {
-                    r.render_indexed_into(&camera, &index, raster, &mut buffer);
+                    let mut seen = Vec::new();
+                    let mut in_order = |row: &[u8]| seen.extend_from_slice(row);
+                    r.render_indexed_into(&camera, &index, raster, &mut buffer, &mut in_order);
                     assert!(buffer == fresh, "{} {raster:?}", simd.name());
+                    assert!(seen == fresh, "{} {raster:?}", simd.name());
                 }
             }
         }

@@ -965,7 +965,7 @@ mod tests {
     #[test]
     fn shadow_packets_find_every_blocker() {
         let c = cluster();
-        let centers: Vec<_> = c
+        let centers: std::sync::Arc<[_]> = c
             .spheres
             .iter()
             .map(|s| view_center(&c.camera, s))
@@ -974,7 +974,7 @@ mod tests {
         // (lanes on different spheres, cells far apart).
         let picked = [1, 7].map(|n| c.points.iter().step_by(n).copied().collect::<Vec<_>>());
         for light in &c.lights {
-            for all in [None, Some(&centers[..])] {
+            for all in [None, Some(centers.clone())] {
                 let frame =
                     FrameShadows::new(&light.grid, &c.camera, &c.spheres, all, light.to_light);
                 for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {

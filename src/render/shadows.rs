@@ -10,6 +10,8 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::{Bins, CellRect};
+use std::sync::Arc;
+
 use crate::camera::Camera;
 use crate::scene::Sphere;
 
@@ -137,7 +139,7 @@ impl ShadowGrid {
 /// and its always-tested spheres in view coordinates.
 pub struct FrameShadows<'a> {
     pub(super) grid: &'a ShadowGrid,
-    camera: &'a Camera,
+    camera: Camera,
     spheres: &'a [Sphere],
     /// Unit vector towards the light, view coordinates.
     pub(super) to_light: DVec3,
@@ -145,7 +147,7 @@ pub struct FrameShadows<'a> {
     pub(super) always: Vec<(u32, DVec3, f64)>,
     /// Every sphere's centre in view coordinates and r², when the frame computed them all
     /// (small scenes); otherwise each blocker is moved into view coordinates when tested.
-    centers: Option<&'a [(DVec3, f64)]>,
+    centers: Option<Arc<[(DVec3, f64)]>>,
     /// The grid's projection from view coordinates: a point p falls at
     /// (p·axes.0 + offset.x, p·axes.1 + offset.y) on the grid's plane, relative to its origin.
     pub(super) axes: (DVec3, DVec3),
@@ -174,14 +176,14 @@ pub fn view_center(camera: &Camera, s: &Sphere) -> (DVec3, f64) {
 impl<'a> FrameShadows<'a> {
     pub fn new(
         grid: &'a ShadowGrid,
-        camera: &'a Camera,
+        camera: &Camera,
         spheres: &'a [Sphere],
-        centers: Option<&'a [(DVec3, f64)]>,
+        centers: Option<Arc<[(DVec3, f64)]>>,
         to_light: DVec3,
     ) -> FrameShadows<'a> {
         let mut shadows = FrameShadows {
             grid,
-            camera,
+            camera: *camera,
             spheres,
             to_light,
             always: Vec::new(),
@@ -205,9 +207,9 @@ impl<'a> FrameShadows<'a> {
     /// Sphere k with its centre in view coordinates and r² ([`view_center`]).
     #[inline(always)]
     pub(super) fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
-        let (c, r2) = match self.centers {
+        let (c, r2) = match &self.centers {
             Some(all) => all[k as usize],
-            None => view_center(self.camera, &self.spheres[k as usize]),
+            None => view_center(&self.camera, &self.spheres[k as usize]),
         };
         (k, c, r2)
     }

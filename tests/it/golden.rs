@@ -29,8 +29,10 @@ fn hashes(name: &str, one_sample: bool) -> String {
             &doc,
             &FrameSet::all(k..k + 1),
             |_| false,
-            |frame, _, pixels| {
-                out += &format!("{frame} {}\n", frame_hash(pixels));
+            |frame, _, pixels, hash| {
+                // The hash streamed row by row is the hash of the finished frame.
+                assert_eq!(hash, frame_hash(pixels), "frame {frame}");
+                out += &format!("{frame} {hash}\n");
                 Ok(())
             },
         )
