@@ -91,8 +91,33 @@ pub fn keys(doc: &Document) -> impl Iterator<Item = Result<(u64, FrameKey)>> + '
 pub fn for_each_frame(
     doc: &Document,
     set: &FrameSet,
-    mut done: impl FnMut(u64) -> bool,
+    done: impl FnMut(u64) -> bool,
     mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>, &str) -> Result<()>,
+) -> Result<Timing> {
+    run(doc, set, done, Keep::Frames, |frame, key, pixels, hash| {
+        sink(frame, key, pixels.expect("frames kept"), hash)
+    })
+}
+
+/// What a run keeps of a frame's pixels.
+#[derive(Clone, Copy, PartialEq)]
+enum Keep {
+    /// The whole frame, for the sink.
+    Frames,
+    /// Only the rows being rendered and hashed (a ring of [`crate::render::RING_ROWS`]).
+    Hashes,
+}
+
+/// A frame's pixels (if kept) and hash.
+type Delivered = (Option<Arc<Vec<u8>>>, String);
+
+/// [`for_each_frame`], with the pixels handed to `sink` only if `keep` says so.
+fn run(
+    doc: &Document,
+    set: &FrameSet,
+    mut done: impl FnMut(u64) -> bool,
+    keep: Keep,
+    mut sink: impl FnMut(u64, &FrameKey, Option<&Arc<Vec<u8>>>, &str) -> Result<()>,
 ) -> Result<Timing> {
     let started = Instant::now();
     let base = KeyBase::new(&doc.scene, doc.raster);
@@ -107,17 +132,19 @@ pub fn for_each_frame(
                 .map_or(true, |&(frame, _)| set.contains(frame) && !done(frame))
         })
         .peekable();
-    let mut previous: Option<(Camera, Arc<Vec<u8>>, String)> = None;
+    // The last frame delivered, sent again while the camera stays the same.
+    let mut previous: Option<(Camera, Delivered)> = None;
     // The next frame to render, prepared while the one before it rendered.
     let mut prepared: Option<(Camera, PreparedFrame)> = None;
     let mut buffers = FrameBuffers::default();
+    let mut ring = Vec::new();
     let mut timing = Timing::default();
     while let Some(item) = wanted.next() {
         let (frame, camera) = item?;
         let (pixels, hash) = match previous.take() {
-            Some((cam, pixels, hash)) if cam == camera => {
+            Some((cam, delivered)) if cam == camera => {
                 timing.held += 1;
-                (pixels, hash)
+                delivered
             }
             stale => {
                 // Let go of the previous frame first: once the consumer has too, its buffer is
@@ -133,26 +160,33 @@ pub fn for_each_frame(
                     Some(Ok((_, cam))) if *cam != camera => Some(*cam),
                     _ => None,
                 };
-                let mut pixels = buffers.take();
-                let buffer = Arc::get_mut(&mut pixels).expect("a taken buffer is not shared");
+                let mut pixels = (keep == Keep::Frames).then(|| buffers.take());
                 let mut hasher = FrameHasher::default();
                 let mut in_order = |row: &[u8]| hasher.update(row);
                 let ((), ahead) = rayon::join(
-                    || this.render_into(buffer, &mut in_order),
+                    || match pixels.as_mut() {
+                        Some(p) => {
+                            let buffer = Arc::get_mut(p).expect("a taken buffer is not shared");
+                            this.render_into(buffer, &mut in_order)
+                        }
+                        None => this.render_through(&mut ring, &mut in_order),
+                    },
                     || next.map(|cam| (cam, renderer.prepare(&cam, &index, doc.raster))),
                 );
                 prepared = ahead;
                 let hash = hasher.finish();
                 timing.render_secs.push(t.elapsed().as_secs_f64());
                 timing.max_in_view = timing.max_in_view.max(this.in_view());
-                buffers.keep(&pixels);
+                if let Some(p) = &pixels {
+                    buffers.keep(p);
+                }
                 (pixels, hash)
             }
         };
-        sink(frame, &base.key(&camera), &pixels, &hash)?;
+        sink(frame, &base.key(&camera), pixels.as_ref(), &hash)?;
         timing.frames += 1;
         timing.first_frame_at.get_or_insert_with(Instant::now);
-        previous = Some((camera, pixels, hash));
+        previous = Some((camera, (pixels, hash)));
     }
     timing.wall_secs = started.elapsed().as_secs_f64();
     Ok(timing)
@@ -230,17 +264,19 @@ pub fn stream_frames(
 }
 
 /// Renders `frames`, each hashed row by row as its rows are rendered (on the same threads, so
-/// hashing overlaps rendering and the frame is not read again); `each` sees every (frame, hash)
-/// in order, as it is ready, and may stop the run by returning an error.
+/// hashing overlaps rendering), through a ring of rows rather than a whole frame; `each` sees
+/// every (frame, hash) in order, as it is ready, and may stop the run by returning an error.
 pub fn hash_frames(
     doc: &Document,
     frames: Range<u64>,
     mut each: impl FnMut(u64, &str) -> Result<()>,
 ) -> Result<Timing> {
-    for_each_frame(
+    let set = FrameSet::all(frames);
+    run(
         doc,
-        &FrameSet::all(frames),
+        &set,
         |_| false,
+        Keep::Hashes,
         |frame, _, _, hash| each(frame, hash),
     )
 }
@@ -345,8 +381,8 @@ mod tests {
     use crate::output::frame_hash;
     use std::path::Path;
 
-    /// Frames 0–2 share a camera, 3–5 move, 6–9 keep frame 5's.
-    const HOLDS: &str = "(frames: 10, fps: 10.0, image: (width: 40, height: 24),
+    /// Frames 0–2 share a camera, 3–5 move, 6–9 keep frame 5's. Taller than the ring of rows.
+    const HOLDS: &str = "(frames: 10, fps: 10.0, image: (width: 40, height: 150),
         camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),
         animate: [Observer(keys: [(t: 0.0, value: (0.0, 0.0, -4.0)), (t: 0.2, value: (0.0, 0.0, -4.0)),
             (t: 0.5, value: (1.5, 0.5, -4.0))], interpolation: Linear)],
@@ -387,6 +423,13 @@ mod tests {
                 assert_eq!(*hash, frame_hash(&alone), "frame {frame}");
             }
             assert_ne!(seen[1].2, seen[2].2, "the camera moves from frame 2 to 3");
+            // Hash-only, through a ring of rows (150 rows go round a ring of 64 twice): the
+            // same hashes, for every frame.
+            let hashes = pool.install(|| hashes(&doc, 0..10)).unwrap();
+            for (frame, hash) in hashes {
+                let alone = render_frame(&doc, frame).unwrap();
+                assert_eq!(hash, frame_hash(&alone), "frame {frame}, {threads} threads");
+            }
         }
     }
 }

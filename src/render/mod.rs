@@ -320,6 +320,10 @@ impl Renderer {
     }
 }
 
+/// Rows in the ring of [`PreparedFrame::render_through`]: enough that rendering seldom waits
+/// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide).
+pub const RING_ROWS: usize = 64;
+
 /// A frame made ready for its rays by [`Renderer::prepare`].
 pub struct PreparedFrame<'a> {
     simd: Simd,
@@ -342,7 +346,30 @@ impl PreparedFrame<'_> {
     /// Renders the frame into `pixels` (see [`Renderer::render_indexed_into`]), each row by one
     /// task into its own slice, so the bytes do not depend on the thread count.
     pub fn render_into(&self, pixels: &mut Vec<u8>, in_order: &mut (dyn FnMut(&[u8]) + Send)) {
+        if pixels.len() != self.raster.frame_bytes() {
+            // Fresh zeroed pages (calloc), faulted in by the threads that write the rows, not
+            // zeroed here on one thread first.
+            *pixels = vec![0u8; self.raster.frame_bytes()];
+        }
+        self.render_rows(pixels, in_order);
+    }
+
+    /// Renders the frame's rows through `ring`, a buffer of at most [`RING_ROWS`] rows reused
+    /// from row to row, for a consumer that needs each row only once, in order (`in_order`):
+    /// the frame's pixels are never all in memory at once.
+    pub fn render_through(&self, ring: &mut Vec<u8>, in_order: &mut (dyn FnMut(&[u8]) + Send)) {
+        let row_bytes = self.raster.width as usize * 3;
+        let bytes = RING_ROWS.min(self.raster.height as usize) * row_bytes;
+        if ring.len() != bytes {
+            *ring = vec![0u8; bytes];
+        }
+        self.render_rows(ring, in_order);
+    }
+
+    /// Every row, into `buffer` (the frame, or a ring of whole rows).
+    fn render_rows(&self, buffer: &mut [u8], in_order: &mut (dyn FnMut(&[u8]) + Send)) {
         let (raster, table, bins) = (self.raster, &*self.table, &self.bins);
+        let rows = raster.height as usize;
         let ctx = Shading {
             spheres: &self.spheres,
             lights: &self.lights,
@@ -352,11 +379,6 @@ impl PreparedFrame<'_> {
         let s2 = (raster.samples * raster.samples) as usize;
         let adaptive = raster.adaptive && raster.samples >= 2;
         let width = raster.width as usize;
-        if pixels.len() != raster.frame_bytes() {
-            // Fresh zeroed pages (calloc), faulted in by the threads that write the rows, not
-            // zeroed here on one thread first.
-            *pixels = vec![0u8; raster.frame_bytes()];
-        }
         let encode = srgb_encoder();
         if self.simd != Simd::Scalar {
             let job = RowJob {
@@ -372,13 +394,15 @@ impl PreparedFrame<'_> {
                 adaptive,
             };
             let simd = self.simd;
-            rows_in_order(pixels, width * 3, |j, row| job.row(simd, j, row), in_order);
+            let render = |j, row: &mut [u8]| job.row(simd, j, row);
+            rows_in_order(buffer, width * 3, rows, render, in_order);
             return;
         }
         rows_in_order(
-            pixels,
+            buffer,
             width * 3,
-            |j, row| {
+            rows,
+            |j, row: &mut [u8]| {
                 let mut scratch = [DVec3::ZERO; (MAX_SAMPLES * MAX_SAMPLES) as usize];
                 for (i, px) in row.chunks_exact_mut(3).enumerate() {
                     let samples = table.pixel(i, j, &mut scratch);

@@ -6,6 +6,11 @@
 //! threads: a frame costs its rendering and its hashing spread over the cores, not their sum
 //! on one of them, and the frame is never read again from memory after it is rendered.
 //!
+//! The rows go into a buffer of whole rows: the frame, or a ring of fewer rows (row j in slot
+//! j mod the slot count), which a run that only hashes its frames uses so as not to touch a
+//! frame's worth of memory. A row is rendered into its slot only once the row that held the
+//! slot before has been handed on; a thread waiting for that hands rows on itself.
+//!
 //! Which thread hands a row on, and when, varies from run to run; what is handed on does not.
 //! Every row is handed on exactly once, in row order, before [`rows_in_order`] returns.
 
@@ -14,10 +19,10 @@ use std::sync::{Mutex, PoisonError, TryLockError};
 
 use rayon::prelude::*;
 
-/// One row of the frame: its bytes, and whether they are final.
-struct Row<'p> {
+/// One slot of the buffer: its bytes, and which row they hold finished (row + 1; 0 for none).
+struct Slot<'p> {
     bytes: Mutex<&'p mut [u8]>,
-    done: AtomicBool,
+    done: AtomicUsize,
 }
 
 /// The consumer and the first row it has not seen.
@@ -26,68 +31,133 @@ struct Prefix<'s> {
     in_order: &'s mut (dyn FnMut(&[u8]) + Send),
 }
 
-/// Renders every row of `pixels` (rows of `row_bytes`) with `render(j, row)` on the rayon pool,
-/// and passes each finished row to `in_order` once, in row order, as the finished prefix grows.
-/// `in_order` runs on one thread at a time.
+/// The shared state of one frame's rows.
+struct Rows<'p, 's> {
+    slots: Vec<Slot<'p>>,
+    rows: usize,
+    prefix: Mutex<Prefix<'s>>,
+    /// Rows handed on so far (the prefix's `next`, readable without its lock).
+    handed: AtomicUsize,
+    /// A row's rendering panicked: the rows after it will never be handed on, so no thread
+    /// waits for them (the panic reaches the caller through the pool).
+    panicked: AtomicBool,
+}
+
+/// Marks the rows' state panicked if dropped while its thread unwinds.
+struct PanicGuard<'a>(&'a AtomicBool);
+
+impl Drop for PanicGuard<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Renders rows 0..`rows` (of `row_bytes` each) with `render(j, row)` on the rayon pool into
+/// `buffer`, which holds the frame or a ring of fewer rows, and passes each finished row to
+/// `in_order` once, in row order, as the finished prefix grows. `in_order` runs on one thread
+/// at a time.
 pub(crate) fn rows_in_order(
-    pixels: &mut [u8],
+    buffer: &mut [u8],
     row_bytes: usize,
+    rows: usize,
     render: impl Fn(usize, &mut [u8]) + Sync,
     in_order: &mut (dyn FnMut(&[u8]) + Send),
 ) {
-    let rows: Vec<Row> = pixels
-        .chunks_mut(row_bytes)
-        .map(|bytes| Row {
+    let slots: Vec<Slot> = buffer
+        .chunks_exact_mut(row_bytes)
+        .take(rows)
+        .map(|bytes| Slot {
             bytes: Mutex::new(bytes),
-            done: AtomicBool::new(false),
+            done: AtomicUsize::new(0),
         })
         .collect();
+    assert!(
+        !slots.is_empty() || rows == 0,
+        "a buffer of at least one row"
+    );
+    let state = Rows {
+        slots,
+        rows,
+        prefix: Mutex::new(Prefix { next: 0, in_order }),
+        handed: AtomicUsize::new(0),
+        panicked: AtomicBool::new(false),
+    };
     let claimed = AtomicUsize::new(0);
-    let prefix = Mutex::new(Prefix { next: 0, in_order });
-    let hand_on = || hand_on(&rows, &prefix);
     (0..rayon::current_num_threads())
         .into_par_iter()
         .with_max_len(1)
         .for_each(|_| loop {
             let j = claimed.fetch_add(1, Ordering::Relaxed);
-            let Some(row) = rows.get(j) else { break };
-            render(j, &mut lock(&row.bytes));
-            row.done.store(true, Ordering::Release);
+            if j >= rows {
+                break;
+            }
+            let slot = &state.slots[j % state.slots.len()];
+            // The slot's previous row must be handed on first. It was claimed before this one,
+            // so it is done or being rendered; rows before it are being handed on, or this
+            // thread hands them on.
+            while state.handed.load(Ordering::Acquire) + state.slots.len() <= j {
+                if state.panicked.load(Ordering::SeqCst) {
+                    return;
+                }
+                state.hand_on();
+                std::thread::yield_now();
+            }
+            let guard = PanicGuard(&state.panicked);
+            render(j, &mut lock(&slot.bytes));
+            drop(guard);
+            slot.done.store(j + 1, Ordering::Release);
             // Pairs with the fence in `hand_on`: either this thread takes the prefix below, or
             // the thread that holds it sees this row done after letting go of it.
             fence(Ordering::SeqCst);
-            hand_on();
+            state.hand_on();
         });
     // Every row is done: pass on whatever is left (nothing, by the hand-over above), so the
     // consumer has seen every row whatever the threads did.
-    let prefix = prefix.into_inner().unwrap_or_else(PoisonError::into_inner);
-    for row in &rows[prefix.next..] {
-        (prefix.in_order)(&lock(&row.bytes));
+    let prefix = state
+        .prefix
+        .into_inner()
+        .unwrap_or_else(PoisonError::into_inner);
+    for j in prefix.next..rows {
+        let slot = &state.slots[j % state.slots.len()];
+        assert_eq!(
+            slot.done.load(Ordering::Acquire),
+            j + 1,
+            "row {j} in its slot"
+        );
+        (prefix.in_order)(&lock(&slot.bytes));
     }
 }
 
-/// Passes on the finished rows after the prefix, unless another thread is doing so.
-fn hand_on(rows: &[Row], prefix: &Mutex<Prefix>) {
-    loop {
-        let mut p = match prefix.try_lock() {
-            Ok(p) => p,
-            Err(TryLockError::WouldBlock) => return,
-            Err(TryLockError::Poisoned(e)) => e.into_inner(),
-        };
-        while let Some(row) = rows.get(p.next).filter(|r| r.done.load(Ordering::Acquire)) {
-            (p.in_order)(&lock(&row.bytes));
-            p.next += 1;
-        }
-        let next = p.next;
-        drop(p);
-        // A row finished after the check above, by a thread that found the prefix taken, is
-        // seen here (see the fence after a row is done).
-        fence(Ordering::SeqCst);
-        if !rows
-            .get(next)
-            .is_some_and(|r| r.done.load(Ordering::Acquire))
-        {
-            return;
+impl<'p> Rows<'p, '_> {
+    /// The slot of row j if it holds row j finished.
+    fn finished(&self, j: usize) -> Option<&Slot<'p>> {
+        let slot = self.slots.get(j % self.slots.len().max(1))?;
+        (j < self.rows && slot.done.load(Ordering::Acquire) == j + 1).then_some(slot)
+    }
+
+    /// Passes on the finished rows after the prefix, unless another thread is doing so.
+    fn hand_on(&self) {
+        loop {
+            let mut p = match self.prefix.try_lock() {
+                Ok(p) => p,
+                Err(TryLockError::WouldBlock) => return,
+                Err(TryLockError::Poisoned(e)) => e.into_inner(),
+            };
+            while let Some(slot) = self.finished(p.next) {
+                (p.in_order)(&lock(&slot.bytes));
+                p.next += 1;
+                self.handed.store(p.next, Ordering::Release);
+            }
+            let next = p.next;
+            drop(p);
+            // A row finished after the check above, by a thread that found the prefix taken,
+            // is seen here (see the fence after a row is done).
+            fence(Ordering::SeqCst);
+            if self.finished(next).is_none() {
+                return;
+            }
         }
     }
 }
@@ -122,20 +192,75 @@ mod tests {
                 let mut pixels = vec![0xa5u8; rows * row_bytes];
                 let mut seen: Vec<Vec<u8>> = Vec::new();
                 pool.install(|| {
-                    rows_in_order(&mut pixels, row_bytes, render, &mut |r: &[u8]| {
+                    rows_in_order(&mut pixels, row_bytes, rows, render, &mut |r: &[u8]| {
                         seen.push(r.to_vec())
                     })
                 });
-                let expected: Vec<Vec<u8>> = (0..rows)
-                    .map(|j| {
-                        let mut r = vec![0; row_bytes];
-                        render(j, &mut r);
-                        r
-                    })
-                    .collect();
+                let expected = expected(rows, row_bytes);
                 assert_eq!(seen, expected, "{threads} threads, {rows} rows");
                 assert_eq!(pixels, expected.concat(), "{threads} threads, {rows} rows");
             }
+        }
+    }
+
+    /// Rows 0..rows as [`render`] makes them, one at a time.
+    fn expected(rows: usize, row_bytes: usize) -> Vec<Vec<u8>> {
+        (0..rows)
+            .map(|j| {
+                let mut r = vec![0; row_bytes];
+                render(j, &mut r);
+                r
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_ring_of_fewer_rows_hands_on_every_row_in_order() {
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for slots in [1, 2, 3, 7, 96] {
+                let (rows, row_bytes) = (97, 33);
+                let mut ring = vec![0xa5u8; slots * row_bytes];
+                let mut seen: Vec<Vec<u8>> = Vec::new();
+                pool.install(|| {
+                    rows_in_order(&mut ring, row_bytes, rows, render, &mut |r: &[u8]| {
+                        seen.push(r.to_vec())
+                    })
+                });
+                let expected = expected(rows, row_bytes);
+                assert_eq!(seen, expected, "{threads} threads, {slots} slots");
+                // Each slot holds the last row that went into it.
+                for (k, slot) in ring.chunks(row_bytes).enumerate() {
+                    let last = (k..rows).step_by(slots).next_back().unwrap();
+                    assert_eq!(slot, expected[last], "{threads} threads, {slots} slots");
+                }
+            }
+        }
+    }
+
+    /// A row that panics: the panic reaches the caller, and no thread waits for the rows after
+    /// it to be handed on.
+    #[test]
+    fn a_panicking_row_ends_the_frame() {
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut ring = vec![0u8; 2 * 4];
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                pool.install(|| {
+                    let render = |j, row: &mut [u8]| {
+                        assert!(j != 5, "row 5");
+                        render(j, row)
+                    };
+                    rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| {})
+                })
+            }));
+            assert!(result.is_err(), "{threads} threads");
         }
     }
 
@@ -153,7 +278,7 @@ mod tests {
                 render(j, row);
                 rendered.fetch_add(1, Ordering::SeqCst);
             };
-            rows_in_order(&mut pixels, 3, render, &mut |_: &[u8]| {
+            rows_in_order(&mut pixels, 3, 40, render, &mut |_: &[u8]| {
                 rendered_when_seen.push(rendered.load(Ordering::SeqCst))
             })
         });
