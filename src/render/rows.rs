@@ -88,30 +88,32 @@ pub(crate) fn rows_in_order(
     (0..rayon::current_num_threads())
         .into_par_iter()
         .with_max_len(1)
-        .for_each(|_| loop {
-            let j = claimed.fetch_add(1, Ordering::Relaxed);
-            if j >= rows {
-                break;
-            }
-            let slot = &state.slots[j % state.slots.len()];
-            // The slot's previous row must be handed on first. It was claimed before this one,
-            // so it is done or being rendered; rows before it are being handed on, or this
-            // thread hands them on.
-            while state.handed.load(Ordering::Acquire) + state.slots.len() <= j {
-                if state.panicked.load(Ordering::SeqCst) {
-                    return;
+        .for_each(|_| {
+            // A panic anywhere in this thread's rows (rendering or handing on) stops waiters.
+            let _guard = PanicGuard(&state.panicked);
+            loop {
+                let j = claimed.fetch_add(1, Ordering::Relaxed);
+                if j >= rows {
+                    break;
                 }
+                let slot = &state.slots[j % state.slots.len()];
+                // The slot's previous row must be handed on first. It was claimed before this one,
+                // so it is done or being rendered; rows before it are being handed on, or this
+                // thread hands them on.
+                while state.handed.load(Ordering::Acquire) + state.slots.len() <= j {
+                    if state.panicked.load(Ordering::SeqCst) {
+                        return;
+                    }
+                    state.hand_on();
+                    std::thread::yield_now();
+                }
+                render(j, &mut lock(&slot.bytes));
+                slot.done.store(j + 1, Ordering::Release);
+                // Pairs with the fence in `hand_on`: either this thread takes the prefix below, or
+                // the thread that holds it sees this row done after letting go of it.
+                fence(Ordering::SeqCst);
                 state.hand_on();
-                std::thread::yield_now();
             }
-            let guard = PanicGuard(&state.panicked);
-            render(j, &mut lock(&slot.bytes));
-            drop(guard);
-            slot.done.store(j + 1, Ordering::Release);
-            // Pairs with the fence in `hand_on`: either this thread takes the prefix below, or
-            // the thread that holds it sees this row done after letting go of it.
-            fence(Ordering::SeqCst);
-            state.hand_on();
         });
     // Every row is done: pass on whatever is left (nothing, by the hand-over above), so the
     // consumer has seen every row whatever the threads did.
@@ -142,8 +144,9 @@ impl<'p> Rows<'p, '_> {
         loop {
             let mut p = match self.prefix.try_lock() {
                 Ok(p) => p,
-                Err(TryLockError::WouldBlock) => return,
-                Err(TryLockError::Poisoned(e)) => e.into_inner(),
+                // Poisoned: the consumer panicked, and is not called again; the panic reaches
+                // the caller.
+                Err(TryLockError::WouldBlock | TryLockError::Poisoned(_)) => return,
             };
             while let Some(slot) = self.finished(p.next) {
                 (p.in_order)(&lock(&slot.bytes));
@@ -241,8 +244,8 @@ mod tests {
         }
     }
 
-    /// A row that panics: the panic reaches the caller, and no thread waits for the rows after
-    /// it to be handed on.
+    /// A row that panics, or a consumer that does: the panic reaches the caller, and no thread
+    /// waits for the rows after it to be handed on.
     #[test]
     fn a_panicking_row_ends_the_frame() {
         for threads in [1, 2, 3] {
@@ -258,6 +261,17 @@ mod tests {
                         render(j, row)
                     };
                     rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| {})
+                })
+            }));
+            assert!(result.is_err(), "{threads} threads");
+            // The consumer panics on the 6th row.
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                pool.install(|| {
+                    let mut seen = 0;
+                    rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| {
+                        seen += 1;
+                        assert!(seen != 6, "the 6th row");
+                    })
                 })
             }));
             assert!(result.is_err(), "{threads} threads");
