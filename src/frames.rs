@@ -86,8 +86,10 @@ pub fn keys(doc: &Document) -> impl Iterator<Item = Result<(u64, FrameKey)>> + '
 
 /// Renders the frames of `set` in order and calls `sink` with each frame's key, RGB8 pixels
 /// and hash ([`crate::output::frame_hash`], computed row by row as the rows are rendered);
-/// frames for which `done` says true are passed over without rendering. A frame whose camera
-/// equals the previous rendered frame's is not rendered again.
+/// frames for which `done` says true are passed over without rendering (`done` is asked about a
+/// frame one frame ahead, before the frame before it reaches `sink`, so it must not depend on
+/// what `sink` did). A frame whose camera equals the previous rendered frame's is not rendered
+/// again.
 pub fn for_each_frame(
     doc: &Document,
     set: &FrameSet,
