@@ -44,7 +44,8 @@ pub struct Timing {
     pub frames: u64,
     /// Frames whose camera equalled the previous frame's: delivered again without rendering.
     pub held: u64,
-    /// Seconds per frame spent rendering, in frame order.
+    /// Seconds per rendered frame, in frame order: its rows and their SHA-256, while the next
+    /// frame is prepared beside them (a frame prepared ahead leaves out its own preparation).
     pub render_secs: Vec<f64>,
     /// Wall-clock seconds for the whole run, output included.
     pub wall_secs: f64,
@@ -86,10 +87,10 @@ pub fn keys(doc: &Document) -> impl Iterator<Item = Result<(u64, FrameKey)>> + '
 
 /// Renders the frames of `set` in order and calls `sink` with each frame's key, RGB8 pixels
 /// and hash ([`crate::output::frame_hash`], computed row by row as the rows are rendered);
-/// frames for which `done` says true are passed over without rendering (`done` is asked about a
-/// frame one frame ahead, before the frame before it reaches `sink`, so it must not depend on
-/// what `sink` did). A frame whose camera equals the previous rendered frame's is not rendered
-/// again.
+/// frames for which `done` says true are passed over without rendering (`done` is asked ahead:
+/// before a rendered frame reaches `sink`, about the frames up to the next one to render, so it
+/// must not depend on what `sink` did). A frame whose camera equals the previous rendered
+/// frame's is not rendered again.
 pub fn for_each_frame(
     doc: &Document,
     set: &FrameSet,

@@ -58,6 +58,11 @@ impl Drop for PanicGuard<'_> {
 /// `buffer`, which holds the frame or a ring of fewer rows, and passes each finished row to
 /// `in_order` once, in row order, as the finished prefix grows. `in_order` runs on one thread
 /// at a time.
+///
+/// Neither `render` nor `in_order` may wait on the rayon pool (`join`, `par_iter`): a thread
+/// waiting there can steal a worker of these rows that has not started, and with a ring that
+/// worker can wait for a slot whose row is suspended below it on the same thread — a hang.
+/// The renderer's rows and the frame's SHA-256 use no rayon.
 pub(crate) fn rows_in_order(
     buffer: &mut [u8],
     row_bytes: usize,
