@@ -249,37 +249,134 @@ mod tests {
         }
     }
 
-    /// A row that panics, or a consumer that does: the panic reaches the caller, and no thread
-    /// waits for the rows after it to be handed on.
+    /// A row that panics, or a consumer that does: the panic reaches the caller, no thread
+    /// waits for the rows after it to be handed on, no row after it is handed on, and a
+    /// consumer that panicked is not called again.
     #[test]
     fn a_panicking_row_ends_the_frame() {
-        for threads in [1, 2, 3] {
+        for threads in [1, 2, 3, 8] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let mut ring = vec![0u8; 2 * 4];
-            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                pool.install(|| {
-                    let render = |j, row: &mut [u8]| {
-                        assert!(j != 5, "row 5");
-                        render(j, row)
-                    };
-                    rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| {})
-                })
-            }));
-            assert!(result.is_err(), "{threads} threads");
-            // The consumer panics on the 6th row.
-            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                pool.install(|| {
-                    let mut seen = 0;
-                    rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| {
-                        seen += 1;
-                        assert!(seen != 6, "the 6th row");
+            for (slots, bad) in [(2, 5), (1, 0), (1, 39), (40, 1), (40, 39)] {
+                let mut ring = vec![0u8; slots * 4];
+                let mut seen = 0;
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    pool.install(|| {
+                        let render = |j, row: &mut [u8]| {
+                            assert!(j != bad, "row {bad}");
+                            render(j, row)
+                        };
+                        rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| seen += 1)
                     })
-                })
-            }));
-            assert!(result.is_err(), "{threads} threads");
+                }));
+                let at = format!("{threads} threads, {slots} slots, row {bad}");
+                assert!(result.is_err(), "{at}");
+                assert!(seen <= bad, "{seen} rows handed on, {at}");
+                // The consumer panics on row `bad`.
+                let mut calls = 0;
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    pool.install(|| {
+                        rows_in_order(&mut ring, 4, 40, render, &mut |_: &[u8]| {
+                            calls += 1;
+                            assert!(calls != bad + 1, "row {bad}");
+                        })
+                    })
+                }));
+                assert!(result.is_err(), "{at}");
+                assert_eq!(calls, bad + 1, "{at}");
+            }
+        }
+    }
+
+    /// Short sleeps and yields at random points of the rows and the consumer, so that threads
+    /// overtake each other everywhere: every row reaches the consumer whole (each is written in
+    /// two steps, a wrong half between), once and in order, and the consumer is never entered
+    /// by two threads at once.
+    #[test]
+    fn rows_arrive_whole_in_order_to_one_consumer_at_a_time() {
+        let stream = AtomicUsize::new(1);
+        let jitter = || {
+            let x = (stream.fetch_add(1, Ordering::Relaxed) as u64)
+                .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                .rotate_left(17);
+            match x % 16 {
+                0 => std::thread::sleep(std::time::Duration::from_micros(50)),
+                1..=3 => std::thread::yield_now(),
+                _ => {}
+            }
+        };
+        let row_bytes = 16;
+        let rows = 40;
+        let expected = expected(rows, row_bytes);
+        for threads in [1, 2, 3, 8] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for slots in [1, 2, 3, 5, 40] {
+                for _ in 0..20 {
+                    let mut ring = vec![0u8; slots * row_bytes];
+                    let inside = std::sync::atomic::AtomicBool::new(false);
+                    let mut next = 0;
+                    pool.install(|| {
+                        let render = |j, row: &mut [u8]| {
+                            jitter();
+                            row.fill(0xee);
+                            jitter();
+                            render(j, row);
+                        };
+                        rows_in_order(&mut ring, row_bytes, rows, render, &mut |r: &[u8]| {
+                            assert!(!inside.swap(true, Ordering::SeqCst), "entered twice");
+                            assert_eq!(r, expected[next], "row {next}, {threads} threads");
+                            next += 1;
+                            jitter();
+                            inside.store(false, Ordering::SeqCst);
+                        })
+                    });
+                    assert_eq!(next, rows, "{threads} threads, {slots} slots");
+                }
+            }
+        }
+    }
+
+    /// As the frame loop runs them: the rows in `rayon::join` beside a task that uses the pool
+    /// in parallel (the next frame's preparation).
+    #[test]
+    fn rows_beside_a_parallel_task() {
+        use rayon::prelude::*;
+        let expected = expected(60, 8);
+        for threads in [1, 2, 3, 8] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for _ in 0..50 {
+                let mut ring = vec![0u8; 3 * 8];
+                let mut seen = Vec::new();
+                let ((), sum) = pool.install(|| {
+                    rayon::join(
+                        || {
+                            rows_in_order(&mut ring, 8, 60, render, &mut |r: &[u8]| {
+                                seen.push(r.to_vec())
+                            })
+                        },
+                        || {
+                            (0..1000u32)
+                                .into_par_iter()
+                                .with_max_len(10)
+                                .map(|x| {
+                                    std::thread::yield_now();
+                                    x as u64
+                                })
+                                .sum::<u64>()
+                        },
+                    )
+                });
+                assert_eq!(sum, 499_500);
+                assert_eq!(seen, expected, "{threads} threads");
+            }
         }
     }
 
