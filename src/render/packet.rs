@@ -380,6 +380,7 @@ impl RowJob<'_> {
         // Stage by stage, as `row_packets`: every packet's directions, then the nearest hits
         // two packets at a time, then the colours.
         let packets = n.div_ceil(LANES);
+        let mut hints = [NO_HINT; HINTED_LIGHTS];
         let Stages { dirs, founds } = stages;
         for (q, d) in dirs[..packets].iter_mut().enumerate() {
             // Directions as `RayTable::compute` makes them.
@@ -407,7 +408,9 @@ impl RowJob<'_> {
                 let [r, g, b] = background;
                 ([[r; LANES], [g; LANES], [b; LANES]], [0; LANES])
             } else {
-                let (c, lights) = self.ctx.shade_packet::<V, SEEN>(&dirs[q], hit, index, t);
+                let (c, lights) = self
+                    .ctx
+                    .shade_packet::<V, SEEN>(&dirs[q], hit, index, t, &mut hints);
                 ([c[0].store(), c[1].store(), c[2].store()], lights)
             };
             let start = q * LANES;
@@ -456,6 +459,8 @@ impl RowJob<'_> {
         // lookups overlap the next one's.
         let mut founds = [(0u8, V::index(0), V::splat(0.0)); STRETCH / LANES];
         let mut colors = [[V::splat(0.0); 3]; STRETCH / LANES];
+        // The shadow hints, along the whole row.
+        let mut hints = [NO_HINT; HINTED_LIGHTS];
         for (s, out) in row.chunks_mut(3 * STRETCH).enumerate() {
             let i0 = s * STRETCH;
             let packets = (out.len() / 3).div_ceil(LANES);
@@ -483,7 +488,10 @@ impl RowJob<'_> {
             for q in 0..packets {
                 let (hit, index, t) = founds[q];
                 if hit != 0 {
-                    colors[q] = self.ctx.shade_packet::<V, false>(&dirs[q], hit, index, t).0;
+                    colors[q] = self
+                        .ctx
+                        .shade_packet::<V, false>(&dirs[q], hit, index, t, &mut hints)
+                        .0;
                 }
             }
             for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
@@ -621,7 +629,8 @@ impl Shading<'_> {
     }
 
     /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet with a hit,
-    /// background where a lane missed, with the shadow rays of each light cast as one packet.
+    /// background where a lane missed, with the shadow rays of each light cast as one packet
+    /// (the first [`HINTED_LIGHTS`] lights' with the row's `hints`, see [`occluded`]).
     #[inline(always)]
     fn shade_packet<V: Lanes, const SEEN: bool>(
         &self,
@@ -629,6 +638,7 @@ impl Shading<'_> {
         hit: u8,
         index: V::Index,
         t: V,
+        hints: &mut Hints,
     ) -> ([V; 3], [u32; LANES]) {
         let mut lights = [0u32; LANES];
         let (zero, one) = (V::splat(0.0), V::splat(1.0));
@@ -651,7 +661,9 @@ impl Shading<'_> {
                 let mut lit = hit & !facing.le(zero);
                 if let Some(grid) = &l.shadows {
                     if lit != 0 {
-                        lit &= !occluded(grid, &point, fields.ids(), lit);
+                        let mut none = NO_HINT;
+                        let hint = hints.get_mut(n).unwrap_or(&mut none);
+                        lit &= !occluded(grid, &point, fields.ids(), lit, hint);
                     }
                 }
                 let color = l.color.to_array();
@@ -749,9 +761,19 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
 
 /// `FrameShadows::occluded` for a packet of view points on spheres `own`, for the lanes in
 /// `need`: which of them the light does not reach. Whether any sphere blocks a ray does not
-/// depend on the order of the tests, so lanes sharing a grid cell test its spheres together.
+/// depend on the order of the tests, so lanes sharing a grid cell test its spheres together,
+/// and `hint`, the last sphere found blocking a ray of an earlier packet of the row (or
+/// [`NO_HINT`]), is tested first: neighbouring points are mostly in the same sphere's shadow,
+/// and a packet that it blocks whole skips the grid. The hint is cleared when it blocks no
+/// lane, and set to each sphere the grid's walk finds blocking.
 #[inline(always)]
-fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8) -> u8 {
+fn occluded<V: Lanes>(
+    sh: &FrameShadows,
+    point: &[V; 3],
+    own: V::Index,
+    need: u8,
+    hint: &mut u32,
+) -> u8 {
     let mut blocked = 0u8;
     for &(k, c, r2) in &sh.always {
         // Lanes on the sphere itself (points on a ground sphere) skip it.
@@ -765,6 +787,17 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     }
     if sh.grid.dims.0 == 0 {
         return blocked;
+    }
+    if *hint != NO_HINT {
+        let (k, c, r2) = sh.blocker(*hint);
+        let found = need & !blocked & blocks(sh, point, own, k, c, r2);
+        if found == 0 {
+            *hint = NO_HINT;
+        }
+        blocked |= found;
+        if need & !blocked == 0 {
+            return blocked;
+        }
     }
     // FrameShadows::square on whole lanes.
     let (ax, ay) = sh.axes;
@@ -805,7 +838,11 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
     }
     if (cx.1 - cx.0 + 1) * (cy.1 - cy.0 + 1) <= UNION_CELLS {
         let cells = (cx.0 as usize, cx.1 as usize, cy.0 as usize, cy.1 as usize);
-        return walk(sh, point, own, low, cells, pending, blocked);
+        let (blocked, found) = walk(sh, point, own, low, cells, pending, blocked);
+        if found != NO_HINT {
+            *hint = found;
+        }
+        return blocked;
     }
     let mut key = [u64::MAX; LANES];
     for l in 0..LANES {
@@ -829,15 +866,19 @@ fn occluded<V: Lanes>(sh: &FrameShadows, point: &[V; 3], own: V::Index, need: u8
                 *other = u64::MAX;
             }
         }
-        blocked = walk(sh, point, own, low, cells, lanes, blocked);
+        let found;
+        (blocked, found) = walk(sh, point, own, low, cells, lanes, blocked);
+        if found != NO_HINT {
+            *hint = found;
+        }
     }
     blocked
 }
 
 /// `blocked` with the lanes in `lanes` that a sphere of grid cells `cells` blocks added, until
-/// every one of them is blocked. A cell is read down to the first sphere whose top is below
-/// every open lane's `low`. A function, not a closure, so that it is inlined into the one
-/// compiled for the instruction set.
+/// every one of them is blocked, and the last sphere found blocking (or [`NO_HINT`]). A cell
+/// is read down to the first sphere whose top is below every open lane's `low`. A function,
+/// not a closure, so that it is inlined into the one compiled for the instruction set.
 #[inline(always)]
 fn walk<V: Lanes>(
     sh: &FrameShadows,
@@ -847,7 +888,8 @@ fn walk<V: Lanes>(
     (x0, x1, y0, y1): CellRect,
     lanes: u8,
     mut blocked: u8,
-) -> u8 {
+) -> (u8, u32) {
+    let mut last = NO_HINT;
     let tops = &sh.grid.tops;
     for y in y0..=y1 {
         for x in x0..=x1 {
@@ -857,15 +899,28 @@ fn walk<V: Lanes>(
                     break;
                 }
                 let (k, c, r2) = sh.blocker(k);
-                blocked |= reach & blocks(sh, point, own, k, c, r2);
+                let found = reach & blocks(sh, point, own, k, c, r2);
+                if found != 0 {
+                    last = k;
+                }
+                blocked |= found;
                 if lanes & !blocked == 0 {
-                    return blocked;
+                    return (blocked, last);
                 }
             }
         }
     }
-    blocked
+    (blocked, last)
 }
+
+/// No shadow hint (see [`occluded`]).
+const NO_HINT: u32 = u32::MAX;
+
+/// The lights whose shadow packets keep a hint along a row.
+const HINTED_LIGHTS: usize = 4;
+
+/// A row's shadow hints, one per light (the first [`HINTED_LIGHTS`]).
+type Hints = [u32; HINTED_LIGHTS];
 
 /// The most grid cells that a shadow packet walks for all its lanes together.
 const UNION_CELLS: i32 = 4;
@@ -983,7 +1038,9 @@ mod tests {
     /// A shadow packet's answer per lane is the one-ray answer of testing every sphere: eight
     /// points at a time from spheres next to each other in the list, so that a packet's lanes
     /// lie on different spheres and in cells near or far apart (the union walk and the walks
-    /// per group of lanes), with the light's tops cutting each cell short.
+    /// per group of lanes), with the light's tops cutting each cell short; without a hint, and
+    /// with the hint carried from packet to packet as along a row (some packets answered by
+    /// the hint alone, some in part, some not at all).
     #[test]
     fn shadow_packets_find_every_blocker() {
         let c = cluster();
@@ -999,6 +1056,8 @@ mod tests {
             for all in [None, Some(centers.clone())] {
                 let frame =
                     FrameShadows::new(&light.grid, &c.camera, &c.spheres, all, light.to_light);
+                let mut hint = NO_HINT;
+                let mut hinted = [0; 3];
                 for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {
                     let mut xyz = [[0.0; LANES]; 3];
                     let mut own = [0u64; LANES];
@@ -1011,7 +1070,15 @@ mod tests {
                     }
                     let point = xyz.map(|a| Portable::load(&a));
                     let need = (0xffu16 >> (LANES - lanes.len())) as u8;
-                    let got = occluded::<Portable>(&frame, &point, own, need);
+                    let got = occluded::<Portable>(&frame, &point, own, need, &mut NO_HINT.clone());
+                    let before = hint;
+                    let with_hint = occluded::<Portable>(&frame, &point, own, need, &mut hint);
+                    assert_eq!(with_hint, got, "packet {p} with hint {before}");
+                    if before != NO_HINT {
+                        let (k, center, r2) = frame.blocker(before);
+                        let by_hint = need & blocks(&frame, &point, own, k, center, r2);
+                        hinted[(by_hint != 0) as usize + (by_hint == need) as usize] += 1;
+                    }
                     for (l, &lane) in lanes.iter().enumerate() {
                         let every = c.any_blocker(light.to_light, lane);
                         let direction = light.direction;
@@ -1022,6 +1089,8 @@ mod tests {
                         );
                     }
                 }
+                // Packets whose hint blocked none of their lanes, some, and all.
+                assert!(hinted.iter().all(|&n| n > 0), "{hinted:?}");
             }
         }
     }
