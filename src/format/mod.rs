@@ -4,6 +4,8 @@
 
 use serde::Deserialize;
 
+mod pieces;
+
 use crate::mode::Mode;
 use std::path::Path;
 
@@ -145,16 +147,25 @@ pub struct SphereSpec {
 }
 
 /// Parses RON text. Optional fields may be written bare (`tp: (0.0, 0.0, 0.0)`), without `Some`.
+/// A long `spheres` list is parsed in pieces in parallel ([`pieces`]); the result, and any
+/// error, is the same as RON's on the whole text.
 pub fn parse(path: &Path, text: &str) -> Result<FileSpec> {
-    ron::Options::default()
-        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
-        .from_str(text)
-        .map_err(|e| Error::Parse {
-            path: path.to_path_buf(),
-            line: e.span.start.line,
-            col: e.span.start.col,
-            message: e.code.to_string(),
-        })
+    if rayon::current_num_threads() > 1 {
+        if let Some(spec) = pieces::parse(text, pieces::PIECE_BYTES) {
+            return Ok(spec);
+        }
+    }
+    options().from_str(text).map_err(|e| Error::Parse {
+        path: path.to_path_buf(),
+        line: e.span.start.line,
+        col: e.span.start.col,
+        message: e.code.to_string(),
+    })
+}
+
+/// RON as campath reads it.
+fn options() -> ron::Options {
+    ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
 }
 
 /// Reads and parses a keyframe file.

@@ -1,0 +1,364 @@
+//! A long `spheres` list parsed in pieces on the rayon pool. RON's parser reads about 60 MB/s,
+//! so a file of a million spheres (169 MB) would spend most of its first frame here.
+//!
+//! The text is scanned once for the list `spheres: [ … ]` and for commas between its
+//! elements; the rest of the file (with the list emptied) and each piece are parsed by RON as
+//! they would be in place. This only ever speeds up a parse that succeeds: anything the scan
+//! does not follow exactly (strings, characters, attributes, raw identifiers, an unclosed
+//! comment or bracket) or any piece RON rejects gives `None`, and the caller parses the whole
+//! text, so every error is reported exactly as before, at its line and column.
+
+use rayon::prelude::*;
+
+use super::{options, FileSpec, SphereSpec};
+
+/// A list shorter than two pieces is not split.
+pub const PIECE_BYTES: usize = 32 * 1024;
+
+/// The file, when its `spheres` list is at least two pieces long and every part parses.
+pub fn parse(text: &str, piece_bytes: usize) -> Option<FileSpec> {
+    let list = find_list(text.as_bytes(), piece_bytes)?;
+    if list.cuts.len() < 2 {
+        return None;
+    }
+    let mut rest = String::with_capacity(list.open + 1 + text.len() - list.close);
+    rest.push_str(&text[..=list.open]);
+    rest.push_str(&text[list.close..]);
+    let bounds: Vec<(usize, usize)> = std::iter::once(list.open + 1)
+        .chain(list.cuts.iter().copied())
+        .zip(list.cuts.iter().copied().chain(std::iter::once(list.close)))
+        .collect();
+    let (spec, spheres) = rayon::join(
+        || options().from_str::<FileSpec>(&rest).ok(),
+        || {
+            // A group of pieces at a time, appended in order: the spheres are held once, as
+            // by RON alone, and not once more in pieces.
+            let mut spheres = Vec::new();
+            for group in bounds.chunks(GROUP) {
+                let parsed = group
+                    .par_iter()
+                    .map(|&(a, b)| {
+                        // The newline ends a line comment that the piece may end in.
+                        let piece = format!("[{}\n]", &text[a..b]);
+                        options().from_str::<Vec<SphereSpec>>(&piece).ok()
+                    })
+                    .collect::<Option<Vec<_>>>()?;
+                parsed.into_iter().for_each(|piece| spheres.extend(piece));
+            }
+            Some(spheres)
+        },
+    );
+    let mut spec = spec?;
+    if !spec.scene.spheres.is_empty() {
+        return None;
+    }
+    spec.scene.spheres = spheres?;
+    Some(spec)
+}
+
+/// Pieces parsed together before they are appended.
+const GROUP: usize = 64;
+
+/// Where the list's brackets are, and the byte after each comma it is cut at.
+#[derive(Debug, PartialEq)]
+struct List {
+    open: usize,
+    close: usize,
+    cuts: Vec<usize>,
+}
+
+/// The list `spheres: [ … ]` (the first `spheres` followed by `:` and `[`), with a cut after
+/// the first comma between its elements at least `piece_bytes` past the last cut. Comments
+/// are followed up to the list; in it, a comment (or any string) gives `None`.
+fn find_list(s: &[u8], piece_bytes: usize) -> Option<List> {
+    let open = find_open(s)?;
+    // A million spheres are 169 MB of list: it is read 64 bytes at a time (compares that
+    // vectorize), and byte by byte only near a cut or a `]` and where something is odd.
+    let mut depth = 0i64;
+    let mut odd = 0u8;
+    let mut cuts = Vec::new();
+    let mut next = open + 1 + piece_bytes;
+    let mut i = open + 1;
+    while i < s.len() {
+        if let Some(block) = s.get(i..i + BLOCK) {
+            if i + BLOCK <= next {
+                let (opens, closes, stop) = block.iter().fold((0u8, 0u8, 0u8), |(o, c, x), &b| {
+                    let open = (b == b'(') | (b == b'[') | (b == b'{');
+                    let close = (b == b')') | (b == b'}');
+                    let stop = (b == b']') | (b == b'"') | (b == b'\'') | (b == b'#') | (b == b'/');
+                    (o + u8::from(open), c + u8::from(close), x | u8::from(stop))
+                });
+                if stop == 0 {
+                    depth += i64::from(opens) - i64::from(closes);
+                    i += BLOCK;
+                    continue;
+                }
+            }
+        }
+        let end = (i + BLOCK).min(s.len());
+        for (k, &c) in s[i..end].iter().enumerate() {
+            let class = CLASS[c as usize];
+            depth += i64::from(class & OPENS) - i64::from((class & CLOSES) >> 1);
+            odd |= class & ODD;
+            if depth < 0 {
+                return (odd == 0 && c == b']').then_some(List {
+                    open,
+                    close: i + k,
+                    cuts,
+                });
+            }
+            if (class & COMMA != 0) & (depth == 0) & (i + k >= next) {
+                cuts.push(i + k + 1);
+                next = i + k + 1 + piece_bytes;
+            }
+        }
+        i = end;
+    }
+    None
+}
+
+/// The bytes the list's scan reads at once when nothing in them needs a closer look.
+const BLOCK: usize = 64;
+
+const OPENS: u8 = 1;
+const CLOSES: u8 = 2;
+const COMMA: u8 = 4;
+const ODD: u8 = 8;
+
+/// What each byte is to the list's scan: a bracket, a comma, or the start of a comment, a
+/// string, a character or an attribute.
+const CLASS: [u8; 256] = {
+    let mut table = [0; 256];
+    let mut k = 0;
+    while k < 256 {
+        table[k] = match k as u8 {
+            b'(' | b'[' | b'{' => OPENS,
+            b')' | b']' | b'}' => CLOSES,
+            b',' => COMMA,
+            b'"' | b'\'' | b'#' | b'/' => ODD,
+            _ => 0,
+        };
+        k += 1;
+    }
+    table
+};
+
+/// The `[` of the first `spheres` field, following comments and bailing at strings.
+fn find_open(s: &[u8]) -> Option<usize> {
+    let mut i = 0;
+    while i < s.len() {
+        match s[i] {
+            b'"' | b'\'' | b'#' => return None,
+            b'/' if s.get(i + 1) == Some(&b'/') => {
+                i = s[i..]
+                    .iter()
+                    .position(|&c| c == b'\n')
+                    .map_or(s.len(), |n| i + n);
+                continue;
+            }
+            b'/' if s.get(i + 1) == Some(&b'*') => {
+                i = block_comment_end(s, i)?;
+                continue;
+            }
+            b's' if is_word(s, i, b"spheres") => {
+                let colon = skip_blank(s, i + 7)?;
+                if s[colon] == b':' {
+                    let bracket = skip_blank(s, colon + 1)?;
+                    if s[bracket] == b'[' {
+                        return Some(bracket);
+                    }
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
+}
+
+/// The byte after the block comment that starts at `i` (RON's block comments nest).
+fn block_comment_end(s: &[u8], mut i: usize) -> Option<usize> {
+    let mut level = 0usize;
+    while i + 1 < s.len() {
+        match (s[i], s[i + 1]) {
+            (b'/', b'*') => {
+                level += 1;
+                i += 2;
+            }
+            (b'*', b'/') => {
+                level -= 1;
+                i += 2;
+                if level == 0 {
+                    return Some(i);
+                }
+            }
+            _ => i += 1,
+        }
+    }
+    None
+}
+
+/// The first byte at or after `i` that is neither white space nor in a comment.
+fn skip_blank(s: &[u8], mut i: usize) -> Option<usize> {
+    loop {
+        match s.get(i)? {
+            c if c.is_ascii_whitespace() => i += 1,
+            b'/' if s.get(i + 1) == Some(&b'/') => {
+                i += s[i..].iter().position(|&c| c == b'\n')?;
+            }
+            b'/' if s.get(i + 1) == Some(&b'*') => i = block_comment_end(s, i)?,
+            _ => return Some(i),
+        }
+    }
+}
+
+/// Whether `word` stands at `i` as a whole identifier.
+fn is_word(s: &[u8], i: usize, word: &[u8]) -> bool {
+    let ident = |c: &u8| c.is_ascii_alphanumeric() || *c == b'_' || !c.is_ascii();
+    s[i..].starts_with(word)
+        && (i == 0 || !ident(&s[i - 1]))
+        && !s.get(i + word.len()).is_some_and(ident)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::splitmix::SplitMix;
+    use proptest::prelude::*;
+
+    /// RON on the whole text: what a split parse must agree with.
+    fn whole(text: &str) -> Option<FileSpec> {
+        options().from_str(text).ok()
+    }
+
+    /// Equal field by field and bit by bit (`{:?}` prints each float's shortest round trip).
+    fn same(a: &FileSpec, b: &FileSpec) -> bool {
+        format!("{a:?}") == format!("{b:?}")
+    }
+
+    /// A file of `n` spheres written in every form the list allows; comments before the list
+    /// hold brackets, commas and a decoy `spheres: [`.
+    fn file(n: usize, trailing_comma: bool) -> String {
+        let mut rng = SplitMix(n as u64 + 7);
+        let mut x = || format!("{:?}", (rng.unit() - 0.5) * 1e3);
+        let mut list = Vec::new();
+        for k in 0..n {
+            list.push(match k % 5 {
+                0 => format!("(center: ({}, {}, {}), radius: 1.5, color: (0.5, 0.25, 1.0))", x(), x(), x()),
+                1 => format!("(center: ({},{},{}),radius: 2e-3)", x(), x(), x()),
+                2 => format!("(\n  radius: 0.75,\n  color: Some((1.0, 0.0, 0.0)),\n  center: ({}, {}, {}),\n)", x(), x(), x()),
+                3 => format!("(center:({},{},{}), radius:{}, color: None)", x(), x(), x(), 1.0 + k as f64),
+                _ => format!("\t( center : ( {} , {} , {} ) , radius : 3.0 )", x(), x(), x()),
+            });
+        }
+        let mut spheres = list.join(",\n");
+        if trailing_comma && n > 0 {
+            spheres.push(',');
+        }
+        format!(
+            "// spheres: [ (a, b) ], ] ) {{\n/* (outer /* spheres: [ nested ], */ still , ] ) */\n\
+             (\n    frames: 4,\n    camera: (tp: (0.0, 1.0, 0.0), hfov: 60.0),\n    \
+             scene: (\n        lights: [(direction: (0.0, -1.0, 0.0))], // ), [\n        \
+             spheres /* : [ */ : [\n{spheres}\n        ],\n        ambient: 0.2,\n    ),\n)\n"
+        )
+    }
+
+    #[test]
+    fn pieces_give_what_ron_gives_for_the_whole_file() {
+        let mut split = 0;
+        for n in [0, 1, 2, 3, 10, 57] {
+            for trailing_comma in [false, true] {
+                let text = file(n, trailing_comma);
+                let expected = options()
+                    .from_str::<FileSpec>(&text)
+                    .unwrap_or_else(|e| panic!("{e}\n{text}"));
+                assert_eq!(expected.scene.spheres.len(), n);
+                for piece_bytes in [1, 2, 5, 40, 300, 100_000] {
+                    let cuts = find_list(text.as_bytes(), piece_bytes)
+                        .expect("a list")
+                        .cuts;
+                    match parse(&text, piece_bytes) {
+                        Some(spec) => {
+                            assert!(same(&spec, &expected), "n {n}, pieces of {piece_bytes}");
+                            split += 1;
+                        }
+                        None => assert!(cuts.len() < 2, "n {n}, pieces of {piece_bytes}"),
+                    }
+                }
+            }
+        }
+        assert!(split >= 30, "only {split} files were split");
+    }
+
+    #[test]
+    fn the_list_is_found_past_comments_and_cut_between_elements() {
+        let text = file(10, false);
+        let list = find_list(text.as_bytes(), 1).expect("a list");
+        assert_eq!(&text[list.open - 5..=list.open], "*/ : [");
+        assert_eq!(&text[list.close..list.close + 3], "],\n");
+        assert_eq!(list.cuts.len(), 9, "a cut after each element but the last");
+        for cut in list.cuts {
+            assert_eq!(&text[cut - 2..cut], "),");
+        }
+    }
+
+    #[test]
+    fn a_comment_or_string_in_the_list_leaves_it_to_ron() {
+        let text = file(10, false);
+        for odd in ["// note\n", "/* note */", "\"x\", ", "#"] {
+            let inside = text.replacen("\n\t(", &format!("\n{odd}\t("), 1);
+            assert_ne!(inside, text);
+            assert!(parse(&inside, 1).is_none(), "{odd}");
+        }
+        assert!(parse(&text.replacen("//", "#![enable(unwrap_newtypes)] //", 1), 1).is_none());
+    }
+
+    #[test]
+    fn what_ron_rejects_is_never_split() {
+        let text = file(10, false);
+        let broken = [
+            text.replacen("radius: 1.5,", "radius: 1.5", 1),
+            text.replacen("),\n\t(", ")\n\t(", 1),
+            text.replacen("),\n\t(", "),,\n\t(", 1),
+            text.replacen("),\n\t(", ")),\n\t(", 1),
+            text.replacen("radius: 2e-3", "radius: 2e-3, size: 1.0", 1),
+            text.replacen("ambient: 0.2", "ambient: 0.2, spheres: []", 1),
+            text.replacen(
+                "hfov: 60.0",
+                "hfov: 60.0, spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]",
+                1,
+            ),
+            text.replacen("        ],\n", "\n", 1),
+        ];
+        for (k, text) in broken.iter().enumerate() {
+            assert!(whole(text).is_none(), "case {k} parses");
+            assert!(parse(text, 1).is_none(), "case {k} was split");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 2000, rng_seed: proptest::test_runner::RngSeed::Fixed(0x91EC), failure_persistence: None, ..ProptestConfig::default() })]
+
+        /// Any small edit of a file: when the pieces parse, RON parses the whole file to the
+        /// same thing.
+        #[test]
+        fn an_edited_file_splits_only_into_what_ron_reads(
+            at in 0.0..1.0f64,
+            cut in 0usize..4,
+            insert in prop::sample::select(vec!["", "(", ")", "[", "]", ",", ":", "/", "*", "\n", "0", "e", "spheres: [", "),(", "], ["]),
+            piece_bytes in 1usize..200,
+        ) {
+            let text = file(12, true);
+            let mut i = (at * text.len() as f64) as usize;
+            while !text.is_char_boundary(i) {
+                i -= 1;
+            }
+            let edited = format!("{}{insert}{}", &text[..i], &text[(i + cut).min(text.len())..]);
+            if let Some(spec) = parse(&edited, piece_bytes) {
+                let expected = whole(&edited);
+                prop_assert!(expected.is_some(), "split, but RON rejects it");
+                prop_assert!(same(&spec, &expected.unwrap()));
+            }
+        }
+    }
+}
