@@ -155,8 +155,9 @@ fn build(points: &Points, nodes: &mut [Node], base: usize, order: &mut [u32], st
         }
         return;
     }
-    nodes[0] = bounds(points, order, start);
-    let mid = split(points, order);
+    let axis;
+    (nodes[0], axis) = node(points, order, start);
+    let mid = split(points, order, axis);
     let (left, right) = order.split_at_mut(mid);
     let (_, below) = nodes.split_at_mut(1);
     let (left_nodes, right_nodes) = below.split_at_mut(node_count(mid));
@@ -173,11 +174,12 @@ fn build(points: &Points, nodes: &mut [Node], base: usize, order: &mut [u32], st
 /// nodes indexing their right children from the start of `nodes`.
 fn build_serial(points: &Points, nodes: &mut Vec<Node>, order: &mut [u32], start: usize) {
     let me = nodes.len();
-    nodes.push(bounds(points, order, start));
+    let (node, axis) = node(points, order, start);
+    nodes.push(node);
     if order.len() <= LEAF {
         return;
     }
-    let mid = split(points, order);
+    let mid = split(points, order, axis);
     let (left, right) = order.split_at_mut(mid);
     build_serial(points, nodes, left, start);
     let right_node = nodes.len() as u32;
@@ -186,31 +188,17 @@ fn build_serial(points: &Points, nodes: &mut Vec<Node>, order: &mut [u32], start
     nodes[me].count = 0;
 }
 
-/// A leaf over `order` (at `start` of the whole order): the box of its spheres.
-fn bounds(points: &Points, order: &[u32], start: usize) -> Node {
+/// A leaf over `order` (at `start` of the whole order), with the box of its spheres, and the
+/// axis of the widest spread of their centres: one pass over the spheres, in `order`.
+fn node(points: &Points, order: &[u32], start: usize) -> (Node, usize) {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    let mut clo = lo;
+    let mut chi = hi;
     for &i in order {
         let (c, r) = (points.center(i), points.radius[i as usize]);
         lo = lo.min(c - r);
         hi = hi.max(c + r);
-    }
-    Node {
-        lo,
-        hi,
-        start: start as u32,
-        count: order.len() as u32,
-    }
-}
-
-/// Puts the median centre along the widest spread of centres at `order.len() / 2`, the
-/// smaller before it, and returns that position; ties by index, so the tree is the same on
-/// every run.
-fn split(points: &Points, order: &mut [u32]) -> usize {
-    let mut clo = DVec3::splat(f64::INFINITY);
-    let mut chi = DVec3::splat(f64::NEG_INFINITY);
-    for &i in order.iter() {
-        let c = points.center(i);
         clo = clo.min(c);
         chi = chi.max(c);
     }
@@ -222,6 +210,18 @@ fn split(points: &Points, order: &mut [u32]) -> usize {
     } else {
         2
     };
+    let node = Node {
+        lo,
+        hi,
+        start: start as u32,
+        count: order.len() as u32,
+    };
+    (node, axis)
+}
+
+/// Puts the median centre along `axis` at `order.len() / 2`, the smaller before it, and
+/// returns that position; ties by index, so the tree is the same on every run.
+fn split(points: &Points, order: &mut [u32], axis: usize) -> usize {
     let key = &points.axes[axis];
     let mid = order.len() / 2;
     order.select_nth_unstable_by(mid, |a, b| {
