@@ -153,6 +153,10 @@ enum Command {
         /// POV-Ray; campath then renders every frame).
         #[arg(long, default_value_t = 8)]
         pov_frames: u64,
+        /// Timed campath processes per scene and output (the median is reported); POV-Ray,
+        /// seconds to minutes a scene, runs once.
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=100))]
+        runs: u64,
         /// Only these scenes (of the table, or with --scaling of the scaling scenes),
         /// comma-separated [default: all].
         #[arg(long, value_delimiter = ',')]
@@ -304,10 +308,11 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
         Command::Bench {
             out: dir,
             pov_frames,
+            runs,
             scenes,
             json,
             scaling,
-        } => bench::command(&dir, pov_frames, &scenes, json, scaling, out)?,
+        } => bench::command(&dir, pov_frames, runs as usize, &scenes, json, scaling, out)?,
         Command::Video {
             file,
             out: video,

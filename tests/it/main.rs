@@ -2,6 +2,7 @@
 //! `common` holds the helpers they share.
 
 mod architecture;
+mod bench;
 mod blender;
 mod cli;
 mod common;

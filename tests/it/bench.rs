@@ -1,0 +1,75 @@
+//! `campath bench` against the real POV-Ray: one frame of the small scene, campath timed over
+//! several processes, and the JSON's numbers checked against each other and against the files
+//! both programs wrote. `.ci/run` installs povray.
+
+use serde_json::Value;
+
+use crate::common::{campath, have_tool, stderr, stdout};
+
+/// The median of `runs` (the lower middle of an even count), as bench keeps it.
+fn median(runs: &[Value]) -> f64 {
+    let mut ms: Vec<f64> = runs.iter().map(|v| v.as_f64().unwrap()).collect();
+    ms.sort_by(f64::total_cmp);
+    ms[(ms.len() - 1) / 2]
+}
+
+#[test]
+fn bench_times_campath_over_several_runs_and_povray_once() {
+    if !have_tool("povray", "povray") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("bench");
+    let args = [
+        "bench",
+        "--pov-frames",
+        "1",
+        "--runs",
+        "4",
+        "--scenes",
+        "small",
+        "--json",
+        "--out",
+    ];
+    let o = campath(
+        tmp.path(),
+        &[&args[..], &[out.to_str().unwrap()]].concat(),
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(json["runs"], 4);
+    let rows = json["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 1);
+    let row = &rows[0];
+    assert_eq!(row["scene"]["name"], "small");
+    for kind in ["png", "hash"] {
+        let run = &row[kind];
+        let runs = run["process_ms_runs"].as_array().unwrap();
+        assert_eq!(runs.len(), 4, "{kind}: {run}");
+        assert!(
+            runs.iter().all(|v| v.as_f64().unwrap() > 0.0),
+            "{kind}: {run}"
+        );
+        assert_eq!(run["process_ms_per_frame"].as_f64().unwrap(), median(runs));
+        // The kept run's own numbers: the one frame POV-Ray renders too.
+        assert_eq!(run["frames"], 1, "{kind}: {run}");
+        assert!(run["median_render_ms"].as_f64().unwrap() > 0.0);
+    }
+    // POV-Ray's one run: its time a frame and the frame count, and the frame it wrote.
+    let pov = row["pov"].as_array().unwrap();
+    assert!(pov[0].as_f64().unwrap() > 0.0);
+    assert_eq!(pov[1], 1);
+    let pov_frames: Vec<_> = std::fs::read_dir(out.join("small-pov"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(pov_frames.len(), 1, "{pov_frames:?}");
+    let frame = image::open(out.join("small-pov").join(&pov_frames[0])).unwrap();
+    assert_eq!((frame.width(), frame.height()), (640, 360));
+    // campath's PNG run wrote frame 0 and its hash.
+    let ours = image::open(out.join("small").join("frame_0000.png")).unwrap();
+    assert_eq!((ours.width(), ours.height()), (640, 360));
+    let hashes = std::fs::read_to_string(out.join("small").join("hashes.txt")).unwrap();
+    assert_eq!(hashes.lines().filter(|l| !l.starts_with('#')).count(), 1);
+}
