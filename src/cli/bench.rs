@@ -397,22 +397,33 @@ pub struct Run {
 /// count) with the numbers it wrote. A process of a tenth of a second is at the mercy of a
 /// shared machine's passing load; the median of a few is not.
 fn run_campath(args: &[&str], stats: &Path, runs: usize) -> Result<Run> {
-    let mut all = (0..runs.max(1))
+    let all = (0..runs.max(1))
         .map(|_| run_campath_once(args, stats))
         .collect::<Result<Vec<(f64, Stats)>>>()?;
+    Ok(median_run(all))
+}
+
+/// Of the runs' (process ms per frame, numbers), in the order they ran, the run of median
+/// time (the lower middle of an even count) with its own numbers, and every run's time.
+fn median_run(mut all: Vec<(f64, Stats)>) -> Run {
+    assert!(!all.is_empty(), "at least one run");
     let process_ms_runs: Vec<f64> = all.iter().map(|(ms, _)| *ms).collect();
     all.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (process_ms_per_frame, stats) = all.swap_remove((all.len() - 1) / 2);
-    Ok(Run {
+    Run {
         stats,
         process_ms_per_frame,
         process_ms_runs,
-    })
+    }
 }
 
 /// One timed campath process: its wall ms per frame and the numbers it wrote.
 fn run_campath_once(args: &[&str], stats: &Path) -> Result<(f64, Stats)> {
     let exe = std::env::current_exe().map_err(|e| CliError::missing("campath", "campath", e))?;
+    // A run that wrote no numbers must not pass off an earlier run's as its own.
+    if stats.exists() {
+        std::fs::remove_file(stats).map_err(Error::write(stats.to_path_buf()))?;
+    }
     let started = Instant::now();
     let out = Command::new(exe)
         .args(args)
@@ -682,10 +693,53 @@ pub fn command(
     let text = if json {
         serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
     } else {
-        format!(
-            "CPU: {cpu}\ncampath: each figure from the median of {runs} process(es); POV-Ray: one run over its frames\n\n{rows_table}"
-        )
+        let how = if scaling {
+            format!("campath: each row from the run of median process time of {runs}")
+        } else {
+            format!(
+                "campath: process ms/frame the median of {runs} process(es), the other columns from that run; POV-Ray: one run over its frames"
+            )
+        };
+        format!("CPU: {cpu}\n{how}\n\n{rows_table}")
     };
     write!(out, "{text}").map_err(Error::stdout)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Numbers tagged with the run they came from (in `kept`).
+    fn stats(run: u64) -> Stats {
+        Stats {
+            frames: 8,
+            kept: run,
+            wall_secs: 0.1,
+            wall_ms_per_frame: 12.5,
+            median_render_ms: 11.0,
+            peak_memory_mb: None,
+            first_frame_ms: None,
+            max_in_view: 0,
+        }
+    }
+
+    /// The run of median time is kept with its own numbers, the lower middle of an even count,
+    /// and every time in the order run.
+    #[test]
+    fn the_median_run_keeps_its_own_numbers() {
+        for (times, median, from_run) in [
+            (vec![14.0], 14.0, 0),
+            (vec![15.0, 12.0], 12.0, 1),
+            (vec![17.1, 14.7, 14.2], 14.7, 1),
+            (vec![30.0, 13.0, 14.0, 12.0], 13.0, 1),
+            (vec![11.0, 19.0, 13.0, 12.0, 18.0], 13.0, 2),
+        ] {
+            let runs = times.iter().enumerate();
+            let run = median_run(runs.map(|(k, &t)| (t, stats(k as u64))).collect());
+            assert_eq!(run.process_ms_per_frame, median, "{times:?}");
+            assert_eq!(run.stats.kept, from_run, "{times:?}");
+            assert_eq!(run.process_ms_runs, times);
+        }
+    }
 }

@@ -52,6 +52,18 @@ fn bench_times_campath_over_several_runs_and_povray_once() {
             "{kind}: {run}"
         );
         assert_eq!(run["process_ms_per_frame"].as_f64().unwrap(), median(runs));
+        // Four processes, each timed on its own: their times are not one time repeated.
+        let first = runs[0].as_f64().unwrap();
+        assert!(
+            runs.iter().any(|v| v.as_f64().unwrap() != first),
+            "{kind}: {run}"
+        );
+        // The kept run's own wall time lies inside its process's.
+        let own = run["wall_ms_per_frame"].as_f64().unwrap();
+        assert!(
+            own <= run["process_ms_per_frame"].as_f64().unwrap(),
+            "{kind}: {run}"
+        );
         // The kept run's own numbers: the one frame POV-Ray renders too.
         assert_eq!(run["frames"], 1, "{kind}: {run}");
         assert!(run["median_render_ms"].as_f64().unwrap() > 0.0);
