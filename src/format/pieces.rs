@@ -2,15 +2,16 @@
 //! so a file of a million spheres (169 MB) would spend most of its first frame here.
 //!
 //! The text is scanned once for the list `spheres: [ … ]` and for commas between its
-//! elements; the rest of the file (with the list emptied) and each piece are parsed by RON as
-//! they would be in place. This only ever speeds up a parse that succeeds: anything the scan
+//! elements; the rest of the file (with the list emptied) is parsed by RON, and each piece by
+//! [`quick`] when it is written in the plain forms, else by RON, as it would be in place.
+//! This only ever speeds up a parse that succeeds: anything the scan
 //! does not follow exactly (strings, characters, attributes, raw identifiers, an unclosed
 //! comment or bracket) or any piece RON rejects gives `None`, and the caller parses the whole
 //! text, so every error is reported exactly as before, at its line and column.
 
 use rayon::prelude::*;
 
-use super::{options, FileSpec, SphereSpec};
+use super::{options, quick, FileSpec, SphereSpec};
 
 /// A list shorter than two pieces is not split.
 pub const PIECE_BYTES: usize = 32 * 1024;
@@ -38,9 +39,12 @@ pub fn parse(text: &str, piece_bytes: usize) -> Option<FileSpec> {
                 let parsed = group
                     .par_iter()
                     .map(|&(a, b)| {
-                        // The newline ends a line comment that the piece may end in.
-                        let piece = format!("[{}\n]", &text[a..b]);
-                        options().from_str::<Vec<SphereSpec>>(&piece).ok()
+                        // The plain forms without RON; anything else through RON, as a list
+                        // (the newline ends a line comment that the piece may end in).
+                        quick::spheres(&text[a..b]).or_else(|| {
+                            let piece = format!("[{}\n]", &text[a..b]);
+                            options().from_str::<Vec<SphereSpec>>(&piece).ok()
+                        })
                     })
                     .collect::<Option<Vec<_>>>()?;
                 parsed.into_iter().for_each(|piece| spheres.extend(piece));
