@@ -148,8 +148,8 @@ pub struct SphereSpec {
 }
 
 /// Parses RON text. Optional fields may be written bare (`tp: (0.0, 0.0, 0.0)`), without `Some`.
-/// A long `spheres` list is parsed in pieces in parallel ([`pieces`]), its plain pieces
-/// without RON ([`quick`]), on one thread as on several; the result, and any error, is the
+/// A long `spheres` list is parsed in pieces in parallel (`pieces.rs`), its plain pieces
+/// without RON (`quick.rs`), on one thread as on several; the result, and any error, is the
 /// same as RON's on the whole text.
 pub fn parse(path: &Path, text: &str) -> Result<FileSpec> {
     if let Some(spec) = pieces::parse(text, pieces::PIECE_BYTES) {
