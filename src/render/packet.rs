@@ -500,9 +500,15 @@ impl RowJob<'_> {
                     dirs[q] = row_direction(xs, next + q * LANES, y, z, yy, zz);
                 }
                 if founds[q].0 == 0 {
-                    // All background (sky): the frame's background levels, already encoded.
-                    let n = out.len();
-                    out.copy_from_slice(&self.background[..n]);
+                    // All background (sky): the frame's background levels, already encoded;
+                    // a whole packet's as one fixed-size copy, not a call to `memcpy`.
+                    match <&mut [u8; 3 * LANES]>::try_from(&mut *out) {
+                        Ok(rgb) => *rgb = self.background,
+                        Err(_) => {
+                            let n = out.len();
+                            out.copy_from_slice(&self.background[..n]);
+                        }
+                    }
                     continue;
                 }
                 // Plain calls, not `array::map`: its closure is not inlined into the function
