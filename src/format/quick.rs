@@ -131,19 +131,17 @@ impl<'a> Reader<'a> {
     /// `(a, b, c)`.
     fn triple(&mut self) -> Option<Triple> {
         self.expect(b'(')?;
-        self.blank();
-        let a = self.number()?;
-        self.blank();
-        self.expect(b',')?;
-        self.blank();
-        let b = self.number()?;
-        self.blank();
-        self.expect(b',')?;
-        self.blank();
-        let c = self.number()?;
-        self.blank();
+        let mut v = [0.0; 3];
+        for (k, x) in v.iter_mut().enumerate() {
+            if k > 0 {
+                self.expect(b',')?;
+            }
+            self.blank();
+            *x = self.number()?;
+            self.blank();
+        }
         self.expect(b')')?;
-        Some((a, b, c))
+        Some((v[0], v[1], v[2]))
     }
 
     /// A number as RON reads one for an `f64` (see the module's notes).
