@@ -7,6 +7,7 @@ mod scene;
 mod tracks;
 
 use glam::{DVec2, DVec3};
+use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::animation::{Animation, Pointing};
@@ -88,11 +89,11 @@ struct Checker {
 }
 
 impl Checker {
-    fn problem(&mut self, field: impl Into<String>, message: impl Into<String>) {
-        self.problems.push(Problem::new(field, message));
+    fn problem(&mut self, field: impl fmt::Display, message: impl Into<String>) {
+        self.problems.push(Problem::new(field.to_string(), message));
     }
 
-    fn finite(&mut self, field: &str, x: f64) -> Option<f64> {
+    fn finite(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
         if x.is_finite() {
             Some(x)
         } else {
@@ -101,7 +102,7 @@ impl Checker {
         }
     }
 
-    fn triple(&mut self, field: &str, t: Triple) -> Option<DVec3> {
+    fn triple(&mut self, field: impl fmt::Display + Copy, t: Triple) -> Option<DVec3> {
         let v = DVec3::new(t.0, t.1, t.2);
         if v.is_finite() {
             Some(v)
@@ -131,7 +132,7 @@ impl Checker {
         }
     }
 
-    fn color(&mut self, field: &str, t: Triple) -> Option<DVec3> {
+    fn color(&mut self, field: impl fmt::Display + Copy, t: Triple) -> Option<DVec3> {
         let v = self.triple(field, t)?;
         if v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::ONE).all() {
             Some(v)
@@ -144,7 +145,7 @@ impl Checker {
         }
     }
 
-    fn positive(&mut self, field: &str, x: f64) -> Option<f64> {
+    fn positive(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
         let x = self.finite(field, x)?;
         if x > 0.0 {
             Some(x)

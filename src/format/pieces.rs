@@ -3,11 +3,11 @@
 //!
 //! The text is scanned once for the list `spheres: [ … ]` and for commas between its
 //! elements; the rest of the file (with the list emptied) is parsed by RON, and each piece by
-//! [`quick`] when it is written in the plain forms, else by RON, as it would be in place.
-//! This only ever speeds up a parse that succeeds: anything the scan
-//! does not follow exactly (strings, characters, attributes, raw identifiers, an unclosed
-//! comment or bracket) or any piece RON rejects gives `None`, and the caller parses the whole
-//! text, so every error is reported exactly as before, at its line and column.
+//! [`quick`] when it is written in the plain forms, else by RON, as it would be in place. This
+//! only ever speeds up a parse that succeeds: anything the scan does not follow exactly
+//! (strings, characters, attributes, raw identifiers, an unclosed comment or bracket) or any
+//! piece RON rejects gives `None`, and the caller parses the whole text, so every error is
+//! reported exactly as before, at its line and column.
 
 use rayon::prelude::*;
 

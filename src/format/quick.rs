@@ -20,11 +20,7 @@ use super::{SphereSpec, Triple};
 /// The spheres of `piece` (elements of a `spheres` list, as between its brackets), or `None`
 /// when it holds anything outside the forms above.
 pub fn spheres(piece: &str) -> Option<Vec<SphereSpec>> {
-    let mut r = Reader {
-        text: piece,
-        s: piece.as_bytes(),
-        at: 0,
-    };
+    let mut r = Reader { text: piece, at: 0 };
     let mut out = Vec::new();
     r.blank();
     while !r.done() {
@@ -41,17 +37,16 @@ pub fn spheres(piece: &str) -> Option<Vec<SphereSpec>> {
 
 struct Reader<'a> {
     text: &'a str,
-    s: &'a [u8],
     at: usize,
 }
 
 impl<'a> Reader<'a> {
     fn done(&self) -> bool {
-        self.at == self.s.len()
+        self.at == self.text.len()
     }
 
     fn peek(&self) -> Option<u8> {
-        self.s.get(self.at).copied()
+        self.text.as_bytes().get(self.at).copied()
     }
 
     fn blank(&mut self) {
@@ -105,7 +100,7 @@ impl<'a> Reader<'a> {
         {
             self.at += 1;
         }
-        &self.s[start..self.at]
+        &self.text.as_bytes()[start..self.at]
     }
 
     /// `None`, `Some(triple)` or a bare triple (RON's implicit `Some`).
