@@ -44,6 +44,7 @@ pub mod error;
 pub mod export;
 pub mod format;
 pub mod frames;
+pub mod golden;
 pub mod keyframes;
 pub mod manifest;
 pub mod mode;
@@ -53,5 +54,6 @@ pub mod render;
 pub mod scene;
 pub mod sequence;
 pub mod splitmix;
+pub mod testing;
 
 pub use error::{Error, Result};

@@ -16,5 +16,6 @@ mod modes;
 mod povray;
 mod production;
 mod simd;
+mod suites;
 mod video;
 mod watch;
