@@ -7,10 +7,15 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::document::Document;
+/// What a frame-hash test needs, from one place.
+pub use crate::document::Document;
+pub use crate::frames::{hashes, render_frame};
+pub use crate::golden::Golden;
+pub use crate::output::frame_hash;
+
 use crate::error::{Error, Result};
 use crate::frames::{stream_frames, FrameSet};
-use crate::golden::{self, Golden, HASHES};
+use crate::golden::{self, HASHES};
 use crate::manifest::list_frames;
 use crate::output::{frame_path, write_png, Compression};
 use crate::render::key::VERSION;
