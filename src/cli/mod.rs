@@ -13,6 +13,7 @@ mod preview;
 mod report;
 mod review;
 mod suite;
+mod table;
 mod verbs;
 mod verify;
 mod video;

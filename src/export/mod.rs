@@ -3,6 +3,7 @@
 
 pub mod blender;
 pub mod gltf;
+pub mod povray;
 
 use std::io::Write;
 
