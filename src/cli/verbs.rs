@@ -331,6 +331,9 @@ pub fn check(file: &Path, out: &mut dyn Write) -> Result<()> {
         if tracks.is_empty() { "none".to_string() } else { tracks.join(", ") }
     )
     .map_err(Error::stdout)?;
+    for f in &doc.sphere_files {
+        writeln!(out, "  {}: {} sphere(s)", f.name, f.spheres).map_err(Error::stdout)?;
+    }
     Ok(())
 }
 

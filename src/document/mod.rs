@@ -28,6 +28,18 @@ pub struct Document {
     pub raster: Raster,
     pub animation: Animation,
     pub scene: Scene,
+    /// The sphere files the scene names, in order, with how many spheres each gave.
+    pub sphere_files: Vec<SphereFile>,
+}
+
+/// A sphere file of the scene and how many spheres it gave.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SphereFile {
+    /// As the keyframe file names it.
+    pub name: String,
+    /// Where it was read from: relative to the keyframe file's folder.
+    pub path: PathBuf,
+    pub spheres: usize,
 }
 
 impl Document {
@@ -41,9 +53,25 @@ impl Document {
         Document::from_spec(path, format::parse(path, text)?)
     }
 
+    /// Checks a parsed file; the sphere files it names are read relative to `path`'s folder.
     pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let files: Vec<ReadFile> = spec
+            .scene
+            .sphere_files
+            .iter()
+            .map(|name| {
+                let path = folder.join(name);
+                let spheres = format::sphere_files::read(&path);
+                ReadFile {
+                    name: name.clone(),
+                    path,
+                    spheres,
+                }
+            })
+            .collect();
         let mut c = Checker::default();
-        let doc = c.document(path, spec);
+        let doc = c.document(path, spec, &files);
         match doc {
             Some(doc) if c.problems.is_empty() => Ok(doc),
             _ => Err(Error::Invalid {
@@ -81,6 +109,13 @@ impl Document {
     pub fn check_path(&self) -> Result<()> {
         self.cameras().try_for_each(|r| r.map(drop))
     }
+}
+
+/// A sphere file as read, before its spheres are checked.
+struct ReadFile {
+    name: String,
+    path: PathBuf,
+    spheres: std::result::Result<format::sphere_files::Spheres, format::sphere_files::FileProblem>,
 }
 
 #[derive(Default)]
@@ -168,15 +203,23 @@ impl Checker {
         }
     }
 
-    fn document(&mut self, path: &Path, spec: FileSpec) -> Option<Document> {
+    fn document(&mut self, path: &Path, spec: FileSpec, files: &[ReadFile]) -> Option<Document> {
         let raster = self.raster(&spec.image);
-        let scene = self.scene(&spec.scene);
+        let scene = self.scene(&spec.scene, files);
         let animation = self.animation(&spec, raster.as_ref());
         let doc = Document {
             path: path.to_path_buf(),
             raster: raster?,
             animation: animation?,
             scene: scene?,
+            sphere_files: files
+                .iter()
+                .map(|f| SphereFile {
+                    name: f.name.clone(),
+                    path: f.path.clone(),
+                    spheres: f.spheres.as_ref().map_or(0, |s| s.spheres.len()),
+                })
+                .collect(),
         };
         // A static camera must be well formed at its first frame; animated ones are checked
         // frame by frame when evaluated.

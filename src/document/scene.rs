@@ -3,12 +3,13 @@
 use glam::DVec3;
 use std::fmt;
 
-use super::Checker;
+use super::{Checker, ReadFile};
+use crate::format::sphere_files::Spheres;
 use crate::format::{self, LightSpec, SphereSpec};
 use crate::scene::{Light, Scene, Sphere};
 
 impl Checker {
-    pub(super) fn scene(&mut self, spec: &format::SceneSpec) -> Option<Scene> {
+    pub(super) fn scene(&mut self, spec: &format::SceneSpec, files: &[ReadFile]) -> Option<Scene> {
         let background = match spec.background {
             Some(b) => self.color("scene.background", b),
             None => Some(DVec3::ZERO),
@@ -17,9 +18,27 @@ impl Checker {
         let lights: Vec<Light> = (spec.lights.iter().enumerate())
             .filter_map(|(i, l)| self.light(&format!("scene.lights[{i}]"), l))
             .collect();
-        let spheres: Vec<Sphere> = (spec.spheres.iter().enumerate())
-            .filter_map(|(i, s)| self.sphere(i, s))
+        let mut spheres: Vec<Sphere> = (spec.spheres.iter().enumerate())
+            .filter_map(|(i, s)| self.sphere(Origin::Inline, i, s))
             .collect();
+        for (k, file) in files.iter().enumerate() {
+            match &file.spheres {
+                Ok(read) => {
+                    let origin = Origin::File(&file.name, read);
+                    spheres.extend(
+                        (read.spheres.iter().enumerate())
+                            .filter_map(|(i, s)| self.sphere(origin, i, s)),
+                    );
+                }
+                Err(e) => {
+                    let at = e.at.map_or(String::new(), |at| format!(": {at}"));
+                    self.problem(
+                        format!("scene.sphere_files[{k}] ({}{at})", file.name),
+                        e.message.clone(),
+                    );
+                }
+            }
+        }
         Some(Scene {
             background: background?,
             ambient: ambient?,
@@ -63,8 +82,12 @@ impl Checker {
         })
     }
 
-    fn sphere(&mut self, index: usize, s: &SphereSpec) -> Option<Sphere> {
-        let field = |field| SphereField { index, field };
+    fn sphere(&mut self, origin: Origin, index: usize, s: &SphereSpec) -> Option<Sphere> {
+        let field = |field| SphereField {
+            origin,
+            index,
+            field,
+        };
         let center = self.triple(field("center"), s.center);
         let radius = self.positive(field("radius"), s.radius);
         let color = match s.color {
@@ -79,17 +102,37 @@ impl Checker {
     }
 }
 
-/// Field `field` of sphere `index` (`scene.spheres[3].radius`), spelled out only when a problem
-/// names it: a file of a million spheres is checked without formatting four million paths.
+/// Where a sphere was written: inline, or in a sphere file.
 #[derive(Clone, Copy)]
-struct SphereField {
+enum Origin<'a> {
+    Inline,
+    /// The file's name as the keyframe file gives it, and its spheres (for their locations).
+    File(&'a str, &'a Spheres),
+}
+
+/// Field `field` of sphere `index` (`scene.spheres[3].radius`, or `cloud.ply: vertex 3:
+/// radius`), spelled out only when a problem names it: a file of a million spheres is checked
+/// without formatting four million paths.
+#[derive(Clone, Copy)]
+struct SphereField<'a> {
+    origin: Origin<'a>,
     index: usize,
     field: &'static str,
 }
 
-impl fmt::Display for SphereField {
+impl fmt::Display for SphereField<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "scene.spheres[{}].{}", self.index, self.field)
+        match self.origin {
+            Origin::Inline => write!(f, "scene.spheres[{}].{}", self.index, self.field),
+            Origin::File(name, spheres) => {
+                write!(
+                    f,
+                    "{name}: {}: {}",
+                    spheres.location(self.index),
+                    self.field
+                )
+            }
+        }
     }
 }
 
@@ -106,13 +149,13 @@ mod tests {
             radius: 1.0,
             color: None,
         };
-        assert!(checker.sphere(0, &good).is_some());
+        assert!(checker.sphere(Origin::Inline, 0, &good).is_some());
         let bad = SphereSpec {
             center: (f64::NAN, 0.0, 0.0),
             radius: -1.0,
             color: Some((0.5, 2.0, 0.5)),
         };
-        assert!(checker.sphere(12, &bad).is_none());
+        assert!(checker.sphere(Origin::Inline, 12, &bad).is_none());
         let fields: Vec<&str> = checker.problems.iter().map(|p| p.field.as_str()).collect();
         assert_eq!(
             fields,

@@ -1,11 +1,12 @@
 //! The keyframe file as written: RON types that mirror the text, with every optional field an
-//! `Option`. Nothing here is checked; [`crate::document`] turns these into domain types. This is
-//! the only module that knows RON.
+//! `Option`, and the sphere files it names (PLY, CSV). Nothing here is checked;
+//! [`crate::document`] turns these into domain types. This is the only module that knows RON.
 
 use serde::Deserialize;
 
 mod pieces;
 mod quick;
+pub mod sphere_files;
 
 use crate::mode::Mode;
 use std::path::Path;
@@ -129,6 +130,10 @@ pub struct SceneSpec {
     pub lights: Vec<LightSpec>,
     #[serde(default)]
     pub spheres: Vec<SphereSpec>,
+    /// PLY or CSV files of more spheres, relative to the keyframe file; their spheres follow
+    /// `spheres`, file by file.
+    #[serde(default)]
+    pub sphere_files: Vec<String>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -139,7 +144,7 @@ pub struct LightSpec {
     pub shadows: Option<bool>,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, rename = "sphere")]
 pub struct SphereSpec {
     pub center: Triple,

@@ -179,6 +179,15 @@ fn bad_input_cases_are_refused_with_their_messages() {
             .unwrap_or_else(|_| panic!("{name} has no .expected file beside it"));
         let tmp = tempfile::tempdir().unwrap();
         std::fs::copy(&case, tmp.path().join(&name)).unwrap();
+        // The sphere files the cases name, beside them.
+        let files = tmp.path().join("sphere_files");
+        std::fs::create_dir(&files).unwrap();
+        for f in std::fs::read_dir(dir.join("sphere_files"))
+            .unwrap()
+            .flatten()
+        {
+            std::fs::copy(f.path(), files.join(f.file_name())).unwrap();
+        }
         for verb in ["check", "render"] {
             let o = campath(tmp.path(), &[verb, &name], &[]);
             let err = stderr(&o);

@@ -16,6 +16,7 @@ mod modes;
 mod povray;
 mod production;
 mod simd;
+mod sphere_files;
 mod suites;
 mod video;
 mod watch;

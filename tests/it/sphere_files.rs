@@ -1,0 +1,156 @@
+//! Sphere files: the same spheres inline, as ASCII PLY, binary PLY and CSV hash alike; `check`
+//! counts each file's spheres; editing a sphere file renders its frames again. (Bad files are
+//! data cases in tests/data/bad, run by `cli::bad_input_cases_are_refused_with_their_messages`.)
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::common::{campath, stderr, stdout};
+use campath::splitmix::SplitMix;
+
+/// A sphere: centre, radius and colour as bytes (0–255).
+type S = ([f64; 3], f64, [u8; 3]);
+
+fn spheres(n: usize) -> Vec<S> {
+    let mut rng = SplitMix(0x5F11E5);
+    (0..n)
+        .map(|_| {
+            let c = [
+                (rng.unit() - 0.5) * 8.0,
+                rng.unit() * 2.0,
+                (rng.unit() - 0.5) * 8.0,
+            ];
+            let rgb = [0, 1, 2].map(|_| (rng.unit() * 255.0) as u8);
+            (c, 0.1 + 0.5 * rng.unit(), rgb)
+        })
+        .collect()
+}
+
+/// The shot with `inline` sphere lines and these sphere files.
+fn shot(inline: &str, files: &[&str]) -> String {
+    let files: Vec<String> = files.iter().map(|f| format!("{f:?}")).collect();
+    format!(
+        "(frames: 3, fps: 3.0, image: (width: 64, height: 36),
+    camera: (vrp: (0.0, 3.0, -9.0), tp: (0.0, 0.5, 0.0)),
+    animate: [Observer(keys: [(t: 0.0, value: (0.0, 3.0, -9.0)), (t: 1.0, value: (4.0, 3.0, -8.0))])],
+    scene: (lights: [(direction: (-1.0, -2.0, 1.0))], spheres: [{inline}], sphere_files: [{}]))",
+        files.join(", ")
+    )
+}
+
+/// A colour byte as RON writes the same value: k/255, printed to round-trip.
+fn unit(k: u8) -> f64 {
+    f64::from(k) / 255.0
+}
+
+fn ron_line(s: &S) -> String {
+    let ([x, y, z], r, [cr, cg, cb]) = *s;
+    format!(
+        "(center: ({x:?}, {y:?}, {z:?}), radius: {r:?}, color: ({:?}, {:?}, {:?})),",
+        unit(cr),
+        unit(cg),
+        unit(cb)
+    )
+}
+
+fn ply_header(format: &str, n: usize) -> String {
+    format!(
+        "ply\nformat {format} 1.0\ncomment campath test\nelement vertex {n}\nproperty double x\nproperty double y\nproperty double z\nproperty double radius\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+}
+
+fn write_files(dir: &Path, all: &[S]) {
+    let mut ascii = ply_header("ascii", all.len());
+    let mut binary = ply_header("binary_little_endian", all.len()).into_bytes();
+    let mut csv = String::from("x,y,z,radius,r,g,b\n");
+    for s in all {
+        let ([x, y, z], r, [cr, cg, cb]) = *s;
+        let _ = writeln!(ascii, "{x:?} {y:?} {z:?} {r:?} {cr} {cg} {cb}");
+        for v in [x, y, z, r] {
+            binary.extend(v.to_le_bytes());
+        }
+        binary.extend([cr, cg, cb]);
+        let _ = writeln!(
+            csv,
+            "{x:?},{y:?},{z:?},{r:?},{:?},{:?},{:?}",
+            unit(cr),
+            unit(cg),
+            unit(cb)
+        );
+    }
+    std::fs::create_dir_all(dir.join("clouds")).unwrap();
+    std::fs::write(dir.join("clouds/a.ply"), ascii).unwrap();
+    std::fs::write(dir.join("clouds/b.ply"), binary).unwrap();
+    std::fs::write(dir.join("clouds/c.csv"), csv).unwrap();
+}
+
+fn hash(dir: &Path, file: &str) -> String {
+    let o = campath(dir, &["hash", file], &[]);
+    assert!(o.status.success(), "{file}: {}", stderr(&o));
+    stdout(&o)
+}
+
+#[test]
+fn ply_and_csv_spheres_hash_like_the_same_spheres_inline() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let all = spheres(60);
+    write_files(t, &all);
+    let lines: String = all.iter().map(ron_line).collect();
+    std::fs::write(t.join("inline.ron"), shot(&lines, &[])).unwrap();
+    let want = hash(t, "inline.ron");
+    for file in ["clouds/a.ply", "clouds/b.ply", "clouds/c.csv"] {
+        std::fs::write(t.join("f.ron"), shot("", &[file])).unwrap();
+        assert_eq!(hash(t, "f.ron"), want, "{file}");
+    }
+    // Files follow the inline spheres, in the order listed: the first 20 inline, the rest
+    // from the files (the files hold all 60; the scene is 20 + 60 + 60 spheres).
+    let first: String = all[..20].iter().map(ron_line).collect();
+    let mixed_inline = format!("{first}{lines}{lines}");
+    std::fs::write(t.join("m1.ron"), shot(&mixed_inline, &[])).unwrap();
+    std::fs::write(
+        t.join("m2.ron"),
+        shot(&first, &["clouds/b.ply", "clouds/c.csv"]),
+    )
+    .unwrap();
+    assert_eq!(hash(t, "m1.ron"), hash(t, "m2.ron"));
+    // Paths are relative to the keyframe file, not the working folder.
+    std::fs::create_dir(t.join("elsewhere")).unwrap();
+    let o = campath(&t.join("elsewhere"), &["check", "../m2.ron"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("clouds/b.ply: 60 sphere(s)")
+            && stdout(&o).contains("clouds/c.csv: 60 sphere(s)"),
+        "{}",
+        stdout(&o)
+    );
+}
+
+#[test]
+fn editing_a_sphere_file_renders_its_frames_again() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let mut all = spheres(10);
+    write_files(t, &all);
+    std::fs::write(t.join("s.ron"), shot("", &["clouds/c.csv"])).unwrap();
+    let render = || {
+        let o = campath(t, &["render", "s.ron", "--out", "out"], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    let first = render();
+    assert!(first.contains("rendered 3 frame(s)"), "{first}");
+    let again = render();
+    assert!(again.contains("rendered 0 frame(s)") && again.contains("3 kept"), "{again}");
+    // One sphere turns white in the CSV: every frame is rendered again, to the new hashes.
+    all[0].2 = [255, 255, 255];
+    write_files(t, &all);
+    let edited = render();
+    assert!(edited.contains("rendered 3 frame(s)"), "{edited}");
+    let manifest = std::fs::read_to_string(t.join("out/hashes.txt")).unwrap();
+    let listed: String = crate::common::frame_lines(&manifest)
+        .iter()
+        .map(|l| l.split(' ').take(2).collect::<Vec<_>>().join(" ") + "\n")
+        .collect();
+    assert_eq!(listed, hash(t, "s.ron"));
+}
