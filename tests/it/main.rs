@@ -16,5 +16,6 @@ mod modes;
 mod povray;
 mod production;
 mod simd;
+mod usd;
 mod video;
 mod watch;
