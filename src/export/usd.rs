@@ -69,9 +69,20 @@ fn prim_name(stem: &str) -> String {
     name
 }
 
-/// Text of a string for USDA: quoted, with `"` and `\` escaped.
+/// A string in USDA's quotes: `"` and `\` escaped, control characters as spaces.
 fn quoted(s: &str) -> String {
-    format!("{s:?}")
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' | '\\' => {
+                out.push('\\');
+                out.push(c);
+            }
+            c if c.is_control() => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out + "\""
 }
 
 fn f32s(v: f64) -> f32 {
@@ -317,6 +328,12 @@ mod tests {
         for (got, want) in [(left, -1.3), (right, 0.3), (bottom, -0.2), (top, 0.7)] {
             assert!((got - want / 2.0).abs() < 1e-12, "{got} against {want} / 2");
         }
+    }
+
+    #[test]
+    fn strings_are_quoted_for_usda() {
+        assert_eq!(quoted(r#"a "b" \c"#), r#""a \"b\" \\c""#);
+        assert_eq!(quoted("é\nx"), "\"é x\"");
     }
 
     #[test]

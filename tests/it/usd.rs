@@ -192,6 +192,7 @@ for job in jobs:
             result["problems"].append("UsdValidation %s: %s" % (e.GetName(), e.GetMessage()))
     except ImportError:
         pass
+    result["units"] = stage.GetRootLayer().customLayerData.get("units", "")
     result["metersPerUnit"] = UsdGeom.GetStageMetersPerUnit(stage)
     result["upAxis"] = str(UsdGeom.GetStageUpAxis(stage))
     result["timeCodesPerSecond"] = stage.GetTimeCodesPerSecond()
@@ -265,6 +266,8 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
         assert!(!checkers.is_empty(), "{name}: no compliance checker ran");
         assert_eq!(r["problems"], serde_json::json!([]), "{name}");
         assert_eq!(r["metersPerUnit"], 1.0, "{name}");
+        let units = r["units"].as_str().unwrap();
+        assert!(units.contains("tenths of a scene unit"), "{name}: {units}");
         assert_eq!(r["upAxis"], "Y", "{name}");
         assert_eq!(r["timeCodesPerSecond"], doc.animation.fps, "{name}");
         assert_eq!(r["framesPerSecond"], doc.animation.fps, "{name}");
