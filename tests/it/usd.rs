@@ -168,9 +168,10 @@ fn close3(a: DVec3, b: DVec3, tolerance: f64) -> bool {
     (a - b).abs().max_element() <= tolerance * b.length().max(1.0)
 }
 
-/// For every job: the stage's metadata, both compliance checkers' findings, the camera's own
-/// frustum projection of the points at every time code (NDC), the camera's time samples, and
-/// the spheres and lights as OpenUSD computes them in the world.
+/// For every job: the stage's metadata, the findings of OpenUSD's checkers (ComplianceChecker,
+/// and UsdValidation where the release has it), the camera's own frustum projection of the
+/// points at every time code (NDC), the camera's time samples, and the spheres and lights as
+/// OpenUSD computes them in the world.
 const OPENUSD: &str = r#"
 import json, sys
 from pxr import Gf, Usd, UsdGeom, UsdLux, UsdUtils
@@ -183,6 +184,7 @@ for job in jobs:
         result["checkers"].append("UsdUtils.ComplianceChecker")
         result["problems"] += ["ComplianceChecker error: " + e for e in checker.GetErrors()]
         result["problems"] += ["ComplianceChecker failed: " + e for e in checker.GetFailedChecks()]
+        result["problems"] += ["ComplianceChecker warning: " + e for e in checker.GetWarnings()]
     stage = Usd.Stage.Open(job["usda"])
     try:
         from pxr import UsdValidation
