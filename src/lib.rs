@@ -9,7 +9,8 @@
 //! program or test that uses the library alone depends on
 //! `campath = { default-features = false }` and pulls in no command-line crate.
 //!
-//! A frame-hash test in a few lines: load a file, evaluate frame 12's camera, render and hash
+//! A frame-hash test in one line is [`testing::assert_shot`]: a shot file against its golden
+//! folder beside it, approved with `CAMPATH_UPDATE=1`. By hand, in a few lines: load a file, evaluate frame 12's camera, render and hash
 //! its pixels, and compare with a `hashes.txt`:
 //!
 //! ```
@@ -44,6 +45,7 @@ pub mod error;
 pub mod export;
 pub mod format;
 pub mod frames;
+pub mod golden;
 pub mod keyframes;
 pub mod manifest;
 pub mod mode;
@@ -53,5 +55,6 @@ pub mod render;
 pub mod scene;
 pub mod sequence;
 pub mod splitmix;
+pub mod testing;
 
 pub use error::{Error, Result};

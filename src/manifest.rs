@@ -1,13 +1,19 @@
 //! The manifests of an output folder and their grammar: `hashes.txt` for a whole run,
 //! `hashes.part-K-of-N.txt` for shard K of N, and the merge of the parts.
 //!
+//! Every manifest campath writes starts with a line naming the renderer version that made its
+//! pixels ([`VERSION`]), so a golden from another campath says so instead of only failing;
+//! files without it (older campaths, hand-written goldens) are read as before.
+//!
 //! Every frame line is `<frame> <pixel sha256> <frame key>`: the frame index, the SHA-256 of its
 //! raw RGB8 pixels (the hash contract) and the [`FrameKey`] of everything that determined them.
-//! Golden files written by hand may leave the key out. A part file starts with a header naming
-//! the shard, the frame range, the animation's frame count and the sequence key (a hash of every
-//! frame's key), and ends with `# complete` once the shard has finished all its frames:
+//! Golden files written by hand may leave the key out. A part file has a header after the renderer
+//! line naming the shard, the frame range, the animation's frame count and the sequence key (a
+//! hash of every frame's key), and ends with `# complete` once the shard has finished all its
+//! frames:
 //!
 //! ```text
+//! # campath renderer 1
 //! # campath part=1/3 range=0..96 frames=96 sequence=<sha256>
 //! 1 <sha256> <key>
 //! 4 <sha256> <key>
@@ -21,7 +27,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
-use crate::render::key::FrameKey;
+use crate::render::key::{FrameKey, VERSION};
 
 /// Shard K of N: the frames k with k mod N = K (interleaved, so every shard gets a share of the
 /// slow and the fast parts of an animation).
@@ -126,9 +132,23 @@ impl PartHeader {
 
 const COMPLETE: &str = "# complete";
 
+const RENDERER: &str = "# campath renderer ";
+
+/// The renderer version a `# campath renderer N` line names.
+fn parse_renderer(line: &str) -> Option<u32> {
+    let n = line.strip_prefix(RENDERER)?.trim();
+    if n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    n.parse().ok()
+}
+
 /// A parsed manifest.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Manifest {
+    /// The renderer version that made the frames ([`VERSION`] when this campath wrote it); None
+    /// in files without the line (older campaths, hand-written goldens).
+    pub renderer: Option<u32>,
     /// Present in part files only.
     pub header: Option<PartHeader>,
     pub entries: Vec<Entry>,
@@ -162,10 +182,22 @@ fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
 }
 
 impl Manifest {
-    /// Parses a manifest strictly: every line must be a frame line, the part header (first), or
-    /// `# complete` (last); blank lines are skipped.
+    /// A new manifest of frames rendered by this campath: it names [`VERSION`].
+    pub fn new(header: Option<PartHeader>, entries: Vec<Entry>) -> Manifest {
+        Manifest {
+            renderer: Some(VERSION),
+            header,
+            entries,
+            complete: false,
+        }
+    }
+
+    /// Parses a manifest strictly: every line must be a frame line, the renderer line (first),
+    /// the part header (first after it), or `# complete` (last); blank lines are skipped.
     pub fn parse(path: &Path, text: &str) -> Result<Manifest> {
         let mut m = Manifest::default();
+        // Lines before the first frame line, the renderer line and the part header among them.
+        let mut leading = true;
         for (i, line) in text.lines().enumerate() {
             let line = line.trim();
             let bad = |what: &str| Error::Manifest {
@@ -183,12 +215,21 @@ impl Manifest {
             }
             if line == COMPLETE {
                 m.complete = true;
+            } else if line.starts_with(RENDERER) {
+                if !leading || m.renderer.is_some() || m.header.is_some() {
+                    return Err(bad("a renderer line that is not the first line"));
+                }
+                m.renderer = Some(
+                    parse_renderer(line)
+                        .ok_or_else(|| bad("bad renderer line (`# campath renderer N`)"))?,
+                );
             } else if line.starts_with('#') {
-                if i > 0 || m.header.is_some() {
-                    return Err(bad("a header that is not on the first line"));
+                if !leading || m.header.is_some() {
+                    return Err(bad("a header that is not at the top"));
                 }
                 m.header = Some(PartHeader::parse(line).ok_or_else(|| bad("bad part header"))?);
             } else {
+                leading = false;
                 m.entries.push(parse_entry(line).map_err(bad)?);
             }
         }
@@ -200,12 +241,14 @@ impl Manifest {
     pub fn read_lenient(path: &Path) -> Manifest {
         let text = std::fs::read_to_string(path).unwrap_or_default();
         let mut m = Manifest::default();
-        for (i, line) in text.lines().enumerate() {
+        for line in text.lines() {
             let line = line.trim();
             if line == COMPLETE {
                 m.complete = true;
-            } else if i == 0 && line.starts_with('#') {
-                m.header = PartHeader::parse(line);
+            } else if line.starts_with(RENDERER) {
+                m.renderer = m.renderer.or(parse_renderer(line));
+            } else if line.starts_with('#') {
+                m.header = m.header.take().or_else(|| PartHeader::parse(line));
             } else if let Ok(e) = parse_entry(line) {
                 m.entries.push(e);
             }
@@ -218,6 +261,9 @@ impl Manifest {
         let mut entries: Vec<&Entry> = self.entries.iter().collect();
         entries.sort_by_key(|e| e.frame);
         let mut text = String::new();
+        if let Some(r) = self.renderer {
+            text += &format!("{RENDERER}{r}\n");
+        }
         if let Some(h) = &self.header {
             text += &format!("{h}\n");
         }
@@ -297,7 +343,11 @@ pub fn merge(dir: &Path, frame_file: impl Fn(u64, u64) -> PathBuf) -> Result<(St
             continue;
         };
         match read_part(shard, path, &mut reference, &frame_file) {
-            Ok(entries) => all.entries.extend(entries),
+            Ok(part) => {
+                // Parts of one sequence share their frame keys, and so their renderer.
+                all.renderer = all.renderer.or(part.renderer);
+                all.entries.extend(part.entries);
+            }
             Err(mut p) => problems.append(&mut p),
         }
     }
@@ -337,13 +387,13 @@ fn shard_count(parts: &BTreeMap<Shard, PathBuf>) -> std::result::Result<u64, Str
 }
 
 /// Shard `shard`'s part file, checked: its header (against the first part's, `reference`), its
-/// completion, and its frames. Returns its entries, or every problem found.
+/// completion, and its frames. Returns the part, or every problem found.
 fn read_part(
     shard: Shard,
     path: &Path,
     reference: &mut Option<(String, PartHeader)>,
     frame_file: impl Fn(u64, u64) -> PathBuf,
-) -> std::result::Result<Vec<Entry>, Vec<String>> {
+) -> std::result::Result<Manifest, Vec<String>> {
     let m = Manifest::read_lenient(path);
     let file = file_of(path);
     let Some(header) = m.header.clone() else {
@@ -407,7 +457,7 @@ fn read_part(
         ));
     }
     if problems.is_empty() {
-        Ok(m.entries)
+        Ok(m)
     } else {
         Err(problems)
     }
@@ -449,6 +499,24 @@ mod tests {
     }
 
     #[test]
+    fn the_renderer_line_is_read_kept_and_optional() {
+        let h = "ab".repeat(32);
+        let m = Manifest::parse(Path::new("g"), &format!("# campath renderer 7\n3 {h}\n")).unwrap();
+        assert_eq!(m.renderer, Some(7));
+        assert_eq!(m.text(), format!("# campath renderer 7\n3 {h}\n"));
+        let old = Manifest::parse(Path::new("g"), &format!("3 {h}\n")).unwrap();
+        assert_eq!(old.renderer, None);
+        for bad in [
+            format!("3 {h}\n# campath renderer 1\n"),
+            "# campath renderer x\n".to_string(),
+            "# campath renderer 1\n# campath renderer 1\n".to_string(),
+        ] {
+            assert!(Manifest::parse(Path::new("g"), &bad).is_err(), "{bad}");
+        }
+        assert_eq!(Manifest::new(None, vec![]).renderer, Some(VERSION));
+    }
+
+    #[test]
     fn part_headers_and_completion_round_trip() {
         let header = PartHeader {
             shard: Shard { index: 1, count: 3 },
@@ -457,12 +525,13 @@ mod tests {
             sequence: "0f".repeat(32),
         };
         let m = Manifest {
-            header: Some(header),
-            entries: vec![],
             complete: true,
+            ..Manifest::new(Some(header), vec![])
         };
         let text = m.text();
-        assert!(text.starts_with("# campath part=1/3 range=2..40 frames=96 sequence=0f0f"));
+        assert!(text.starts_with(&format!(
+            "# campath renderer {VERSION}\n# campath part=1/3 range=2..40 frames=96 sequence=0f0f"
+        )));
         assert!(text.ends_with("# complete\n"));
         assert_eq!(Manifest::parse(Path::new("p"), &text).unwrap(), m);
         assert_eq!(
@@ -474,6 +543,7 @@ mod tests {
     /// Writes part K of 2 over frames 0..4 with the given sequence key and frames.
     fn part(dir: &Path, k: u64, sequence: &str, frames: &[u64], complete: bool) {
         let m = Manifest {
+            renderer: Some(VERSION),
             header: Some(PartHeader {
                 shard: Shard { index: k, count: 2 },
                 range: 0..4,
@@ -510,8 +580,12 @@ mod tests {
         part(dir, 1, &s1, &[1, 3], true);
         let (text, frames) = merge(dir, png).unwrap();
         assert_eq!(frames, 4);
-        assert_eq!(text.lines().count(), 4);
-        assert!(text.starts_with(&format!("0 {} {}", "a".repeat(64), "b".repeat(64))));
+        assert_eq!(text.lines().count(), 5);
+        assert!(text.starts_with(&format!(
+            "# campath renderer {VERSION}\n0 {} {}",
+            "a".repeat(64),
+            "b".repeat(64)
+        )));
 
         // A part from another file, a part with a hole, a missing PNG.
         part(dir, 1, &s2, &[1, 3], true);

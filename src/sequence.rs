@@ -254,16 +254,15 @@ pub fn render(
 
     let total = doc.animation.frames;
     let manifest_path = dir.join(manifest::file_name(set.shard));
-    let mut manifest = Manifest {
-        header: set.shard.map(|shard| PartHeader {
+    let mut manifest = Manifest::new(
+        set.shard.map(|shard| PartHeader {
             shard,
             range: set.range.clone(),
             frames: total,
             sequence: plan.sequence.clone(),
         }),
-        entries: plan.kept.iter().chain(&plan.outside).cloned().collect(),
-        complete: false,
-    };
+        plan.kept.iter().chain(&plan.outside).cloned().collect(),
+    );
     write_atomic(&manifest_path, &manifest.text())?;
     let mut file = OpenOptions::new()
         .append(true)

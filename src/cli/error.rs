@@ -19,6 +19,12 @@ pub enum CliError {
         package: &'static str,
         message: String,
     },
+    /// A JSON file campath wrote for itself (a run's numbers) does not parse (exit 1).
+    #[error("{}: not the JSON campath writes: {cause}", path.display())]
+    Json {
+        path: PathBuf,
+        cause: serde_json::Error,
+    },
     /// A chart could not be drawn (exit 1).
     #[error("{}: cannot draw the chart: {message}", path.display())]
     Draw { path: PathBuf, message: String },

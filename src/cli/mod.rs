@@ -6,9 +6,14 @@ mod args;
 mod bench;
 mod chart;
 mod error;
+mod failures;
+mod junit;
 mod plot;
 mod preview;
 mod report;
+mod review;
+mod suite;
+mod table;
 mod verbs;
 mod verify;
 mod video;
@@ -104,6 +109,32 @@ enum Command {
         /// Also write the run's numbers as JSON to this file.
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
+    },
+    /// Check every shot (*.ron) under DIR against its golden NAME.golden/hashes.txt beside it;
+    /// one line per shot and a summary; exit 1 when any differs or has no golden, 2 when a shot
+    /// cannot be checked.
+    Test {
+        /// The folder of shots, searched recursively.
+        #[arg(default_value = "shots")]
+        dir: PathBuf,
+        /// Approve: write the golden of every shot that differs or has none (its hashes.txt,
+        /// and its frames when the golden keeps frames); passing goldens are left untouched.
+        #[arg(long)]
+        update: bool,
+        /// With --update, keep every frame's PNG in the goldens it writes (for review pages),
+        /// not only hashes.txt.
+        #[arg(long, requires = "update")]
+        keep_frames: bool,
+        /// Also write a JUnit XML report: one test suite per shot, one test case per frame.
+        #[arg(long, value_name = "PATH")]
+        junit: Option<PathBuf>,
+        /// Write a review page, DIR/index.html, of every failing frame: golden, new and their
+        /// difference, with a slider and a flip between golden and new.
+        #[arg(long, value_name = "DIR")]
+        review: Option<PathBuf>,
+        /// Shots checked side by side [default: the number of cores]. The bytes do not change.
+        #[arg(long, value_parser = at_least_one)]
+        jobs: Option<u64>,
     },
     /// Compare fresh renders with golden hashes; exit 1 naming every frame that differs.
     Verify {
@@ -277,6 +308,28 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             stats,
             stats_json,
         } => verbs::hash(&file, frames, stats, stats_json.as_deref())?,
+        Command::Test {
+            dir,
+            update,
+            keep_frames,
+            junit,
+            review,
+            jobs,
+        } => {
+            let jobs = jobs.map_or_else(
+                || std::thread::available_parallelism().map_or(1, usize::from),
+                |j| j as usize,
+            );
+            let args = suite::TestArgs {
+                dir,
+                update,
+                keep_frames,
+                junit,
+                review,
+                jobs,
+            };
+            return suite::run(args, out);
+        }
         Command::Verify {
             file,
             golden,

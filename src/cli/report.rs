@@ -4,12 +4,12 @@
 //! 1, 2, 3, 4, 8, and adaptive sampling at 2, 4 and 8) and compared with a reference at 16×16
 //! samples. Errors are per channel, in 8-bit levels and in linear light.
 
-use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
 use super::chart::{draw_error, draw_png};
 use super::error::{CliError, Result};
+use super::table::Table;
 use campath::camera::Camera;
 use campath::document::Document;
 use campath::frames::median;
@@ -19,10 +19,41 @@ use campath::scene::Scene;
 /// Samples per side of the reference.
 pub const REFERENCE_SAMPLES: u32 = 16;
 
+/// A setting that trades accuracy for time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Setting {
+    /// An s×s grid of samples per pixel.
+    Samples(u32),
+    /// Adaptive sampling up to s×s: corners first, the rest where they disagree.
+    Adaptive(u32),
+    /// One sample per pixel on an instruction path: the same bytes, another time.
+    Path(Simd),
+}
+
+impl Setting {
+    /// The table's name of the setting.
+    pub fn label(self) -> String {
+        match self {
+            Setting::Samples(s) => format!("samples {s}"),
+            Setting::Adaptive(s) => format!("samples {s}, adaptive"),
+            Setting::Path(simd) => format!("samples 1, f64, {} path", simd.name()),
+        }
+    }
+
+    /// The plot's short name beside its marker (its series says the rest).
+    pub fn short(self) -> String {
+        match self {
+            Setting::Samples(s) => format!("s={s}"),
+            Setting::Adaptive(s) => format!("s={s}, adaptive"),
+            Setting::Path(simd) => simd.name().to_string(),
+        }
+    }
+}
+
 /// One setting's measurements against the reference.
 #[derive(Debug, Clone)]
 pub struct Measured {
-    pub label: String,
+    pub setting: Setting,
     /// Median seconds per frame over the timed runs (ray table already built).
     pub secs: f64,
     pub rmse_levels: f64,
@@ -105,19 +136,13 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
         0,
     );
     let fastest = Simd::detect();
-    let mut settings: Vec<(String, Raster, Simd)> = [1, 2, 3, 4, 8]
+    let mut settings: Vec<(Setting, Raster, Simd)> = [1, 2, 3, 4, 8]
         .iter()
-        .map(|&s| {
-            (
-                format!("samples {s}"),
-                Raster { samples: s, ..base },
-                fastest,
-            )
-        })
+        .map(|&s| (Setting::Samples(s), Raster { samples: s, ..base }, fastest))
         .collect();
     for s in [2, 4, 8] {
         settings.push((
-            format!("samples {s}, adaptive"),
+            Setting::Adaptive(s),
             Raster {
                 samples: s,
                 adaptive: true,
@@ -128,15 +153,15 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
     }
     // The instruction paths: all f64, all the same bytes; only the time differs.
     for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
-        settings.push((format!("samples 1, f64, {} path", simd.name()), base, simd));
+        settings.push((Setting::Path(simd), base, simd));
     }
     let mut out = Vec::new();
-    for (label, raster, simd) in settings {
+    for (setting, raster, simd) in settings {
         let (secs, pixels) = timed(&camera, &doc.scene, raster, simd, runs);
         let (rmse_levels, max_levels, rmse_linear, max_linear, changed) =
             compare(&pixels, &reference);
         out.push(Measured {
-            label,
+            setting,
             secs,
             rmse_levels,
             max_levels,
@@ -150,23 +175,27 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
 
 /// The renderer table as Markdown.
 pub fn renderer_table(rows: &[Measured]) -> String {
-    let mut t = String::from(
-        "| setting | median ms/frame | RMSE (levels) | max (levels) | RMSE (linear) | max (linear) | pixels changed |\n|---|---|---|---|---|---|---|\n"
-    );
+    let mut t = Table::new(&[
+        "setting",
+        "median ms/frame",
+        "RMSE (levels)",
+        "max (levels)",
+        "RMSE (linear)",
+        "max (linear)",
+        "pixels changed",
+    ]);
     for r in rows {
-        let _ = writeln!(
-            t,
-            "| {} | {:.1} | {:.3} | {:.0} | {:.5} | {:.4} | {:.2}% |",
-            r.label,
-            r.secs * 1e3,
-            r.rmse_levels,
-            r.max_levels,
-            r.rmse_linear,
-            r.max_linear,
-            r.changed * 100.0
-        );
+        t.row(vec![
+            r.setting.label(),
+            format!("{:.1}", r.secs * 1e3),
+            format!("{:.3}", r.rmse_levels),
+            format!("{:.0}", r.max_levels),
+            format!("{:.5}", r.rmse_linear),
+            format!("{:.4}", r.max_linear),
+            format!("{:.2}%", r.changed * 100.0),
+        ]);
     }
-    t
+    t.markdown()
 }
 
 /// Whole decades around `lo..hi` (positive), as exponents.
@@ -237,17 +266,17 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
         let plain: Vec<_> = rows
             .iter()
             // The instruction paths share samples 1's error; the plot shows the samples.
-            .filter(|r| !r.label.contains("adaptive") && !r.label.contains("path"))
+            .filter(|r| matches!(r.setting, Setting::Samples(_)))
             .map(point)
             .collect();
         let adaptive: Vec<_> = rows
             .iter()
-            .filter(|r| r.label.contains("adaptive"))
+            .filter(|r| matches!(r.setting, Setting::Adaptive(_)))
             .map(point)
             .collect();
         let mut paths: Vec<_> = rows
             .iter()
-            .filter(|r| r.label.contains("path"))
+            .filter(|r| matches!(r.setting, Setting::Path(_)))
             .map(point)
             .collect();
         paths.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -277,11 +306,7 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             })
             .collect(); // (x, y, width) in pixels
         for r in rows {
-            // The instruction paths by name only: their series says the rest.
-            let text = match r.label.strip_prefix("samples 1, f64, ") {
-                Some(path) => path.replace(" path", ""),
-                None => r.label.replace("samples ", "s="),
-            };
+            let text = r.setting.short();
             let (px, py) = chart.backend_coord(&point(r));
             let width = 8 * text.chars().count() as i32;
             let (mut x, mut y) = (px + 9, py - 18);
@@ -396,25 +421,36 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
 
 /// The camera path table as Markdown.
 pub fn path_table(rows: &[PathRow]) -> String {
-    let mut t = String::from(
-        "| timing | table samples per segment | build µs | eval ns/frame | max position error | speed spread |\n|---|---|---|---|---|---|\n",
-    );
+    let mut t = Table::new(&[
+        "timing",
+        "table samples per segment",
+        "build µs",
+        "eval ns/frame",
+        "max position error",
+        "speed spread",
+    ]);
     for r in rows {
-        if r.samples == 0 {
-            let _ = writeln!(
-                t,
-                "| keyed | — | — | {:.0} | — | {:.3} |",
-                r.eval_ns, r.speed_spread
-            );
+        t.row(if r.samples == 0 {
+            vec![
+                "keyed".into(),
+                "—".into(),
+                "—".into(),
+                format!("{:.0}", r.eval_ns),
+                "—".into(),
+                format!("{:.3}", r.speed_spread),
+            ]
         } else {
-            let _ = writeln!(
-                t,
-                "| uniform | {} | {:.1} | {:.0} | {:.2e} | {:.2e} |",
-                r.samples, r.build_us, r.eval_ns, r.max_error, r.speed_spread
-            );
-        }
+            vec![
+                "uniform".into(),
+                r.samples.to_string(),
+                format!("{:.1}", r.build_us),
+                format!("{:.0}", r.eval_ns),
+                format!("{:.2e}", r.max_error),
+                format!("{:.2e}", r.speed_spread),
+            ]
+        });
     }
-    t
+    t.markdown()
 }
 
 /// `campath report`: both tables on `out`, and the plot at `plot`.

@@ -3,20 +3,20 @@
 //! folder of frames, a difference image per failing frame with its changed-pixel count and
 //! largest level difference.
 
-use std::fmt::Write as _;
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::error::Result;
+use super::failures::{self, difference, golden_pixels, is_failure_file, PixelDiff};
+use super::junit;
 use campath::document::Document;
 use campath::frames::{compare_each, Difference};
-use campath::manifest::{list_frames, parse_hashes};
-use campath::output::{frame_path, write_png, Compression};
+use campath::golden::{Golden, HASHES};
+use campath::manifest::list_frames;
+use campath::output::{frame_path, pad_width, write_png, Compression};
+use campath::render::key::VERSION;
 use campath::Error;
-
-/// Marks a changed pixel in a difference image; unchanged pixels are the golden frame at a
-/// third of its brightness, so they never take this colour.
-pub const CHANGED: [u8; 3] = [255, 0, 255];
 
 /// The options of `campath verify`.
 pub struct VerifyArgs {
@@ -27,35 +27,44 @@ pub struct VerifyArgs {
     pub save_failures: Option<PathBuf>,
 }
 
-/// How a differing frame differs from its golden picture.
-struct PixelDiff {
-    changed: u64,
-    largest: u8,
+/// The folders a command must not write into: a golden folder, or the folder of a golden
+/// `hashes.txt` (which may hold golden frames too).
+pub fn golden_folders(golden: &Golden) -> Vec<PathBuf> {
+    let mut folders = vec![golden.path.clone()];
+    match &golden.dir {
+        Some(dir) => folders.push(dir.clone()),
+        None if golden.path.file_name().is_some_and(|n| n == HASHES) => {
+            folders.extend(golden.path.parent().map(Path::to_path_buf));
+        }
+        None => {}
+    }
+    folders
 }
 
 pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
     let doc = Document::load(&a.file)?;
-    let (hashes, frames_dir) = if a.golden.is_dir() {
-        (a.golden.join("hashes.txt"), Some(a.golden.clone()))
-    } else {
-        (a.golden.clone(), None)
-    };
-    let text = std::fs::read_to_string(&hashes).map_err(Error::read(&hashes))?;
-    let expected = parse_hashes(&hashes, &text)?;
-    if expected.is_empty() {
-        return Err(Error::Manifest {
-            path: hashes,
-            message: "lists no frames".into(),
-        }
-        .into());
+    let golden = Golden::load(&a.golden)?;
+    // Every refusal comes before anything is written or removed.
+    let goldens = golden_folders(&golden);
+    if let Some(path) = &a.junit {
+        failures::outside_goldens(path, "--junit", &goldens)?;
     }
     if let Some(dir) = &a.save_failures {
-        std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
+        failures::claim(dir, "--save-failures", &goldens, is_failure_file)?;
     }
     let total = doc.animation.frames;
     let size = (doc.raster.width, doc.raster.height);
-    let mut pixel_diffs = std::collections::BTreeMap::new();
-    let differ = compare_each(&doc, &expected, |d, pixels| {
+    let golden_frames = golden.frames();
+    let mut pixel_diffs = BTreeMap::new();
+    let differ = compare_each(&doc, &golden.pairs(), |d, pixels| {
+        // The golden frame is read before anything is written.
+        let diff = golden_frames
+            .get(&d.frame)
+            .and_then(|path| golden_pixels(path, size))
+            .map(|golden| difference(&golden, pixels));
+        if let Some((_, p)) = &diff {
+            pixel_diffs.insert(d.frame, *p);
+        }
         let Some(dir) = &a.save_failures else {
             return Ok(());
         };
@@ -65,23 +74,9 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
             size,
             Compression::Fast,
         )?;
-        let Some(golden_dir) = &frames_dir else {
-            return Ok(());
-        };
-        let golden = frame_path(golden_dir, d.frame, total);
-        let Ok(img) = image::open(&golden) else {
-            return Ok(()); // no golden picture to compare with: the hash line says enough
-        };
-        let golden = img.to_rgb8().into_raw();
-        if golden.len() == pixels.len() {
-            let (image, diff) = difference(&golden, pixels);
-            let name = format!(
-                "frame_{:0w$}.diff.png",
-                d.frame,
-                w = campath::output::pad_width(total)
-            );
+        if let Some((image, _)) = diff {
+            let name = format!("frame_{:0w$}.diff.png", d.frame, w = pad_width(total));
             write_png(&dir.join(name), &image, size, Compression::Fast)?;
-            pixel_diffs.insert(d.frame, diff);
         }
         Ok(())
     })?;
@@ -94,23 +89,63 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         .map_err(Error::stdout)?;
     }
     let summary = if differ.is_empty() {
-        format!("{} frame(s) match {}", expected.len(), a.golden.display())
+        format!(
+            "{} frame(s) match {}",
+            golden.hashes.len(),
+            a.golden.display()
+        )
     } else {
         let frames: Vec<u64> = differ.iter().map(|d| d.frame).collect();
         format!(
             "{} of {} frame(s) differ from {}: {}",
             differ.len(),
-            expected.len(),
+            golden.hashes.len(),
             a.golden.display(),
             list_frames(&frames)
         )
     };
     writeln!(out, "{summary}").map_err(Error::stdout)?;
+    if let (Some(r), false) = (golden.other_renderer(), differ.is_empty()) {
+        writeln!(out, "{}", renderer_note(&golden.path, r)).map_err(Error::stdout)?;
+    }
     if let Some(path) = &a.junit {
-        let xml = junit(&a.file, &expected, &differ, &pixel_diffs);
-        campath::output::write_atomic(path, &xml)?;
+        let mut suite = junit::Suite::new(&a.file.display().to_string());
+        for (frame, hash) in &golden.hashes {
+            let failure = differ.iter().find(|d| d.frame == *frame).map(|d| {
+                let got = d.actual.as_deref().unwrap_or("no such frame");
+                let mut message = format!("expected {hash}, got {got}");
+                if let Some(p) = pixel_diffs.get(frame) {
+                    message += &pixels_changed(p);
+                }
+                message
+            });
+            suite.case(&format!("frame {frame}"), failure);
+        }
+        junit::write(path, "campath verify", &[suite])?;
     }
     Ok(differ.is_empty())
+}
+
+/// Why every frame of a golden from another renderer may differ, and what to do.
+pub fn renderer_note(golden: &Path, renderer: u32) -> String {
+    if renderer < VERSION {
+        format!(
+            "note: {} was made by campath renderer {renderer}, and this campath is renderer              {VERSION}: its pictures changed, not necessarily the shot. If the new frames are              right, approve them: `campath test --update`, or render into the golden again.",
+            golden.display()
+        )
+    } else {
+        format!(
+            "note: {} was made by campath renderer {renderer}, newer than this campath's              renderer {VERSION}: update campath.",
+            golden.display()
+        )
+    }
+}
+
+fn pixels_changed(p: &PixelDiff) -> String {
+    format!(
+        ": {} pixel(s) changed, largest difference {} level(s)",
+        p.changed, p.largest
+    )
 }
 
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
@@ -122,89 +157,10 @@ fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> 
         ),
         (Some(got), None) => format!("frame {}: expected {}, got {got}", d.frame, d.expected),
         (Some(got), Some(p)) => format!(
-            "frame {}: expected {}, got {got}: {} pixel(s) changed, largest difference {} level(s)",
-            d.frame, d.expected, p.changed, p.largest
+            "frame {}: expected {}, got {got}{}",
+            d.frame,
+            d.expected,
+            pixels_changed(p)
         ),
     }
-}
-
-/// The difference image (changed pixels in [`CHANGED`] over the golden frame dimmed to a third)
-/// and the changed-pixel count and largest per-channel difference.
-fn difference(golden: &[u8], actual: &[u8]) -> (Vec<u8>, PixelDiff) {
-    let mut image = Vec::with_capacity(golden.len());
-    let mut diff = PixelDiff {
-        changed: 0,
-        largest: 0,
-    };
-    for (g, a) in golden.chunks_exact(3).zip(actual.chunks_exact(3)) {
-        if g == a {
-            image.extend(g.iter().map(|c| c / 3));
-        } else {
-            diff.changed += 1;
-            for (x, y) in g.iter().zip(a) {
-                diff.largest = diff.largest.max(x.abs_diff(*y));
-            }
-            image.extend(CHANGED);
-        }
-    }
-    (image, diff)
-}
-
-/// A JUnit XML report: one test suite for the file, one test case per golden frame.
-fn junit(
-    file: &Path,
-    expected: &[(u64, String)],
-    differ: &[Difference],
-    pixel_diffs: &std::collections::BTreeMap<u64, PixelDiff>,
-) -> String {
-    let suite = escape(&file.display().to_string());
-    let mut xml = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    let _ = writeln!(
-        xml,
-        "<testsuites name=\"campath verify\" tests=\"{}\" failures=\"{}\">",
-        expected.len(),
-        differ.len()
-    );
-    let _ = writeln!(
-        xml,
-        "  <testsuite name=\"{suite}\" tests=\"{}\" failures=\"{}\" errors=\"0\" skipped=\"0\">",
-        expected.len(),
-        differ.len()
-    );
-    for (frame, hash) in expected {
-        let _ = write!(
-            xml,
-            "    <testcase classname=\"{suite}\" name=\"frame {frame}\""
-        );
-        match differ.iter().find(|d| d.frame == *frame) {
-            None => xml += "/>\n",
-            Some(d) => {
-                let got = d.actual.as_deref().unwrap_or("no such frame");
-                let mut message = format!("expected {hash}, got {got}");
-                if let Some(p) = pixel_diffs.get(frame) {
-                    let _ = write!(
-                        message,
-                        ": {} pixel(s) changed, largest difference {} level(s)",
-                        p.changed, p.largest
-                    );
-                }
-                let message = escape(&message);
-                let _ = writeln!(
-                    xml,
-                    ">\n      <failure message=\"{message}\" type=\"hash mismatch\">{message}</failure>\n    </testcase>"
-                );
-            }
-        }
-    }
-    xml += "  </testsuite>\n</testsuites>\n";
-    xml
-}
-
-/// Escapes text for an XML attribute or element.
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-        .replace('\'', "&apos;")
 }

@@ -3,6 +3,7 @@
 
 pub mod blender;
 pub mod gltf;
+pub mod povray;
 pub mod usd;
 
 use std::io::Write;

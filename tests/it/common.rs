@@ -50,6 +50,12 @@ pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// The frame lines of a manifest: every line but the `#` lines (renderer, part header,
+/// `# complete`).
+pub fn frame_lines(text: &str) -> Vec<&str> {
+    text.lines().filter(|l| !l.starts_with('#')).collect()
+}
+
 /// Whether an outside program the test needs is on PATH. When it is missing, `cargo test` skips
 /// the check with a printed reason; with `CAMPATH_REQUIRE_TOOLS=1` (set by `.ci/run`) a missing
 /// program fails the test instead.

@@ -16,6 +16,7 @@ mod modes;
 mod povray;
 mod production;
 mod simd;
+mod suites;
 mod usd;
 mod video;
 mod watch;

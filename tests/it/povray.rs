@@ -1,15 +1,17 @@
 //! Cross-check of the projection against an independent renderer, POV-Ray 3.7.
 //!
-//! Each random camera (off-axis COPs included) is given to POV-Ray as explicit vectors:
-//! `location` = the COP in world, `direction` = VRP − COP, `right` = w·u, `up` = h·v. Spheres are
-//! flat (`ambient 1 diffuse 0`) in colours whose channels are 0 or 1, so every pixel names the
-//! sphere it sees, whatever the transfer function. The two renders must agree on the sphere at
+//! Each random camera (off-axis COPs included) is given to POV-Ray by
+//! `campath::export::povray` as explicit vectors: `location` = the COP in world, `direction` =
+//! VRP − COP, `right` = w·u, `up` = h·v. Spheres are flat (`ambient 1 diffuse 0`) in colours
+//! whose channels are 0 or 1, so every pixel names the sphere it sees, whatever the transfer
+//! function. The two renders must agree on the sphere at
 //! ≥ 99.9% of pixels. `.ci/run` installs povray.
 
 use std::path::Path;
 use std::process::Command;
 
 use campath::document::Document;
+use campath::export::povray::Finish;
 use campath::render::Renderer;
 use glam::DVec3;
 
@@ -40,10 +42,6 @@ impl Rng {
 
 fn t3(v: DVec3) -> String {
     format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
-}
-
-fn pov3(v: DVec3) -> String {
-    format!("<{:.15}, {:.15}, {:.15}>", v.x, v.y, v.z)
 }
 
 /// Index of the colour a pixel shows: 0 background, 1.. the spheres.
@@ -135,24 +133,7 @@ fn projection_matches_povray_on_random_cameras() {
         let cam = doc.cameras().next().unwrap().unwrap().1;
         let ours = Renderer::new().render(&cam, &doc.scene, doc.raster);
 
-        let cop_world = cam.cop_world();
-        let mut pov = String::from("#version 3.7;\nglobal_settings { assumed_gamma 1.0 }\nbackground { color rgb <0, 0, 0> }\n");
-        pov += &format!(
-            "camera {{ perspective location {} direction {} right {} up {} }}\n",
-            pov3(cop_world),
-            pov3(cam.vrp_world - cop_world),
-            pov3(cam.basis.u * cam.window.x),
-            pov3(cam.basis.v * cam.window.y)
-        );
-        for ((c, r), col) in spheres.iter().zip(COLORS) {
-            pov += &format!(
-                "sphere {{ {}, {r:.15} pigment {{ color rgb <{}, {}, {}> }} finish {{ ambient 1 diffuse 0 }} }}\n",
-                pov3(*c),
-                col.0,
-                col.1,
-                col.2
-            );
-        }
+        let pov = campath::export::povray::scene(&doc, Finish::Flat).unwrap();
         let theirs = povray(tmp.path(), &pov, w, h);
         let agree = ours
             .chunks(3)

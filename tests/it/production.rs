@@ -1,7 +1,7 @@
 //! Production use: atomic frames, resume after SIGKILL, shards and merge, progress, refusing
 //! absurd requests and foreign folders.
 
-use crate::common::{campath, stderr, stdout};
+use crate::common::{campath, frame_lines, stderr, stdout};
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
@@ -38,7 +38,7 @@ fn assert_consistent(dir: &Path) {
             pngs += 1;
         }
     }
-    for line in read(&dir.join("hashes.txt")).lines() {
+    for line in frame_lines(&read(&dir.join("hashes.txt"))) {
         let cols: Vec<&str> = line.split(' ').collect();
         let [frame, hash, key] = cols[..] else {
             continue; // a torn last line, dropped on resume
@@ -66,7 +66,7 @@ fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
     );
     assert!(whole.status.success(), "{}", stderr(&whole));
     let expected = read(&tmp.path().join("whole/hashes.txt"));
-    assert_eq!(expected.lines().count(), 48);
+    assert_eq!(frame_lines(&expected).len(), 48);
 
     // Kill at fixed delays, and once as soon as the manifest lists a few more frames, so that
     // there is always something to resume from however fast the machine is.
@@ -77,7 +77,7 @@ fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
             .spawn()
             .unwrap();
         std::thread::sleep(Duration::from_millis(delay_ms));
-        let listed = || read(&tmp.path().join("killed/hashes.txt")).lines().count();
+        let listed = || frame_lines(&read(&tmp.path().join("killed/hashes.txt"))).len();
         let before = listed();
         for _ in 0..2000 {
             if until_listed == 0 || listed() >= (before + until_listed).min(47) {
@@ -158,10 +158,6 @@ fn shard(tmp: &Path, k: u64) -> Command {
     cmd
 }
 
-fn frame_lines(text: &str) -> Vec<&str> {
-    text.lines().filter(|l| !l.starts_with('#')).collect()
-}
-
 #[test]
 fn three_shards_merge_into_a_single_runs_manifest() {
     let tmp = setup();
@@ -179,7 +175,10 @@ fn three_shards_merge_into_a_single_runs_manifest() {
     }
     let part = read(&tmp.path().join("farm/hashes.part-1-of-3.txt"));
     assert_eq!(frame_lines(&part).len(), 16);
-    assert!(part.starts_with("# campath part=1/3 range=0..48 frames=48 sequence="));
+    assert!(part.starts_with(&format!(
+        "# campath renderer {}\n# campath part=1/3 range=0..48 frames=48 sequence=",
+        campath::render::key::VERSION
+    )));
     assert!(part.ends_with("# complete\n"));
     assert!(frame_lines(&part).iter().all(|l| l
         .split(' ')

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use crate::common::{campath, have_tool, root, stderr};
+use crate::common::{campath, frame_lines, have_tool, root, stderr};
 use campath::output::frame_hash;
 
 /// The zoom example at 96×54 (odd-free) or 95×53 (odd sides, which H.264 pads).
@@ -41,8 +41,8 @@ fn the_lossless_video_decodes_to_the_frames_of_hashes_txt() {
         String::from_utf8_lossy(&raw.stderr)
     );
     let manifest = std::fs::read_to_string(tmp.path().join("out/zoom/hashes.txt")).unwrap();
-    let want: Vec<&str> = manifest
-        .lines()
+    let want: Vec<&str> = frame_lines(&manifest)
+        .iter()
         .map(|l| l.split(' ').nth(1).unwrap())
         .collect();
     let got: Vec<String> = raw.stdout.chunks(96 * 54 * 3).map(frame_hash).collect();

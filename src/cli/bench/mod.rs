@@ -1,0 +1,295 @@
+//! `campath bench`: generated fly-through scenes, timed in campath (PNG and hash-only output,
+//! each in its own process so peak memory is its own) and in POV-Ray 3.7's animation mode on
+//! the same scene and camera, in the same run.
+//!
+//! `scenes` generates the scenes, `timing` times campath's processes, `povray` runs POV-Ray;
+//! this module runs them and writes the tables.
+
+mod povray;
+mod scenes;
+mod timing;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::error::{CliError, Result};
+use super::table::Table;
+use campath::document::Document;
+use campath::Error;
+pub use scenes::{scaling_scenes, scene_ron, scenes, BenchScene, Layout};
+use timing::{run_campath, Run};
+
+/// The cores and the CPU features that matter here (SHA extensions, AVX2, AVX-512F), from
+/// std's run-time detection, as the renderer's instruction paths detect them.
+pub fn cpu_features() -> String {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    #[cfg(target_arch = "x86_64")]
+    {
+        let has = |yes: bool| if yes { "yes" } else { "no" };
+        format!(
+            "{cores} core(s); SHA-NI {}, AVX2 {}, AVX-512 {}",
+            has(std::arch::is_x86_feature_detected!("sha")),
+            has(std::arch::is_x86_feature_detected!("avx2")),
+            has(std::arch::is_x86_feature_detected!("avx512f"))
+        )
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        format!("{cores} core(s); {}", std::env::consts::ARCH)
+    }
+}
+
+/// One measured row.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Row {
+    pub scene: BenchScene,
+    /// campath with PNG output.
+    pub png: Run,
+    /// campath hash-only.
+    pub hash: Run,
+    /// POV-Ray: wall ms per frame, and the frames it rendered.
+    pub pov: Option<(f64, u64)>,
+}
+
+/// Writes the scene files to `dir` and measures every scene.
+pub fn run(
+    dir: &Path,
+    pov_frames: u64,
+    runs: usize,
+    scenes: &[BenchScene],
+    progress: &mut dyn std::io::Write,
+) -> Result<Vec<Row>> {
+    std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
+    if pov_frames > 0 {
+        povray::check()?;
+    }
+    let mut rows = Vec::new();
+    for s in scenes {
+        let ron_path = dir.join(format!("{}.ron", s.name));
+        let write =
+            |p: &PathBuf, text: &str| std::fs::write(p, text).map_err(Error::write(p.clone()));
+        write(&ron_path, &scene_ron(s))?;
+        let file = ron_path.to_string_lossy().into_owned();
+        // Always a fresh render: frames kept from an earlier run would time nothing.
+        let frames_dir = dir.join(&s.name);
+        if frames_dir.exists() {
+            std::fs::remove_dir_all(&frames_dir).map_err(Error::write(&frames_dir))?;
+        }
+        let frames_dir = frames_dir.to_string_lossy().into_owned();
+        // campath renders the frames POV-Ray renders (all of them without POV-Ray): both
+        // processes then spread their start-up over the same frames.
+        let n = if pov_frames > 0 {
+            pov_frames.min(s.frames)
+        } else {
+            s.frames
+        };
+        let range = format!("0..{n}");
+        let _ = writeln!(progress, "{}: campath, PNG output, {runs} run(s) …", s.name);
+        let stats = dir.join(format!("{}.stats.json", s.name));
+        let png = run_campath(
+            &[
+                "render",
+                &file,
+                "--frames",
+                &range,
+                "--out",
+                &frames_dir,
+                "--force",
+                "--quiet",
+            ],
+            &stats,
+            runs,
+        )?;
+        let _ = writeln!(progress, "{}: campath, hash only, {runs} run(s) …", s.name);
+        let hash = run_campath(&["hash", &file, "--frames", &range], &stats, runs)?;
+        let pov = if pov_frames > 0 {
+            let _ = writeln!(progress, "{}: POV-Ray, {n} frame(s) …", s.name);
+            let doc = Document::load(&ron_path)?;
+            Some((povray::time(dir, s, &doc, n)?, n))
+        } else {
+            None
+        };
+        rows.push(Row {
+            scene: s.clone(),
+            png,
+            hash,
+            pov,
+        });
+    }
+    Ok(rows)
+}
+
+/// The table README shows.
+pub fn table(rows: &[Row]) -> String {
+    let mut t = Table::new(&[
+        "scene",
+        "size, samples",
+        "spheres",
+        "campath PNG ms/frame (process)",
+        "campath hash-only ms/frame (process)",
+        "median render ms",
+        "primary rays/s",
+        "peak MB (PNG, hash)",
+        "POV-Ray ms/frame",
+        "POV / campath PNG",
+        "POV / campath hash",
+    ]);
+    for r in rows {
+        let s = &r.scene;
+        let rays = (s.width as f64 * s.height as f64 * (s.samples * s.samples) as f64)
+            / (r.hash.stats.median_render_ms / 1e3);
+        let (pov, ratio_png, ratio_hash) = match r.pov {
+            Some((ms, n)) => (
+                format!("{ms:.0} ({n} frames)"),
+                format!("{:.1}×", ms / r.png.process_ms_per_frame),
+                format!("{:.1}×", ms / r.hash.process_ms_per_frame),
+            ),
+            None => ("—".into(), "—".into(), "—".into()),
+        };
+        let peak = |run: &Run| run.stats.peak_memory_mb.unwrap_or(f64::NAN);
+        t.row(vec![
+            s.name.clone(),
+            format!("{}×{}, {}", s.width, s.height, s.samples),
+            s.spheres.to_string(),
+            format!("{:.1}", r.png.process_ms_per_frame),
+            format!("{:.1}", r.hash.process_ms_per_frame),
+            format!("{:.1}", r.hash.stats.median_render_ms),
+            format!("{:.1} M", rays / 1e6),
+            format!("{:.0}, {:.0}", peak(&r.png), peak(&r.hash)),
+            pov,
+            ratio_png,
+            ratio_hash,
+        ]);
+    }
+    t.markdown()
+}
+
+/// One scaling scene's hash-only run.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ScaleRow {
+    pub scene: BenchScene,
+    pub hash: Run,
+}
+
+/// Times the scaling scenes, hash-only, each in its own process. The scene file is removed
+/// after its run (a million spheres take 150 MB of RON).
+pub fn run_scaling(
+    dir: &Path,
+    runs: usize,
+    scenes: &[BenchScene],
+    progress: &mut dyn std::io::Write,
+) -> Result<Vec<ScaleRow>> {
+    std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
+    let mut rows = Vec::new();
+    for s in scenes {
+        let ron_path = dir.join(format!("{}.ron", s.name));
+        std::fs::write(&ron_path, scene_ron(s)).map_err(Error::write(ron_path.clone()))?;
+        let _ = writeln!(progress, "{}: campath, hash only, {runs} run(s) …", s.name);
+        let stats = dir.join(format!("{}.stats.json", s.name));
+        let hash = run_campath(&["hash", &ron_path.to_string_lossy()], &stats, runs)?;
+        std::fs::remove_file(&ron_path).map_err(Error::write(ron_path.clone()))?;
+        rows.push(ScaleRow {
+            scene: s.clone(),
+            hash,
+        });
+    }
+    Ok(rows)
+}
+
+/// The scaling table, and each layout's growth in frame time from 10,000 to 1,000,000 spheres.
+pub fn scaling_table(rows: &[ScaleRow]) -> String {
+    let mut table = Table::new(&[
+        "scene",
+        "size",
+        "spheres",
+        "most in view",
+        "first frame ms",
+        "ms/frame (hash-only)",
+        "median render ms",
+        "peak MB",
+    ]);
+    for r in rows {
+        let (s, stats) = (&r.scene, &r.hash.stats);
+        table.row(vec![
+            s.name.clone(),
+            format!("{}×{}", s.width, s.height),
+            s.spheres.to_string(),
+            stats.max_in_view.to_string(),
+            format!("{:.0}", stats.first_frame_ms.unwrap_or(f64::NAN)),
+            format!("{:.1}", stats.wall_ms_per_frame),
+            format!("{:.1}", stats.median_render_ms),
+            format!("{:.0}", stats.peak_memory_mb.unwrap_or(f64::NAN)),
+        ]);
+    }
+    let mut t = table.markdown();
+    for layout in [Layout::Patch, Layout::BigCluster] {
+        let at = |n: usize| {
+            rows.iter()
+                .find(|r| {
+                    r.scene.layout == layout && r.scene.spheres == n && r.scene.height == 1080
+                })
+                .map(|r| r.hash.stats.median_render_ms)
+        };
+        if let (Some(a), Some(b)) = (at(10_000), at(1_000_000)) {
+            let _ = writeln!(
+                t,
+                "\n{layout:?}: median render {:.2}× from 10,000 to 1,000,000 spheres (log ratio {:.1}×, linear 100×).",
+                b / a,
+                (1e6f64).ln() / (1e4f64).ln()
+            );
+        }
+    }
+    t
+}
+
+/// `campath bench`: the chosen scenes (all when `names` is empty), as a table or as JSON.
+pub fn command(
+    dir: &Path,
+    pov_frames: u64,
+    runs: usize,
+    names: &[String],
+    json: bool,
+    scaling: bool,
+    out: &mut dyn std::io::Write,
+) -> Result<()> {
+    let cpu = cpu_features();
+    let all = if scaling { scaling_scenes() } else { scenes() };
+    if let Some(unknown) = names.iter().find(|n| !all.iter().any(|s| s.name == **n)) {
+        let known: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
+        return Err(CliError::Usage(format!(
+            "--scenes: {unknown:?} is not a bench scene (the scenes are {})",
+            known.join(", ")
+        )));
+    }
+    let chosen: Vec<BenchScene> = all
+        .into_iter()
+        .filter(|s| names.is_empty() || names.contains(&s.name))
+        .collect();
+    let (value, rows_table) = if scaling {
+        let rows = run_scaling(dir, runs, &chosen, &mut std::io::stderr())?;
+        (
+            serde_json::json!({"cpu": cpu, "runs": runs, "scaling": rows}),
+            scaling_table(&rows),
+        )
+    } else {
+        let rows = run(dir, pov_frames, runs, &chosen, &mut std::io::stderr())?;
+        (
+            serde_json::json!({"cpu": cpu, "runs": runs, "rows": rows}),
+            table(&rows),
+        )
+    };
+    let text = if json {
+        serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
+    } else {
+        let how = if scaling {
+            format!("campath: each row from the run of median process time of {runs}")
+        } else {
+            format!(
+                "campath: process ms/frame the median of {runs} process(es), the other columns from that run; POV-Ray: one run over its frames"
+            )
+        };
+        format!("CPU: {cpu}\n{how}\n\n{rows_table}")
+    };
+    write!(out, "{text}").map_err(Error::stdout)?;
+    Ok(())
+}

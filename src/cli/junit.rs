@@ -1,0 +1,114 @@
+//! JUnit XML reports, the format CI systems show as test results (GitHub Actions' report
+//! actions, GitLab, Jenkins): one test suite per shot, one test case per frame.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::error::Result;
+
+/// One test suite: a shot's frames.
+pub struct Suite {
+    name: String,
+    /// Each case's name and, when it failed, why.
+    cases: Vec<(String, Option<String>)>,
+    /// A suite that could not run at all (a shot that does not load).
+    error: Option<String>,
+}
+
+impl Suite {
+    pub fn new(name: &str) -> Suite {
+        Suite {
+            name: name.to_string(),
+            cases: Vec::new(),
+            error: None,
+        }
+    }
+
+    /// A suite with one errored case: the shot could not be checked.
+    pub fn errored(name: &str, message: &str) -> Suite {
+        Suite {
+            error: Some(message.to_string()),
+            ..Suite::new(name)
+        }
+    }
+
+    /// Adds a case, failed with `failure` when it is Some.
+    pub fn case(&mut self, name: &str, failure: Option<String>) {
+        self.cases.push((name.to_string(), failure));
+    }
+
+    fn failures(&self) -> usize {
+        self.cases.iter().filter(|(_, f)| f.is_some()).count()
+    }
+
+    fn tests(&self) -> usize {
+        self.cases.len() + usize::from(self.error.is_some())
+    }
+}
+
+/// The report's text.
+pub fn text(name: &str, suites: &[Suite]) -> String {
+    let mut xml = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let tests: usize = suites.iter().map(Suite::tests).sum();
+    let failures: usize = suites.iter().map(Suite::failures).sum();
+    let errors = suites.iter().filter(|s| s.error.is_some()).count();
+    let _ = writeln!(
+        xml,
+        "<testsuites name=\"{}\" tests=\"{tests}\" failures=\"{failures}\" errors=\"{errors}\">",
+        escape(name)
+    );
+    for s in suites {
+        let suite = escape(&s.name);
+        let _ = writeln!(
+            xml,
+            "  <testsuite name=\"{suite}\" tests=\"{}\" failures=\"{}\" errors=\"{}\" skipped=\"0\">",
+            s.tests(),
+            s.failures(),
+            usize::from(s.error.is_some())
+        );
+        if let Some(e) = &s.error {
+            let e = escape(e);
+            let _ = writeln!(
+                xml,
+                "    <testcase classname=\"{suite}\" name=\"load\">\n      <error message=\"{e}\" type=\"bad shot\">{e}</error>\n    </testcase>"
+            );
+        }
+        for (case, failure) in &s.cases {
+            let _ = write!(
+                xml,
+                "    <testcase classname=\"{suite}\" name=\"{}\"",
+                escape(case)
+            );
+            match failure {
+                None => xml += "/>\n",
+                Some(message) => {
+                    let message = escape(message);
+                    let _ = writeln!(
+                        xml,
+                        ">\n      <failure message=\"{message}\" type=\"hash mismatch\">{message}</failure>\n    </testcase>"
+                    );
+                }
+            }
+        }
+        xml += "  </testsuite>\n";
+    }
+    xml += "</testsuites>\n";
+    xml
+}
+
+/// Writes the report to `path` (through a temporary file and a rename).
+pub fn write(path: &Path, name: &str, suites: &[Suite]) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(campath::Error::write(parent))?;
+    }
+    Ok(campath::output::write_atomic(path, &text(name, suites))?)
+}
+
+/// Escapes text for an XML attribute or element.
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('\'', "&apos;")
+}

@@ -1,0 +1,184 @@
+//! `campath test --review DIR`: a page, `DIR/index.html`, of every failing shot's frames: the
+//! golden frame (when the golden keeps frames), the new frame and a difference image, with a
+//! slider and a flip between golden and new. It is one file with its pictures beside it, and
+//! works from `file://` with no server and no network.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::error::Result;
+use super::failures::PixelDiff;
+use super::junit::escape;
+
+/// A differing frame's pictures in the review folder (file names) and hashes.
+pub struct ReviewFrame {
+    pub frame: u64,
+    pub golden_hash: Option<String>,
+    pub fresh_hash: Option<String>,
+    /// The new frame; None for a golden frame past the animation's end.
+    pub new: Option<String>,
+    /// The golden frame, when the golden keeps frames.
+    pub golden: Option<String>,
+    /// The difference image, beside a golden frame.
+    pub diff: Option<String>,
+    pub pixels: Option<PixelDiff>,
+}
+
+/// A failing shot on the page.
+pub struct ReviewShot {
+    pub shot: String,
+    pub summary: String,
+    pub frames: Vec<ReviewFrame>,
+}
+
+/// A review picture's file name: shot `index`, `frame`, and `what` (new, golden or diff).
+pub fn file_name(index: usize, frame: u64, what: &str) -> String {
+    format!("shot{index:04}_frame{frame:06}.{what}.png")
+}
+
+/// The files `--review` writes: `index.html` and [`file_name`]s.
+pub fn is_review_file(name: &str) -> bool {
+    let name = name.strip_suffix(".tmp").unwrap_or(name);
+    if name == "index.html" {
+        return true;
+    }
+    let Some(rest) = name
+        .strip_prefix("shot")
+        .and_then(|r| r.strip_suffix(".png"))
+    else {
+        return false;
+    };
+    let Some((numbers, what)) = rest.split_once('.') else {
+        return false;
+    };
+    let Some((shot, frame)) = numbers.split_once("_frame") else {
+        return false;
+    };
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    digits(shot) && digits(frame) && ["new", "golden", "diff"].contains(&what)
+}
+
+const STYLE: &str = "
+body { font: 14px/1.4 system-ui, sans-serif; margin: 24px; background: #1d1f24; color: #e6e6e6; }
+h1 { font-size: 20px; } h2 { font-size: 16px; margin-top: 32px; border-top: 1px solid #444; padding-top: 16px; }
+.frame { margin: 16px 0 28px; }
+.frame h3 { font-size: 14px; margin: 0 0 6px; font-weight: 600; }
+.pictures { display: flex; flex-wrap: wrap; gap: 16px; align-items: flex-start; }
+figure { margin: 0; }
+figcaption { font-size: 12px; color: #aaa; margin-top: 4px; }
+.compare { position: relative; display: inline-block; line-height: 0; outline: 1px solid #555; }
+.compare img, figure > img { image-rendering: pixelated; width: min(44vw, 960px); }
+.compare img.new { position: absolute; left: 0; top: 0; }
+.controls { margin-top: 6px; display: flex; gap: 8px; align-items: center; font-size: 12px; }
+.hash { font-family: ui-monospace, monospace; font-size: 11px; color: #999; word-break: break-all; }
+.passed { color: #7ec27e; }
+";
+
+/// Slide: the new frame is clipped to the slider's right; flip: show golden or new whole.
+const SCRIPT: &str = "
+function show(c, percent) {
+  c.querySelector('img.new').style.clipPath = 'inset(0 0 0 ' + percent + '%)';
+  c.dataset.split = percent;
+}
+document.querySelectorAll('.frame').forEach(function (f) {
+  var c = f.querySelector('.compare');
+  if (!c) return;
+  var slider = f.querySelector('input.slide');
+  slider.addEventListener('input', function () { show(c, slider.value); });
+  f.querySelector('button.flip').addEventListener('click', function () {
+    slider.value = slider.value > 50 ? 0 : 100; show(c, slider.value);
+  });
+  show(c, slider.value);
+});
+window.addEventListener('load', function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  document.body.dataset.images = imgs.length;
+  document.body.dataset.loaded = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
+});
+";
+
+/// Writes `dir/index.html` for the failing `shots` of a run of `total` shots; returns its path.
+pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> {
+    let mut html =
+        String::from("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">");
+    let _ = write!(
+        html,
+        "<title>campath review</title><style>{STYLE}</style></head><body>\n<h1>campath test: {} of {total} shot(s) failed</h1>\n",
+        shots.len()
+    );
+    if shots.is_empty() {
+        html += "<p class=\"passed\">Every shot matches its golden.</p>\n";
+    }
+    for shot in shots {
+        let _ = writeln!(
+            html,
+            "<h2>{}</h2><p>{}</p>",
+            escape(&shot.shot),
+            escape(&shot.summary)
+        );
+        for f in &shot.frames {
+            frame(&mut html, f);
+        }
+    }
+    let _ = write!(html, "<script>{SCRIPT}</script>\n</body></html>\n");
+    let page = dir.join("index.html");
+    campath::output::write_atomic(&page, &html)?;
+    Ok(page)
+}
+
+fn frame(html: &mut String, f: &ReviewFrame) {
+    let hash = |h: &Option<String>| escape(h.as_deref().unwrap_or("none"));
+    let _ = write!(
+        html,
+        "<div class=\"frame\" id=\"frame-{}\"><h3>frame {}",
+        f.frame, f.frame
+    );
+    if let Some(p) = &f.pixels {
+        let _ = write!(
+            html,
+            ": {} pixel(s) changed, largest difference {} level(s)",
+            p.changed, p.largest
+        );
+    }
+    let _ = write!(
+        html,
+        "</h3><div class=\"hash\">golden {}<br>new&nbsp;&nbsp;&nbsp; {}</div><div class=\"pictures\">",
+        hash(&f.golden_hash),
+        hash(&f.fresh_hash)
+    );
+    match (&f.golden, &f.new) {
+        (Some(golden), Some(new)) => {
+            let _ = write!(
+                html,
+                "<figure><div class=\"compare\" data-split=\"50\"><img class=\"golden\" src=\"{g}\" alt=\"golden frame {n}\"><img class=\"new\" src=\"{new}\" alt=\"new frame {n}\"></div>\
+                 <figcaption>golden | new: <span class=\"controls\"><input class=\"slide\" type=\"range\" min=\"0\" max=\"100\" value=\"50\" aria-label=\"golden or new\"><button class=\"flip\">flip</button></span></figcaption></figure>",
+                g = escape(golden),
+                new = escape(new),
+                n = f.frame
+            );
+        }
+        (None, Some(new)) => {
+            let why = if f.golden_hash.is_some() {
+                "the golden keeps hashes only"
+            } else {
+                "no golden"
+            };
+            let _ = write!(
+                html,
+                "<figure><img class=\"new\" src=\"{}\" alt=\"new frame {}\"><figcaption>new ({why})</figcaption></figure>",
+                escape(new),
+                f.frame
+            );
+        }
+        _ => html.push_str("<p>in the golden, but the animation no longer has this frame</p>"),
+    }
+    if let Some(diff) = &f.diff {
+        let _ = write!(
+            html,
+            "<figure><img class=\"diff\" src=\"{}\" alt=\"difference, frame {}\"><figcaption>changed pixels in magenta over the dimmed golden frame</figcaption></figure>",
+            escape(diff),
+            f.frame
+        );
+    }
+    html.push_str("</div></div>\n");
+}

@@ -1,0 +1,290 @@
+//! `campath test [DIR]`: every shot under DIR against its golden, one line per shot and a
+//! summary; `--update` approves, `--junit` reports to CI, `--review` writes a page of the
+//! differences.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use super::error::{CliError, Result};
+use super::failures::{self, difference, golden_pixels};
+use super::junit;
+use super::review::{self, ReviewFrame, ReviewShot};
+use campath::output::{write_png, Compression};
+use campath::testing::{golden_dir, FrameDiff, Options, Shot, ShotRun, Verdict};
+use campath::Error;
+
+/// The options of `campath test`.
+pub struct TestArgs {
+    pub dir: PathBuf,
+    pub update: bool,
+    pub keep_frames: bool,
+    pub junit: Option<PathBuf>,
+    pub review: Option<PathBuf>,
+    /// Shots checked side by side.
+    pub jobs: usize,
+}
+
+/// Every `*.ron` under `dir`, recursively, in name order; golden folders and hidden folders are
+/// not searched.
+pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut found = Vec::new();
+    let mut folders = vec![dir.to_path_buf()];
+    while let Some(folder) = folders.pop() {
+        let entries = std::fs::read_dir(&folder).map_err(Error::read(&folder))?;
+        for e in entries.flatten() {
+            let path = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            let is_dir = std::fs::metadata(&path).is_ok_and(|m| m.is_dir());
+            if is_dir {
+                if !name.starts_with('.') && !name.ends_with(".golden") {
+                    folders.push(path);
+                }
+            } else if name.ends_with(".ron") {
+                found.push(path);
+            }
+        }
+    }
+    found.sort();
+    Ok(found)
+}
+
+/// A shot checked: its run, or why it could not be; and its review pictures.
+struct Checked {
+    run: std::result::Result<ShotRun, Error>,
+    review: Vec<ReviewFrame>,
+}
+
+pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
+    if !a.dir.is_dir() {
+        return Err(CliError::Usage(format!(
+            "{} is not a folder of shots (every *.ron under it is a shot, its golden the \
+             folder NAME.golden beside it)",
+            a.dir.display()
+        )));
+    }
+    let shots = shots(&a.dir)?;
+    if shots.is_empty() {
+        return Err(CliError::Usage(format!(
+            "{} holds no *.ron shot",
+            a.dir.display()
+        )));
+    }
+    let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
+    if let Some(path) = &a.junit {
+        failures::outside_goldens(path, "--junit", &goldens)?;
+    }
+    if let Some(dir) = &a.review {
+        failures::claim(dir, "--review", &goldens, review::is_review_file)?;
+    }
+
+    // Shots run side by side; their lines are printed in shot order as soon as each is known.
+    let next = AtomicUsize::new(0);
+    let results: Mutex<BTreeMap<usize, Checked>> = Mutex::new(BTreeMap::new());
+    let ready = std::sync::Condvar::new();
+    let options = Options {
+        update: a.update,
+        keep_frames: a.keep_frames,
+    };
+    let mut checked = Vec::with_capacity(shots.len());
+    let mut printed = Ok(());
+    std::thread::scope(|scope| {
+        for _ in 0..a.jobs.clamp(1, shots.len()) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(shot) = shots.get(i) else { break };
+                let c = check(i, shot, options, a.review.as_deref());
+                results.lock().expect("no worker panics").insert(i, c);
+                ready.notify_all();
+            });
+        }
+        let mut done = results.lock().expect("no worker panics");
+        for (i, shot) in shots.iter().enumerate() {
+            while !done.contains_key(&i) {
+                done = ready.wait(done).expect("no worker panics");
+            }
+            let c = done.remove(&i).expect("checked");
+            let line = match &c.run {
+                Ok(run) => format!("{}: {}", shot.display(), run.summary()),
+                Err(e) => format!("{}: cannot check: {e}", shot.display()),
+            };
+            if printed.is_ok() {
+                printed = writeln!(out, "{line}").and_then(|()| out.flush());
+            }
+            checked.push(c);
+        }
+    });
+    printed.map_err(Error::stdout)?;
+
+    let count = |v: Verdict| {
+        checked
+            .iter()
+            .filter(|c| c.run.as_ref().is_ok_and(|r| r.verdict() == v && !r.updated))
+            .count()
+    };
+    let passed = count(Verdict::Passed);
+    let no_golden = count(Verdict::NoGolden);
+    let differ = checked
+        .iter()
+        .filter(|c| {
+            c.run.as_ref().is_ok_and(|r| {
+                matches!(r.verdict(), Verdict::Differ | Verdict::OtherRenderer(_)) && !r.updated
+            })
+        })
+        .count();
+    let bad = checked.iter().filter(|c| c.run.is_err()).count();
+    let updated: Vec<String> = checked
+        .iter()
+        .filter_map(|c| c.run.as_ref().ok().filter(|r| r.updated))
+        .map(|r| golden_dir(&r.shot).display().to_string())
+        .collect();
+    let mut summary = format!(
+        "test result: {}. {} shot(s): {passed} passed, {differ} differ, {no_golden} without \
+         golden, {bad} could not be checked",
+        if differ + no_golden + bad == 0 {
+            "ok"
+        } else {
+            "FAILED"
+        },
+        shots.len()
+    );
+    if !updated.is_empty() {
+        summary += &format!("; {} golden(s) written", updated.len());
+    } else if a.update {
+        summary += "; no golden needed writing";
+    } else if differ + no_golden > 0 {
+        summary += &format!(
+            "\nIf the changes are intended, approve them with `campath test {} --update`.",
+            a.dir.display()
+        );
+    }
+    writeln!(out, "{summary}").map_err(Error::stdout)?;
+
+    if let Some(path) = &a.junit {
+        let suites: Vec<junit::Suite> = shots
+            .iter()
+            .zip(&checked)
+            .map(|(shot, c)| suite(shot, c))
+            .collect();
+        junit::write(path, "campath test", &suites)?;
+    }
+    if let Some(dir) = &a.review {
+        let shown: Vec<ReviewShot> = shots
+            .iter()
+            .zip(&mut checked)
+            .filter_map(|(shot, c)| {
+                let run = c.run.as_ref().ok()?;
+                (run.verdict() != Verdict::Passed).then(|| ReviewShot {
+                    shot: shot.display().to_string(),
+                    summary: run.summary(),
+                    frames: std::mem::take(&mut c.review),
+                })
+            })
+            .collect();
+        let page = review::write(dir, &shown, shots.len())?;
+        writeln!(out, "review: {}", page.display()).map_err(Error::stdout)?;
+    }
+    if bad > 0 {
+        return Err(CliError::Usage(format!(
+            "{bad} of {} shot(s) could not be checked (see above)",
+            shots.len()
+        )));
+    }
+    Ok(differ + no_golden == 0)
+}
+
+/// Renders and compares one shot; with a review folder, writes its differing frames' pictures
+/// there as they are found.
+fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> Checked {
+    let shot = match Shot::load(shot) {
+        Ok(shot) => shot,
+        Err(e) => {
+            return Checked {
+                run: Err(e),
+                review: Vec::new(),
+            }
+        }
+    };
+    let mut frames = Vec::new();
+    let size = (shot.doc.raster.width, shot.doc.raster.height);
+    let golden_frames = shot.golden.as_ref().map(|g| g.frames()).unwrap_or_default();
+    let run = shot.run(options, |d: &FrameDiff, pixels| {
+        let Some(dir) = review else { return Ok(()) };
+        let name = |what: &str| review::file_name(index, d.frame, what);
+        let new = name("new");
+        write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
+        let mut f = ReviewFrame {
+            frame: d.frame,
+            golden_hash: d.golden.clone(),
+            fresh_hash: d.fresh.clone(),
+            new: Some(new),
+            golden: None,
+            diff: None,
+            pixels: None,
+        };
+        if let Some(golden) = golden_frames
+            .get(&d.frame)
+            .and_then(|p| golden_pixels(p, size))
+        {
+            let (image, p) = difference(&golden, pixels);
+            let (g, dname) = (name("golden"), name("diff"));
+            write_png(&dir.join(&g), &golden, size, Compression::Fast)?;
+            write_png(&dir.join(&dname), &image, size, Compression::Fast)?;
+            (f.golden, f.diff, f.pixels) = (Some(g), Some(dname), Some(p));
+        }
+        frames.push(f);
+        Ok(())
+    });
+    if let Ok(run) = &run {
+        // Golden frames past the animation's end: listed, with nothing rendered.
+        frames.extend(
+            run.differ
+                .iter()
+                .filter(|d| d.fresh.is_none())
+                .map(|d| ReviewFrame {
+                    frame: d.frame,
+                    golden_hash: d.golden.clone(),
+                    fresh_hash: None,
+                    new: None,
+                    golden: None,
+                    diff: None,
+                    pixels: None,
+                }),
+        );
+    }
+    Checked {
+        run,
+        review: frames,
+    }
+}
+
+/// A shot's JUnit suite: one case per frame of the animation or the golden.
+fn suite(shot: &Path, c: &Checked) -> junit::Suite {
+    let name = shot.display().to_string();
+    let run = match &c.run {
+        Ok(run) => run,
+        Err(e) => return junit::Suite::errored(&name, &e.to_string()),
+    };
+    let mut s = junit::Suite::new(&name);
+    let differ: BTreeMap<u64, &FrameDiff> = run.differ.iter().map(|d| (d.frame, d)).collect();
+    let last = run
+        .golden
+        .as_ref()
+        .and_then(|g| g.hashes.keys().last().copied())
+        .map_or(run.frames, |l| run.frames.max(l + 1));
+    for frame in 0..last {
+        let failure = differ.get(&frame).map(|d| match (&d.golden, &d.fresh) {
+            (_, None) => format!(
+                "in the golden, but the animation has only {} frames",
+                run.frames
+            ),
+            (None, Some(_)) if run.golden.is_none() => "no golden".to_string(),
+            (None, Some(got)) => format!("not in the golden; got {got}"),
+            (Some(want), Some(got)) => format!("expected {want}, got {got}"),
+        });
+        s.case(&format!("frame {frame}"), failure);
+    }
+    s
+}

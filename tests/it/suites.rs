@@ -1,0 +1,497 @@
+//! Frame-hash test suites: `campath test` over a folder of shots, approval with `--update`,
+//! JUnit, the review page in a real browser, goldens that name their renderer, a verify that
+//! never harms a golden, and `campath::testing::assert_shot` from a cargo project of its own.
+
+use std::collections::BTreeMap;
+use std::os::unix::fs::MetadataExt;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::common::{campath, frame_lines, have_tool, root, stderr, stdout};
+
+/// A shot of `frames` frames at 40×24 whose first sphere has colour `red`.
+fn shot(frames: u64, red: &str) -> String {
+    format!(
+        "(frames: {frames}, fps: 4.0, image: (width: 40, height: 24),
+    camera: (vrp: (0.0, 1.0, -6.0), tp: (0.0, 0.0, 0.0), window: (1.6, 0.9)),
+    animate: [Observer(keys: [(t: 0.0, value: (0.0, 1.0, -6.0)), (t: 1.0, value: (2.0, 1.0, -5.0))])],
+    scene: (lights: [(direction: (-1.0, -2.0, 1.0))], spheres: [
+        (center: (0.0, 0.0, 0.0), radius: 1.0, color: ({red}, 0.2, 0.2)),
+        (center: (1.5, -0.5, 1.0), radius: 0.6, color: (0.2, 0.3, 0.9))]))"
+    )
+}
+
+/// Three shots, one in a subfolder.
+fn shots(dir: &Path) {
+    std::fs::create_dir_all(dir.join("shots/sub")).unwrap();
+    std::fs::write(dir.join("shots/a.ron"), shot(4, "0.9")).unwrap();
+    std::fs::write(dir.join("shots/b.ron"), shot(5, "0.5")).unwrap();
+    std::fs::write(dir.join("shots/sub/c.ron"), shot(3, "0.7")).unwrap();
+}
+
+/// `(frame, hash)` of a shot, from `campath hash` (not from `test`).
+fn hashed(dir: &Path, file: &str) -> Vec<(u64, String)> {
+    let o = campath(dir, &["hash", file], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    parse(&stdout(&o))
+}
+
+fn parse(text: &str) -> Vec<(u64, String)> {
+    frame_lines(text)
+        .iter()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let mut it = l.split(' ');
+            (
+                it.next().unwrap().parse().unwrap(),
+                it.next().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+/// Every file under `dir` with its bytes, inode and modification time.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, (Vec<u8>, u64, i64, i64)> {
+    let mut out = BTreeMap::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let m = e.metadata().unwrap();
+        if m.is_file() {
+            out.insert(
+                e.path(),
+                (
+                    std::fs::read(e.path()).unwrap(),
+                    m.ino(),
+                    m.mtime(),
+                    m.mtime_nsec(),
+                ),
+            );
+        }
+    }
+    out
+}
+
+#[test]
+fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    shots(t);
+
+    let o = campath(t, &["test"], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(
+        stdout(&o).matches(": no golden (").count(),
+        3,
+        "{}",
+        stdout(&o)
+    );
+    assert!(stdout(&o).contains("3 without golden"), "{}", stdout(&o));
+
+    let o = campath(t, &["test", "--update"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("3 golden(s) written"), "{}", stdout(&o));
+    for (shot, golden) in [
+        ("shots/a.ron", "shots/a.golden"),
+        ("shots/b.ron", "shots/b.golden"),
+        ("shots/sub/c.ron", "shots/sub/c.golden"),
+    ] {
+        let text = std::fs::read_to_string(t.join(golden).join("hashes.txt")).unwrap();
+        assert!(
+            text.starts_with(&format!(
+                "# campath renderer {}\n",
+                campath::render::key::VERSION
+            )),
+            "{text}"
+        );
+        assert_eq!(parse(&text), hashed(t, shot), "{golden}");
+    }
+    let o = campath(t, &["test", "shots", "--jobs", "1"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    assert_eq!(
+        stdout(&o).matches(": passed (").count(),
+        3,
+        "{}",
+        stdout(&o)
+    );
+
+    // b keeps its frames in its golden, for the review page.
+    std::fs::remove_dir_all(t.join("shots/b.golden")).unwrap();
+    let o = campath(t, &["test", "--update", "--keep-frames"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let golden_b = t.join("shots/b.golden");
+    assert!(golden_b.join("frame_0004.png").exists());
+
+    // b changes: only it fails, with exit 1, and each of its differing frames its own case.
+    std::fs::write(t.join("shots/b.ron"), shot(5, "0.6")).unwrap();
+    let fresh = hashed(t, "shots/b.ron");
+    let golden = parse(&std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap());
+    let failing: Vec<u64> = fresh
+        .iter()
+        .zip(&golden)
+        .filter(|(f, g)| f != g)
+        .map(|(f, _)| f.0)
+        .collect();
+    assert!(!failing.is_empty());
+    let before_a = snapshot(&t.join("shots/a.golden"));
+    let before_c = snapshot(&t.join("shots/sub/c.golden"));
+    let o = campath(
+        t,
+        &[
+            "test",
+            "shots",
+            "--junit",
+            "report.xml",
+            "--review",
+            "review",
+            "--jobs",
+            "3",
+        ],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains(&format!(
+        "shots/b.ron: {} of 5 frame(s) differ",
+        failing.len()
+    )));
+    assert_eq!(out.matches(": passed (").count(), 2, "{out}");
+
+    let xml = std::fs::read_to_string(t.join("report.xml")).unwrap();
+    let report = roxmltree::Document::parse(&xml).unwrap();
+    let suites: Vec<_> = report
+        .descendants()
+        .filter(|n| n.has_tag_name("testsuite"))
+        .collect();
+    assert_eq!(suites.len(), 3);
+    for s in &suites {
+        let name = s.attribute("name").unwrap();
+        let cases: Vec<_> = s
+            .children()
+            .filter(|n| n.has_tag_name("testcase"))
+            .collect();
+        let failed: Vec<u64> = cases
+            .iter()
+            .filter(|c| c.children().any(|n| n.has_tag_name("failure")))
+            .map(|c| c.attribute("name").unwrap()[6..].parse().unwrap())
+            .collect();
+        if name.ends_with("b.ron") {
+            assert_eq!(cases.len(), 5);
+            assert_eq!(failed, failing, "{xml}");
+        } else {
+            assert!(failed.is_empty(), "{name}");
+        }
+    }
+
+    // The review page, in a real browser: every picture loads, and the differences show.
+    let page = t.join("review/index.html");
+    let html = std::fs::read_to_string(&page).unwrap();
+    for k in &failing {
+        assert!(html.contains(&format!("id=\"frame-{k}\"")), "frame {k}");
+    }
+    if have_tool("chromium", "chromium") {
+        let url = format!("file://{}", page.display());
+        let chromium = |extra: &[&str]| {
+            let mut args = vec![
+                "--headless".to_string(),
+                "--no-sandbox".into(),
+                "--disable-gpu".into(),
+                "--no-first-run".into(),
+                "--disable-background-networking".into(),
+                "--disable-component-update".into(),
+                "--disable-sync".into(),
+                format!("--user-data-dir={}", t.join("chrome").display()),
+                "--virtual-time-budget=3000".into(),
+            ];
+            args.extend(extra.iter().map(|s| s.to_string()));
+            args.push(url.clone());
+            Command::new("chromium").args(&args).output().unwrap()
+        };
+        let dom = String::from_utf8_lossy(&chromium(&["--dump-dom"]).stdout).into_owned();
+        // Golden, new and difference for every failing frame.
+        let want = 3 * failing.len();
+        assert!(
+            dom.contains(&format!("data-images=\"{want}\" data-loaded=\"{want}\"")),
+            "{}",
+            &dom[..dom.len().min(600)]
+        );
+        // The slider starts half way: the new frame is clipped to the right half.
+        assert!(
+            dom.contains("clip-path: inset(0px 0px 0px 50%)"),
+            "no slider"
+        );
+        let shot_png = t.join("page.png");
+        let o = chromium(&[
+            "--window-size=1200,900",
+            &format!("--screenshot={}", shot_png.display()),
+        ]);
+        let img = image::open(&shot_png)
+            .unwrap_or_else(|e| panic!("no screenshot ({e}): {}", stderr(&o)))
+            .to_rgb8();
+        let magenta = img.pixels().filter(|p| p.0 == [255, 0, 255]).count();
+        assert!(
+            magenta > 50,
+            "the difference image is not shown ({magenta} px)"
+        );
+    }
+
+    // Approving rewrites b's golden only: a's and c's files are not touched.
+    let o = campath(t, &["test", "--update"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("1 golden(s) written"), "{}", stdout(&o));
+    assert_eq!(snapshot(&t.join("shots/a.golden")), before_a);
+    assert_eq!(snapshot(&t.join("shots/sub/c.golden")), before_c);
+    let text = std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&text), fresh);
+    // Its frames too, with their hashes.
+    for (frame, hash) in &fresh {
+        let png = golden_b.join(format!("frame_{frame:04}.png"));
+        let pixels = image::open(&png).unwrap().to_rgb8().into_raw();
+        assert_eq!(&campath::output::frame_hash(&pixels), hash, "frame {frame}");
+    }
+    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+}
+
+#[test]
+fn a_golden_from_another_renderer_says_so_and_a_bad_shot_does_not_stop_the_others() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    shots(t);
+    assert!(campath(t, &["test", "--update"], &[]).status.success());
+    // a's golden from "renderer 0", with one frame's pixels different.
+    let path = t.join("shots/a.golden/hashes.txt");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    lines[0] = "# campath renderer 0".into();
+    lines[2] = format!("1 {}", "0".repeat(64));
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    // c's golden names renderer 0 too, but its frames still match: it passes.
+    let c = t.join("shots/sub/c.golden/hashes.txt");
+    let text = std::fs::read_to_string(&c).unwrap();
+    std::fs::write(
+        &c,
+        text.replace(
+            &format!("renderer {}", campath::render::key::VERSION),
+            "renderer 0",
+        ),
+    )
+    .unwrap();
+    // And a shot that does not load.
+    std::fs::write(t.join("shots/broken.ron"), "(frames: 3, camera: (").unwrap();
+
+    let o = campath(t, &["test", "--junit", "j.xml"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains(&format!(
+            "shots/a.ron: golden made by renderer 0, this campath is renderer {}",
+            campath::render::key::VERSION
+        )) && out.contains("1 of 4 frame(s) differ: 1"),
+        "{out}"
+    );
+    assert!(out.contains("shots/broken.ron: cannot check: "), "{out}");
+    assert!(out.contains("shots/b.ron: passed"), "{out}");
+    assert!(out.contains("shots/sub/c.ron: passed"), "{out}");
+    assert!(
+        stderr(&o).contains("1 of 4 shot(s) could not be checked"),
+        "{}",
+        stderr(&o)
+    );
+    let xml = std::fs::read_to_string(t.join("j.xml")).unwrap();
+    let report = roxmltree::Document::parse(&xml).unwrap();
+    assert!(report.descendants().any(|n| n.has_tag_name("error")));
+
+    // verify says the same of the renderer.
+    let o = campath(t, &["verify", "shots/a.ron", "shots/a.golden"], &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stdout(&o).contains("was made by campath renderer 0"),
+        "{}",
+        stdout(&o)
+    );
+
+    // Nothing to check is bad input, not a pass.
+    std::fs::create_dir(t.join("empty")).unwrap();
+    assert_eq!(campath(t, &["test", "empty"], &[]).status.code(), Some(2));
+    assert_eq!(campath(t, &["test", "nowhere"], &[]).status.code(), Some(2));
+}
+
+#[test]
+fn verify_never_harms_a_golden() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::write(t.join("s.ron"), shot(4, "0.9")).unwrap();
+    let o = campath(t, &["render", "s.ron", "--out", "golden", "--quiet"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::create_dir(t.join("other")).unwrap();
+    std::fs::write(t.join("other/notes.txt"), "mine").unwrap();
+    std::fs::write(t.join("s.ron"), shot(4, "0.5")).unwrap();
+    let before = snapshot(&t.join("golden"));
+    for (golden, option, dir, why) in [
+        ("golden", "--save-failures", "golden", "is the golden"),
+        (
+            "golden",
+            "--save-failures",
+            "golden/failures",
+            "lies inside the golden",
+        ),
+        (
+            "golden",
+            "--save-failures",
+            "./x/../golden/.",
+            "is the golden",
+        ),
+        (
+            "golden/hashes.txt",
+            "--save-failures",
+            "golden",
+            "is the golden",
+        ),
+        (
+            "golden",
+            "--save-failures",
+            "other",
+            "holds files campath did not write",
+        ),
+        (
+            "golden",
+            "--junit",
+            "golden/report.xml",
+            "lies inside the golden",
+        ),
+        (
+            "golden/hashes.txt",
+            "--junit",
+            "golden/hashes.txt",
+            "is the golden",
+        ),
+    ] {
+        let o = campath(t, &["verify", "s.ron", golden, option, dir], &[]);
+        assert_eq!(o.status.code(), Some(2), "{option} {dir}: {}", stderr(&o));
+        assert!(stderr(&o).contains(why), "{option} {dir}: {}", stderr(&o));
+        assert_eq!(snapshot(&t.join("golden")), before, "{option} {dir}");
+    }
+    assert_eq!(std::fs::read(t.join("other/notes.txt")).unwrap(), b"mine");
+    assert!(!t.join("golden/failures").exists());
+
+    // Failures go to their own folder, with pixel counts from the golden frames.
+    let o = campath(
+        t,
+        &["verify", "s.ron", "golden", "--save-failures", "fails"],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let saved = std::fs::read_dir(t.join("fails")).unwrap().count();
+    assert!(saved >= 2, "{saved}");
+    for line in stdout(&o).lines().filter(|l| l.starts_with("frame ")) {
+        let k: u64 = line[6..line.find(':').unwrap()].parse().unwrap();
+        let rgb = |p: &str| image::open(t.join(p)).unwrap().to_rgb8().into_raw();
+        let (g, n) = (
+            rgb(&format!("golden/frame_{k:04}.png")),
+            rgb(&format!("fails/frame_{k:04}.png")),
+        );
+        let changed = g.chunks(3).zip(n.chunks(3)).filter(|(a, b)| a != b).count();
+        assert!(changed > 0);
+        assert!(
+            line.contains(&format!(": {changed} pixel(s) changed")),
+            "{line}"
+        );
+    }
+    assert_eq!(snapshot(&t.join("golden")), before);
+    // A passing verify clears the earlier failures.
+    std::fs::write(t.join("s.ron"), shot(4, "0.9")).unwrap();
+    let o = campath(
+        t,
+        &["verify", "s.ron", "golden", "--save-failures", "fails"],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    assert_eq!(std::fs::read_dir(t.join("fails")).unwrap().count(), 0);
+}
+
+#[test]
+fn the_repositorys_own_shots_pass() {
+    let o = campath(&root(), &["test", "tests/shots"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
+    assert_eq!(
+        stdout(&o).matches(": passed (").count(),
+        3,
+        "{}",
+        stdout(&o)
+    );
+}
+
+/// A cargo project of its own depends on campath by path without the command line and uses
+/// `assert_shot`: it fails without a golden, `CAMPATH_UPDATE=1 cargo test` writes it, then it
+/// passes, and after a change to the shot it fails naming the frames and `CAMPATH_UPDATE`.
+#[test]
+fn assert_shot_in_a_cargo_project_of_its_own() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("user");
+    std::fs::create_dir_all(p.join("tests")).unwrap();
+    std::fs::write(
+        p.join("Cargo.toml"),
+        format!(
+            "[package]\nname = \"user\"\nversion = \"0.1.0\"\nedition = \"2021\"\n\n\
+             [dev-dependencies]\ncampath = {{ path = {:?}, default-features = false }}\n",
+            root().display().to_string()
+        ),
+    )
+    .unwrap();
+    std::fs::create_dir_all(p.join("src")).unwrap();
+    std::fs::write(p.join("src/lib.rs"), "").unwrap();
+    std::fs::write(
+        p.join("tests/frames.rs"),
+        "#[test]\nfn the_shot_looks_as_approved() {\n    \
+         campath::testing::assert_shot(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/shots/fly.ron\"));\n}\n",
+    )
+    .unwrap();
+    std::fs::create_dir_all(p.join("shots")).unwrap();
+    std::fs::write(p.join("shots/fly.ron"), shot(4, "0.9")).unwrap();
+    // The same versions as campath's own build, and its target folder, so that nothing is
+    // fetched and little is compiled again.
+    std::fs::copy(root().join("Cargo.lock"), p.join("Cargo.lock")).unwrap();
+    let target = root().join("target/assert-shot");
+    let cargo = |env: &[(&str, &str)]| {
+        let mut c = Command::new(env!("CARGO"));
+        c.current_dir(&p)
+            .args(["test", "--offline", "--quiet"])
+            .env("CARGO_TARGET_DIR", &target)
+            .env_remove("CAMPATH_UPDATE");
+        for (k, v) in env {
+            c.env(k, v);
+        }
+        let o = c.output().unwrap();
+        let text = format!("{}{}", stdout(&o), stderr(&o));
+        (o.status.success(), text)
+    };
+    let (ok, text) = cargo(&[]);
+    assert!(!ok, "passed without a golden: {text}");
+    assert!(
+        text.contains("no golden") && text.contains("CAMPATH_UPDATE=1"),
+        "{text}"
+    );
+
+    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "1")]);
+    assert!(ok, "{text}");
+    let golden = std::fs::read_to_string(p.join("shots/fly.golden/hashes.txt")).unwrap();
+    assert_eq!(parse(&golden), hashed(&p, "shots/fly.ron"));
+    let (ok, text) = cargo(&[]);
+    assert!(ok, "{text}");
+
+    std::fs::write(p.join("shots/fly.ron"), shot(4, "0.4")).unwrap();
+    let (ok, text) = cargo(&[]);
+    assert!(!ok, "passed after a change: {text}");
+    assert!(
+        text.contains("4 of 4 frame(s) differ: 0, 1, 2, 3") && text.contains("CAMPATH_UPDATE=1"),
+        "{text}"
+    );
+    // The library alone: no command-line crate was built for it.
+    let deps = std::fs::read_dir(target.join("debug/deps")).unwrap();
+    let names: Vec<String> = deps
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        !names.iter().any(|n| n.starts_with("libclap")),
+        "clap was built"
+    );
+}
