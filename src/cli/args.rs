@@ -105,16 +105,19 @@ pub enum PathFormat {
     /// A Python script for Blender that builds the whole shot: camera (with lens shift for an
     /// off-axis COP), render size and rate, spheres and lights.
     Blender,
+    /// The whole shot as an OpenUSD stage (USDA text): the camera with lens shift for an
+    /// off-axis COP, the spheres and the lights; for Blender, Houdini, Maya, Nuke, Omniverse.
+    Usd,
 }
 
 impl PathFormat {
-    /// The library's per-frame text format; None for glTF, which is written whole.
+    /// The library's per-frame text format; None for the formats written whole.
     pub fn per_frame(self) -> Option<campath::export::PathFormat> {
         match self {
             PathFormat::Csv => Some(campath::export::PathFormat::Csv),
             PathFormat::Json => Some(campath::export::PathFormat::Json),
             PathFormat::Chan => Some(campath::export::PathFormat::Chan),
-            PathFormat::Gltf | PathFormat::Blender => None,
+            PathFormat::Gltf | PathFormat::Blender | PathFormat::Usd => None,
         }
     }
 }

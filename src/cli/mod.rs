@@ -151,12 +151,13 @@ enum Command {
         save_failures: Option<PathBuf>,
     },
     /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
-    /// whole shot as glTF.
+    /// whole shot as glTF, a Blender script or an OpenUSD stage.
     Path {
         file: PathBuf,
         #[arg(long, value_enum, default_value_t)]
         format: args::PathFormat,
-        /// Write to this file instead of standard output (glTF: binary when it ends in .glb).
+        /// Write to this file instead of standard output (glTF: binary when it ends in .glb; USD:
+        /// .usda or .usd).
         #[arg(long)]
         out: Option<PathBuf>,
     },

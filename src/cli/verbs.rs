@@ -251,6 +251,17 @@ pub fn path(
     file_out: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<()> {
+    if format == PathFormat::Usd {
+        if let Some(ext) = file_out.and_then(|p| p.extension()) {
+            if ext != "usda" && ext != "usd" {
+                return Err(CliError::Usage(format!(
+                    "--format usd writes USD's text form: name the file .usda (or .usd), not .{}; \
+                     OpenUSD converts it, e.g. in Python: pxr.Sdf.Layer.FindOrOpen(\"shot.usda\").Export(\"shot.usdc\")",
+                    ext.to_string_lossy()
+                )));
+            }
+        }
+    }
     let doc = Document::load(file)?;
     let frames = doc.animation.frames;
     let mut bytes = Vec::new();
@@ -273,8 +284,11 @@ pub fn path(
                 );
             }
         }
-        None if format == PathFormat::Blender => {
-            let text = campath::export::blender::script(&doc)?;
+        None if matches!(format, PathFormat::Blender | PathFormat::Usd) => {
+            let text = match format {
+                PathFormat::Blender => campath::export::blender::script(&doc)?,
+                _ => campath::export::usd::usda(&doc)?,
+            };
             match file_out {
                 Some(_) => bytes = text.into_bytes(),
                 None => out.write_all(text.as_bytes()).map_err(Error::stdout)?,

@@ -1,9 +1,10 @@
 //! The evaluated camera path for other tools: CSV, JSON, and the `.chan` camera-channel text
-//! that Nuke and Blender import.
+//! that Nuke and Blender import; the whole shot as glTF, a Blender script or an OpenUSD stage.
 
 pub mod blender;
 pub mod gltf;
 pub mod povray;
+pub mod usd;
 
 use std::io::Write;
 

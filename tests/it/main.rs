@@ -18,5 +18,6 @@ mod production;
 mod simd;
 mod sphere_files;
 mod suites;
+mod usd;
 mod video;
 mod watch;

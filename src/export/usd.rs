@@ -1,0 +1,345 @@
+//! The shot as an OpenUSD stage in the text form (USDA): the camera with one time sample per
+//! frame, lens shift included, the spheres and the directional lights.
+//!
+//! - **Stage.** `metersPerUnit = 1` (a world unit is a metre: without it USD assumes
+//!   centimetres and importers scale the shot by 0.01), `upAxis = "Y"`, `timeCodesPerSecond` and
+//!   `framesPerSecond` the file's fps, and time code k is campath's frame k (`startTimeCode` 0,
+//!   `endTimeCode` the last frame).
+//! - **Camera.** A `UsdGeom.Camera` looks down its local −Z with +Y up, like the camera here with
+//!   axes u, v, −n: `xformOp:translate` is the COP and `xformOp:orient` the quaternion of
+//!   [u, v, −n]. USD gives focal length and apertures in tenths of a scene unit (here 0.1 m, so
+//!   36 mm is 0.36). The film back is [`FILM_WIDTH`] wide and the window's aspect; the focal
+//!   length is FILM_WIDTH · d / w for the COP's distance d to the view plane and the window's
+//!   width w, so that aperture / focal length = window / d in both directions. The off-axis COP
+//!   (distort) is the aperture offset: the window's centre seen from the COP lies at
+//!   (−COP_u, −COP_v), so the offsets are −COP_u · FILM_WIDTH / w and −COP_v · FILM_WIDTH / w.
+//! - **Image.** A `UsdRender.Settings` prim carries the image size; a window whose aspect differs
+//!   from the image's becomes its pixel aspect.
+//! - **Scene.** Each sphere is a `UsdGeom.Sphere` with its radius and colour
+//!   (`primvars:displayColor`, linear); each light a `UsdLux.DistantLight`, whose −Z is the way
+//!   the light travels, with its shadow switch (`ShadowAPI`).
+
+use std::fmt::Write as _;
+
+use glam::{DQuat, DVec3};
+
+use crate::camera::Camera;
+use crate::document::Document;
+use crate::error::Result;
+use crate::export::gltf::camera_rotation;
+
+/// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
+pub const FILM_WIDTH: f64 = 0.36;
+
+/// The USD camera of one frame: focal length, apertures and aperture offsets, all in tenths of a
+/// scene unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UsdLens {
+    pub focal_length: f64,
+    pub horizontal_aperture: f64,
+    pub vertical_aperture: f64,
+    pub horizontal_offset: f64,
+    pub vertical_offset: f64,
+}
+
+impl UsdLens {
+    /// The lens that sees `cam`'s window from its COP.
+    pub fn of(cam: &Camera) -> UsdLens {
+        let d = -cam.cop_view.z;
+        let scale = FILM_WIDTH / cam.window.x;
+        UsdLens {
+            focal_length: d * scale,
+            horizontal_aperture: FILM_WIDTH,
+            vertical_aperture: cam.window.y * scale,
+            horizontal_offset: -cam.cop_view.x * scale,
+            vertical_offset: -cam.cop_view.y * scale,
+        }
+    }
+}
+
+/// A name USD accepts for a prim: letters, digits and `_`, not starting with a digit.
+fn prim_name(stem: &str) -> String {
+    let mut name: String = stem
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if name.is_empty() || name.starts_with(|c: char| c.is_ascii_digit()) {
+        name.insert(0, '_');
+    }
+    name
+}
+
+/// A string in USDA's quotes: `"` and `\` escaped, control characters as spaces.
+fn quoted(s: &str) -> String {
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' | '\\' => {
+                out.push('\\');
+                out.push(c);
+            }
+            c if c.is_control() => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out + "\""
+}
+
+fn f32s(v: f64) -> f32 {
+    v as f32
+}
+
+fn quatd(q: DQuat) -> String {
+    // USD writes a quaternion real part first.
+    format!("({:?}, {:?}, {:?}, {:?})", q.w, q.x, q.y, q.z)
+}
+
+fn double3(v: DVec3) -> String {
+    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
+}
+
+fn color3f(v: DVec3) -> String {
+    format!("({:?}, {:?}, {:?})", f32s(v.x), f32s(v.y), f32s(v.z))
+}
+
+/// A rotation taking −Z to the unit vector `d`.
+fn aim_negative_z(d: DVec3) -> DQuat {
+    DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
+}
+
+/// The clipping range (near, far): far reaches past every sphere from every frame's COP (through
+/// a sphere around the whole scene), near is far / 10⁶. campath itself clips nothing in front of
+/// the COP.
+fn clipping_range(doc: &Document, cops: &[DVec3]) -> (f64, f64) {
+    let spheres = &doc.scene.spheres;
+    let (lo, hi) = spheres.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), s| (lo.min(s.center_world), hi.max(s.center_world)),
+    );
+    let centre = if spheres.is_empty() {
+        DVec3::ZERO
+    } else {
+        (lo + hi) * 0.5
+    };
+    let radius = spheres
+        .iter()
+        .map(|s| (s.center_world - centre).length() + s.radius)
+        .fold(0.0, f64::max);
+    let far = cops
+        .iter()
+        .map(|c| (*c - centre).length() + radius)
+        .fold(1.0, f64::max)
+        * 1.5;
+    (far * 1e-6, far)
+}
+
+/// The stage as USDA text.
+pub fn usda(doc: &Document) -> Result<String> {
+    let mut cops = Vec::new();
+    let mut orients = Vec::new();
+    let mut lenses = Vec::new();
+    let mut previous: Option<DQuat> = None;
+    for item in doc.cameras() {
+        let (_, cam) = item?;
+        let mut q = camera_rotation(&cam);
+        // q and −q are the same rotation: keep the one nearest the last, so that USD's slerp
+        // between samples turns the short way.
+        if previous.is_some_and(|p| p.dot(q) < 0.0) {
+            q = -q;
+        }
+        previous = Some(q);
+        cops.push(cam.cop_world());
+        orients.push(q);
+        lenses.push(UsdLens::of(&cam));
+    }
+    let frames = cops.len();
+    let (near, far) = clipping_range(doc, &cops);
+    let r = doc.raster;
+    let first = lenses[0];
+    let window = doc.animation.window;
+    let pixel_aspect = (window.x / window.y) / (r.width as f64 / r.height as f64);
+    let fps = doc.animation.fps;
+    let root = prim_name(
+        &doc.path
+            .file_stem()
+            .map_or_else(|| "shot".into(), |s| s.to_string_lossy()),
+    );
+    let bg = doc.scene.background;
+
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r#"#usda 1.0
+(
+    customLayerData = {{
+        string generator = "campath {version}"
+        string source = {source}
+        string units = "One scene unit is one campath world unit, taken as a metre (metersPerUnit = 1). focalLength, horizontalAperture, verticalAperture and their offsets are in tenths of a scene unit, as USD defines them: 0.36 is 36 mm. Time code k is campath frame k, at {fps:?} frames per second."
+        int imageWidth = {width}
+        int imageHeight = {height}
+        double pixelAspect = {pixel_aspect:?}
+        double3 background = {background}
+        double ambient = {ambient:?}
+    }}
+    defaultPrim = "{root}"
+    endTimeCode = {end}
+    framesPerSecond = {fps:?}
+    metersPerUnit = 1
+    renderSettingsPrimPath = "/Render/settings"
+    startTimeCode = 0
+    timeCodesPerSecond = {fps:?}
+    upAxis = "Y"
+)
+
+def Xform "{root}" (
+    kind = "assembly"
+)
+{{
+    def Camera "camera"
+    {{
+        float2 clippingRange = ({near:?}, {far:?})
+        float horizontalAperture = {ha:?}
+        float verticalAperture = {va:?}
+        token projection = "perspective"
+"#,
+        version = env!("CARGO_PKG_VERSION"),
+        source = quoted(&doc.path.display().to_string()),
+        width = r.width,
+        height = r.height,
+        background = double3(bg),
+        ambient = doc.scene.ambient,
+        end = frames - 1,
+        near = f32s(near),
+        far = f32s(far),
+        ha = f32s(first.horizontal_aperture),
+        va = f32s(first.vertical_aperture),
+    );
+    let samples = |s: &mut String, decl: &str, value: &dyn Fn(usize) -> String| {
+        let _ = writeln!(s, "        {decl}.timeSamples = {{");
+        for k in 0..frames {
+            let _ = writeln!(s, "            {k}: {},", value(k));
+        }
+        let _ = writeln!(s, "        }}");
+    };
+    samples(&mut s, "float focalLength", &|k| {
+        format!("{:?}", f32s(lenses[k].focal_length))
+    });
+    samples(&mut s, "float horizontalApertureOffset", &|k| {
+        format!("{:?}", f32s(lenses[k].horizontal_offset))
+    });
+    samples(&mut s, "float verticalApertureOffset", &|k| {
+        format!("{:?}", f32s(lenses[k].vertical_offset))
+    });
+    samples(&mut s, "double3 xformOp:translate", &|k| double3(cops[k]));
+    samples(&mut s, "quatd xformOp:orient", &|k| quatd(orients[k]));
+    let _ = writeln!(
+        s,
+        "        uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:orient\"]\n    }}"
+    );
+
+    for (i, sphere) in doc.scene.spheres.iter().enumerate() {
+        let r = sphere.radius;
+        let e = f32s(r);
+        let _ = write!(
+            s,
+            r#"
+    def Sphere "sphere_{i}"
+    {{
+        float3[] extent = [({m:?}, {m:?}, {m:?}), ({e:?}, {e:?}, {e:?})]
+        color3f[] primvars:displayColor = [{color}] (
+            interpolation = "constant"
+        )
+        double radius = {r:?}
+        double3 xformOp:translate = {centre}
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+"#,
+            m = -e,
+            color = color3f(sphere.color),
+            centre = double3(sphere.center_world),
+        );
+    }
+    for (i, light) in doc.scene.lights.iter().enumerate() {
+        // Colours above 1 become intensity, as in the glTF export.
+        let intensity = light.color.max_element().max(1.0);
+        let _ = write!(
+            s,
+            r#"
+    def DistantLight "light_{i}" (
+        prepend apiSchemas = ["ShadowAPI"]
+    )
+    {{
+        color3f inputs:color = {color}
+        float inputs:intensity = {intensity:?}
+        bool inputs:shadow:enable = {shadows}
+        quatd xformOp:orient = {orient}
+        uniform token[] xformOpOrder = ["xformOp:orient"]
+    }}
+"#,
+            color = color3f(light.color / intensity),
+            intensity = f32s(intensity),
+            shadows = light.shadows,
+            orient = quatd(aim_negative_z(light.direction_world)),
+        );
+    }
+    let _ = write!(
+        s,
+        r#"}}
+
+def Scope "Render"
+{{
+    def RenderSettings "settings"
+    {{
+        uniform token aspectRatioConformPolicy = "adjustPixelAspectRatio"
+        rel camera = </{root}/camera>
+        uniform float pixelAspectRatio = {pixel_aspect:?}
+        uniform int2 resolution = ({width}, {height})
+    }}
+}}
+"#,
+        pixel_aspect = f32s(pixel_aspect),
+        width = r.width,
+        height = r.height,
+    );
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Basis;
+    use glam::DVec2;
+
+    #[test]
+    fn the_lens_sees_the_window_from_the_cop() {
+        let cam = Camera {
+            vrp_world: DVec3::ZERO,
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.5, -0.25, -2.0),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let l = UsdLens::of(&cam);
+        // The window's edges seen from the COP, u from −0.8 − 0.5 to 0.8 − 0.5 at distance 2,
+        // v from −0.45 + 0.25 to 0.45 + 0.25.
+        let left = (-l.horizontal_aperture / 2.0 + l.horizontal_offset) / l.focal_length;
+        let right = (l.horizontal_aperture / 2.0 + l.horizontal_offset) / l.focal_length;
+        let bottom = (-l.vertical_aperture / 2.0 + l.vertical_offset) / l.focal_length;
+        let top = (l.vertical_aperture / 2.0 + l.vertical_offset) / l.focal_length;
+        for (got, want) in [(left, -1.3), (right, 0.3), (bottom, -0.2), (top, 0.7)] {
+            assert!((got - want / 2.0).abs() < 1e-12, "{got} against {want} / 2");
+        }
+    }
+
+    #[test]
+    fn strings_are_quoted_for_usda() {
+        assert_eq!(quoted(r#"a "b" \c"#), r#""a \"b\" \\c""#);
+        assert_eq!(quoted("é\nx"), "\"é x\"");
+    }
+
+    #[test]
+    fn prim_names_are_identifiers() {
+        assert_eq!(prim_name("distort"), "distort");
+        assert_eq!(prim_name("2 shots-b"), "_2_shots_b");
+        assert_eq!(prim_name(""), "_");
+    }
+}

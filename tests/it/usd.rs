@@ -1,0 +1,575 @@
+//! `campath path --format usd`, read by the real programs: OpenUSD (PyPI `usd-core`) opens every
+//! example's stage, its compliance checkers report no errors, and at every time code the camera's
+//! own frustum projects test points where campath does (to 0.01 px, distort included); Blender
+//! (PyPI `bpy`) imports the stage, and its camera projects the points where campath does at every
+//! frame, sits where campath's camera is (to 1e-5, as the glTF import check), and the spheres and
+//! lights arrive.
+//!
+//! The Python that runs them is `CAMPATH_PYTHON`, or `python3`; `.ci/run` makes one with both
+//! packages.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use campath::camera::Camera;
+use campath::document::Document;
+use glam::DVec3;
+
+use crate::common::{campath, root, stderr, EXAMPLES};
+
+/// The Python interpreter for the checks.
+fn python() -> PathBuf {
+    std::env::var_os("CAMPATH_PYTHON").map_or_else(|| "python3".into(), PathBuf::from)
+}
+
+/// Whether the Python imports `module`; otherwise the check is skipped with a printed reason, or
+/// fails under CAMPATH_REQUIRE_TOOLS=1.
+fn have_module(module: &str, package: &str) -> bool {
+    let python = python();
+    let o = Command::new(&python)
+        .args(["-c", &format!("import {module}")])
+        .output();
+    if o.as_ref().is_ok_and(|o| o.status.success()) {
+        return true;
+    }
+    let why = format!(
+        "{} cannot import {module} (PyPI {package}); set CAMPATH_PYTHON to a Python that can",
+        python.display()
+    );
+    if std::env::var_os("CAMPATH_REQUIRE_TOOLS").is_some_and(|v| v == "1") {
+        panic!("{why}, and CAMPATH_REQUIRE_TOOLS=1 makes this check mandatory");
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "skipped: {why}; .ci/run installs it and makes this check mandatory"
+    );
+    false
+}
+
+/// The shots the checks read: every example, and the observer at 640×480 (its 16:9 window on a
+/// 4:3 image, so pixels 4:3 wide).
+struct Shots {
+    tmp: tempfile::TempDir,
+    names: Vec<&'static str>,
+}
+
+impl Shots {
+    fn new() -> Shots {
+        let tmp = tempfile::tempdir().unwrap();
+        let observer = std::fs::read_to_string(root().join("animations/observer.ron")).unwrap();
+        let four_three = observer.replace("width: 640, height: 360", "width: 640, height: 480");
+        assert_ne!(four_three, observer);
+        std::fs::write(tmp.path().join("observer_4_3.ron"), four_three).unwrap();
+        let mut names = EXAMPLES.to_vec();
+        names.push("observer_4_3");
+        let shots = Shots { tmp, names };
+        for name in &shots.names {
+            let file = shots.ron(name);
+            let out = shots.usda(name);
+            let o = campath(
+                shots.dir(),
+                &[
+                    "path",
+                    file.to_str().unwrap(),
+                    "--format",
+                    "usd",
+                    "--out",
+                    out.to_str().unwrap(),
+                ],
+                &[],
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+        shots
+    }
+
+    fn dir(&self) -> &Path {
+        self.tmp.path()
+    }
+
+    fn ron(&self, name: &str) -> PathBuf {
+        match name {
+            "observer_4_3" => self.dir().join("observer_4_3.ron"),
+            _ => root().join(format!("animations/{name}.ron")),
+        }
+    }
+
+    fn usda(&self, name: &str) -> PathBuf {
+        self.dir().join(format!("{name}.usda"))
+    }
+
+    fn doc(&self, name: &str) -> Document {
+        Document::load(&self.ron(name)).unwrap()
+    }
+
+    /// Runs `script` with the job list; returns each job's JSON result.
+    fn run(&self, script: &str, jobs: &[serde_json::Value], what: &str) -> Vec<serde_json::Value> {
+        let script_path = self.dir().join(format!("{what}.py"));
+        std::fs::write(&script_path, script).unwrap();
+        let jobs_path = self.dir().join(format!("{what}.json"));
+        std::fs::write(&jobs_path, serde_json::to_string(jobs).unwrap()).unwrap();
+        let o = Command::new(python())
+            .current_dir(self.dir())
+            .arg(&script_path)
+            .arg(&jobs_path)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{what}: {}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        jobs.iter()
+            .map(|job| {
+                let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
+                serde_json::from_str(&text).unwrap()
+            })
+            .collect()
+    }
+}
+
+/// Test points: each small sphere's centre, and points a unit away from it.
+fn points(doc: &Document) -> Vec<DVec3> {
+    doc.scene
+        .spheres
+        .iter()
+        .filter(|s| s.radius < 50.0)
+        .flat_map(|s| [DVec3::ZERO, DVec3::X, DVec3::NEG_Y, DVec3::Z].map(|d| s.center_world + d))
+        .collect()
+}
+
+/// campath's projection of `p` in pixels: through the COP onto the view plane n = 0, window to
+/// image; None for points behind or near the COP, or outside the frame.
+fn campath_pixel(cam: &Camera, size: (f64, f64), p: DVec3) -> Option<(f64, f64)> {
+    let v = cam.point_to_view(p);
+    let c = cam.cop_view;
+    if v.z - c.z < 0.5 {
+        return None;
+    }
+    let s = -c.z / (v.z - c.z);
+    let (x, y) = (c.x + (v.x - c.x) * s, c.y + (v.y - c.y) * s);
+    let px = (x + cam.window.x / 2.0) / cam.window.x * size.0;
+    let py = (cam.window.y / 2.0 - y) / cam.window.y * size.1;
+    ((0.0..=size.0).contains(&px) && (0.0..=size.1).contains(&py)).then_some((px, py))
+}
+
+fn vec3(v: &serde_json::Value) -> DVec3 {
+    let g = |i: usize| v[i].as_f64().unwrap();
+    DVec3::new(g(0), g(1), g(2))
+}
+
+fn close(a: f64, b: f64, tolerance: f64) -> bool {
+    (a - b).abs() <= tolerance * b.abs().max(1.0)
+}
+
+fn close3(a: DVec3, b: DVec3, tolerance: f64) -> bool {
+    (a - b).abs().max_element() <= tolerance * b.length().max(1.0)
+}
+
+/// For every job: the stage's metadata, the findings of OpenUSD's checkers (ComplianceChecker,
+/// and UsdValidation where the release has it), the camera's own frustum projection of the
+/// points at every time code (NDC), the camera's time samples, and the spheres and lights as
+/// OpenUSD computes them in the world.
+const OPENUSD: &str = r#"
+import json, sys
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdUtils
+jobs = json.load(open(sys.argv[1]))
+for job in jobs:
+    result = {"checkers": [], "problems": []}
+    if hasattr(UsdUtils, "ComplianceChecker"):
+        checker = UsdUtils.ComplianceChecker()
+        checker.CheckCompliance(job["usda"])
+        result["checkers"].append("UsdUtils.ComplianceChecker")
+        result["problems"] += ["ComplianceChecker error: " + e for e in checker.GetErrors()]
+        result["problems"] += ["ComplianceChecker failed: " + e for e in checker.GetFailedChecks()]
+        result["problems"] += ["ComplianceChecker warning: " + e for e in checker.GetWarnings()]
+    stage = Usd.Stage.Open(job["usda"])
+    try:
+        from pxr import UsdValidation
+        validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
+        result["checkers"].append("UsdValidation (%d validators)" % len(validators))
+        for e in UsdValidation.ValidationContext(validators).Validate(stage):
+            result["problems"].append("UsdValidation %s: %s" % (e.GetName(), e.GetMessage()))
+    except ImportError:
+        pass
+    result["units"] = stage.GetRootLayer().customLayerData.get("units", "")
+    result["metersPerUnit"] = UsdGeom.GetStageMetersPerUnit(stage)
+    result["upAxis"] = str(UsdGeom.GetStageUpAxis(stage))
+    result["timeCodesPerSecond"] = stage.GetTimeCodesPerSecond()
+    result["framesPerSecond"] = stage.GetFramesPerSecond()
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    result["timeCodes"] = [start, end]
+    cameras = [p for p in stage.Traverse() if p.IsA(UsdGeom.Camera)]
+    result["cameras"] = len(cameras)
+    camera = UsdGeom.Camera(cameras[0])
+    result["samples"] = {a.GetName(): len(a.GetTimeSamples()) for a in cameras[0].GetAttributes() if a.GetNumTimeSamples() > 0}
+    projections, lenses = [], []
+    for k in range(int(start), int(end) + 1):
+        gf = camera.GetCamera(Usd.TimeCode(k))
+        lenses.append([gf.focalLength, gf.horizontalAperture])
+        frustum = gf.frustum
+        m = frustum.ComputeViewMatrix() * frustum.ComputeProjectionMatrix()
+        row = []
+        for p in job["points"]:
+            q = Gf.Vec4d(p[0], p[1], p[2], 1.0) * m
+            row.append([q[0] / q[3], q[1] / q[3], q[3]])
+        projections.append(row)
+    result["projections"] = projections
+    result["lenses"] = lenses
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    spheres = []
+    for prim in stage.Traverse():
+        if prim.IsA(UsdGeom.Sphere):
+            sphere = UsdGeom.Sphere(prim)
+            m = cache.GetLocalToWorldTransform(prim)
+            colour = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor").Get()[0]
+            spheres.append({"name": prim.GetName(), "centre": list(m.ExtractTranslation()),
+                            "radius": sphere.GetRadiusAttr().Get(), "colour": list(colour)})
+    result["spheres"] = spheres
+    lights = []
+    for prim in stage.Traverse():
+        if prim.IsA(UsdLux.DistantLight):
+            light = UsdLux.DistantLight(prim)
+            m = cache.GetLocalToWorldTransform(prim)
+            direction = m.TransformDir(Gf.Vec3d(0, 0, -1)).GetNormalized()
+            colour = light.GetColorAttr().Get() * light.GetIntensityAttr().Get()
+            shadows = UsdLux.ShadowAPI(prim).GetShadowEnableAttr().Get()
+            lights.append({"direction": list(direction), "colour": list(colour), "shadows": shadows})
+    result["lights"] = lights
+    json.dump(result, open(job["out"], "w"))
+"#;
+
+#[test]
+fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
+    if !have_module("pxr.Usd", "usd-core") {
+        return;
+    }
+    let shots = Shots::new();
+    let jobs: Vec<serde_json::Value> = shots
+        .names
+        .iter()
+        .map(|name| {
+            let pts: Vec<[f64; 3]> = points(&shots.doc(name))
+                .iter()
+                .map(|p| p.to_array())
+                .collect();
+            serde_json::json!({
+                "usda": shots.usda(name), "points": pts,
+                "out": shots.dir().join(format!("{name}.openusd.json")),
+            })
+        })
+        .collect();
+    let results = shots.run(OPENUSD, &jobs, "openusd");
+    for (name, r) in shots.names.iter().zip(&results) {
+        let doc = shots.doc(name);
+        let checkers = r["checkers"].as_array().unwrap();
+        assert!(!checkers.is_empty(), "{name}: no compliance checker ran");
+        assert_eq!(r["problems"], serde_json::json!([]), "{name}");
+        assert_eq!(r["metersPerUnit"], 1.0, "{name}");
+        let units = r["units"].as_str().unwrap();
+        assert!(units.contains("tenths of a scene unit"), "{name}: {units}");
+        assert_eq!(r["upAxis"], "Y", "{name}");
+        assert_eq!(r["timeCodesPerSecond"], doc.animation.fps, "{name}");
+        assert_eq!(r["framesPerSecond"], doc.animation.fps, "{name}");
+        let frames = doc.animation.frames;
+        assert_eq!(
+            r["timeCodes"],
+            serde_json::json!([0.0, (frames - 1) as f64]),
+            "{name}"
+        );
+        assert_eq!(r["cameras"], 1, "{name}");
+        for attr in [
+            "xformOp:translate",
+            "xformOp:orient",
+            "focalLength",
+            "horizontalApertureOffset",
+            "verticalApertureOffset",
+        ] {
+            assert_eq!(r["samples"][attr], frames, "{name}: {attr}");
+        }
+
+        let size = (doc.raster.width as f64, doc.raster.height as f64);
+        let pts = points(&doc);
+        let (mut worst, mut compared) = (0.0f64, 0);
+        for (k, item) in doc.cameras().enumerate() {
+            let cam = item.unwrap().1;
+            // Tenths of a scene unit, a metre: a 36 mm film back is 0.36, and the lens that
+            // sees the window w from the COP's distance d is 0.36 · d / w.
+            let lens = &r["lenses"][k];
+            let want = 0.36 * -cam.cop_view.z / cam.window.x;
+            assert!(
+                close(lens[0].as_f64().unwrap(), want, 1e-6),
+                "{name}: {lens}"
+            );
+            assert!(
+                close(lens[1].as_f64().unwrap(), 0.36, 1e-6),
+                "{name}: {lens}"
+            );
+            for (i, p) in pts.iter().enumerate() {
+                let Some((px, py)) = campath_pixel(&cam, size, *p) else {
+                    continue;
+                };
+                let q = &r["projections"][k][i];
+                assert!(q[2].as_f64().unwrap() > 0.0, "{name} frame {k}: behind");
+                let ux = (q[0].as_f64().unwrap() + 1.0) / 2.0 * size.0;
+                let uy = (1.0 - q[1].as_f64().unwrap()) / 2.0 * size.1;
+                worst = worst.max((px - ux).abs().max((py - uy).abs()));
+                compared += 1;
+            }
+        }
+        eprintln!(
+            "openusd {name}: {} time codes, {compared} projections, worst {worst:.2e} px ({})",
+            frames,
+            checkers
+                .iter()
+                .map(|c| c.as_str().unwrap())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        assert!(compared > 100, "{name}: {compared}");
+        assert!(
+            worst < 0.01,
+            "{name}: OpenUSD's projection is {worst} px off"
+        );
+
+        let spheres = r["spheres"].as_array().unwrap();
+        assert_eq!(spheres.len(), doc.scene.spheres.len(), "{name}");
+        for (got, want) in spheres.iter().zip(&doc.scene.spheres) {
+            assert!(
+                close3(vec3(&got["centre"]), want.center_world, 1e-12),
+                "{name}: {got}"
+            );
+            assert!(close(got["radius"].as_f64().unwrap(), want.radius, 1e-12));
+            assert!(
+                close3(vec3(&got["colour"]), want.color, 1e-6),
+                "{name}: {got}"
+            );
+        }
+        let lights = r["lights"].as_array().unwrap();
+        assert_eq!(lights.len(), doc.scene.lights.len(), "{name}");
+        for (got, want) in lights.iter().zip(&doc.scene.lights) {
+            assert!(
+                close3(vec3(&got["direction"]), want.direction_world, 1e-9),
+                "{name}: {got}"
+            );
+            assert!(
+                close3(vec3(&got["colour"]), want.color, 1e-6),
+                "{name}: {got}"
+            );
+            assert_eq!(got["shadows"], want.shadows, "{name}");
+        }
+    }
+}
+
+/// For every job: import the stage, render at campath's size and pixel aspect, and record at
+/// every frame `world_to_camera_view` of the points (in Blender's Z-up world) and the camera's
+/// world matrix; then each sphere's world vertices and colour, and each sun's direction and
+/// colour.
+const BLENDER: &str = r#"
+import json, sys
+import bpy
+from bpy_extras.object_utils import world_to_camera_view
+from mathutils import Vector
+jobs = json.load(open(sys.argv[1]))
+for job in jobs:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert bpy.ops.wm.usd_import(filepath=job["usda"]) == {"FINISHED"}
+    scene = bpy.context.scene
+    cameras = [o for o in bpy.data.objects if o.type == "CAMERA"]
+    camera = cameras[0]
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = job["size"]
+    scene.render.resolution_percentage = 100
+    aspect = job["pixel_aspect"]
+    scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = (aspect, 1.0) if aspect >= 1.0 else (1.0, 1.0 / aspect)
+    projections, poses, lenses = [], [], []
+    for frame in range(job["frames"]):
+        scene.frame_set(frame)
+        projections.append([list(world_to_camera_view(scene, camera, Vector(p))) for p in job["points"]])
+        m = camera.matrix_world
+        poses.append([[m[r][c] for c in range(4)] for r in range(3)])
+        lenses.append([camera.data.lens, camera.data.sensor_width])
+    spheres = []
+    for o in sorted((o for o in bpy.data.objects if o.type == "MESH"), key=lambda o: o.name):
+        m = o.matrix_world
+        colours = o.data.color_attributes
+        colour = list(colours[0].data[0].color)[:3] if len(colours) else None
+        spheres.append({"name": o.name, "vertices": [list(m @ v.co) for v in o.data.vertices], "colour": colour})
+    suns = []
+    for o in bpy.data.objects:
+        if o.type == "LIGHT" and o.data.type == "SUN":
+            direction = (o.matrix_world.to_3x3() @ Vector((0.0, 0.0, -1.0))).normalized()
+            suns.append({"direction": list(direction), "colour": list(o.data.color)})
+    result = {"frame_range": [scene.frame_start, scene.frame_end], "cameras": len(cameras),
+              "constraints": [c.type for c in camera.constraints],
+              "projections": projections, "poses": poses, "lenses": lenses,
+              "spheres": spheres, "suns": suns}
+    json.dump(result, open(job["out"], "w"))
+"#;
+
+/// Blender's Z-up world from the stage's Y-up one: Blender's importer turns +Y into +Z.
+fn to_blender(p: DVec3) -> DVec3 {
+    DVec3::new(p.x, -p.z, p.y)
+}
+
+#[test]
+fn blender_imports_every_stage_and_its_camera_projects_like_campath() {
+    if !have_module("bpy", "bpy") {
+        return;
+    }
+    let shots = Shots::new();
+    let jobs: Vec<serde_json::Value> = shots
+        .names
+        .iter()
+        .map(|name| {
+            let doc = shots.doc(name);
+            let pts: Vec<[f64; 3]> = points(&doc)
+                .iter()
+                .map(|p| to_blender(*p).to_array())
+                .collect();
+            let (w, h) = (doc.raster.width, doc.raster.height);
+            let window = doc.animation.window;
+            serde_json::json!({
+                "usda": shots.usda(name), "points": pts, "frames": doc.animation.frames,
+                "size": [w, h],
+                "pixel_aspect": (window.x / window.y) / (w as f64 / h as f64),
+                "out": shots.dir().join(format!("{name}.blender.json")),
+            })
+        })
+        .collect();
+    let results = shots.run(BLENDER, &jobs, "blender");
+    for (name, r) in shots.names.iter().zip(&results) {
+        let doc = shots.doc(name);
+        let frames = doc.animation.frames as i64;
+        assert_eq!(r["cameras"], 1, "{name}");
+        assert_eq!(
+            r["frame_range"],
+            serde_json::json!([0, frames - 1]),
+            "{name}"
+        );
+        assert_eq!(r["constraints"], serde_json::json!(["TRANSFORM_CACHE"]));
+        let size = (doc.raster.width as f64, doc.raster.height as f64);
+        let pts = points(&doc);
+        let (mut worst, mut worst_pose, mut compared) = (0.0f64, 0.0f64, 0);
+        for (k, item) in doc.cameras().enumerate() {
+            let cam = item.unwrap().1;
+            for (i, p) in pts.iter().enumerate() {
+                let Some((px, py)) = campath_pixel(&cam, size, *p) else {
+                    continue;
+                };
+                let b = &r["projections"][k][i];
+                let (bx, by) = (
+                    b[0].as_f64().unwrap() * size.0,
+                    (1.0 - b[1].as_f64().unwrap()) * size.1,
+                );
+                worst = worst.max((px - bx).abs().max((py - by).abs()));
+                compared += 1;
+            }
+            // USD's tenths of a scene unit, a metre: a 36 mm film back, and the lens that sees
+            // the window w from the COP's distance d, 36 mm · d / w.
+            let lens = &r["lenses"][k];
+            let want = 36.0 * -cam.cop_view.z / cam.window.x;
+            assert!(
+                close(lens[0].as_f64().unwrap(), want, 1e-6),
+                "{name}: lens {lens} mm, not {want}"
+            );
+            assert!(
+                close(lens[1].as_f64().unwrap(), 36.0, 1e-6),
+                "{name}: sensor {lens}"
+            );
+            let m = &r["poses"][k];
+            let col = |c: usize| {
+                let g = |row: usize| m[row][c].as_f64().unwrap();
+                DVec3::new(g(0), g(1), g(2))
+            };
+            let b = cam.basis;
+            for (got, want) in [
+                (col(3), cam.cop_world()),
+                (col(0), b.u),
+                (col(1), b.v),
+                (col(2), -b.n),
+            ] {
+                let want = to_blender(want);
+                worst_pose =
+                    worst_pose.max((got - want).abs().max_element() / want.length().max(1.0));
+            }
+        }
+        // The spheres, tessellated: every vertex on the sphere, the colour kept.
+        let spheres = r["spheres"].as_array().unwrap();
+        assert_eq!(spheres.len(), doc.scene.spheres.len(), "{name}");
+        let mut worst_sphere = 0.0f64;
+        for (i, want) in doc.scene.spheres.iter().enumerate() {
+            let got = spheres
+                .iter()
+                .find(|s| s["name"] == format!("sphere_{i}"))
+                .unwrap_or_else(|| panic!("{name}: sphere_{i} did not arrive"));
+            let centre = to_blender(want.center_world);
+            let vertices = got["vertices"].as_array().unwrap();
+            assert!(vertices.len() > 20, "{name}: {}", got["name"]);
+            for v in vertices {
+                let off = ((vec3(v) - centre).length() - want.radius).abs() / want.radius;
+                worst_sphere = worst_sphere.max(off);
+            }
+            assert!(
+                close3(vec3(&got["colour"]), want.color, 1e-6),
+                "{name}: {}",
+                got["colour"]
+            );
+        }
+        let suns = r["suns"].as_array().unwrap();
+        assert_eq!(suns.len(), doc.scene.lights.len(), "{name}");
+        for (got, want) in suns.iter().zip(&doc.scene.lights) {
+            let d = to_blender(want.direction_world);
+            assert!(close3(vec3(&got["direction"]), d, 1e-6), "{name}: {got}");
+        }
+        eprintln!(
+            "blender {name}: {frames} frames, {compared} projections, worst {worst:.2e} px; \
+             camera worst {worst_pose:.1e}; sphere vertices worst {worst_sphere:.1e} of the radius"
+        );
+        assert!(compared > 100, "{name}: {compared}");
+        assert!(
+            worst < 0.01,
+            "{name}: Blender's projection is {worst} px off"
+        );
+        assert!(
+            worst_pose < 1e-5,
+            "{name}: Blender's camera is {worst_pose} off"
+        );
+        assert!(
+            worst_sphere < 1e-5,
+            "{name}: a sphere is {worst_sphere} off"
+        );
+    }
+}
+
+#[test]
+fn usd_goes_to_stdout_or_a_usda_file_and_refuses_the_binary_forms() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = root().join("animations/distort.ron");
+    let file = file.to_str().unwrap();
+    let o = campath(tmp.path(), &["path", file, "--format", "usd"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stdout.starts_with(b"#usda 1.0\n"));
+    let o2 = campath(
+        tmp.path(),
+        &["path", file, "--format", "usd", "--out", "shot.usda"],
+        &[],
+    );
+    assert!(o2.status.success(), "{}", stderr(&o2));
+    assert_eq!(
+        std::fs::read(tmp.path().join("shot.usda")).unwrap(),
+        o.stdout
+    );
+    for binary in ["shot.usdc", "shot.usdz"] {
+        let o = campath(
+            tmp.path(),
+            &["path", file, "--format", "usd", "--out", binary],
+            &[],
+        );
+        assert_eq!(o.status.code(), Some(2), "{binary}");
+        assert!(stderr(&o).contains(".usda"), "{}", stderr(&o));
+        assert!(!tmp.path().join(binary).exists());
+    }
+}
