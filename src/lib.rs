@@ -49,6 +49,7 @@ pub mod golden;
 pub mod keyframes;
 pub mod manifest;
 pub mod mode;
+pub mod motion;
 pub mod output;
 pub mod raster;
 pub mod render;

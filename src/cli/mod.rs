@@ -162,7 +162,13 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Validate a file, report every problem, and evaluate every frame's camera.
-    Check { file: PathBuf },
+    Check {
+        file: PathBuf,
+        /// Exit 1 when there are warnings about the motion (jumps, the COP inside a sphere, a
+        /// target at the camera, the up vector flipping).
+        #[arg(long)]
+        strict: bool,
+    },
     /// Error against run time: every accuracy setting against a 16×16-sample reference.
     Report {
         file: PathBuf,
@@ -349,7 +355,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             format,
             out: file_out,
         } => verbs::path(&file, format, file_out.as_deref(), out)?,
-        Command::Check { file } => verbs::check(&file, out)?,
+        Command::Check { file, strict } => return verbs::check(&file, strict, out),
         Command::Report {
             file,
             frame,

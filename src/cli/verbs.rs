@@ -325,7 +325,8 @@ pub fn path(
 }
 
 /// A one-line summary of a valid file, after evaluating every frame's camera.
-pub fn check(file: &Path, out: &mut dyn Write) -> Result<()> {
+/// `campath check`: Ok(false) under `--strict` when there are warnings (exit 1).
+pub fn check(file: &Path, strict: bool, out: &mut dyn Write) -> Result<bool> {
     let doc = Document::load(file)?;
     doc.check_path()?;
     let a = &doc.animation;
@@ -348,7 +349,11 @@ pub fn check(file: &Path, out: &mut dyn Write) -> Result<()> {
     for f in &doc.sphere_files {
         writeln!(out, "  {}: {} sphere(s)", f.name, f.spheres).map_err(Error::stdout)?;
     }
-    Ok(())
+    let warnings = campath::motion::warnings(&doc)?;
+    for w in &warnings {
+        writeln!(out, "warning: {w}").map_err(Error::stdout)?;
+    }
+    Ok(!(strict && !warnings.is_empty()))
 }
 
 impl From<std::convert::Infallible> for CliError {

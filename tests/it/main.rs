@@ -20,4 +20,5 @@ mod sphere_files;
 mod suites;
 mod usd;
 mod video;
+mod warnings;
 mod watch;

@@ -141,7 +141,10 @@ fn editing_a_sphere_file_renders_its_frames_again() {
     let first = render();
     assert!(first.contains("rendered 3 frame(s)"), "{first}");
     let again = render();
-    assert!(again.contains("rendered 0 frame(s)") && again.contains("3 kept"), "{again}");
+    assert!(
+        again.contains("rendered 0 frame(s)") && again.contains("3 kept"),
+        "{again}"
+    );
     // One sphere turns white in the CSV: every frame is rendered again, to the new hashes.
     all[0].2 = [255, 255, 255];
     write_files(t, &all);

@@ -1,0 +1,255 @@
+//! Motion that looks wrong, found before anything is rendered: `campath check` warns about it.
+//!
+//! The checks read the evaluated cameras only (no pixels) and say which frames and which
+//! quantity. The thresholds, stated in docs/format.md ("Warnings"):
+//!
+//! - **A jump in speed or turn rate.** The eye (the COP in world) moves at speed sₖ between frames
+//!   k and k+1, and the view (the VPN) turns at rate ωₖ. A change |sₖ₊₁ − sₖ| is a jump when it
+//!   exceeds [`JUMP_FACTOR`] times the shot's median change, [`SPEED_FLOOR`] of the median
+//!   speed and [`PEAK_FLOOR`] of the fastest (for turning, [`TURN_FLOOR`] of the median rate,
+//!   [`PEAK_FLOOR`] of the fastest, and at least [`TURN_MIN_DEG_S`]): a Step key, a kink
+//!   between linear keys, a spline overshooting between uneven keys.
+//! - **The COP inside a sphere**: the frame is a wall of the sphere's colour.
+//! - **A target close to the camera**: the target point nearer the VRP than [`NEAR_TARGET`] of
+//!   their median distance over the shot, where the view direction TP − VRP turns unstable.
+//! - **The up vector flipping**: v turning more than 90° between consecutive frames.
+
+use glam::DVec3;
+
+use crate::camera::Camera;
+use crate::document::Document;
+use crate::error::Result;
+use crate::manifest::list_frames;
+
+/// A change this many times the shot's median change is a jump (with the floors below).
+pub const JUMP_FACTOR: f64 = 8.0;
+/// A speed jump must also exceed this fraction of the shot's median speed.
+pub const SPEED_FLOOR: f64 = 0.5;
+/// Any jump must also exceed this fraction of the shot's fastest rate (rounding is not motion).
+pub const PEAK_FLOOR: f64 = 0.01;
+/// A turn-rate jump must also exceed this fraction of the shot's median turn rate …
+pub const TURN_FLOOR: f64 = 0.5;
+/// … and this many degrees per second.
+pub const TURN_MIN_DEG_S: f64 = 5.0;
+/// A target nearer the VRP than this fraction of their median distance is too close.
+pub const NEAR_TARGET: f64 = 0.02;
+
+/// What a warning is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    Speed,
+    TurnRate,
+    CopInsideSphere,
+    TargetNearCamera,
+    UpFlip,
+}
+
+/// Motion that looks wrong, at some frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Warning {
+    pub quantity: Quantity,
+    /// The frames concerned, in order.
+    pub frames: Vec<u64>,
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = if self.frames.len() == 1 { "" } else { "s" };
+        write!(
+            f,
+            "frame{s} {}: {}",
+            list_frames(&self.frames),
+            self.message
+        )
+    }
+}
+
+fn median(xs: &[f64]) -> f64 {
+    crate::frames::median(xs)
+}
+
+/// Consecutive runs of indices.
+fn runs(indices: &[usize]) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for &i in indices {
+        match out.last_mut() {
+            Some(run) if run.last() == Some(&(i - 1)) => run.push(i),
+            _ => out.push(vec![i]),
+        }
+    }
+    out
+}
+
+/// The warnings of a document's path, by quantity and then by frame. A frame whose camera is
+/// undefined is an error, as in [`Document::check_path`].
+pub fn warnings(doc: &Document) -> Result<Vec<Warning>> {
+    let cameras: Vec<Camera> = doc
+        .cameras()
+        .map(|c| c.map(|(_, cam)| cam))
+        .collect::<Result<_>>()?;
+    let fps = doc.animation.fps;
+    let mut out = Vec::new();
+    if cameras.len() >= 3 {
+        let eyes: Vec<DVec3> = cameras.iter().map(Camera::cop_world).collect();
+        let speed: Vec<f64> = eyes
+            .windows(2)
+            .map(|w| (w[1] - w[0]).length() * fps)
+            .collect();
+        let turn: Vec<f64> = cameras
+            .windows(2)
+            .map(|w| angle_deg(w[0].basis.n, w[1].basis.n) * fps)
+            .collect();
+        jumps(
+            &mut out,
+            Quantity::Speed,
+            &speed,
+            SPEED_FLOOR,
+            0.0,
+            "speed",
+            "units/s",
+        );
+        jumps(
+            &mut out,
+            Quantity::TurnRate,
+            &turn,
+            TURN_FLOOR,
+            TURN_MIN_DEG_S,
+            "turn rate",
+            "°/s",
+        );
+    }
+    inside_spheres(&mut out, doc, &cameras);
+    near_target(&mut out, doc);
+    let flips: Vec<usize> = (1..cameras.len())
+        .filter(|&k| cameras[k - 1].basis.v.dot(cameras[k].basis.v) < 0.0)
+        .collect();
+    for k in flips {
+        out.push(Warning {
+            quantity: Quantity::UpFlip,
+            frames: vec![k as u64 - 1, k as u64],
+            message: format!(
+                "the up vector flips: v turns {:.0}° from frame {} to {k}",
+                angle_deg(cameras[k - 1].basis.v, cameras[k].basis.v),
+                k - 1
+            ),
+        });
+    }
+    Ok(out)
+}
+
+fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+    let c = (a.dot(b) / (a.length() * b.length())).clamp(-1.0, 1.0);
+    libm::acos(c).to_degrees()
+}
+
+/// Jumps in `rate` (one value between each pair of consecutive frames): a change above
+/// [`JUMP_FACTOR`] × the median change, `floor` × the median rate and `min`.
+#[allow(clippy::too_many_arguments)]
+fn jumps(
+    out: &mut Vec<Warning>,
+    quantity: Quantity,
+    rate: &[f64],
+    floor: f64,
+    min: f64,
+    name: &str,
+    unit: &str,
+) {
+    let change: Vec<f64> = rate.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    let typical = median(&change);
+    let fastest = rate.iter().copied().fold(0.0, f64::max);
+    let threshold = (JUMP_FACTOR * typical)
+        .max(floor * median(rate))
+        .max(PEAK_FLOOR * fastest)
+        .max(min);
+    let big: Vec<usize> = (0..change.len())
+        .filter(|&i| change[i] > threshold && change[i] > 0.0)
+        .collect();
+    for run in runs(&big) {
+        // Change i is between rate i (frames i, i+1) and rate i+1 (frames i+1, i+2).
+        let (first, last) = (run[0], *run.last().expect("a run is not empty"));
+        let frames: Vec<u64> = (first as u64 + 1..=last as u64 + 1).collect();
+        let (from, to) = (rate[first], rate[last + 1]);
+        let peak = run.iter().map(|&i| rate[i + 1]).fold(from, f64::max);
+        out.push(Warning {
+            quantity,
+            frames,
+            message: format!(
+                "the {name} jumps: {from:.3} → {:.3} {unit}{} (the shot's typical change between \
+                 frames is {typical:.3} {unit})",
+                if peak > from.max(to) { peak } else { to },
+                if peak > from.max(to) {
+                    format!(", then {to:.3}")
+                } else {
+                    String::new()
+                }
+            ),
+        });
+    }
+}
+
+fn inside_spheres(out: &mut Vec<Warning>, doc: &Document, cameras: &[Camera]) {
+    let spheres = &doc.scene.spheres;
+    let mut inside: Vec<(usize, usize)> = Vec::new(); // (frame, sphere)
+    for (k, cam) in cameras.iter().enumerate() {
+        let eye = cam.cop_world();
+        if let Some(i) = spheres
+            .iter()
+            .position(|s| (eye - s.center_world).length_squared() < s.radius * s.radius)
+        {
+            inside.push((k, i));
+        }
+    }
+    let frames: Vec<usize> = inside.iter().map(|(k, _)| *k).collect();
+    for run in runs(&frames) {
+        let sphere = inside.iter().find(|(k, _)| *k == run[0]).expect("listed").1;
+        out.push(Warning {
+            quantity: Quantity::CopInsideSphere,
+            frames: run.iter().map(|k| *k as u64).collect(),
+            message: format!(
+                "the COP is inside sphere {sphere} (the scene's spheres counted from 0): the \
+                 frame is a wall of its colour"
+            ),
+        });
+    }
+}
+
+fn near_target(out: &mut Vec<Warning>, doc: &Document) {
+    let a = &doc.animation;
+    let target = |t: f64| match (&a.track, a.pointing) {
+        (Some(track), _) if a.look_around.is_none() => Some(track.sample(t)),
+        (None, crate::animation::Pointing::Target(tp)) if a.look_around.is_none() => Some(tp),
+        _ => None,
+    };
+    let distance: Vec<Option<f64>> = (0..a.frames)
+        .map(|k| {
+            let t = a.time(k);
+            let vrp = a.observer.as_ref().map_or(a.vrp, |o| o.sample(t));
+            target(t).map(|tp| (tp - vrp).length())
+        })
+        .collect();
+    let known: Vec<f64> = distance.iter().flatten().copied().collect();
+    if known.is_empty() {
+        return;
+    }
+    let limit = NEAR_TARGET * median(&known);
+    let near: Vec<usize> = (0..distance.len())
+        .filter(|&k| distance[k].is_some_and(|d| d < limit))
+        .collect();
+    for run in runs(&near) {
+        let closest = run
+            .iter()
+            .filter_map(|&k| distance[k])
+            .fold(f64::INFINITY, f64::min);
+        out.push(Warning {
+            quantity: Quantity::TargetNearCamera,
+            frames: run.iter().map(|k| *k as u64).collect(),
+            message: format!(
+                "the target point comes within {closest:.3} units of the VRP (under {:.0}% of \
+                 their median distance, {:.3}): the view direction turns unstable",
+                NEAR_TARGET * 100.0,
+                limit / NEAR_TARGET
+            ),
+        });
+    }
+}

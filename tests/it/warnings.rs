@@ -1,0 +1,76 @@
+//! `campath check` warns about motion that looks wrong, naming the frames and the quantity, and
+//! `--strict` makes the warnings an exit status; the examples are quiet.
+
+use crate::common::{campath, root, stderr, stdout, EXAMPLES};
+
+fn check(text: &str, strict: bool) -> (Option<i32>, String) {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("w.ron"), text).unwrap();
+    let mut args = vec!["check", "w.ron"];
+    if strict {
+        args.push("--strict");
+    }
+    let o = campath(tmp.path(), &args, &[]);
+    (o.status.code(), format!("{}{}", stdout(&o), stderr(&o)))
+}
+
+const SCENE: &str = "scene: (lights: [(direction: (-1.0, -2.0, 1.0))], spheres: [
+    (center: (0.0, 0.0, 0.0), radius: 1.0), (center: (0.0, 0.0, 6.0), radius: 1.5)])";
+
+#[test]
+fn a_step_key_is_named_at_its_frame() {
+    // The VRP jumps 3 units at t = 1 s, frame 10 at 10 fps: 30 units/s between frames 9 and 10.
+    let file = format!(
+        "(frames: 20, fps: 10.0, camera: (vrp: (0.0, 0.0, -5.0), vpn: (0.0, 0.0, 1.0)),
+         animate: [Observer(keys: [(t: 0.0, value: (0.0, 0.0, -5.0)), (t: 1.0, value: (3.0, 0.0, -5.0))],
+             interpolation: Step)], {SCENE})"
+    );
+    let (code, out) = check(&file, false);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(
+        out.contains("warning: frames 9, 10: the speed jumps: 0.000 → 30.000 units/s, then 0.000"),
+        "{out}"
+    );
+    assert_eq!(check(&file, true).0, Some(1));
+}
+
+#[test]
+fn the_camera_inside_a_sphere_and_a_target_at_the_camera_are_named() {
+    // The eye (the COP, 1 unit behind the VRP) passes through the sphere at the origin: the VRP
+    // goes from z = −6 to z = 4 over frames 0 to 20.
+    let file = format!(
+        "(frames: 21, fps: 10.0, camera: (vrp: (0.0, 0.0, -6.0), vpn: (0.0, 0.0, 1.0)),
+         animate: [Observer(keys: [(t: 0.0, value: (0.0, 0.0, -6.0)), (t: 2.0, value: (0.0, 0.0, 4.0))],
+             interpolation: Linear)], {SCENE})"
+    );
+    let (_, out) = check(&file, false);
+    // Eye z at frame k: −7 + 0.5k; inside when −1 < z < 1: k = 13, 14, 15.
+    assert!(
+        out.contains("warning: frames 13, 14, 15: the COP is inside sphere 0"),
+        "{out}"
+    );
+    assert!(!out.contains("speed"), "{out}");
+
+    // A target that passes 0.05 units from the VRP, against a median distance of about 4.
+    let file = format!(
+        "(frames: 21, fps: 10.0, camera: (vrp: (0.0, 3.0, 0.0), tp: (0.0, 0.0, 0.0)),
+         animate: [Track(keys: [(t: 0.0, value: (-4.0, 3.05, -4.0)), (t: 2.0, value: (4.0, 3.05, 4.0))],
+             interpolation: Linear)], {SCENE})"
+    );
+    let (code, out) = check(&file, true);
+    assert!(
+        out.contains("warning: frame 10: the target point comes within 0.050 units of the VRP"),
+        "{out}"
+    );
+    assert_eq!(code, Some(1));
+}
+
+#[test]
+fn the_examples_are_quiet() {
+    for name in EXAMPLES {
+        let file = root().join("animations").join(format!("{name}.ron"));
+        let o = campath(&root(), &["check", file.to_str().unwrap(), "--strict"], &[]);
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stdout(&o));
+        assert!(!stdout(&o).contains("warning"), "{name}: {}", stdout(&o));
+    }
+}
