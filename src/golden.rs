@@ -84,19 +84,21 @@ impl Golden {
 
     /// The golden frames beside the hashes, by frame (empty for a hashes file alone).
     pub fn frames(&self) -> BTreeMap<u64, PathBuf> {
-        let Some(dir) = &self.dir else {
-            return BTreeMap::new();
-        };
-        std::fs::read_dir(dir)
-            .into_iter()
-            .flatten()
-            .flatten()
-            .filter_map(|e| {
-                let (frame, _) = frame_of(e.file_name().to_str()?)?;
-                Some((frame, e.path()))
-            })
-            .collect()
+        self.dir.as_deref().map(frames_in).unwrap_or_default()
     }
+}
+
+/// The frame files `frame_NNNN.png` in `dir`, by frame (empty when there is no such folder).
+pub fn frames_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
+    std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let (frame, _) = frame_of(e.file_name().to_str()?)?;
+            Some((frame, e.path()))
+        })
+        .collect()
 }
 
 /// The text of a golden `hashes.txt` for these `(frame, hash)` pairs, naming this campath's

@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::frames::{stream_frames, FrameSet};
 use crate::golden::{self, HASHES};
 use crate::manifest::list_frames;
-use crate::output::{frame_path, write_png, Compression};
+use crate::output::{frame_path, png_hash, write_png, Compression};
 use crate::render::key::VERSION;
 
 /// The environment variable that makes [`assert_shot`] write the golden instead of comparing.
@@ -42,14 +42,19 @@ pub struct FrameDiff {
 /// How a shot compares with its golden.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Verdict {
-    /// Every frame renders to its golden hash.
+    /// Every frame renders to its golden hash (and the golden's frames, if it keeps them, are
+    /// the pictures its hashes name).
     Passed,
     /// Some frames differ (listed in [`ShotRun::differ`]).
     Differ,
+    /// Every frame renders to its golden hash, but golden frames the golden keeps are missing or
+    /// are not the pictures of their hashes (listed in [`ShotRun::stale`]).
+    StaleFrames,
     /// The shot has no golden yet.
     NoGolden,
     /// Frames differ, and the golden names another renderer version than this campath's: the
-    /// difference may be the renderer's rather than the shot's.
+    /// difference may be the renderer's rather than the shot's. A golden from a newer renderer
+    /// is never overwritten.
     OtherRenderer(u32),
 }
 
@@ -65,6 +70,9 @@ pub struct ShotRun {
     pub fresh: Vec<(u64, String)>,
     /// The frames that differ, in order (every frame when there is no golden).
     pub differ: Vec<FrameDiff>,
+    /// Frames that match their golden hash while the golden keeps frames, but whose golden
+    /// picture is missing or hashes otherwise.
+    pub stale: Vec<u64>,
     /// Whether the golden was written by this run ([`Options::update`]).
     pub updated: bool,
 }
@@ -73,11 +81,17 @@ impl ShotRun {
     pub fn verdict(&self) -> Verdict {
         match &self.golden {
             None => Verdict::NoGolden,
-            Some(_) if self.differ.is_empty() => Verdict::Passed,
+            Some(_) if self.differ.is_empty() && self.stale.is_empty() => Verdict::Passed,
+            Some(_) if self.differ.is_empty() => Verdict::StaleFrames,
             Some(g) => g
                 .other_renderer()
                 .map_or(Verdict::Differ, Verdict::OtherRenderer),
         }
+    }
+
+    /// Whether the shot passes, or was approved by this run.
+    pub fn ok(&self) -> bool {
+        self.updated || self.verdict() == Verdict::Passed
     }
 
     /// The differing frames' numbers.
@@ -86,28 +100,27 @@ impl ShotRun {
     }
 
     /// One line saying how the shot compares, without the shot's name: `passed (24 frames)`,
-    /// `3 of 24 frames differ: 4, 5, 6`, `no golden (…/hashes.txt)`, or the renderer's note.
+    /// `3 of 24 frame(s) differ: 4, 5, 6`, `no golden (…/hashes.txt)`, or the renderer's note.
     pub fn summary(&self) -> String {
         let golden_file = golden_dir(&self.shot).join(HASHES);
         let differ = || {
-            let of = self.frames.max(self.fresh.len() as u64);
+            let listed = self.golden.as_ref().and_then(|g| g.hashes.keys().last());
+            let of = listed.map_or(self.frames, |last| self.frames.max(last + 1));
             format!(
                 "{} of {of} frame(s) differ: {}",
                 self.differ.len(),
                 list_frames(&self.differing_frames())
             )
         };
-        if self.updated {
-            let what = match self.verdict() {
-                Verdict::NoGolden => "no golden".to_string(),
-                _ => differ(),
-            };
-            return format!("{what}; golden written ({})", golden_file.display());
-        }
-        match self.verdict() {
-            Verdict::Passed => format!("passed ({} frames)", self.frames),
+        let what = match self.verdict() {
+            Verdict::Passed => return format!("passed ({} frames)", self.frames),
             Verdict::NoGolden => format!("no golden ({})", golden_file.display()),
             Verdict::Differ => differ(),
+            Verdict::StaleFrames => format!(
+                "every frame matches its hash, but the golden's pictures of frame(s) {} are \
+                 missing or are not the pictures of their hashes",
+                list_frames(&self.stale)
+            ),
             Verdict::OtherRenderer(r) if r < VERSION => format!(
                 "golden made by renderer {r}, this campath is renderer {VERSION} (its pictures \
                  changed): {}",
@@ -115,10 +128,33 @@ impl ShotRun {
             ),
             Verdict::OtherRenderer(r) => format!(
                 "golden made by renderer {r}, newer than this campath's renderer {VERSION}: \
-                 update campath; {}",
+                 update campath ({})",
                 differ()
             ),
+        };
+        if self.updated {
+            format!("{what}; golden written ({})", golden_file.display())
+        } else {
+            what
         }
+    }
+}
+
+/// Why a golden from another renderer may differ, and what to do, for `verify`'s report.
+pub fn renderer_note(golden: &Path, renderer: u32) -> String {
+    if renderer < VERSION {
+        format!(
+            "note: {} was made by campath renderer {renderer}, and this campath is renderer \
+             {VERSION}: its pictures changed, not necessarily the shot. If the new frames are \
+             right, approve them: `campath test --update`, or render into the golden again.",
+            golden.display()
+        )
+    } else {
+        format!(
+            "note: {} was made by campath renderer {renderer}, newer than this campath's \
+             renderer {VERSION}: update campath.",
+            golden.display()
+        )
     }
 }
 
@@ -126,7 +162,8 @@ impl ShotRun {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Options {
     /// Write the golden of a shot that differs or has none: `hashes.txt`, and the frames that
-    /// differ when the golden folder holds frames. A passing golden is left untouched.
+    /// differ when the golden folder holds frames. A passing golden is left untouched, and a
+    /// golden from a newer renderer is never overwritten.
     pub update: bool,
     /// With `update`, write every frame's PNG into the golden too, even where it kept only
     /// hashes before.
@@ -134,18 +171,39 @@ pub struct Options {
 }
 
 /// A shot loaded: its checked document and its golden, if it has one.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Shot {
     pub path: PathBuf,
     pub doc: Document,
     /// The golden `hashes.txt` in the shot's [`golden_dir`], when it exists.
     pub golden: Option<Golden>,
+    /// The golden frames in the golden folder (whether or not it has `hashes.txt`), by frame.
+    pub golden_frames: std::collections::BTreeMap<u64, PathBuf>,
+    /// Held while a run may write the golden: an advisory lock on the shot file, so two
+    /// approvals of one shot take turns.
+    _lock: Option<std::fs::File>,
 }
 
 impl Shot {
     /// Loads the shot file and its golden. A file that does not load, or a golden that does not
     /// parse, is an error.
     pub fn load(path: &Path) -> Result<Shot> {
+        Shot::open(path, Options::default())
+    }
+
+    /// [`Shot::load`], first taking the shot's lock when `options.update` (waiting for another
+    /// approval of the same shot to finish), and clearing what a killed approval left.
+    pub fn open(path: &Path, options: Options) -> Result<Shot> {
+        let lock = if options.update {
+            let file = std::fs::File::open(path).map_err(Error::read(path))?;
+            file.lock().map_err(Error::read(path))?;
+            for stale in staging_dirs(path) {
+                std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
+            }
+            Some(file)
+        } else {
+            None
+        };
         let doc = Document::load(path)?;
         let dir = golden_dir(path);
         let golden = if dir.join(HASHES).exists() {
@@ -153,35 +211,48 @@ impl Shot {
         } else {
             None
         };
+        let golden_frames = golden::frames_in(&dir);
         Ok(Shot {
             path: path.to_path_buf(),
             doc,
             golden,
+            golden_frames,
+            _lock: lock,
         })
     }
 
     /// Renders every frame, compares each with the golden, and (with [`Options::update`])
-    /// writes the golden where it differs or is missing. `each` sees every differing frame that
-    /// the animation has, with its fresh RGB8 pixels, as it is found (and before the golden is
-    /// updated).
+    /// writes the golden where it differs, is missing or keeps stale frames. `each` sees every
+    /// differing frame that the animation has, with its fresh RGB8 pixels, as it is found (and
+    /// before the golden is updated).
+    ///
+    /// Frames for the golden are written into a private folder beside it while the shot
+    /// renders, moved into the golden once every frame is done, and `hashes.txt` is written
+    /// last; a golden left half-way by a killed run keeps stale frames, which the next run
+    /// reports.
     pub fn run(
         self,
         options: Options,
         mut each: impl FnMut(&FrameDiff, &[u8]) -> Result<()> + Send,
     ) -> Result<ShotRun> {
-        let Shot { path, doc, golden } = self;
+        let Shot {
+            path,
+            doc,
+            golden,
+            golden_frames,
+            _lock,
+        } = self;
         let dir = golden_dir(&path);
         let total = doc.animation.frames;
         let size = (doc.raster.width, doc.raster.height);
-        // When the golden keeps frames (or is to keep them), the frames it lacks are written
-        // under temporary names while the shot renders, and renamed into place with the hashes
-        // once every frame is done and the shot needs its golden written.
-        let golden_frames = golden.as_ref().map(|g| g.frames()).unwrap_or_default();
-        let writes_frames = options.update && (options.keep_frames || !golden_frames.is_empty());
+        let keeps_frames = !golden_frames.is_empty();
+        let writes_frames = options.update && (options.keep_frames || keeps_frames);
+        let staging = staging_dir(&path);
         let mut staged = Vec::new();
         let mut fresh = Vec::with_capacity(total as usize);
         let mut differ = Vec::new();
-        stream_frames(
+        let mut stale = Vec::new();
+        let result = stream_frames(
             &doc,
             &FrameSet::all(0..total),
             |_| false,
@@ -189,12 +260,20 @@ impl Shot {
                 fresh.push((frame, hash.to_string()));
                 let expected = golden.as_ref().and_then(|g| g.hash(frame));
                 let same = expected == Some(hash);
-                if writes_frames && (!same || !golden_frames.contains_key(&frame)) {
-                    let path = frame_path(&dir, frame, total);
-                    let tmp = staged_path(&path);
-                    std::fs::create_dir_all(&dir).map_err(Error::write(&dir))?;
-                    write_png(&tmp, pixels, size, Compression::Default)?;
-                    staged.push((tmp, path));
+                // A golden that keeps frames must keep the pictures its hashes name.
+                let picture_ok = !keeps_frames
+                    || golden_frames
+                        .get(&frame)
+                        .and_then(|p| png_hash(p))
+                        .is_some_and(|h| Some(h.as_str()) == expected);
+                if same && !picture_ok {
+                    stale.push(frame);
+                }
+                if writes_frames && !(same && picture_ok) {
+                    std::fs::create_dir_all(&staging).map_err(Error::write(&staging))?;
+                    let name = frame_path(&staging, frame, total);
+                    write_png(&name, pixels, size, Compression::Default)?;
+                    staged.push(name);
                 }
                 if same {
                     return Ok(());
@@ -208,7 +287,15 @@ impl Shot {
                 differ.push(d);
                 Ok(())
             },
-        )?;
+        );
+        let remove_staging = || match std::fs::remove_dir_all(&staging) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::write(&staging)(e)),
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            remove_staging()?;
+            return Err(e);
+        }
         if let Some(g) = &golden {
             differ.extend(g.hashes.range(total..).map(|(frame, hash)| FrameDiff {
                 frame: *frame,
@@ -222,43 +309,63 @@ impl Shot {
             frames: total,
             fresh,
             differ,
+            stale,
             updated: false,
         };
-        if !options.update || run.verdict() == Verdict::Passed {
-            for (tmp, _) in &staged {
-                std::fs::remove_file(tmp).map_err(Error::write(tmp))?;
-            }
+        let newer = matches!(run.verdict(), Verdict::OtherRenderer(r) if r > VERSION);
+        if !options.update || run.verdict() == Verdict::Passed || newer {
+            remove_staging()?;
             return Ok(run);
         }
         std::fs::create_dir_all(&dir).map_err(Error::write(&dir))?;
-        for (tmp, path) in &staged {
-            std::fs::rename(tmp, path).map_err(Error::write(path))?;
-        }
-        // Golden frames the animation no longer has.
-        for (frame, path) in &golden_frames {
-            if *frame >= total {
-                std::fs::remove_file(path).map_err(Error::write(path))?;
+        // Golden frames the animation no longer has, or named for another frame count.
+        for (frame, old) in &golden_frames {
+            if *frame >= total || *old != frame_path(&dir, *frame, total) {
+                std::fs::remove_file(old).map_err(Error::write(old))?;
             }
         }
+        for from in &staged {
+            let to = dir.join(from.file_name().expect("a frame file"));
+            std::fs::rename(from, &to).map_err(Error::write(&to))?;
+        }
+        remove_staging()?;
         golden::write(&dir.join(HASHES), &run.fresh)?;
         run.updated = true;
         Ok(run)
     }
 }
 
-/// [`Shot::load`] and [`Shot::run`].
+/// [`Shot::open`] and [`Shot::run`].
 pub fn run_shot(
     shot: &Path,
     options: Options,
     each: impl FnMut(&FrameDiff, &[u8]) -> Result<()> + Send,
 ) -> Result<ShotRun> {
-    Shot::load(shot)?.run(options, each)
+    Shot::open(shot, options)?.run(options, each)
 }
 
-fn staged_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    path.with_file_name(name)
+/// The private folder where an approval of `shot` writes golden frames before moving them in:
+/// hidden, beside the golden, named for this process.
+fn staging_dir(shot: &Path) -> PathBuf {
+    let stem = shot.file_stem().unwrap_or_default().to_string_lossy();
+    shot.with_file_name(format!(".{stem}.golden.update-{}", std::process::id()))
+}
+
+/// Staging folders of `shot` that approvals left (killed before they finished).
+fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
+    let stem = shot.file_stem().unwrap_or_default().to_string_lossy();
+    let prefix = format!(".{stem}.golden.update-");
+    let parent = shot
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::read_dir(parent)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+        .map(|e| e.path())
+        .collect()
 }
 
 /// Renders the shot `shot` and compares every frame with the golden `<stem>.golden/hashes.txt`
@@ -284,7 +391,7 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
         Ok(run) => run,
         Err(e) => panic!("campath shot {}: {e}", shot.display()),
     };
-    if run.updated || run.verdict() == Verdict::Passed {
+    if run.ok() {
         return;
     }
     let mut message = format!("campath shot {}: {}", shot.display(), run.summary());

@@ -72,9 +72,14 @@ pub fn outside_goldens(path: &Path, option: &str, goldens: &[PathBuf]) -> Result
     )))
 }
 
+/// The mark campath leaves in a folder it claims: only a folder that has it is emptied, so a
+/// folder of frames someone keeps is never taken for failure pictures of an earlier run.
+pub const MARK: &str = ".campath-failures";
+
 /// Claims `dir` for a command's failure pictures: refuses it when it is or lies inside one of
-/// `goldens`, is a file, or holds anything whose name `ours` does not accept; otherwise creates
-/// it and removes the files of ours an earlier run left there.
+/// `goldens`, is a file, holds anything whose name `ours` does not accept, or holds anything
+/// at all without campath's [`MARK`]; otherwise creates it, removes what an earlier run left
+/// there, and marks it.
 pub fn claim(
     dir: &Path,
     option: &str,
@@ -93,26 +98,37 @@ pub fn claim(
         Err(_) => Vec::new(),
     };
     let name = |e: &std::fs::DirEntry| e.file_name().to_string_lossy().into_owned();
+    let marked = entries.iter().any(|e| name(e) == MARK);
     let foreign: Vec<String> = entries
         .iter()
-        .filter(|e| !(ours(&name(e)) && e.file_type().is_ok_and(|t| t.is_file())))
+        .filter(|e| {
+            let n = name(e);
+            let file = e.file_type().is_ok_and(|t| t.is_file());
+            !(file && (n == MARK || (marked && ours(&n))))
+        })
         .map(name)
         .collect();
     if !foreign.is_empty() {
         let shown: Vec<&str> = foreign.iter().take(3).map(String::as_str).collect();
         return Err(CliError::Usage(format!(
             "{option} {} holds files campath did not write there ({}{}); nothing was written \
-             (choose an empty or new folder)",
+             (choose an empty or new folder: campath marks the folders it writes with {MARK})",
             dir.display(),
             shown.join(", "),
             if foreign.len() > 3 { ", …" } else { "" }
         )));
     }
     std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
-    for e in entries {
+    for e in entries.iter().filter(|e| name(e) != MARK) {
         let path = e.path();
         std::fs::remove_file(&path).map_err(Error::write(&path))?;
     }
+    let mark = dir.join(MARK);
+    std::fs::write(
+        &mark,
+        "campath writes its failure pictures here, and empties this folder on every run.\n",
+    )
+    .map_err(Error::write(&mark))?;
     Ok(())
 }
 

@@ -28,11 +28,15 @@ pub struct TestArgs {
 }
 
 /// Every `*.ron` under `dir`, recursively, in name order; golden folders and hidden folders are
-/// not searched.
+/// not searched, and a folder reached twice through symbolic links is searched once.
 pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut found = Vec::new();
     let mut folders = vec![dir.to_path_buf()];
+    let mut seen = std::collections::BTreeSet::new();
     while let Some(folder) = folders.pop() {
+        if !seen.insert(folder.canonicalize().map_err(Error::read(&folder))?) {
+            continue;
+        }
         let entries = std::fs::read_dir(&folder).map_err(Error::read(&folder))?;
         for e in entries.flatten() {
             let path = e.path();
@@ -48,6 +52,9 @@ pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
         }
     }
     found.sort();
+    // A shot reached twice (a linked file) is one shot.
+    let mut files = std::collections::BTreeSet::new();
+    found.retain(|f| files.insert(f.canonicalize().unwrap_or_else(|_| f.clone())));
     Ok(found)
 }
 
@@ -75,6 +82,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
     if let Some(path) = &a.junit {
         failures::outside_goldens(path, "--junit", &goldens)?;
+        junit::check_target(path)?;
     }
     if let Some(dir) = &a.review {
         failures::claim(dir, "--review", &goldens, review::is_review_file)?;
@@ -130,7 +138,11 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         .iter()
         .filter(|c| {
             c.run.as_ref().is_ok_and(|r| {
-                matches!(r.verdict(), Verdict::Differ | Verdict::OtherRenderer(_)) && !r.updated
+                !r.ok()
+                    && matches!(
+                        r.verdict(),
+                        Verdict::Differ | Verdict::StaleFrames | Verdict::OtherRenderer(_)
+                    )
             })
         })
         .count();
@@ -152,9 +164,9 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     );
     if !updated.is_empty() {
         summary += &format!("; {} golden(s) written", updated.len());
-    } else if a.update {
+    } else if a.update && differ + no_golden == 0 {
         summary += "; no golden needed writing";
-    } else if differ + no_golden > 0 {
+    } else if !a.update && differ + no_golden > 0 {
         summary += &format!(
             "\nIf the changes are intended, approve them with `campath test {} --update`.",
             a.dir.display()
@@ -176,7 +188,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
             .zip(&mut checked)
             .filter_map(|(shot, c)| {
                 let run = c.run.as_ref().ok()?;
-                (run.verdict() != Verdict::Passed).then(|| ReviewShot {
+                (!run.ok() || run.updated).then(|| ReviewShot {
                     shot: shot.display().to_string(),
                     summary: run.summary(),
                     frames: std::mem::take(&mut c.review),
@@ -198,7 +210,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
 /// Renders and compares one shot; with a review folder, writes its differing frames' pictures
 /// there as they are found.
 fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> Checked {
-    let shot = match Shot::load(shot) {
+    let shot = match Shot::open(shot, options) {
         Ok(shot) => shot,
         Err(e) => {
             return Checked {
@@ -209,7 +221,7 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
     };
     let mut frames = Vec::new();
     let size = (shot.doc.raster.width, shot.doc.raster.height);
-    let golden_frames = shot.golden.as_ref().map(|g| g.frames()).unwrap_or_default();
+    let golden_frames = shot.golden_frames.clone();
     let run = shot.run(options, |d: &FrameDiff, pixels| {
         let Some(dir) = review else { return Ok(()) };
         let name = |what: &str| review::file_name(index, d.frame, what);
@@ -268,13 +280,25 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
         Err(e) => return junit::Suite::errored(&name, &e.to_string()),
     };
     let mut s = junit::Suite::new(&name);
-    let differ: BTreeMap<u64, &FrameDiff> = run.differ.iter().map(|d| (d.frame, d)).collect();
+    // An approved shot passes: its golden now holds these frames.
+    let differ: BTreeMap<u64, &FrameDiff> = match run.updated {
+        true => BTreeMap::new(),
+        false => run.differ.iter().map(|d| (d.frame, d)).collect(),
+    };
+    let stale: std::collections::BTreeSet<u64> = match run.updated {
+        true => Default::default(),
+        false => run.stale.iter().copied().collect(),
+    };
     let last = run
         .golden
         .as_ref()
         .and_then(|g| g.hashes.keys().last().copied())
         .map_or(run.frames, |l| run.frames.max(l + 1));
     for frame in 0..last {
+        let stale_picture = stale.contains(&frame).then(|| {
+            "the golden's picture of this frame is missing or not the picture of its hash"
+                .to_string()
+        });
         let failure = differ.get(&frame).map(|d| match (&d.golden, &d.fresh) {
             (_, None) => format!(
                 "in the golden, but the animation has only {} frames",
@@ -284,7 +308,7 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
             (None, Some(got)) => format!("not in the golden; got {got}"),
             (Some(want), Some(got)) => format!("expected {want}, got {got}"),
         });
-        s.case(&format!("frame {frame}"), failure);
+        s.case(&format!("frame {frame}"), failure.or(stale_picture));
     }
     s
 }

@@ -353,7 +353,7 @@ pub fn check(file: &Path, strict: bool, out: &mut dyn Write) -> Result<bool> {
     for w in &warnings {
         writeln!(out, "warning: {w}").map_err(Error::stdout)?;
     }
-    Ok(!(strict && !warnings.is_empty()))
+    Ok(!strict || warnings.is_empty())
 }
 
 impl From<std::convert::Infallible> for CliError {

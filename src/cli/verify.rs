@@ -15,7 +15,6 @@ use campath::frames::{compare_each, Difference};
 use campath::golden::{Golden, HASHES};
 use campath::manifest::list_frames;
 use campath::output::{frame_path, pad_width, write_png, Compression};
-use campath::render::key::VERSION;
 use campath::Error;
 
 /// The options of `campath verify`.
@@ -48,6 +47,7 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
     let goldens = golden_folders(&golden);
     if let Some(path) = &a.junit {
         failures::outside_goldens(path, "--junit", &goldens)?;
+        junit::check_target(path)?;
     }
     if let Some(dir) = &a.save_failures {
         failures::claim(dir, "--save-failures", &goldens, is_failure_file)?;
@@ -106,7 +106,8 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
     };
     writeln!(out, "{summary}").map_err(Error::stdout)?;
     if let (Some(r), false) = (golden.other_renderer(), differ.is_empty()) {
-        writeln!(out, "{}", renderer_note(&golden.path, r)).map_err(Error::stdout)?;
+        writeln!(out, "{}", campath::testing::renderer_note(&golden.path, r))
+            .map_err(Error::stdout)?;
     }
     if let Some(path) = &a.junit {
         let mut suite = junit::Suite::new(&a.file.display().to_string());
@@ -124,21 +125,6 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         junit::write(path, "campath verify", &[suite])?;
     }
     Ok(differ.is_empty())
-}
-
-/// Why every frame of a golden from another renderer may differ, and what to do.
-pub fn renderer_note(golden: &Path, renderer: u32) -> String {
-    if renderer < VERSION {
-        format!(
-            "note: {} was made by campath renderer {renderer}, and this campath is renderer              {VERSION}: its pictures changed, not necessarily the shot. If the new frames are              right, approve them: `campath test --update`, or render into the golden again.",
-            golden.display()
-        )
-    } else {
-        format!(
-            "note: {} was made by campath renderer {renderer}, newer than this campath's              renderer {VERSION}: update campath.",
-            golden.display()
-        )
-    }
 }
 
 fn pixels_changed(p: &PixelDiff) -> String {

@@ -396,7 +396,7 @@ fn verify_never_harms_a_golden() {
         );
     }
     assert_eq!(snapshot(&t.join("golden")), before);
-    // A passing verify clears the earlier failures.
+    // A passing verify clears the earlier failures: only campath's mark is left.
     std::fs::write(t.join("s.ron"), shot(4, "0.9")).unwrap();
     let o = campath(
         t,
@@ -404,7 +404,12 @@ fn verify_never_harms_a_golden() {
         &[],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
-    assert_eq!(std::fs::read_dir(t.join("fails")).unwrap().count(), 0);
+    let left: Vec<_> = std::fs::read_dir(t.join("fails"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, [".campath-failures"]);
 }
 
 #[test]
@@ -493,5 +498,142 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     assert!(
         !names.iter().any(|n| n.starts_with("libclap")),
         "clap was built"
+    );
+}
+
+#[test]
+fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    shots(t);
+    let o = campath(t, &["test", "--update", "--keep-frames"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let golden_a = t.join("shots/a.golden");
+
+    // A golden frame gone, or another frame's picture in its place: the golden is stale.
+    std::fs::remove_file(golden_a.join("frame_0002.png")).unwrap();
+    std::fs::copy(
+        golden_a.join("frame_0000.png"),
+        golden_a.join("frame_0001.png"),
+    )
+    .unwrap();
+    let o = campath(t, &["test"], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("the golden's pictures of frame(s) 1, 2 are missing"),
+        "{}",
+        stdout(&o)
+    );
+    // Approval repairs them, and leaves nothing else in or beside the golden.
+    assert!(campath(t, &["test", "--update"], &[]).status.success());
+    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    let beside: Vec<String> = std::fs::read_dir(t.join("shots"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(beside.is_empty(), "{beside:?}");
+    let mut in_golden: Vec<String> = std::fs::read_dir(&golden_a)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    in_golden.sort();
+    assert_eq!(
+        in_golden,
+        [
+            "frame_0000.png",
+            "frame_0001.png",
+            "frame_0002.png",
+            "frame_0003.png",
+            "hashes.txt"
+        ]
+    );
+
+    // hashes.txt lost beside old frames: approval writes both anew.
+    std::fs::write(t.join("shots/a.ron"), shot(4, "0.3")).unwrap();
+    std::fs::remove_file(golden_a.join("hashes.txt")).unwrap();
+    assert!(campath(t, &["test", "--update"], &[]).status.success());
+    let o = campath(t, &["verify", "shots/a.ron", "shots/a.golden"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+
+    // Two approvals of the same shots at once take turns and leave a whole golden.
+    std::fs::write(t.join("shots/b.ron"), shot(5, "0.1")).unwrap();
+    let spawn = || {
+        Command::new(env!("CARGO_BIN_EXE_campath"))
+            .current_dir(t)
+            .args(["test", "--update", "--keep-frames"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (p, q) = (spawn(), spawn());
+    for c in [p, q] {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+
+    // A golden from a newer renderer is never overwritten by an older one.
+    let path = t.join("shots/sub/c.golden/hashes.txt");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let newer = text.replacen(
+        &format!("renderer {}", campath::render::key::VERSION),
+        "renderer 99",
+        1,
+    );
+    let mut lines: Vec<&str> = newer.lines().collect();
+    let zero = format!("0 {}", "0".repeat(64));
+    lines[1] = &zero;
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    let before = std::fs::read(&path).unwrap();
+    let o = campath(t, &["test", "--update", "--junit", "j.xml"], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("newer than this campath's renderer"),
+        "{}",
+        stdout(&o)
+    );
+    assert_eq!(std::fs::read(&path).unwrap(), before);
+    // The report agrees with the exit status: c's frame 0 fails, nothing else.
+    let xml = std::fs::read_to_string(t.join("j.xml")).unwrap();
+    assert!(xml.contains("failures=\"1\""), "{xml}");
+
+    // --junit never overwrites a shot; --save-failures never empties a folder it did not mark.
+    let shot_before = std::fs::read(t.join("shots/a.ron")).unwrap();
+    let o = campath(t, &["test", "--junit", "shots/a.ron"], &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(std::fs::read(t.join("shots/a.ron")).unwrap(), shot_before);
+    std::fs::create_dir(t.join("mine")).unwrap();
+    std::fs::copy(
+        golden_a.join("frame_0000.png"),
+        t.join("mine/frame_0000.png"),
+    )
+    .unwrap();
+    let o = campath(
+        t,
+        &[
+            "verify",
+            "shots/b.ron",
+            "shots/a.golden",
+            "--save-failures",
+            "mine",
+        ],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(t.join("mine/frame_0000.png").exists());
+
+    // A link back up the tree does not make shots run twice.
+    std::os::unix::fs::symlink("..", t.join("shots/sub/up")).unwrap();
+    let o = campath(t, &["test"], &[]);
+    assert_eq!(
+        stdout(&o).matches("shots/a.ron").count(),
+        1,
+        "{}",
+        stdout(&o)
     );
 }
