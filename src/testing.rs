@@ -29,15 +29,7 @@ pub fn golden_dir(shot: &Path) -> PathBuf {
     shot.with_file_name(format!("{stem}.golden"))
 }
 
-/// A frame whose fresh render and golden disagree.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct FrameDiff {
-    pub frame: u64,
-    /// The golden hash; None when the golden does not list the frame (or there is no golden).
-    pub golden: Option<String>,
-    /// The fresh hash; None when the animation has no such frame.
-    pub fresh: Option<String>,
-}
+pub use crate::frames::Difference;
 
 /// How a shot compares with its golden.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -69,7 +61,7 @@ pub struct ShotRun {
     /// Every frame's fresh hash, in order.
     pub fresh: Vec<(u64, String)>,
     /// The frames that differ, in order (every frame when there is no golden).
-    pub differ: Vec<FrameDiff>,
+    pub differ: Vec<Difference>,
     /// Frames that match their golden hash while the golden keeps frames, but whose golden
     /// picture is missing or hashes otherwise.
     pub stale: Vec<u64>,
@@ -233,7 +225,7 @@ impl Shot {
     pub fn run(
         self,
         options: Options,
-        mut each: impl FnMut(&FrameDiff, &[u8]) -> Result<()> + Send,
+        mut each: impl FnMut(&Difference, &[u8]) -> Result<()> + Send,
     ) -> Result<ShotRun> {
         let Shot {
             path,
@@ -278,10 +270,10 @@ impl Shot {
                 if same {
                     return Ok(());
                 }
-                let d = FrameDiff {
+                let d = Difference {
                     frame,
-                    golden: expected.map(str::to_string),
-                    fresh: Some(hash.to_string()),
+                    expected: expected.map(str::to_string),
+                    actual: Some(hash.to_string()),
                 };
                 each(&d, pixels)?;
                 differ.push(d);
@@ -297,10 +289,10 @@ impl Shot {
             return Err(e);
         }
         if let Some(g) = &golden {
-            differ.extend(g.hashes.range(total..).map(|(frame, hash)| FrameDiff {
+            differ.extend(g.hashes.range(total..).map(|(frame, hash)| Difference {
                 frame: *frame,
-                golden: Some(hash.clone()),
-                fresh: None,
+                expected: Some(hash.clone()),
+                actual: None,
             }));
         }
         let mut run = ShotRun {
@@ -339,7 +331,7 @@ impl Shot {
 pub fn run_shot(
     shot: &Path,
     options: Options,
-    each: impl FnMut(&FrameDiff, &[u8]) -> Result<()> + Send,
+    each: impl FnMut(&Difference, &[u8]) -> Result<()> + Send,
 ) -> Result<ShotRun> {
     Shot::open(shot, options)?.run(options, each)
 }
@@ -400,8 +392,8 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
         message += &format!(
             "\n  frame {}: golden {}, fresh {}",
             d.frame,
-            hash(&d.golden),
-            hash(&d.fresh)
+            hash(&d.expected),
+            hash(&d.actual)
         );
     }
     message += &format!(

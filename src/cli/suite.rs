@@ -13,7 +13,7 @@ use super::failures::{self, difference, golden_pixels};
 use super::junit;
 use super::review::{self, ReviewFrame, ReviewShot};
 use campath::output::{write_png, Compression};
-use campath::testing::{golden_dir, FrameDiff, Options, Shot, ShotRun, Verdict};
+use campath::testing::{golden_dir, Difference, Options, Shot, ShotRun, Verdict};
 use campath::Error;
 
 /// The options of `campath test`.
@@ -222,15 +222,15 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
     let mut frames = Vec::new();
     let size = (shot.doc.raster.width, shot.doc.raster.height);
     let golden_frames = shot.golden_frames.clone();
-    let run = shot.run(options, |d: &FrameDiff, pixels| {
+    let run = shot.run(options, |d: &Difference, pixels| {
         let Some(dir) = review else { return Ok(()) };
         let name = |what: &str| review::file_name(index, d.frame, what);
         let new = name("new");
         write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
         let mut f = ReviewFrame {
             frame: d.frame,
-            golden_hash: d.golden.clone(),
-            fresh_hash: d.fresh.clone(),
+            golden_hash: d.expected.clone(),
+            fresh_hash: d.actual.clone(),
             new: Some(new),
             golden: None,
             diff: None,
@@ -254,10 +254,10 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
         frames.extend(
             run.differ
                 .iter()
-                .filter(|d| d.fresh.is_none())
+                .filter(|d| d.actual.is_none())
                 .map(|d| ReviewFrame {
                     frame: d.frame,
-                    golden_hash: d.golden.clone(),
+                    golden_hash: d.expected.clone(),
                     fresh_hash: None,
                     new: None,
                     golden: None,
@@ -281,7 +281,7 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
     };
     let mut s = junit::Suite::new(&name);
     // An approved shot passes: its golden now holds these frames.
-    let differ: BTreeMap<u64, &FrameDiff> = match run.updated {
+    let differ: BTreeMap<u64, &Difference> = match run.updated {
         true => BTreeMap::new(),
         false => run.differ.iter().map(|d| (d.frame, d)).collect(),
     };
@@ -299,7 +299,7 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
             "the golden's picture of this frame is missing or not the picture of its hash"
                 .to_string()
         });
-        let failure = differ.get(&frame).map(|d| match (&d.golden, &d.fresh) {
+        let failure = differ.get(&frame).map(|d| match (&d.expected, &d.actual) {
             (_, None) => format!(
                 "in the golden, but the animation has only {} frames",
                 run.frames

@@ -134,6 +134,11 @@ fn pixels_changed(p: &PixelDiff) -> String {
     )
 }
 
+/// The golden hash of a differing frame (verify compares only the frames its golden lists).
+fn expected(d: &Difference) -> &str {
+    d.expected.as_deref().unwrap_or("none")
+}
+
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
     match (&d.actual, diff) {
         (None, _) => format!(
@@ -141,11 +146,11 @@ fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> 
             d.frame,
             golden.display()
         ),
-        (Some(got), None) => format!("frame {}: expected {}, got {got}", d.frame, d.expected),
+        (Some(got), None) => format!("frame {}: expected {}, got {got}", d.frame, expected(d)),
         (Some(got), Some(p)) => format!(
             "frame {}: expected {}, got {got}{}",
             d.frame,
-            d.expected,
+            expected(d),
             pixels_changed(p)
         ),
     }
