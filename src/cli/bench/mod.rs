@@ -16,7 +16,7 @@ use super::error::{CliError, Result};
 use super::table::Table;
 use campath::document::Document;
 use campath::Error;
-pub use scenes::{scaling_scenes, scene_ron, scenes, BenchScene, Layout};
+pub use scenes::{scaling_scenes, scene_files, scene_ron, scenes, BenchScene, Layout};
 use timing::{run_campath, Run};
 
 /// The cores and the CPU features that matter here (SHA extensions, AVX2, AVX-512F), from
@@ -164,33 +164,62 @@ pub fn table(rows: &[Row]) -> String {
     t.markdown()
 }
 
-/// One scaling scene's hash-only run.
+/// One scaling scene's hash-only run, and POV-Ray's on the dense cluster.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ScaleRow {
     pub scene: BenchScene,
     pub hash: Run,
+    /// POV-Ray: wall ms per frame, and the frames it rendered.
+    pub pov: Option<(f64, u64)>,
 }
 
-/// Times the scaling scenes, hash-only, each in its own process. The scene file is removed
-/// after its run (a million spheres take 150 MB of RON).
+/// Times the scaling scenes, hash-only, each in its own process, and POV-Ray on the dense
+/// cluster's scenes when `pov_frames` > 0 (the million-sphere scene takes POV-Ray about 35 s a
+/// frame). The scene files are removed after their run (a million spheres take 150 MB of RON).
 pub fn run_scaling(
     dir: &Path,
+    pov_frames: u64,
     runs: usize,
     scenes: &[BenchScene],
     progress: &mut dyn std::io::Write,
 ) -> Result<Vec<ScaleRow>> {
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
+    let pov = pov_frames > 0 && scenes.iter().any(|s| s.layout == Layout::Dense);
+    if pov {
+        povray::check()?;
+    }
     let mut rows = Vec::new();
     for s in scenes {
+        let files = scene_files(s);
         let ron_path = dir.join(format!("{}.ron", s.name));
-        std::fs::write(&ron_path, scene_ron(s)).map_err(Error::write(ron_path.clone()))?;
+        let ply_path = dir.join(format!("{}.ply", s.name));
+        std::fs::write(&ron_path, &files.ron).map_err(Error::write(ron_path.clone()))?;
+        if let Some(bytes) = &files.ply {
+            std::fs::write(&ply_path, bytes).map_err(Error::write(ply_path.clone()))?;
+        }
+        drop(files);
         let _ = writeln!(progress, "{}: campath, hash only, {runs} run(s) …", s.name);
         let stats = dir.join(format!("{}.stats.json", s.name));
         let hash = run_campath(&["hash", &ron_path.to_string_lossy()], &stats, runs)?;
-        std::fs::remove_file(&ron_path).map_err(Error::write(ron_path.clone()))?;
+        // POV-Ray reads the spheres inline; the PLY scene is the same scene as the RON one.
+        let pov = if pov && s.layout == Layout::Dense && !s.ply {
+            let n = pov_frames.min(s.frames);
+            let _ = writeln!(progress, "{}: POV-Ray, {n} frame(s) …", s.name);
+            let doc = Document::load(&ron_path)?;
+            Some((povray::time(dir, s, &doc, n)?, n))
+        } else {
+            None
+        };
+        let pov_path = dir.join(format!("{}.pov", s.name));
+        for path in [&ron_path, &ply_path, &pov_path] {
+            if path.exists() {
+                std::fs::remove_file(path).map_err(Error::write(path.clone()))?;
+            }
+        }
         rows.push(ScaleRow {
             scene: s.clone(),
             hash,
+            pov,
         });
     }
     Ok(rows)
@@ -207,9 +236,18 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
         "ms/frame (hash-only)",
         "median render ms",
         "peak MB",
+        "POV-Ray ms/frame",
+        "POV / campath",
     ]);
     for r in rows {
         let (s, stats) = (&r.scene, &r.hash.stats);
+        let (pov, ratio) = match r.pov {
+            Some((ms, n)) => (
+                format!("{ms:.0} ({n} frames)"),
+                format!("{:.1}×", ms / r.hash.process_ms_per_frame),
+            ),
+            None => ("—".into(), "—".into()),
+        };
         table.row(vec![
             s.name.clone(),
             format!("{}×{}", s.width, s.height),
@@ -219,6 +257,8 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
             format!("{:.1}", stats.wall_ms_per_frame),
             format!("{:.1}", stats.median_render_ms),
             format!("{:.0}", stats.peak_memory_mb.unwrap_or(f64::NAN)),
+            pov,
+            ratio,
         ]);
     }
     let mut t = table.markdown();
@@ -266,7 +306,7 @@ pub fn command(
         .filter(|s| names.is_empty() || names.contains(&s.name))
         .collect();
     let (value, rows_table) = if scaling {
-        let rows = run_scaling(dir, runs, &chosen, &mut std::io::stderr())?;
+        let rows = run_scaling(dir, pov_frames, runs, &chosen, &mut std::io::stderr())?;
         (
             serde_json::json!({"cpu": cpu, "runs": runs, "scaling": rows}),
             scaling_table(&rows),
@@ -282,7 +322,9 @@ pub fn command(
         serde_json::to_string_pretty(&value).expect("plain numbers serialise") + "\n"
     } else {
         let how = if scaling {
-            format!("campath: each row from the run of median process time of {runs}")
+            format!(
+                "campath: each row from the run of median process time of {runs}; POV-Ray: one run on the dense scenes (POV / campath against campath's process ms/frame)"
+            )
         } else {
             format!(
                 "campath: process ms/frame the median of {runs} process(es), the other columns from that run; POV-Ray: one run over its frames"
