@@ -89,6 +89,14 @@ pub enum Error {
     },
     #[error("{0}")]
     Usage(String),
+    /// Another run holds the output folder (or, for a shard, its part of it); see
+    /// [`crate::lock`].
+    #[error("{} is being written by another campath run ({})", dir.display(), if holders.is_empty() { "its process id is not recorded".to_string() } else { holders.join("; ") })]
+    Busy {
+        dir: PathBuf,
+        /// The runs in the way: process id, claim and command line.
+        holders: Vec<String>,
+    },
 }
 
 impl Error {
@@ -102,6 +110,7 @@ impl Error {
                 | Error::Manifest { .. }
                 | Error::Merge { .. }
                 | Error::Usage(_)
+                | Error::Busy { .. }
         )
     }
 }

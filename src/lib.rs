@@ -45,6 +45,7 @@ pub mod export;
 pub mod format;
 pub mod frames;
 pub mod keyframes;
+pub mod lock;
 pub mod manifest;
 pub mod mode;
 pub mod output;

@@ -126,6 +126,7 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
 pub fn is_ours(name: &str) -> bool {
     let base = name.strip_suffix(".tmp").unwrap_or(name);
     frame_of(base).is_some()
+        || crate::lock::is_lock_file(base)
         || manifest::part_of(base).is_some()
         || base.ends_with(".mp4")
         || base.ends_with(".mkv")

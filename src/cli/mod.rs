@@ -60,6 +60,9 @@ enum Command {
         /// Print nothing.
         #[arg(long, short)]
         quiet: bool,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
         /// Also write the run's numbers (frames, times, peak memory) as JSON to this file.
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
@@ -92,7 +95,12 @@ enum Command {
     },
     /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt, or refuse
     /// naming what is missing.
-    Merge { dir: PathBuf },
+    Merge {
+        dir: PathBuf,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
+    },
     /// Print `<frame> <sha256>` per frame without writing images.
     Hash {
         file: PathBuf,
@@ -185,6 +193,9 @@ enum Command {
         /// Print nothing.
         #[arg(long, short)]
         quiet: bool,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
     },
     /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
     /// it and reloads its pictures; Ctrl-C stops.
@@ -196,6 +207,9 @@ enum Command {
         /// Width of the small frames in pixels (at most the file's width).
         #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=16384))]
         width: u32,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
     },
     /// Print a shell completion script: `campath completions bash > /etc/bash_completion.d/campath`.
     Completions {
@@ -226,6 +240,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             shard,
             force,
             quiet,
+            no_wait,
             stats_json,
         } => verbs::render(
             verbs::RenderArgs {
@@ -238,6 +253,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                     force,
                 },
                 quiet,
+                no_wait,
                 stats_json,
             },
             out,
@@ -269,7 +285,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             plot::write(&doc, &png, every)?;
             writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
         }
-        Command::Merge { dir } => verbs::merge(&dir, out)?,
+        Command::Merge { dir, no_wait } => verbs::merge(&dir, no_wait, out)?,
         Command::Hash {
             file,
             frames,
@@ -319,6 +335,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             lossless,
             crf,
             quiet,
+            no_wait,
         } => video::run(
             video::VideoArgs {
                 frames_dir: default_out_dir(&file),
@@ -327,6 +344,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                 lossless,
                 crf,
                 quiet,
+                no_wait,
             },
             out,
         )?,
@@ -334,11 +352,12 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             file,
             out: dir,
             width,
+            no_wait,
         } => {
             let dir = dir.unwrap_or_else(|| {
                 PathBuf::from(format!("{}-watch", default_out_dir(&file).display()))
             });
-            watch::run(&file, &dir, width, out)?
+            watch::run(&file, &dir, width, no_wait, out)?
         }
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();

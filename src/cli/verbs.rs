@@ -8,6 +8,7 @@ use super::args::{FrameSpec, PathFormat};
 use super::error::{CliError, Result};
 use campath::document::Document;
 use campath::frames::{FrameSet, Timing};
+use campath::lock::{Claim, FolderLock, Wait};
 use campath::manifest::Shard;
 use campath::sequence::{self, Event, RenderOptions, RenderSummary};
 use campath::Error;
@@ -194,7 +195,32 @@ pub struct RenderArgs {
     pub shard: Option<Shard>,
     pub options: RenderOptions,
     pub quiet: bool,
+    /// Refuse instead of waiting when another run writes the folder.
+    pub no_wait: bool,
     pub stats_json: Option<PathBuf>,
+}
+
+/// How a verb waits for its output folder: not at all with `--no-wait` (refusing with exit 2),
+/// or after saying which run it waits for (unless quiet).
+pub fn with_wait<T>(
+    no_wait: bool,
+    quiet: bool,
+    f: impl FnOnce(Wait) -> campath::Result<T>,
+) -> Result<T> {
+    if no_wait {
+        return f(Wait::No).map_err(|e| match e {
+            e @ Error::Busy { .. } => CliError::Usage(format!(
+                "{e}; nothing done (without --no-wait, campath waits for it)"
+            )),
+            e => e.into(),
+        });
+    }
+    let mut report = |e: &Error| {
+        if !quiet {
+            eprintln!("campath: waiting: {e}");
+        }
+    };
+    Ok(f(Wait::Yes(&mut report))?)
 }
 
 pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
@@ -203,8 +229,11 @@ pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
         range: FrameSpec::resolve(a.frames, doc.animation.frames)?,
         shard: a.shard,
     };
+    let lock = with_wait(a.no_wait, a.quiet, |wait| {
+        sequence::lock(&doc, &a.dir, &set, wait)
+    })?;
     let mut progress = Progress::new(a.quiet);
-    let summary = sequence::render(&doc, &a.dir, &set, a.options, &mut |e| progress.event(e))?;
+    let summary = sequence::render(&doc, &lock, &set, a.options, &mut |e| progress.event(e))?;
     progress.finish();
     Stats::of(&summary.timing, summary.kept).write(a.stats_json.as_deref())?;
     if !a.quiet {
@@ -213,8 +242,18 @@ pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-pub fn merge(dir: &Path, out: &mut dyn Write) -> Result<()> {
-    let frames = sequence::merge(dir)?;
+pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
+    // Merge writes into a folder of shard renders; it makes none.
+    if !dir.is_dir() {
+        return Err(CliError::Usage(format!(
+            "{}: no such folder of shard renders",
+            dir.display()
+        )));
+    }
+    let lock = with_wait(no_wait, false, |wait| {
+        FolderLock::acquire(dir, Claim::Whole, wait)
+    })?;
+    let frames = sequence::merge(&lock)?;
     writeln!(
         out,
         "merged {frames} frame(s) into {}",

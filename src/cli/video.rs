@@ -32,6 +32,8 @@ pub struct VideoArgs {
     /// H.264 constant rate factor, 0 (best) to 51.
     pub crf: u8,
     pub quiet: bool,
+    /// Refuse instead of waiting when another run writes the render folder.
+    pub no_wait: bool,
 }
 
 fn ffmpeg_missing(e: std::io::Error) -> CliError {
@@ -56,15 +58,18 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| a.frames_dir.join(format!("{stem}.{ext}")));
-    super::args::create_parent(&video)?;
 
     let total = doc.animation.frames;
     let mut progress = Progress::new(a.quiet);
     let set = FrameSet::all(0..total);
     let options = RenderOptions::default();
-    sequence::render(&doc, &a.frames_dir, &set, options, &mut |e| {
-        progress.event(e)
+    // Held until the video is written: the frames are read back for ffmpeg.
+    let lock = super::verbs::with_wait(a.no_wait, a.quiet, |wait| {
+        sequence::lock(&doc, &a.frames_dir, &set, wait)
     })?;
+    // Before rendering: that the video can be written where it goes.
+    super::args::check_writable(&video)?;
+    sequence::render(&doc, &lock, &set, options, &mut |e| progress.event(e))?;
     progress.finish();
 
     let manifest_path = a.frames_dir.join("hashes.txt");

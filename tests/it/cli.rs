@@ -74,7 +74,20 @@ fn frames_option_and_out_option() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["frame_0001.png", "frame_0002.png", "hashes.txt"]);
+    // The folder's lock file stays, empty, once the run is over (see docs/farms.md).
+    assert_eq!(
+        names,
+        [
+            "campath.lock",
+            "frame_0001.png",
+            "frame_0002.png",
+            "hashes.txt"
+        ]
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("elsewhere/campath.lock")).unwrap(),
+        ""
+    );
     let all = stdout(&campath(tmp.path(), &["hash", &f], &[]));
     let part = std::fs::read_to_string(tmp.path().join("elsewhere/hashes.txt")).unwrap();
     let expect: String = all
