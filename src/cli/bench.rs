@@ -200,7 +200,7 @@ fn fly(s: &BenchScene) -> (&'static str, String, String, String) {
         g = k(0.2),
         i = k(0.35),
     );
-    let camera = "(vrp: (0.0, 3.0, 0.0), tp: (0.0, 0.0, 0.0), cop: (0.0, 0.0, -1.0), hfov: 70.0)";
+    let camera = "(vrp: (0.0, 3.0, 0.0), cop: (0.0, 0.0, -1.0), hfov: 70.0)";
     ("", camera.into(), animate, spheres)
 }
 
@@ -229,7 +229,7 @@ fn patch(s: &BenchScene) -> (&'static str, String, String, String) {
         "[Observer(keys: [(t: 0.0, value: (-15.0, 8.0, -8.0)), (t: {secs:?}, value: (15.0, 8.0, -8.0))]),
         Track(keys: [(t: 0.0, value: (-15.0, 0.0, 0.0)), (t: {secs:?}, value: (15.0, 0.0, 0.0))])]"
     );
-    let camera = "(vrp: (-15.0, 8.0, -8.0), tp: (-15.0, 0.0, 0.0), hfov: 70.0)";
+    let camera = "(vrp: (-15.0, 8.0, -8.0), hfov: 70.0)";
     (
         " over a field, seen from above",
         camera.into(),

@@ -19,7 +19,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
-use args::{at_least_one, create_parent, default_out_dir, FrameSpec};
+use args::{at_least_one, default_out_dir, FrameSpec};
 use campath::document::Document;
 use campath::manifest::Shard;
 use campath::sequence::RenderOptions;
@@ -41,6 +41,7 @@ pub struct Cli {
 enum Command {
     /// Render frames to DIR/frame_NNNN.png and DIR/hashes.txt, keeping the frames still valid.
     Render {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Output folder [default: out/<file stem>/].
         #[arg(long)]
@@ -69,6 +70,7 @@ enum Command {
     },
     /// Write a contact sheet (preview.png) and an animated GIF (preview.gif) at a small size.
     Preview {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Output folder [default: out/<file stem>/].
         #[arg(long)]
@@ -85,6 +87,7 @@ enum Command {
     /// Draw the camera path from above and from the side, with keyframes, targets, frustums
     /// and spheres.
     Plot {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Where the PNG goes [default: out/<file stem>/plot.png].
         #[arg(long)]
@@ -96,6 +99,7 @@ enum Command {
     /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt, or refuse
     /// naming what is missing.
     Merge {
+        /// The output folder the shards rendered into.
         dir: PathBuf,
         /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
         #[arg(long)]
@@ -103,6 +107,7 @@ enum Command {
     },
     /// Print `<frame> <sha256>` per frame without writing images.
     Hash {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         #[arg(long)]
         frames: Option<FrameSpec>,
@@ -115,6 +120,7 @@ enum Command {
     },
     /// Compare fresh renders with golden hashes; exit 1 naming every frame that differs.
     Verify {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// A hashes.txt, or a folder of golden frames with their hashes.txt (then each failing
         /// frame gets a difference image in --save-failures).
@@ -130,9 +136,11 @@ enum Command {
     /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
     /// whole shot as glTF.
     Path {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
-        #[arg(long, value_enum, default_value_t)]
-        format: args::PathFormat,
+        /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py), else csv]
+        #[arg(long, value_enum)]
+        format: Option<args::PathFormat>,
         /// Write to this file instead of standard output (glTF: binary when it ends in .glb).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -141,6 +149,7 @@ enum Command {
     Check { file: PathBuf },
     /// Error against run time: every accuracy setting against a 16×16-sample reference.
     Report {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// The frame to measure [default: the middle frame].
         #[arg(long)]
@@ -180,6 +189,7 @@ enum Command {
     /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
     /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt.
     Video {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// The video [default: out/<file stem>/<file stem>.mp4, or .mkv with --lossless].
         #[arg(long)]
@@ -200,6 +210,7 @@ enum Command {
     /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
     /// it and reloads its pictures; Ctrl-C stops.
     Watch {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Where the preview and its page go [default: out/<file stem>-watch/].
         #[arg(long)]
@@ -278,9 +289,10 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             out: png,
             every,
         } => {
-            let doc = Document::load(&file)?;
             let png = png.unwrap_or_else(|| default_out_dir(&file).join("plot.png"));
-            create_parent(&png)?;
+            args::check_extension("--out", &png, &["png"], "plot writes PNG")?;
+            let doc = Document::load(&file)?;
+            args::check_writable(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
             plot::write(&doc, &png, every)?;
             writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
@@ -310,7 +322,10 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             file,
             format,
             out: file_out,
-        } => verbs::path(&file, format, file_out.as_deref(), out)?,
+        } => {
+            let format = args::PathFormat::resolve(format, file_out.as_deref())?;
+            verbs::path(&file, format, file_out.as_deref(), out)?
+        }
         Command::Check { file } => verbs::check(&file, out)?,
         Command::Report {
             file,
@@ -319,6 +334,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             plot,
         } => {
             let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
+            args::check_extension("--plot", &plot, &["png"], "the report's plot is PNG")?;
             report::run(&file, frame, runs as usize, &plot, out)?
         }
         Command::Bench {

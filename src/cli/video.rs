@@ -42,6 +42,22 @@ fn ffmpeg_missing(e: std::io::Error) -> CliError {
 
 pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     let started = Instant::now();
+    // Before anything else: a video name that says the container, and is not a folder.
+    if let Some(video) = &a.out {
+        if video.is_dir() {
+            return Err(CliError::Usage(format!(
+                "--out {} is a folder: name the video file (.mp4, or .mkv with --lossless)",
+                video.display()
+            )));
+        }
+        if a.lossless {
+            let what = "--lossless writes FFV1 in Matroska";
+            super::args::check_extension("--out", video, &["mkv"], what)?;
+        } else {
+            let what = "the video is H.264 in MP4 (--lossless: FFV1 in .mkv)";
+            super::args::check_extension("--out", video, &["mp4"], what)?;
+        }
+    }
     let doc = Document::load(&a.file)?;
     // Before rendering anything: is there an ffmpeg to hand the frames to?
     Command::new("ffmpeg")

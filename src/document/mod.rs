@@ -41,15 +41,32 @@ impl Document {
         Document::from_spec(path, format::parse(path, text)?)
     }
 
+    /// Checks a parsed file. Problems are listed in the order of the file's sections
+    /// ([`FileSpec::order`]; the checker's order within a section and where it is unknown).
     pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
         let mut c = Checker::default();
+        let order = spec.order.clone();
         let doc = c.document(path, spec);
         match doc {
             Some(doc) if c.problems.is_empty() => Ok(doc),
-            _ => Err(Error::Invalid {
-                path: path.to_path_buf(),
-                problems: Problems(c.problems),
-            }),
+            _ => {
+                let mut problems = c.problems;
+                // By section, then by field within it (`camera.vpn`), as the file writes them.
+                let at = |name: &str| order.iter().position(|s| s == name).unwrap_or(usize::MAX);
+                problems.sort_by_key(|p| {
+                    let mut parts = p.field.split(['.', '[', ' ']);
+                    let section = parts.next().unwrap_or("");
+                    let field = p.field[section.len()..]
+                        .strip_prefix('.')
+                        .and_then(|rest| rest.split(['.', '[', ' ']).next())
+                        .map_or(usize::MAX, |f| at(&format!("{section}.{f}")));
+                    (at(section), field)
+                });
+                Err(Error::Invalid {
+                    path: path.to_path_buf(),
+                    problems: Problems(problems),
+                })
+            }
         }
     }
 
@@ -181,6 +198,13 @@ impl Checker {
         // A static camera must be well formed at its first frame; animated ones are checked
         // frame by frame when evaluated.
         if let Err(e) = doc.animation.camera_at(0.0, None) {
+            if let (CameraError::ZeroVpn, Some(field)) = (e, track_at_zero(&spec)) {
+                self.problem(
+                    field,
+                    "at t = 0 s: the target equals the VRP, so the camera has no view direction; move the target or the VRP",
+                );
+                return Some(doc);
+            }
             let field = match e {
                 CameraError::ZeroVpn if matches!(doc.animation.pointing, Pointing::Target(_)) => {
                     "camera.tp"
@@ -194,4 +218,20 @@ impl Checker {
         }
         Some(doc)
     }
+}
+
+/// The field that holds the target of `spec`'s Track at t = 0, if it has a Track: its key at
+/// t = 0, or its first key if that comes later (the track holds it until then), or the track.
+fn track_at_zero(spec: &FileSpec) -> Option<String> {
+    spec.animate.iter().enumerate().find_map(|(i, t)| match t {
+        format::TrackSpec::Track { keys, .. } => {
+            let field = format!("animate[{i}] ({})", t.mode());
+            Some(match keys.iter().position(|k| k.t == 0.0) {
+                Some(k) => format!("{field}.keys[{k}]"),
+                None if keys.first().is_some_and(|k| k.t > 0.0) => format!("{field}.keys[0]"),
+                None => field,
+            })
+        }
+        _ => None,
+    })
 }

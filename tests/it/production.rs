@@ -323,7 +323,7 @@ fn absurd_requests_are_refused_before_allocating() {
         ),
         (
             "(frames: 1000000000, camera: (vpn: (0.0, 0.0, 1.0)))",
-            "frames: at most",
+            "frames: must lie in 1..=10000000, got 1000000000",
         ),
     ] {
         std::fs::write(tmp.path().join("absurd.ron"), text).unwrap();
