@@ -275,21 +275,47 @@ fn merge_refuses_while_a_killed_shard_is_unfinished() {
 #[test]
 fn progress_lines_off_a_terminal_and_quiet_prints_nothing() {
     let tmp = setup();
-    let o = campath(
-        tmp.path(),
-        &["render", "long.ron", "--out", "a", "--frames", "0..3"],
-        &[],
+    // Off a terminal: a line at the start, one every few seconds, one at the end (so a CI log
+    // of 48 frames holds a handful of lines, not 48).
+    let started = std::time::Instant::now();
+    let o = campath(tmp.path(), &["render", "long.ron", "--out", "a"], &[]);
+    let secs = started.elapsed().as_secs_f64();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines[0], "48 frame(s) to render, 0 kept", "{err}");
+    let last = lines.last().unwrap();
+    assert!(
+        last.starts_with("48/48 frame(s), 48 of 48 to render done in "),
+        "{last}"
     );
-    assert_eq!(
-        stderr(&o).lines().filter(|l| l.ends_with(" done")).count(),
-        3,
-        "{}",
+    assert!(
+        lines.len() <= 2 + (secs / 5.0).ceil() as usize,
+        "{} lines in {secs:.1} s: {}",
+        lines.len(),
         stderr(&o)
     );
+    // CAMPATH_PROGRESS_SECS sets the interval: 0 gives a line per frame.
+    let o = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "b", "--frames", "0..3"],
+        &[("CAMPATH_PROGRESS_SECS", "0")],
+    );
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 4, "{err}");
+    for (line, done) in lines[1..].iter().zip(1..) {
+        assert!(
+            line.starts_with(&format!(
+                "{done}/3 frame(s), {done} of 3 to render done in "
+            )),
+            "{line}"
+        );
+    }
     let q = campath(
         tmp.path(),
         &[
-            "render", "long.ron", "--out", "b", "--frames", "0..3", "--quiet",
+            "render", "long.ron", "--out", "c", "--frames", "0..3", "--quiet",
         ],
         &[],
     );
