@@ -307,7 +307,17 @@ impl FolderLock {
 fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str) -> Result<File> {
     let gate_path = dir.join(GATE);
     let gate = open(&gate_path)?;
-    // A starting shard holds the gate for a moment only, unless it waits for another count.
+    // A starting shard holds the gate for a moment only, unless it waits for another count: so
+    // a shard that must not wait still tries for a while (shards of one array job start at
+    // once), and refuses only a gate held longer.
+    for _ in 0..200 {
+        match gate.try_lock() {
+            Err(TryLockError::WouldBlock) => {
+                std::thread::sleep(std::time::Duration::from_millis(10))
+            }
+            _ => break,
+        }
+    }
     take(&gate, &gate_path, false, wait, || {
         busy(dir, |c| c.starts_with("shard"))
     })?;
