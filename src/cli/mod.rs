@@ -6,6 +6,7 @@ mod args;
 mod bench;
 mod chart;
 mod error;
+mod man;
 mod plot;
 mod preview;
 mod report;
@@ -227,8 +228,14 @@ enum Command {
         #[arg(value_enum)]
         shell: clap_complete::Shell,
     },
-    /// Print the manual page (roff): `campath man > campath.1; man ./campath.1`.
-    Man,
+    /// Print the manual (roff), every command with its options, exit status, environment and the
+    /// file: `campath man > campath.1; man ./campath.1`.
+    Man {
+        /// Instead, write the manual as DIR/campath.1 and a page per command
+        /// (DIR/campath-render.1, …).
+        #[arg(long, value_name = "DIR")]
+        dir: Option<PathBuf>,
+    },
 }
 
 /// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
@@ -382,11 +389,11 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             clap_complete::generate(shell, &mut cmd, "campath", &mut script);
             out.write_all(&script).map_err(Error::stdout)?;
         }
-        Command::Man => {
-            let cmd = <Cli as clap::CommandFactory>::command();
-            clap_mangen::Man::new(cmd)
-                .render(out)
-                .map_err(Error::stdout)?;
+        Command::Man { dir: None } => man::page(out)?,
+        Command::Man { dir: Some(dir) } => {
+            for page in man::write_pages(&dir)? {
+                writeln!(out, "wrote {}", page.display()).map_err(Error::stdout)?;
+            }
         }
     }
     Ok(true)

@@ -646,8 +646,38 @@ fn completions_and_the_manual_come_from_the_clap_definitions() {
     assert_eq!(stdout(&o).trim(), "render report", "{}", stderr(&o));
     let man = stdout(&campath(tmp.path(), &["man"], &[]));
     assert!(man.contains(".TH campath 1"), "{man}");
+    // One page holds everything: every command with its options, exit status, the file.
+    for verb in verbs
+        .iter()
+        .chain(&["video", "watch", "completions", "man"])
+    {
+        assert!(
+            man.contains(&format!(".SS \"campath {verb}\"")),
+            "the manual lacks {verb}"
+        );
+    }
+    for want in [
+        "\\-\\-no\\-wait",
+        "\\-\\-lossless",
+        "\\-\\-shard",
+        ".SH \"EXIT STATUS\"",
+        ".SH ENVIRONMENT",
+        "CAMPATH_SIMD",
+        ".SH FILES",
+    ] {
+        assert!(man.contains(want), "the manual lacks {want}");
+    }
+    // It names no page that is not produced.
+    assert!(!man.contains("campath\\-render(1)"), "{man}");
+    // --dir writes it and a page per command, the ones its parts point at.
+    let o = campath(tmp.path(), &["man", "--dir", "man1"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = std::fs::read_to_string(tmp.path().join("man1/campath.1")).unwrap();
+    assert_eq!(page, man);
     for verb in verbs {
-        assert!(man.contains(verb), "the manual lacks {verb}");
+        let sub = std::fs::read_to_string(tmp.path().join(format!("man1/campath-{verb}.1")))
+            .unwrap_or_else(|e| panic!("campath-{verb}.1: {e}"));
+        assert!(sub.contains(".TH campath-"), "{sub}");
     }
 }
 
