@@ -371,11 +371,20 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         &[],
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    // 240×135 shrinks to 60×34; six tiles in two rows of four columns, 2 px apart.
+    // 240×135 shrinks to 60×34; six tiles in two rows of four columns, 2 px apart, each with a
+    // 16 px band under it for its frame number.
     let sheet = image::open(tmp.path().join("p/preview.png"))
         .unwrap()
         .to_rgb8();
-    assert_eq!(sheet.dimensions(), (4 * 60 + 3 * 2, 2 * 34 + 2));
+    assert_eq!(sheet.dimensions(), (4 * 60 + 3 * 2, 2 * (34 + 16) + 2));
+    // The bands hold dark text (the frame numbers) on white.
+    for (x0, y0) in [(0, 34), (62, 34), (0, 86)] {
+        let dark = (x0..x0 + 60)
+            .flat_map(|x| (y0..y0 + 16).map(move |y| (x, y)))
+            .filter(|&(x, y)| sheet.get_pixel(x, y).0.iter().all(|&c| c < 128))
+            .count();
+        assert!(dark > 5, "no frame number under the tile at ({x0}, {y0})");
+    }
     // The first tile is frame 0 rendered at 60×34 with one sample.
     let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
     doc.raster = campath::render::Raster {
@@ -416,11 +425,12 @@ fn plot_draws_the_path_from_above_and_from_the_side() {
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (1400, 700));
-    // The blue VRP path appears in both panels; the red keyframe dots too.
+    // The blue VRP path appears in both panels (above the legend strip, the bottom 70 px);
+    // the red keyframe dots too.
     for (x0, x1) in [(0, 700), (700, 1400)] {
         let count = |rgb: [u8; 3]| {
             (x0..x1)
-                .flat_map(|x| (0..img.height()).map(move |y| (x, y)))
+                .flat_map(|x| (0..img.height() - 70).map(move |y| (x, y)))
                 .filter(|&(x, y)| img.get_pixel(x, y).0 == rgb)
                 .count()
         };
@@ -486,7 +496,7 @@ fn the_plot_from_above_agrees_with_the_frames_left_and_right() {
     let plot = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
     let mean_x = |rgb: [u8; 3]| {
         let xs: Vec<u32> = (0..700)
-            .flat_map(|x| (0..700).map(move |y| (x, y)))
+            .flat_map(|x| (0..630).map(move |y| (x, y)))
             .filter(|&(x, y)| plot.get_pixel(x, y).0 == rgb)
             .map(|(x, _)| x)
             .collect();
