@@ -37,6 +37,8 @@
 //! # Ok::<(), campath::Error>(())
 //! ```
 
+#![deny(missing_docs)]
+
 pub mod animation;
 pub mod camera;
 pub mod document;

@@ -23,10 +23,12 @@ pub fn frame_hash(pixels: &[u8]) -> String {
 pub struct FrameHasher(Sha256);
 
 impl FrameHasher {
+    /// Adds the next bytes of the frame.
     pub fn update(&mut self, bytes: &[u8]) {
         self.0.update(bytes);
     }
 
+    /// The hash: lower-case hex SHA-256.
     pub fn finish(self) -> String {
         format!("{:x}", self.0.finalize())
     }

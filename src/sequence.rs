@@ -39,6 +39,7 @@ pub struct Reasons {
 /// What a render did.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RenderSummary {
+    /// Frames rendered, with their times.
     pub timing: Timing,
     /// Frames of the run already complete on disk, neither rendered nor written.
     pub kept: u64,
@@ -52,7 +53,12 @@ pub struct RenderSummary {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Event {
     /// The run covers `frames` frames, of which `kept` are already complete.
-    Start { frames: u64, kept: u64 },
+    Start {
+        /// Frames of the run.
+        frames: u64,
+        /// Of those, already complete on disk.
+        kept: u64,
+    },
     /// A frame's PNG and manifest line are written.
     Written(u64),
 }
@@ -60,6 +66,7 @@ pub enum Event {
 /// Options of [`render`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RenderOptions {
+    /// PNG compression (the pixels are the same).
     pub compression: Compression,
     /// Render every frame of the run again, even those still valid on disk.
     pub force: bool,

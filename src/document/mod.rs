@@ -25,8 +25,11 @@ pub const MAX_FRAMES: u64 = 10_000_000;
 pub struct Document {
     /// Where it was read from, for messages.
     pub path: PathBuf,
+    /// Image size and sampling.
     pub raster: Raster,
+    /// The camera and its tracks, with the frame count and rate.
     pub animation: Animation,
+    /// The spheres and lights.
     pub scene: Scene,
 }
 

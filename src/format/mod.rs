@@ -17,17 +17,23 @@ pub type Triple = (f64, f64, f64);
 /// `(a, b)`: a window's (width, height) or a COP's (u, v).
 pub type Pair = (f64, f64);
 
+/// The whole keyframe file (docs/format.md).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "file")]
 pub struct FileSpec {
     /// Any whole number, so that the checker can say what range it must lie in.
     pub frames: Option<i64>,
+    /// Frames per second, > 0 (default 24).
     pub fps: Option<f64>,
+    /// Image size and sampling.
     #[serde(default)]
     pub image: ImageSpec,
+    /// The base camera.
     pub camera: CameraSpec,
+    /// The tracks, at most one per animated parameter.
     #[serde(default)]
     pub animate: Vec<TrackSpec>,
+    /// Spheres, lights, background and ambient.
     #[serde(default)]
     pub scene: SceneSpec,
     /// The file's fields in the order it writes them, top-level (`frames`, `camera`) and one
@@ -37,36 +43,56 @@ pub struct FileSpec {
     pub order: Vec<String>,
 }
 
+/// The file's `image`.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, rename = "image")]
 pub struct ImageSpec {
     /// Whole numbers of any sign; the checker says the range each must lie in.
     pub width: Option<i64>,
+    /// Pixels, 1 to 16384 (default 360).
     pub height: Option<i64>,
+    /// An s×s grid of samples per pixel, 1 to 16 (default 1).
     pub samples: Option<i64>,
+    /// With s ≥ 2, trace the grid's corners first (default false).
     pub adaptive: Option<bool>,
 }
 
+/// The file's `camera`; see docs/format.md for each field.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, rename = "camera")]
 pub struct CameraSpec {
+    /// View Reference Point, world units (default the origin).
     pub vrp: Option<Triple>,
+    /// View Plane Normal, any length ≠ 0; or `tp`.
     pub vpn: Option<Triple>,
+    /// Target point (look-at), instead of `vpn`.
     pub tp: Option<Triple>,
+    /// View Up Vector (default (0, 1, 0)).
     pub vuv: Option<Triple>,
+    /// Centre Of Projection in view coordinates (u, v, n), n < 0 (default (0, 0, −1)).
     pub cop: Option<Triple>,
+    /// Window (width, height) on the view plane, world units; or a field of view.
     pub window: Option<Pair>,
+    /// Horizontal field of view, degrees in (0, 180).
     pub hfov: Option<f64>,
+    /// Vertical field of view, degrees in (0, 180).
     pub vfov: Option<f64>,
 }
 
+/// How a track moves between two keys.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 pub enum InterpolationSpec {
+    /// Holds each key's value until the next key.
     Step,
+    /// Straight line at constant speed (slerp for directions).
     Linear,
+    /// Eases in and out: (1 − cos(πs)) / 2.
     Cosine,
+    /// Catmull-Rom through the keys, mirrored phantom keys at the ends.
     CatmullRom,
+    /// A monotone cubic: no overshoot between keys.
     Monotone,
+    /// Centripetal Catmull-Rom: no cusps or loops within a segment.
     Centripetal,
 }
 
@@ -79,37 +105,59 @@ pub enum SpeedSpec {
     Uniform,
 }
 
+/// One key of a track.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "key")]
 pub struct KeySpec<V> {
+    /// Seconds.
     pub t: f64,
+    /// The animated parameter's value at `t`.
     pub value: V,
+    /// The segment from this key to the next, overriding the track's.
     pub interpolation: Option<InterpolationSpec>,
 }
 
+/// One track of `animate`: the mode it animates and its keys.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "animate")]
 pub enum TrackSpec {
+    /// Animates the VRP.
     Observer {
+        /// VRP positions, world units.
         keys: Vec<KeySpec<Triple>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
+        /// `Keyed` (default) or `Uniform` (constant speed along the path).
         speed: Option<SpeedSpec>,
+        /// Arc-length table steps per key segment with `Uniform` (default 256).
         arc_samples: Option<i64>,
     },
+    /// Animates the VPN, on the unit sphere.
     LookAround {
+        /// View directions, any length ≠ 0.
         keys: Vec<KeySpec<Triple>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
+    /// Animates the target point: VPN = TP − VRP.
     Track {
+        /// Target points, world units.
         keys: Vec<KeySpec<Triple>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
+    /// Animates the COP's n (along the VPN).
     Zoom {
+        /// The COP's n, < 0.
         keys: Vec<KeySpec<f64>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
+    /// Animates the COP's (u, v) (across the VPN).
     Distort {
+        /// The COP's (u, v).
         keys: Vec<KeySpec<Pair>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
 }
@@ -127,30 +175,43 @@ impl TrackSpec {
     }
 }
 
+/// The file's `scene`.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, rename = "scene")]
 pub struct SceneSpec {
+    /// Linear RGB where no sphere is hit (default black).
     pub background: Option<Triple>,
+    /// Ambient term, ≥ 0 (default 1 without lights, 0.1 with).
     pub ambient: Option<f64>,
+    /// Directional lights.
     #[serde(default)]
     pub lights: Vec<LightSpec>,
+    /// The spheres.
     #[serde(default)]
     pub spheres: Vec<SphereSpec>,
 }
 
+/// A directional light.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "light")]
 pub struct LightSpec {
+    /// The direction the light travels, any length ≠ 0.
     pub direction: Triple,
+    /// Linear RGB, ≥ 0 (default white).
     pub color: Option<Triple>,
+    /// Whether spheres cast shadows from it (default true).
     pub shadows: Option<bool>,
 }
 
+/// A sphere.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "sphere")]
 pub struct SphereSpec {
+    /// World units.
     pub center: Triple,
+    /// World units, > 0.
     pub radius: f64,
+    /// Linear RGB in [0, 1] (default white).
     pub color: Option<Triple>,
 }
 
