@@ -35,12 +35,21 @@ fn main() -> ExitCode {
     }
 }
 
-/// Help and version go to standard output (exit 0); a bad option is printed in campath's own
-/// style, `campath: error: …`, with clap's hint, and exits 2, like any other bad input.
+/// Help and version go to standard output (exit 0), and the help for a missing command to
+/// standard error (exit 2); a bad option is printed in campath's own style, `campath: error: …`,
+/// with clap's hint, and exits 2, like any other bad input.
 fn option_error(e: clap::Error) -> ExitCode {
-    if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
-        let _ = e.print();
-        return ExitCode::SUCCESS;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        // `campath` alone: the help, on standard error, as a usage error.
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            return ExitCode::from(2);
+        }
+        _ => {}
     }
     let text = e.render().to_string();
     let text = text.strip_prefix("error: ").unwrap_or(&text);

@@ -368,6 +368,14 @@ fn bad_option_values_name_the_allowed_range() {
         assert_eq!(o.status.code(), Some(0), "{args:?}");
         assert!(stderr(&o).is_empty() && !stdout(&o).is_empty(), "{args:?}");
     }
+    // No command at all: the help, on standard error, with exit 2.
+    let o = campath(tmp.path(), &[], &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("Usage: campath <COMMAND>") && !stderr(&o).contains("error"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
