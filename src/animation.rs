@@ -31,26 +31,36 @@ pub struct Animation {
     pub frames: u64,
     /// Frames per second, > 0.
     pub fps: f64,
+    /// The View Reference Point when no Observer track moves it, world units.
     pub vrp: DVec3,
+    /// Where the base camera points when no LookAround or Track sets it.
     pub pointing: Pointing,
+    /// The View Up Vector (any length ≠ 0).
     pub vuv: DVec3,
     /// COP in view coordinates, n < 0.
     pub cop: DVec3,
     /// Window (width, height) in world units.
     pub window: DVec2,
+    /// Animates the VRP.
     pub observer: Option<PathTrack>,
+    /// Animates the VPN.
     pub look_around: Option<DirectionTrack>,
+    /// Animates the target point (VPN = TP − VRP).
     pub track: Option<Track<DVec3>>,
+    /// Animates the COP's n.
     pub zoom: Option<Track<f64>>,
+    /// Animates the COP's (u, v).
     pub distort: Option<Track<DVec2>>,
 }
 
 /// The camera could not be formed at a frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameError {
+    /// The frame, from 0.
     pub frame: u64,
     /// Seconds.
     pub time: f64,
+    /// Why the camera is undefined there.
     pub cause: CameraError,
 }
 

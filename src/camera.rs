@@ -119,6 +119,7 @@ impl Basis {
 pub struct Camera {
     /// View Reference Point in world coordinates: origin of the view coordinates.
     pub vrp_world: DVec3,
+    /// The UVN basis (u right, v up, n into the scene; left-handed view coordinates).
     pub basis: Basis,
     /// Centre Of Projection in view coordinates (u, v, n); n < 0.
     pub cop_view: DVec3,

@@ -14,6 +14,7 @@ pub struct Problem {
 }
 
 impl Problem {
+    /// A problem with the field at `field` (a dotted path).
     pub fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
         Problem {
             field: field.into(),
@@ -47,48 +48,90 @@ impl fmt::Display for Problems {
 /// Everything that can go wrong in campath.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// A file could not be read (exit 1).
     #[error("{}: cannot read: {cause}", path.display())]
     Read {
+        /// The file.
         path: PathBuf,
+        /// The operating system's error.
         cause: std::io::Error,
     },
+    /// The keyframe file is not RON of the file's shape, or not UTF-8.
     #[error("{}:{line}:{col}: {message}", path.display())]
     Parse {
+        /// The file.
         path: PathBuf,
         /// 1-based line, as RON reports it.
         line: usize,
         /// 1-based column, as RON reports it.
         col: usize,
+        /// What is wrong, in the file's words.
         message: String,
     },
+    /// The keyframe file's values break its rules: every problem, by field.
     #[error("{}: {} problem(s):\n{problems}", path.display(), problems.0.len())]
-    Invalid { path: PathBuf, problems: Problems },
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Every problem, in the file's order.
+        problems: Problems,
+    },
+    /// The camera is undefined at a frame.
     #[error("{}: frame {frame} (t = {time} s): {message}", path.display())]
     Frame {
+        /// The file.
         path: PathBuf,
+        /// The frame, from 0.
         frame: u64,
         /// Frame time in seconds.
         time: f64,
+        /// Why the camera is undefined.
         message: String,
     },
     /// A hashes.txt, golden file or part file that does not follow the manifest grammar.
     #[error("{}: {message}", path.display())]
-    Manifest { path: PathBuf, message: String },
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// Where in it (line) and what is wrong.
+        message: String,
+    },
     /// `merge` refused: the parts do not make a whole sequence.
     #[error("{}: cannot merge, nothing written:{}", dir.display(), problems.iter().map(|p| format!("\n  - {p}")).collect::<String>())]
-    Merge { dir: PathBuf, problems: Vec<String> },
+    Merge {
+        /// The output folder.
+        dir: PathBuf,
+        /// Every missing or unfinished shard, and every damaged frame.
+        problems: Vec<String>,
+    },
+    /// A file could not be written (exit 1).
     #[error("{}: cannot write: {cause}", path.display())]
     Write {
+        /// The file.
         path: PathBuf,
+        /// The operating system's error.
         cause: std::io::Error,
     },
+    /// A PNG could not be encoded (exit 1).
     #[error("{}: cannot encode PNG: {cause}", path.display())]
     Encode {
+        /// The PNG.
         path: PathBuf,
+        /// The encoder's error.
         cause: image::ImageError,
     },
+    /// A request that cannot be met: a path that is a file, a frame past the end (exit 2).
     #[error("{0}")]
     Usage(String),
+    /// Another run holds the output folder (or, for a shard, its part of it); see
+    /// [`crate::lock`].
+    #[error("{} is being written by another campath run ({})", dir.display(), if holders.is_empty() { "its process id is not recorded".to_string() } else { holders.join("; ") })]
+    Busy {
+        /// The output folder.
+        dir: PathBuf,
+        /// The runs in the way: process id, claim and command line.
+        holders: Vec<String>,
+    },
 }
 
 impl Error {
@@ -102,10 +145,12 @@ impl Error {
                 | Error::Manifest { .. }
                 | Error::Merge { .. }
                 | Error::Usage(_)
+                | Error::Busy { .. }
         )
     }
 }
 
+/// campath's result: [`Error`] by default.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {

@@ -16,19 +16,24 @@ use crate::render::{PreparedFrame, Renderer, SceneIndex};
 /// The frames a run covers: a range, optionally one shard of it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FrameSet {
+    /// The frames, before the shard picks its own.
     pub range: Range<u64>,
+    /// Only the frames of this shard, if given.
     pub shard: Option<Shard>,
 }
 
 impl FrameSet {
+    /// Every frame of `range`.
     pub fn all(range: Range<u64>) -> FrameSet {
         FrameSet { range, shard: None }
     }
 
+    /// Whether frame `k` is in the set.
     pub fn contains(&self, k: u64) -> bool {
         self.range.contains(&k) && self.shard.is_none_or(|s| s.contains(k))
     }
 
+    /// How many frames the set holds.
     pub fn count(&self) -> u64 {
         match self.shard {
             None => self.range.end - self.range.start,
@@ -312,6 +317,7 @@ pub fn render_frame(doc: &Document, frame: u64) -> Result<Vec<u8>> {
 /// A frame whose fresh render does not hash as expected.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Difference {
+    /// The frame.
     pub frame: u64,
     /// The golden hash; None when the golden does not list the frame (or there is none).
     pub expected: Option<String>,

@@ -46,6 +46,7 @@ impl Interpolation {
 pub struct Key<V> {
     /// Seconds.
     pub t: f64,
+    /// The value at `t`.
     pub value: V,
     /// Interpolation of the segment from this key to the next.
     pub interpolation: Interpolation,
@@ -57,7 +58,9 @@ pub trait Keyable:
 {
     /// Number of components.
     const DIM: usize;
+    /// Component `i`, 0 ≤ i < `DIM`.
     fn component(&self, i: usize) -> f64;
+    /// Sets component `i`, 0 ≤ i < `DIM`.
     fn set_component(&mut self, i: usize, x: f64);
     /// Euclidean length.
     fn norm(&self) -> f64;
@@ -326,6 +329,7 @@ impl<V: Keyable> Track<V> {
         }
     }
 
+    /// The keys, in time order.
     pub fn keys(&self) -> &[Key<V>] {
         &self.keys
     }
@@ -416,6 +420,7 @@ impl DirectionTrack {
         Track::new(window)
     }
 
+    /// The keys, in time order.
     pub fn keys(&self) -> &[Key<DVec3>] {
         &self.keys
     }
@@ -487,6 +492,7 @@ impl UniformSpeed {
     /// Default table resolution.
     pub const DEFAULT_SAMPLES: u32 = 256;
 
+    /// Re-times `track` to constant speed with an arc-length table of `samples_per_segment` steps per key segment.
     pub fn new(track: Track<DVec3>, samples_per_segment: u32) -> UniformSpeed {
         let n = samples_per_segment.max(1) as usize;
         let keys = track.keys();
@@ -517,6 +523,7 @@ impl UniformSpeed {
         self.lengths[self.lengths.len() - 1]
     }
 
+    /// The keys of the path, in time order.
     pub fn keys(&self) -> &[Key<DVec3>] {
         self.track.keys()
     }
@@ -545,11 +552,14 @@ impl UniformSpeed {
 /// A VRP track: keyed, or re-timed to constant speed.
 #[derive(Debug, Clone)]
 pub enum PathTrack {
+    /// Each key reached at its time.
     Keyed(Track<DVec3>),
+    /// Constant speed from the first key's time to the last.
     Uniform(UniformSpeed),
 }
 
 impl PathTrack {
+    /// The position at `t` seconds.
     pub fn sample(&self, t: f64) -> DVec3 {
         match self {
             PathTrack::Keyed(track) => track.sample(t),
@@ -557,6 +567,7 @@ impl PathTrack {
         }
     }
 
+    /// The keys of the path, in time order.
     pub fn keys(&self) -> &[Key<DVec3>] {
         match self {
             PathTrack::Keyed(track) => track.keys(),

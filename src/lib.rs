@@ -38,6 +38,8 @@
 //! # Ok::<(), campath::Error>(())
 //! ```
 
+#![deny(missing_docs)]
+
 pub mod animation;
 pub mod camera;
 pub mod document;
@@ -47,6 +49,7 @@ pub mod format;
 pub mod frames;
 pub mod golden;
 pub mod keyframes;
+pub mod lock;
 pub mod manifest;
 pub mod mode;
 pub mod motion;

@@ -40,6 +40,7 @@ pub struct Shard {
 }
 
 impl Shard {
+    /// Whether frame `frame` is this shard's.
     pub fn contains(&self, frame: u64) -> bool {
         frame % self.count == self.index
     }
@@ -72,6 +73,7 @@ impl FromStr for Shard {
 /// One frame line.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Entry {
+    /// The frame index.
     pub frame: u64,
     /// Lower-case hex SHA-256 of the frame's raw RGB8 pixels.
     pub hash: String,
@@ -92,6 +94,7 @@ impl fmt::Display for Entry {
 /// The header of a part file.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PartHeader {
+    /// Which shard wrote the part.
     pub shard: Shard,
     /// The run's frame range (`--frames`), shared by every shard of the run.
     pub range: Range<u64>,
@@ -151,6 +154,7 @@ pub struct Manifest {
     pub renderer: Option<u32>,
     /// Present in part files only.
     pub header: Option<PartHeader>,
+    /// The frame lines, in the file's order.
     pub entries: Vec<Entry>,
     /// A part file whose shard finished all its frames.
     pub complete: bool,

@@ -37,19 +37,26 @@ pub const NEAR_TARGET: f64 = 0.02;
 /// What a warning is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Quantity {
+    /// The eye's speed, world units per second.
     Speed,
+    /// How fast the VPN turns, degrees per second.
     TurnRate,
+    /// The COP inside a sphere.
     CopInsideSphere,
+    /// The target point at the VRP.
     TargetNearCamera,
+    /// The up vector turning more than 90° between frames.
     UpFlip,
 }
 
 /// Motion that looks wrong, at some frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
+    /// What the warning is about.
     pub quantity: Quantity,
     /// The frames concerned, in order.
     pub frames: Vec<u64>,
+    /// What looks wrong, with the numbers.
     pub message: String,
 }
 

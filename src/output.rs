@@ -23,10 +23,12 @@ pub fn frame_hash(pixels: &[u8]) -> String {
 pub struct FrameHasher(Sha256);
 
 impl FrameHasher {
+    /// Adds the next bytes of the frame.
     pub fn update(&mut self, bytes: &[u8]) {
         self.0.update(bytes);
     }
 
+    /// The hash: lower-case hex SHA-256.
     pub fn finish(self) -> String {
         format!("{:x}", self.0.finalize())
     }
@@ -126,6 +128,7 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
 pub fn is_ours(name: &str) -> bool {
     let base = name.strip_suffix(".tmp").unwrap_or(name);
     frame_of(base).is_some()
+        || crate::lock::is_lock_file(base)
         || manifest::part_of(base).is_some()
         || base.ends_with(".mp4")
         || base.ends_with(".mkv")

@@ -6,6 +6,7 @@ use glam::DVec3;
 /// A sphere in world coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sphere {
+    /// World units.
     pub center_world: DVec3,
     /// World units, > 0.
     pub radius: f64,
@@ -24,12 +25,15 @@ pub struct Light {
     pub shadows: bool,
 }
 
+/// Checked spheres and directional lights.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
     /// Linear RGB in [0, 1], seen where no sphere is hit.
     pub background: DVec3,
     /// Ambient term added to every light's contribution, ≥ 0.
     pub ambient: f64,
+    /// Directional lights.
     pub lights: Vec<Light>,
+    /// The spheres.
     pub spheres: Vec<Sphere>,
 }

@@ -17,6 +17,7 @@ use sha2::{Digest, Sha256};
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::frames::{keys, stream_frames, FrameSet, Timing};
+use crate::lock::{Claim, FolderLock, Wait};
 use crate::manifest::{self, Entry, Manifest, PartHeader};
 use crate::output::{
     frame_of, frame_path, is_ours, pad_width, png_hash, write_atomic, write_png_atomic, Compression,
@@ -38,6 +39,7 @@ pub struct Reasons {
 /// What a render did.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RenderSummary {
+    /// Frames rendered, with their times.
     pub timing: Timing,
     /// Frames of the run already complete on disk, neither rendered nor written.
     pub kept: u64,
@@ -51,7 +53,12 @@ pub struct RenderSummary {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Event {
     /// The run covers `frames` frames, of which `kept` are already complete.
-    Start { frames: u64, kept: u64 },
+    Start {
+        /// Frames of the run.
+        frames: u64,
+        /// Of those, already complete on disk.
+        kept: u64,
+    },
     /// A frame's PNG and manifest line are written.
     Written(u64),
 }
@@ -59,6 +66,7 @@ pub enum Event {
 /// Options of [`render`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RenderOptions {
+    /// PNG compression (the pixels are the same).
     pub compression: Compression,
     /// Render every frame of the run again, even those still valid on disk.
     pub force: bool,
@@ -173,7 +181,7 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
 
 /// Refuses a path that is not a folder, or a folder that holds anything campath does not write
 /// there.
-fn check_folder(dir: &Path) -> Result<()> {
+pub fn check_folder(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
         return Err(Error::Usage(format!(
             "{} is a file, not a folder: --out names the folder the frames go into",
@@ -226,9 +234,22 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
     Ok(removed)
 }
 
-/// Renders the frames of `set` to PNGs in `dir` with their manifest: hashes.txt, or
-/// hashes.part-K-of-N.txt for a shard (marked complete when the shard has finished).
+/// Takes the lock of the output folder `dir` for a render of `set` (see [`crate::lock`]), after
+/// checking what can be checked without writing: that `dir` holds nothing campath did not
+/// write, and that every frame's camera is defined. So a refused file or folder leaves nothing
+/// behind, not even the folder.
+pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<FolderLock> {
+    check_folder(dir)?;
+    doc.check_path()?;
+    FolderLock::acquire(dir, Claim::of(set.shard), wait)
+}
+
+/// Renders the frames of `set` to PNGs in the locked folder (see [`lock`]) with their manifest:
+/// hashes.txt, or hashes.part-K-of-N.txt for a shard (marked complete when the shard has
+/// finished).
 ///
+/// - `lock` must be the folder's lock for `set` (a whole run's, or the shard's); so no other
+///   run writes the same files meanwhile.
 /// - Nothing is written before every frame's camera is checked, and never into a folder that
 ///   holds files campath did not write.
 /// - A frame of the run is kept when a manifest records it with its current key and its PNG
@@ -241,15 +262,23 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
 /// - PNG encoding runs on its own thread while the next frame renders.
 pub fn render(
     doc: &Document,
-    dir: &Path,
+    lock: &FolderLock,
     set: &FrameSet,
     options: RenderOptions,
     progress: &mut (dyn FnMut(Event) + Send),
 ) -> Result<RenderSummary> {
     let started = std::time::Instant::now();
+    let dir = lock.dir();
+    if lock.claim() != Claim::of(set.shard) {
+        return Err(Error::Usage(format!(
+            "{}: a render of {} needs the folder's lock for it, not for {}",
+            dir.display(),
+            Claim::of(set.shard),
+            lock.claim()
+        )));
+    }
     check_folder(dir)?;
     let plan = plan(doc, dir, set, options.force)?;
-    std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
     let removed = remove_stale_records(dir, set, &plan)?;
 
     let total = doc.animation.frames;
@@ -316,7 +345,17 @@ pub fn render(
 /// Merges the part files in `dir` into `dir/hashes.txt` (see [`manifest::merge`]), after
 /// checking that every listed frame's PNG decodes to its recorded hash (in parallel); returns
 /// the number of frames. Writes nothing when the parts do not make a whole, true sequence.
-pub fn merge(dir: &Path) -> Result<u64> {
+///
+/// `lock` must be a whole run's lock of the folder: no shard writes its part meanwhile.
+pub fn merge(lock: &FolderLock) -> Result<u64> {
+    let dir = lock.dir();
+    if lock.claim() != Claim::Whole {
+        return Err(Error::Usage(format!(
+            "{}: merge needs the whole folder's lock, not {}'s",
+            dir.display(),
+            lock.claim()
+        )));
+    }
     let (text, total) = manifest::merge(dir, |frame, total| frame_path(dir, frame, total))?;
     let merged = Manifest::parse(&dir.join(manifest::file_name(None)), &text)?;
     let mut damaged: Vec<u64> = merged

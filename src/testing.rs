@@ -53,6 +53,7 @@ pub enum Verdict {
 /// A shot rendered and compared with its golden.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ShotRun {
+    /// The shot file.
     pub shot: PathBuf,
     /// The golden as it was before any update.
     pub golden: Option<Golden>,
@@ -70,6 +71,7 @@ pub struct ShotRun {
 }
 
 impl ShotRun {
+    /// How the shot compared, before any update.
     pub fn verdict(&self) -> Verdict {
         match &self.golden {
             None => Verdict::NoGolden,
@@ -165,7 +167,9 @@ pub struct Options {
 /// A shot loaded: its checked document and its golden, if it has one.
 #[derive(Debug)]
 pub struct Shot {
+    /// The shot file.
     pub path: PathBuf,
+    /// The shot, checked.
     pub doc: Document,
     /// The golden `hashes.txt` in the shot's [`golden_dir`], when it exists.
     pub golden: Option<Golden>,

@@ -111,6 +111,65 @@ pub enum PathFormat {
 }
 
 impl PathFormat {
+    /// The format a file name's extension says, if it says one.
+    pub fn of_extension(path: &Path) -> Option<PathFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "csv" => PathFormat::Csv,
+            "json" => PathFormat::Json,
+            "chan" => PathFormat::Chan,
+            "gltf" | "glb" => PathFormat::Gltf,
+            "py" => PathFormat::Blender,
+            "usda" | "usd" => PathFormat::Usd,
+            _ => return None,
+        })
+    }
+
+    /// `--format`, or the one `--out`'s extension says (CSV when neither says); a `--format`
+    /// that another known extension contradicts is refused.
+    pub fn resolve(format: Option<PathFormat>, out: Option<&Path>) -> Result<PathFormat> {
+        let by_name = out.and_then(PathFormat::of_extension);
+        match (format, by_name) {
+            (Some(f), Some(n)) if f != n => {
+                let out = out.expect("an extension comes from --out");
+                Err(CliError::Usage(format!(
+                    "--out {} names a {} file, but --format {} writes {}: change the extension or \
+                     leave --format out",
+                    out.display(),
+                    n.name(),
+                    f.value(),
+                    f.name()
+                )))
+            }
+            (Some(f), _) | (None, Some(f)) => Ok(f),
+            (None, None) => Ok(PathFormat::Csv),
+        }
+    }
+
+    /// What the format is called in messages.
+    fn name(self) -> &'static str {
+        match self {
+            PathFormat::Csv => "CSV",
+            PathFormat::Json => "JSON",
+            PathFormat::Chan => ".chan",
+            PathFormat::Gltf => "glTF",
+            PathFormat::Blender => "Blender Python",
+            PathFormat::Usd => "USD",
+        }
+    }
+
+    /// The `--format` value.
+    fn value(self) -> &'static str {
+        match self {
+            PathFormat::Csv => "csv",
+            PathFormat::Json => "json",
+            PathFormat::Chan => "chan",
+            PathFormat::Gltf => "gltf",
+            PathFormat::Blender => "blender",
+            PathFormat::Usd => "usd",
+        }
+    }
+
     /// The library's per-frame text format; None for the formats written whole.
     pub fn per_frame(self) -> Option<campath::export::PathFormat> {
         match self {
@@ -154,8 +213,32 @@ pub fn create_parent(file: &Path) -> Result<()> {
     }
 }
 
-/// Creates the folder `file` will be written into and checks that a file can be written there.
+/// Refuses an output file whose extension is not one of `allowed` (the first is named as the
+/// one to use), before any work: `what` says what is written, e.g. "plot writes PNG".
+pub fn check_extension(option: &str, file: &Path, allowed: &[&str], what: &str) -> Result<()> {
+    let ext = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if ext.as_deref().is_some_and(|e| allowed.contains(&e)) {
+        return Ok(());
+    }
+    Err(CliError::Usage(format!(
+        "{option} {}: {what}; name it .{}",
+        file.display(),
+        allowed.join(" or .")
+    )))
+}
+
+/// Creates the folder `file` will be written into and checks that a file can be written there
+/// (and that the name is not a folder).
 pub fn check_writable(file: &Path) -> Result<()> {
+    if file.is_dir() {
+        return Err(CliError::Usage(format!(
+            "{} is a folder: name the file to write",
+            file.display()
+        )));
+    }
     create_parent(file)?;
     let mut probe = file.as_os_str().to_owned();
     probe.push(".tmp");
@@ -180,5 +263,24 @@ mod tests {
         assert!("a..b".parse::<FrameSpec>().is_err());
         assert!(FrameSpec::resolve(Some("2..11".parse().unwrap()), 10).is_err());
         assert!(FrameSpec::resolve(Some("10..".parse().unwrap()), 10).is_err());
+    }
+
+    #[test]
+    fn path_formats_from_the_extension() {
+        let r = |f: Option<PathFormat>, out: &str| PathFormat::resolve(f, Some(Path::new(out)));
+        assert_eq!(r(None, "x.glb").unwrap(), PathFormat::Gltf);
+        assert_eq!(r(None, "x.GLTF").unwrap(), PathFormat::Gltf);
+        assert_eq!(r(None, "x.py").unwrap(), PathFormat::Blender);
+        assert_eq!(r(None, "x.txt").unwrap(), PathFormat::Csv);
+        assert_eq!(
+            r(Some(PathFormat::Json), "x.txt").unwrap(),
+            PathFormat::Json
+        );
+        assert_eq!(
+            r(Some(PathFormat::Chan), "x.chan").unwrap(),
+            PathFormat::Chan
+        );
+        assert!(r(Some(PathFormat::Csv), "x.glb").is_err());
+        assert_eq!(PathFormat::resolve(None, None).unwrap(), PathFormat::Csv);
     }
 }

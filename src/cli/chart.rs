@@ -12,7 +12,7 @@ use campath::output::{write_png, Compression};
 static FONT: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
 
 /// Registers the built-in DejaVu Sans as plotters' "sans-serif", once.
-fn register_font() {
+pub fn register_font() {
     use std::sync::Once;
     static DONE: Once = Once::new();
     DONE.call_once(|| {

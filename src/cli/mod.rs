@@ -8,6 +8,7 @@ mod chart;
 mod error;
 mod failures;
 mod junit;
+mod man;
 mod plot;
 mod preview;
 mod report;
@@ -24,7 +25,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
-use args::{at_least_one, create_parent, default_out_dir, FrameSpec};
+use args::{at_least_one, default_out_dir, FrameSpec};
 use campath::document::Document;
 use campath::manifest::Shard;
 use campath::sequence::RenderOptions;
@@ -46,6 +47,7 @@ pub struct Cli {
 enum Command {
     /// Render frames to DIR/frame_NNNN.png and DIR/hashes.txt, keeping the frames still valid.
     Render {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Output folder [default: out/<file stem>/].
         #[arg(long)]
@@ -65,12 +67,16 @@ enum Command {
         /// Print nothing.
         #[arg(long, short)]
         quiet: bool,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
         /// Also write the run's numbers (frames, times, peak memory) as JSON to this file.
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
     },
     /// Write a contact sheet (preview.png) and an animated GIF (preview.gif) at a small size.
     Preview {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Output folder [default: out/<file stem>/].
         #[arg(long)]
@@ -87,6 +93,7 @@ enum Command {
     /// Draw the camera path from above and from the side, with keyframes, targets, frustums
     /// and spheres.
     Plot {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Where the PNG goes [default: out/<file stem>/plot.png].
         #[arg(long)]
@@ -97,9 +104,16 @@ enum Command {
     },
     /// Combine the shard manifests hashes.part-K-of-N.txt in DIR into DIR/hashes.txt, or refuse
     /// naming what is missing.
-    Merge { dir: PathBuf },
+    Merge {
+        /// The output folder the shards rendered into.
+        dir: PathBuf,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
+    },
     /// Print `<frame> <sha256>` per frame without writing images.
     Hash {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         #[arg(long)]
         frames: Option<FrameSpec>,
@@ -138,6 +152,7 @@ enum Command {
     },
     /// Compare fresh renders with golden hashes; exit 1 naming every frame that differs.
     Verify {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// A hashes.txt, or a folder of golden frames with their hashes.txt (then each failing
         /// frame gets a difference image in --save-failures).
@@ -153,9 +168,11 @@ enum Command {
     /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
     /// whole shot as glTF, a Blender script or an OpenUSD stage.
     Path {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
-        #[arg(long, value_enum, default_value_t)]
-        format: args::PathFormat,
+        /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py, .usda), else csv]
+        #[arg(long, value_enum)]
+        format: Option<args::PathFormat>,
         /// Write to this file instead of standard output (glTF: binary when it ends in .glb; USD:
         /// .usda or .usd).
         #[arg(long)]
@@ -171,6 +188,7 @@ enum Command {
     },
     /// Error against run time: every accuracy setting against a 16×16-sample reference.
     Report {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// The frame to measure [default: the middle frame].
         #[arg(long)]
@@ -210,6 +228,7 @@ enum Command {
     /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
     /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt.
     Video {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// The video [default: out/<file stem>/<file stem>.mp4, or .mkv with --lossless].
         #[arg(long)]
@@ -223,10 +242,14 @@ enum Command {
         /// Print nothing.
         #[arg(long, short)]
         quiet: bool,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
     },
     /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
     /// it and reloads its pictures; Ctrl-C stops.
     Watch {
+        /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// Where the preview and its page go [default: out/<file stem>-watch/].
         #[arg(long)]
@@ -234,14 +257,23 @@ enum Command {
         /// Width of the small frames in pixels (at most the file's width).
         #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=16384))]
         width: u32,
+        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+        #[arg(long)]
+        no_wait: bool,
     },
     /// Print a shell completion script: `campath completions bash > /etc/bash_completion.d/campath`.
     Completions {
         #[arg(value_enum)]
         shell: clap_complete::Shell,
     },
-    /// Print the manual page (roff): `campath man > campath.1; man ./campath.1`.
-    Man,
+    /// Print the manual (roff), every command with its options, exit status, environment and the
+    /// file: `campath man > campath.1; man ./campath.1`.
+    Man {
+        /// Instead, write the manual as DIR/campath.1 and a page per command
+        /// (DIR/campath-render.1, …).
+        #[arg(long, value_name = "DIR")]
+        dir: Option<PathBuf>,
+    },
 }
 
 /// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
@@ -264,6 +296,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             shard,
             force,
             quiet,
+            no_wait,
             stats_json,
         } => verbs::render(
             verbs::RenderArgs {
@@ -276,6 +309,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                     force,
                 },
                 quiet,
+                no_wait,
                 stats_json,
             },
             out,
@@ -300,14 +334,15 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             out: png,
             every,
         } => {
-            let doc = Document::load(&file)?;
             let png = png.unwrap_or_else(|| default_out_dir(&file).join("plot.png"));
-            create_parent(&png)?;
+            args::check_extension("--out", &png, &["png"], "plot writes PNG")?;
+            let doc = Document::load(&file)?;
+            args::check_writable(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
             plot::write(&doc, &png, every)?;
             writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
         }
-        Command::Merge { dir } => verbs::merge(&dir, out)?,
+        Command::Merge { dir, no_wait } => verbs::merge(&dir, no_wait, out)?,
         Command::Hash {
             file,
             frames,
@@ -354,7 +389,10 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             file,
             format,
             out: file_out,
-        } => verbs::path(&file, format, file_out.as_deref(), out)?,
+        } => {
+            let format = args::PathFormat::resolve(format, file_out.as_deref())?;
+            verbs::path(&file, format, file_out.as_deref(), out)?
+        }
         Command::Check { file, strict } => return verbs::check(&file, strict, out),
         Command::Report {
             file,
@@ -363,6 +401,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             plot,
         } => {
             let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
+            args::check_extension("--plot", &plot, &["png"], "the report's plot is PNG")?;
             report::run(&file, frame, runs as usize, &plot, out)?
         }
         Command::Bench {
@@ -379,6 +418,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             lossless,
             crf,
             quiet,
+            no_wait,
         } => video::run(
             video::VideoArgs {
                 frames_dir: default_out_dir(&file),
@@ -387,6 +427,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                 lossless,
                 crf,
                 quiet,
+                no_wait,
             },
             out,
         )?,
@@ -394,11 +435,12 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             file,
             out: dir,
             width,
+            no_wait,
         } => {
             let dir = dir.unwrap_or_else(|| {
                 PathBuf::from(format!("{}-watch", default_out_dir(&file).display()))
             });
-            watch::run(&file, &dir, width, out)?
+            watch::run(&file, &dir, width, no_wait, out)?
         }
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
@@ -407,11 +449,11 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             clap_complete::generate(shell, &mut cmd, "campath", &mut script);
             out.write_all(&script).map_err(Error::stdout)?;
         }
-        Command::Man => {
-            let cmd = <Cli as clap::CommandFactory>::command();
-            clap_mangen::Man::new(cmd)
-                .render(out)
-                .map_err(Error::stdout)?;
+        Command::Man { dir: None } => man::page(out)?,
+        Command::Man { dir: Some(dir) } => {
+            for page in man::write_pages(&dir)? {
+                writeln!(out, "wrote {}", page.display()).map_err(Error::stdout)?;
+            }
         }
     }
     Ok(true)

@@ -82,6 +82,15 @@ impl Marks {
         })
     }
 
+    /// Whether the camera moves (its VRP differs between frames).
+    fn moves(&self) -> bool {
+        let first = self.cams[0].vrp_world;
+        let tol = 1e-12 * (1.0 + first.length());
+        self.cams
+            .iter()
+            .any(|c| (c.vrp_world - first).length() > tol)
+    }
+
     /// The region shown: the path, keys and targets, and the spheres no larger than that
     /// region, as a centre and a half-width.
     fn region(&self, doc: &Document) -> (DVec3, f64) {
@@ -150,44 +159,80 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
             y_desc: "z (world units)".into(),
         },
         View {
-            title: format!(
-                "from the side, along the travel ({:.2}, 0, {:.2})",
-                h.x, h.z
-            ),
+            title: if marks.moves() {
+                format!(
+                    "from the side, along the travel ({:.2}, 0, {:.2})",
+                    h.x + 0.0,
+                    h.z + 0.0
+                )
+            } else {
+                format!(
+                    "from the side, across the first view direction ({:.2}, 0, {:.2})",
+                    h.x + 0.0,
+                    h.z + 0.0
+                )
+            },
             right: h,
             up: DVec3::Y,
-            x_desc: "distance along the travel (world units)".into(),
+            x_desc: if marks.moves() {
+                "distance along the travel (world units)".into()
+            } else {
+                "distance along the first view direction (world units)".into()
+            },
             y_desc: "y (world units)".into(),
         },
     ];
     draw_png(path, SIZE, |root| {
-        let (left, right) = root.split_horizontally(SIZE.0 / 2);
+        // The legend goes in a strip below both panels, where it covers nothing.
+        let (panels, strip) = root.split_vertically(SIZE.1 - LEGEND_HEIGHT);
+        let (left, right) = panels.split_horizontally(SIZE.0 / 2);
         for (view, area) in views.iter().zip([left, right]) {
             let (cx, cy) = view.project(mid);
             let flip = view.right == DVec3::NEG_X;
+            // One scale on both axes (true sizes): the x range widened to the plotting area's
+            // width in pixels.
+            let (w, h) = area.dim_in_pixel();
+            let plot_w = f64::from(w) - 2.0 * MARGIN - Y_LABELS;
+            let plot_h = f64::from(h) - 2.0 * MARGIN - X_LABELS - CAPTION;
+            let half_x = half * (plot_w / plot_h).max(1.0);
             let mut chart = ChartBuilder::on(&area)
                 .caption(&view.title, ("sans-serif", 18))
-                .margin(15)
-                .x_label_area_size(40)
-                .y_label_area_size(55)
-                .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)
+                .margin(MARGIN as u32)
+                .x_label_area_size(X_LABELS as u32)
+                .y_label_area_size(Y_LABELS as u32)
+                .build_cartesian_2d(cx - half_x..cx + half_x, cy - half..cy + half)
                 .map_err(draw_error(path))?;
             chart
                 .configure_mesh()
                 .x_desc(&view.x_desc)
                 .y_desc(&view.y_desc)
-                // The top view's page x is −x: label the world's x.
-                .x_label_formatter(&|v| format!("{:.1}", if flip { -v } else { *v }))
+                // The top view's page x is −x: label the world's x (0.0, never −0.0).
+                .x_label_formatter(&|v| tick(if flip { -v } else { *v }))
+                .y_label_formatter(&|v| tick(*v))
                 .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(draw_error(path))?;
             let spans = (DVec2::new(cx, cy), half);
             spheres(&mut chart, doc, view, spans, path)?;
-            frustums(&mut chart, &marks.cams, every, half * 0.12, view, path)?;
-            path_and_keys(&mut chart, &marks, view, half, every, doc, path)?;
+            frustums(&mut chart, &marks, every, half * 0.12, view, path)?;
+            path_and_keys(&mut chart, &marks, view, half, path)?;
         }
-        Ok(())
+        legend(&strip, &marks, every, doc, path)
     })
+}
+
+/// Pixels of the legend strip below the panels, and of the panels' margins and label areas.
+const LEGEND_HEIGHT: u32 = 70;
+const MARGIN: f64 = 15.0;
+const X_LABELS: f64 = 40.0;
+const Y_LABELS: f64 = 55.0;
+/// About the height of an 18-point caption with its gap.
+const CAPTION: f64 = 28.0;
+
+/// An axis label with one decimal, never `-0.0`.
+fn tick(v: f64) -> String {
+    let r = (v * 10.0).round() / 10.0;
+    format!("{:.1}", if r == 0.0 { 0.0 } else { r })
 }
 
 /// The region `s` covers in `view` and its outline, as page points fine enough at the plot's
@@ -259,27 +304,52 @@ fn spheres(
     Ok(())
 }
 
-/// A frustum every `every` frames and at the last: lines from the COP through the window's
-/// corners, `reach` long, the right edge (+u) drawn heavier.
+/// A frustum every `every` frames and at the last, drawn from the camera forwards as Blender and
+/// Unity draw one: edges from the COP through the window's corners to `reach` beyond the window,
+/// where the far rectangle is drawn; the right edge (+u) heavier.
+///
+/// A camera that does not move gets its frustum at the first and the last frame only, and its
+/// view direction (from the window's centre, on the ray from the COP) at the others: frustums
+/// turning about one point would pile up into a pinwheel.
 fn frustums(
     chart: &mut Chart,
-    cams: &[Camera],
+    marks: &Marks,
     every: u64,
     reach: f64,
     view: &View,
     path: &Path,
 ) -> Result<()> {
+    let cams = &marks.cams;
+    let moves = marks.moves();
     for (k, cam) in cams.iter().enumerate() {
-        if !(k as u64).is_multiple_of(every.max(1)) && k + 1 != cams.len() {
+        let ends = k == 0 || k + 1 == cams.len();
+        if !(k as u64).is_multiple_of(every.max(1)) && !ends {
+            continue;
+        }
+        if !moves && !ends {
+            let cop = cam.cop_world();
+            let depth = -cam.cop_view.z;
+            let centre = cam.point_to_world(DVec3::ZERO);
+            let tip = cop + (centre - cop) * ((depth + 2.0 * reach) / depth);
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![view.project(centre), view.project(tip)],
+                    RGBColor(90, 90, 90).stroke_width(2),
+                )))
+                .map_err(draw_error(path))?;
             continue;
         }
         let cop = cam.cop_world();
         let (w, h) = (cam.window.x * 0.5, cam.window.y * 0.5);
+        // The corners' rays, scaled to reach `reach` past the window along the view direction:
+        // the COP is −cop.n behind the window.
+        let depth = -cam.cop_view.z;
+        let scale = (depth + reach) / depth;
         let corners: Vec<DVec3> = [(-w, -h), (w, -h), (w, h), (-w, h)]
             .iter()
             .map(|&(x, y)| {
                 let through = cam.point_to_world(DVec3::new(x, y, 0.0));
-                cop + (through - cop).normalize() * reach
+                cop + (through - cop) * scale
             })
             .collect();
         for (i, corner) in corners.iter().enumerate() {
@@ -299,21 +369,22 @@ fn frustums(
         let mut rim: Vec<(f64, f64)> = corners.iter().map(|p| view.project(*p)).collect();
         rim.push(rim[0]);
         chart
-            .draw_series(std::iter::once(PathElement::new(rim, BLACK.mix(0.4))))
+            .draw_series(std::iter::once(PathElement::new(
+                rim,
+                BLACK.stroke_width(1),
+            )))
             .map_err(draw_error(path))?;
     }
     Ok(())
 }
 
 /// The VRP's path with its start (and direction of travel) and end, the keyframes and the
-/// targets, the legend naming only what is drawn.
+/// targets.
 fn path_and_keys<'a>(
     chart: &mut Chart<'a, 'a>,
     marks: &Marks,
     view: &View,
     half: f64,
-    every: u64,
-    doc: &Document,
     path: &Path,
 ) -> Result<()> {
     let err = draw_error(path);
@@ -331,20 +402,12 @@ fn path_and_keys<'a>(
     if ahead.is_some() {
         chart
             .draw_series(LineSeries::new(line.clone(), BLUE.stroke_width(2)))
-            .map_err(&err)?
-            .label("VRP path")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+            .map_err(&err)?;
     }
     let start_color = RGBColor(0, 150, 0);
     chart
         .draw_series(std::iter::once(Circle::new(start, 7, start_color.filled())))
-        .map_err(&err)?
-        .label(if ahead.is_some() {
-            "start, with the direction of travel"
-        } else {
-            "camera position (it does not move)"
-        })
-        .legend(move |(x, y)| Circle::new((x + 10, y), 6, start_color.filled()));
+        .map_err(&err)?;
     if let Some(p) = ahead {
         let (dx, dy) = (p.0 - start.0, p.1 - start.1);
         let len = dx.hypot(dy);
@@ -370,9 +433,7 @@ fn path_and_keys<'a>(
                 ],
                 BLACK.filled(),
             )))
-            .map_err(&err)?
-            .label("end")
-            .legend(|(x, y)| Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], BLACK.filled()));
+            .map_err(&err)?;
     }
     if !marks.keys.is_empty() {
         chart
@@ -382,9 +443,7 @@ fn path_and_keys<'a>(
                     .iter()
                     .map(|k| Circle::new(view.project(*k), 5, RED.filled())),
             )
-            .map_err(&err)?
-            .label("Observer keyframes")
-            .legend(|(x, y)| Circle::new((x + 10, y), 5, RED.filled()));
+            .map_err(&err)?;
     }
     if !marks.targets.is_empty() {
         chart
@@ -394,53 +453,137 @@ fn path_and_keys<'a>(
                     .iter()
                     .map(|t| Cross::new(view.project(*t), 6, GREEN.stroke_width(2))),
             )
-            .map_err(&err)?
-            .label("target points (TP)")
-            .legend(|(x, y)| Cross::new((x + 10, y), 6, GREEN.stroke_width(2)));
+            .map_err(&err)?;
     }
-    // Legend entries for what has no series of its own.
-    let frustum_label =
-        format!("view frustum every {every} frame(s); heavy edges on the camera's right");
-    chart
-        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-        .map_err(&err)?
-        .label(frustum_label)
-        .legend(|(x, y)| {
-            PathElement::new(vec![(x, y + 5), (x + 20, y - 5)], BLACK.stroke_width(2))
-        });
-    if !doc.scene.spheres.is_empty() {
-        chart
-            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-            .map_err(&err)?
-            .label("spheres, true size and colour")
-            .legend(|(x, y)| Circle::new((x + 10, y), 6, BLACK.mix(0.3).filled()));
+    Ok(())
+}
+
+/// The legend, in its strip below the panels: only what the file has, in one or two rows.
+fn legend(
+    strip: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    marks: &Marks,
+    every: u64,
+    doc: &Document,
+    path: &Path,
+) -> Result<()> {
+    let err = draw_error(path);
+    let moves = marks.moves();
+    let start_color = RGBColor(0, 150, 0);
+    type Mark = Box<
+        dyn Fn(
+            &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+            (i32, i32),
+        ) -> Result<(), String>,
+    >;
+    let mut entries: Vec<(String, Mark)> = Vec::new();
+    if moves {
+        entries.push((
+            "VRP path".into(),
+            Box::new(|a, (x, y)| {
+                a.draw(&PathElement::new(
+                    vec![(x, y), (x + 20, y)],
+                    BLUE.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())
+            }),
+        ));
     }
-    // The legend goes in the corner farthest from the path.
-    let (x0, x1) = (chart.x_range().start, chart.x_range().end);
-    let (y0, y1) = (chart.y_range().start, chart.y_range().end);
-    let corners = [
-        ((x0, y1), SeriesLabelPosition::UpperLeft),
-        ((x1, y1), SeriesLabelPosition::UpperRight),
-        ((x0, y0), SeriesLabelPosition::LowerLeft),
-        ((x1, y0), SeriesLabelPosition::LowerRight),
-    ];
-    let clearance = |c: (f64, f64)| {
-        line.iter()
-            .map(|p| (p.0 - c.0).hypot(p.1 - c.1))
-            .fold(f64::INFINITY, f64::min)
+    entries.push((
+        if moves {
+            "start, with the direction of travel"
+        } else {
+            "camera position (it does not move)"
+        }
+        .into(),
+        Box::new(move |a, (x, y)| {
+            a.draw(&Circle::new((x + 10, y), 6, start_color.filled()))
+                .map_err(|e| e.to_string())
+        }),
+    ));
+    if moves {
+        entries.push((
+            "end".into(),
+            Box::new(|a, (x, y)| {
+                a.draw(&Rectangle::new(
+                    [(x + 5, y - 5), (x + 15, y + 5)],
+                    BLACK.filled(),
+                ))
+                .map_err(|e| e.to_string())
+            }),
+        ));
+    }
+    if !marks.keys.is_empty() {
+        entries.push((
+            "Observer keyframes".into(),
+            Box::new(|a, (x, y)| {
+                a.draw(&Circle::new((x + 10, y), 5, RED.filled()))
+                    .map_err(|e| e.to_string())
+            }),
+        ));
+    }
+    if !marks.targets.is_empty() {
+        entries.push((
+            "target points (TP)".into(),
+            Box::new(|a, (x, y)| {
+                a.draw(&Cross::new((x + 10, y), 6, GREEN.stroke_width(2)))
+                    .map_err(|e| e.to_string())
+            }),
+        ));
+    }
+    let frustum = if moves {
+        format!("view frustum every {every} frame(s), COP to beyond the window; heavy edges on the camera's right")
+    } else {
+        "view frustum at the first and last frame; heavy edges on the camera's right".to_string()
     };
-    let corner = corners
-        .into_iter()
-        .max_by(|a, b| clearance(a.0).total_cmp(&clearance(b.0)))
-        .map(|c| c.1)
-        .expect("four corners");
-    chart
-        .configure_series_labels()
-        .position(corner)
-        .label_font(("sans-serif", 13))
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.85))
-        .draw()
-        .map_err(&err)?;
+    if !moves {
+        entries.push((
+            format!("view direction every {every} frame(s)"),
+            Box::new(|a, (x, y)| {
+                a.draw(&PathElement::new(
+                    vec![(x, y), (x + 20, y)],
+                    RGBColor(90, 90, 90).stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())
+            }),
+        ));
+    }
+    entries.push((
+        frustum,
+        Box::new(|a, (x, y)| {
+            a.draw(&PathElement::new(
+                vec![(x, y + 5), (x + 20, y - 5)],
+                BLACK.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())
+        }),
+    ));
+    if !doc.scene.spheres.is_empty() {
+        entries.push((
+            "spheres, true size and colour".into(),
+            Box::new(|a, (x, y)| {
+                a.draw(&Circle::new((x + 10, y), 6, BLACK.mix(0.3).filled()))
+                    .map_err(|e| e.to_string())
+            }),
+        ));
+    }
+    // Laid out left to right, wrapping to the next row; about 7 px per character.
+    let font: TextStyle = ("sans-serif", 14).into();
+    let (width, _) = strip.dim_in_pixel();
+    let (mut x, mut y) = (20i32, 20i32);
+    for (label, mark) in &entries {
+        let text_w = strip.estimate_text_size(label, &font).map_err(&err)?.0 as i32;
+        let entry_w = 30 + text_w + 28;
+        if x + entry_w > width as i32 && x > 20 {
+            (x, y) = (20, y + 26);
+        }
+        mark(strip, (x, y)).map_err(|message| super::error::CliError::Draw {
+            path: path.to_path_buf(),
+            message,
+        })?;
+        strip
+            .draw(&Text::new(label.clone(), (x + 30, y - 8), font.clone()))
+            .map_err(&err)?;
+        x += entry_w;
+    }
     Ok(())
 }

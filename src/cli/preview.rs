@@ -14,6 +14,8 @@ use campath::Error;
 pub const COLUMNS: u32 = 4;
 /// Pixels between tiles.
 pub const GAP: u32 = 2;
+/// Pixels of the band under each tile that holds its frame number.
+pub const LABEL: u32 = 16;
 /// Most frames in the GIF; longer sequences are sampled evenly.
 pub const GIF_FRAMES: u64 = 120;
 
@@ -74,7 +76,8 @@ pub fn write(
     let (w, h) = (raster.width, raster.height);
     let rows = (sheet_at.len() as u32).div_ceil(COLUMNS);
     let cols = (sheet_at.len() as u32).min(COLUMNS);
-    let (sheet_w, sheet_h) = (cols * w + (cols - 1) * GAP, rows * h + (rows - 1) * GAP);
+    let (row_h, sheet_w) = (h + LABEL, cols * w + (cols - 1) * GAP);
+    let sheet_h = rows * row_h + (rows - 1) * GAP;
     let mut sheet = vec![255u8; (sheet_w * sheet_h * 3) as usize];
     let mut gif_frames = Vec::new();
     let delay = image::Delay::from_numer_denom_ms(
@@ -89,7 +92,7 @@ pub fn write(
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = (
                     slot as u32 % COLUMNS * (w + GAP),
-                    slot as u32 / COLUMNS * (h + GAP),
+                    slot as u32 / COLUMNS * (row_h + GAP),
                 );
                 for y in 0..h {
                     let src = (y * w * 3) as usize;
@@ -111,6 +114,7 @@ pub fn write(
         },
     )?;
     let png = dir.join("preview.png");
+    label_frames(&mut sheet, (sheet_w, sheet_h), &sheet_at, (w, h), &png)?;
     write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
     if !gif {
         return Ok((png, None));
@@ -124,4 +128,36 @@ pub fn write(
         .and_then(|_| encoder.encode_frames(gif_frames))
         .map_err(Error::encode(gif.clone()))?;
     Ok((png, Some(gif)))
+}
+
+/// Writes each tile's frame number in the band under it.
+fn label_frames(
+    sheet: &mut [u8],
+    size: (u32, u32),
+    frames: &[u64],
+    (w, h): (u32, u32),
+    path: &Path,
+) -> Result<()> {
+    use plotters::prelude::*;
+    super::chart::register_font();
+    let root = BitMapBackend::with_buffer(sheet, size).into_drawing_area();
+    let font = (
+        "sans-serif",
+        (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0),
+    )
+        .into_font()
+        .color(&BLACK);
+    for (slot, frame) in frames.iter().enumerate() {
+        let (x, y) = (
+            slot as u32 % COLUMNS * (w + GAP),
+            slot as u32 / COLUMNS * (h + LABEL + GAP) + h + 3,
+        );
+        root.draw(&Text::new(
+            format!("{frame}"),
+            (x as i32 + 2, y as i32),
+            font.clone(),
+        ))
+        .map_err(super::chart::draw_error(path))?;
+    }
+    root.present().map_err(super::chart::draw_error(path))
 }

@@ -215,8 +215,8 @@ fn power_label(e: f64) -> String {
 }
 
 /// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG: ticks
-/// and grid lines at every decade, each point labelled beside its marker, labels moved apart
-/// where they would overlap.
+/// and grid lines at every decade, each point labelled beside its marker where the label covers
+/// no marker, line or other label.
 pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
     let floor = 1e-3;
@@ -280,6 +280,13 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .map(point)
             .collect();
         paths.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // The lines' segments in pixels, for placing the labels off them.
+        let mut segments: Vec<((i32, i32), (i32, i32))> = Vec::new();
+        for series in [&plain, &adaptive, &paths] {
+            for pair in series.windows(2) {
+                segments.push((chart.backend_coord(&pair[0]), chart.backend_coord(&pair[1])));
+            }
+        }
         for (series, color, name) in [
             (plain, BLUE, "full s×s grid"),
             (adaptive, RED, "adaptive (corners first)"),
@@ -296,32 +303,65 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
                 .draw_series(series.iter().map(|p| Circle::new(*p, 5, color.filled())))
                 .map_err(&draw_err)?;
         }
-        // Labels right of their markers; a label that would overlap a marker or a label placed
-        // before moves down a line at a time.
-        let mut placed: Vec<(i32, i32, i32)> = rows
+        // Each label at the first place around its marker that covers no marker, no line and
+        // no label placed before (or, failing that, the least of them), inside the axes.
+        let markers: Vec<(i32, i32)> = rows
             .iter()
-            .map(|r| {
-                let (px, py) = chart.backend_coord(&point(r));
-                (px - 6, py - 8, 12)
-            })
-            .collect(); // (x, y, width) in pixels
+            .map(|r| chart.backend_coord(&point(r)))
+            .collect();
+        let (xs, ys) = chart.plotting_area().get_pixel_range();
+        let mut placed: Vec<LabelBox> = Vec::new();
         for r in rows {
             let text = r.setting.short();
             let (px, py) = chart.backend_coord(&point(r));
-            let width = 8 * text.chars().count() as i32;
-            let (mut x, mut y) = (px + 9, py - 18);
-            while placed
+            let (w, h) = (8 * text.chars().count() as i32, 15);
+            let candidates = [
+                (9, -18),
+                (9, 4),
+                (-9 - w, -18),
+                (-9 - w, 4),
+                (-w / 2, -26),
+                (-w / 2, 10),
+                (9, -34),
+                (9, 20),
+                (-9 - w, -34),
+                (-9 - w, 20),
+                (-w / 2, -42),
+                (-w / 2, 26),
+            ];
+            let cost = |(dx, dy): (i32, i32)| {
+                let rect = LabelBox {
+                    x: px + dx,
+                    y: py + dy,
+                    w,
+                    h,
+                };
+                let outside = rect.x < xs.start
+                    || rect.x + w > xs.end
+                    || rect.y < ys.start
+                    || rect.y + h > ys.end;
+                let labels = placed.iter().filter(|o| o.overlaps(&rect)).count();
+                let marks = markers
+                    .iter()
+                    .filter(|&&(mx, my)| rect.grown(6).contains(mx, my))
+                    .count();
+                let lines = segments.iter().filter(|(a, b)| rect.meets(*a, *b)).count();
+                usize::from(outside) * 100 + labels * 10 + marks * 10 + lines
+            };
+            let best = candidates
                 .iter()
-                .any(|(ox, oy, ow)| (y - oy).abs() < 16 && x < ox + ow && *ox < x + width)
-            {
-                y += 16;
-            }
-            placed.push((x, y, width));
-            x -= px;
-            y -= py;
+                .copied()
+                .min_by_key(|&c| cost(c))
+                .expect("candidates");
+            placed.push(LabelBox {
+                x: px + best.0,
+                y: py + best.1,
+                w,
+                h,
+            });
             chart
                 .draw_series(std::iter::once(
-                    EmptyElement::at(point(r)) + Text::new(text, (x, y), ("sans-serif", 14)),
+                    EmptyElement::at(point(r)) + Text::new(text, best, ("sans-serif", 14)),
                 ))
                 .map_err(&draw_err)?;
         }
@@ -334,6 +374,45 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .map_err(&draw_err)?;
         Ok(())
     })
+}
+
+/// A label's box in pixels: top-left corner, width and height.
+#[derive(Clone, Copy)]
+struct LabelBox {
+    x: i32,
+    y: i32,
+    w: i32,
+    h: i32,
+}
+
+impl LabelBox {
+    fn overlaps(&self, o: &LabelBox) -> bool {
+        self.x < o.x + o.w && o.x < self.x + self.w && self.y < o.y + o.h && o.y < self.y + self.h
+    }
+
+    fn contains(&self, x: i32, y: i32) -> bool {
+        (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
+    }
+
+    fn grown(&self, by: i32) -> LabelBox {
+        LabelBox {
+            x: self.x - by,
+            y: self.y - by,
+            w: self.w + 2 * by,
+            h: self.h + 2 * by,
+        }
+    }
+
+    /// Whether the segment from `a` to `b` passes through the box (sampled every pixel or so).
+    fn meets(&self, a: (i32, i32), b: (i32, i32)) -> bool {
+        let steps = (a.0 - b.0).abs().max((a.1 - b.1).abs()).max(1);
+        (0..=steps).any(|k| {
+            let t = k as f64 / steps as f64;
+            let x = a.0 as f64 + (b.0 - a.0) as f64 * t;
+            let y = a.1 as f64 + (b.1 - a.1) as f64 * t;
+            self.contains(x.round() as i32, y.round() as i32)
+        })
+    }
 }
 
 /// One arc-length table resolution, measured against a 65,536-step reference.

@@ -8,6 +8,7 @@ use super::args::{FrameSpec, PathFormat};
 use super::error::{CliError, Result};
 use campath::document::Document;
 use campath::frames::{FrameSet, Timing};
+use campath::lock::{Claim, FolderLock, Wait};
 use campath::manifest::Shard;
 use campath::sequence::{self, Event, RenderOptions, RenderSummary};
 use campath::Error;
@@ -129,10 +130,50 @@ fn render_line(doc: &Document, dir: &Path, s: &RenderSummary) -> String {
 pub enum Progress {
     /// Nothing at all, not even the summary.
     Quiet,
-    /// A line per finished frame (for logs and pipes).
-    Lines,
+    /// For logs and pipes: a line when the run starts, then one every few seconds, and one at
+    /// the end.
+    Lines(Lines),
     /// A progress bar with frames per second and an ETA (for terminals), made at the start.
     Bar(Option<indicatif::ProgressBar>),
+}
+
+/// What [`Progress::Lines`] keeps between lines.
+pub struct Lines {
+    verb: String,
+    /// Frames of the run, and those done (kept or written).
+    frames: u64,
+    done: u64,
+    /// Frames to render (or encode) at the start, and when the work began.
+    to_do: u64,
+    began: std::time::Instant,
+    last: std::time::Instant,
+    every: std::time::Duration,
+}
+
+/// Seconds between progress lines off a terminal: `CAMPATH_PROGRESS_SECS`, 5 by default (0:
+/// a line per frame).
+fn progress_interval() -> std::time::Duration {
+    let secs = std::env::var("CAMPATH_PROGRESS_SECS")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .unwrap_or(5.0);
+    std::time::Duration::from_secs_f64(secs)
+}
+
+impl Lines {
+    fn line(&self) -> String {
+        let secs = self.began.elapsed().as_secs_f64();
+        let worked = self.done + self.to_do - self.frames;
+        format!(
+            "{}/{} frame(s), {worked} of {} to {} done in {secs:.1} s ({:.1} frames/s)",
+            self.done,
+            self.frames,
+            self.to_do,
+            self.verb,
+            worked as f64 / secs.max(1e-9)
+        )
+    }
 }
 
 impl Progress {
@@ -142,7 +183,16 @@ impl Progress {
         } else if std::io::stderr().is_terminal() {
             Progress::Bar(None)
         } else {
-            Progress::Lines
+            let now = std::time::Instant::now();
+            Progress::Lines(Lines {
+                verb: String::new(),
+                frames: 0,
+                done: 0,
+                to_do: 0,
+                began: now,
+                last: now,
+                every: progress_interval(),
+            })
         }
     }
 
@@ -165,7 +215,13 @@ impl Progress {
                 b.inc(kept);
                 *bar = Some(b);
             }
-            Progress::Lines => eprintln!("{} frame(s) to {verb}, {kept} kept", frames - kept),
+            Progress::Lines(l) => {
+                eprintln!("{} frame(s) to {verb}, {kept} kept", frames - kept);
+                let now = std::time::Instant::now();
+                l.verb = verb.to_string();
+                (l.frames, l.done, l.to_do) = (frames, kept, frames - kept);
+                (l.began, l.last) = (now, now);
+            }
             Progress::Quiet => {}
         }
     }
@@ -174,14 +230,22 @@ impl Progress {
         match (self, e) {
             (p, Event::Start { frames, kept }) => p.begin(frames, kept, "render"),
             (Progress::Bar(Some(bar)), Event::Written(_)) => bar.inc(1),
-            (Progress::Lines, Event::Written(frame)) => eprintln!("frame {frame} done"),
+            (Progress::Lines(l), Event::Written(_)) => {
+                l.done += 1;
+                if l.last.elapsed() >= l.every && l.done < l.frames {
+                    l.last = std::time::Instant::now();
+                    eprintln!("{}", l.line());
+                }
+            }
             _ => {}
         }
     }
 
     pub fn finish(self) {
-        if let Progress::Bar(Some(bar)) = self {
-            bar.finish_and_clear();
+        match self {
+            Progress::Bar(Some(bar)) => bar.finish_and_clear(),
+            Progress::Lines(l) if l.to_do > 0 => eprintln!("{}", l.line()),
+            _ => {}
         }
     }
 }
@@ -194,7 +258,32 @@ pub struct RenderArgs {
     pub shard: Option<Shard>,
     pub options: RenderOptions,
     pub quiet: bool,
+    /// Refuse instead of waiting when another run writes the folder.
+    pub no_wait: bool,
     pub stats_json: Option<PathBuf>,
+}
+
+/// How a verb waits for its output folder: not at all with `--no-wait` (refusing with exit 2),
+/// or after saying which run it waits for (unless quiet).
+pub fn with_wait<T>(
+    no_wait: bool,
+    quiet: bool,
+    f: impl FnOnce(Wait) -> campath::Result<T>,
+) -> Result<T> {
+    if no_wait {
+        return f(Wait::No).map_err(|e| match e {
+            e @ Error::Busy { .. } => CliError::Usage(format!(
+                "{e}; nothing done (without --no-wait, campath waits for it)"
+            )),
+            e => e.into(),
+        });
+    }
+    let mut report = |e: &Error| {
+        if !quiet {
+            eprintln!("campath: waiting: {e}");
+        }
+    };
+    Ok(f(Wait::Yes(&mut report))?)
 }
 
 pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
@@ -203,8 +292,11 @@ pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
         range: FrameSpec::resolve(a.frames, doc.animation.frames)?,
         shard: a.shard,
     };
+    let lock = with_wait(a.no_wait, a.quiet, |wait| {
+        sequence::lock(&doc, &a.dir, &set, wait)
+    })?;
     let mut progress = Progress::new(a.quiet);
-    let summary = sequence::render(&doc, &a.dir, &set, a.options, &mut |e| progress.event(e))?;
+    let summary = sequence::render(&doc, &lock, &set, a.options, &mut |e| progress.event(e))?;
     progress.finish();
     Stats::of(&summary.timing, summary.kept).write(a.stats_json.as_deref())?;
     if !a.quiet {
@@ -213,8 +305,18 @@ pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-pub fn merge(dir: &Path, out: &mut dyn Write) -> Result<()> {
-    let frames = sequence::merge(dir)?;
+pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
+    // Merge writes into a folder of shard renders; it makes none.
+    if !dir.is_dir() {
+        return Err(CliError::Usage(format!(
+            "{}: no such folder of shard renders",
+            dir.display()
+        )));
+    }
+    let lock = with_wait(no_wait, false, |wait| {
+        FolderLock::acquire(dir, Claim::Whole, wait)
+    })?;
+    let frames = sequence::merge(&lock)?;
     writeln!(
         out,
         "merged {frames} frame(s) into {}",

@@ -32,6 +32,8 @@ pub struct VideoArgs {
     /// H.264 constant rate factor, 0 (best) to 51.
     pub crf: u8,
     pub quiet: bool,
+    /// Refuse instead of waiting when another run writes the render folder.
+    pub no_wait: bool,
 }
 
 fn ffmpeg_missing(e: std::io::Error) -> CliError {
@@ -40,6 +42,22 @@ fn ffmpeg_missing(e: std::io::Error) -> CliError {
 
 pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     let started = Instant::now();
+    // Before anything else: a video name that says the container, and is not a folder.
+    if let Some(video) = &a.out {
+        if video.is_dir() {
+            return Err(CliError::Usage(format!(
+                "--out {} is a folder: name the video file (.mp4, or .mkv with --lossless)",
+                video.display()
+            )));
+        }
+        if a.lossless {
+            let what = "--lossless writes FFV1 in Matroska";
+            super::args::check_extension("--out", video, &["mkv"], what)?;
+        } else {
+            let what = "the video is H.264 in MP4 (--lossless: FFV1 in .mkv)";
+            super::args::check_extension("--out", video, &["mp4"], what)?;
+        }
+    }
     let doc = Document::load(&a.file)?;
     // Before rendering anything: is there an ffmpeg to hand the frames to?
     Command::new("ffmpeg")
@@ -56,15 +74,18 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| a.frames_dir.join(format!("{stem}.{ext}")));
-    super::args::create_parent(&video)?;
 
     let total = doc.animation.frames;
     let mut progress = Progress::new(a.quiet);
     let set = FrameSet::all(0..total);
     let options = RenderOptions::default();
-    sequence::render(&doc, &a.frames_dir, &set, options, &mut |e| {
-        progress.event(e)
+    // Held until the video is written: the frames are read back for ffmpeg.
+    let lock = super::verbs::with_wait(a.no_wait, a.quiet, |wait| {
+        sequence::lock(&doc, &a.frames_dir, &set, wait)
     })?;
+    // Before rendering: that the video can be written where it goes.
+    super::args::check_writable(&video)?;
+    sequence::render(&doc, &lock, &set, options, &mut |e| progress.event(e))?;
     progress.finish();
 
     let manifest_path = a.frames_dir.join("hashes.txt");

@@ -39,8 +39,11 @@ struct Status {
 }
 
 /// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide.
-pub fn run(file: &Path, dir: &Path, width: u32, out: &mut dyn Write) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
+pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Write) -> Result<()> {
+    // The folder is this watch's until it stops.
+    let _lock = super::verbs::with_wait(no_wait, false, |wait| {
+        campath::lock::FolderLock::acquire(dir, campath::lock::Claim::Whole, wait)
+    })?;
     let name = file
         .file_name()
         .map(|n| n.to_os_string())

@@ -8,6 +8,7 @@ use super::{Checker, MAX_FRAMES};
 use crate::animation::{Animation, Pointing};
 use crate::camera::window_extent;
 use crate::format::{CameraSpec, FileSpec};
+use crate::mode::Mode;
 use crate::raster::Raster;
 
 impl Checker {
@@ -31,7 +32,13 @@ impl Checker {
         };
         let cop = self.cop(cam);
         let tracks = self.tracks(&spec.animate, vuv.unwrap_or(DVec3::Y));
-        let pointing = self.pointing(cam, tracks.look_around.is_some() || tracks.track.is_some());
+        let setter = spec
+            .animate
+            .iter()
+            .enumerate()
+            .find(|(_, t)| matches!(t.mode(), Mode::LookAround | Mode::Track))
+            .map(|(i, t)| (format!("animate[{i}] ({})", t.mode()), t.mode()));
+        let pointing = self.pointing(cam, setter);
         let window = self.window(cam, cop, raster);
         let frames = self.frames(spec.frames, fps, &tracks);
         Some(Animation {
@@ -68,8 +75,24 @@ impl Checker {
         }
     }
 
-    /// A VPN or a target point, not both; neither only when a track sets the view direction.
-    fn pointing(&mut self, cam: &CameraSpec, animated: bool) -> Option<Pointing> {
+    /// A VPN or a target point, not both; neither when a track (`setter`: its field and mode)
+    /// sets the view direction at every frame, since the track would override them.
+    fn pointing(&mut self, cam: &CameraSpec, setter: Option<(String, Mode)>) -> Option<Pointing> {
+        if let Some((track, mode)) = &setter {
+            let what = match mode {
+                Mode::Track => "the view direction (towards its targets)",
+                _ => "the view direction",
+            };
+            for (field, given) in [("camera.vpn", cam.vpn), ("camera.tp", cam.tp)] {
+                if given.is_some() {
+                    let message = format!(
+                        "{track} sets {what} at every frame, so this would be ignored; remove it"
+                    );
+                    self.problem(field, message);
+                }
+            }
+            return (cam.vpn.is_none() && cam.tp.is_none()).then_some(Pointing::Vpn(DVec3::Z));
+        }
         match (cam.vpn, cam.tp) {
             (Some(_), Some(_)) => {
                 self.problem(
@@ -80,7 +103,6 @@ impl Checker {
             }
             (Some(v), None) => self.direction("camera.vpn", v).map(Pointing::Vpn),
             (None, Some(t)) => self.triple("camera.tp", t).map(Pointing::Target),
-            (None, None) if animated => Some(Pointing::Vpn(DVec3::Z)),
             (None, None) => {
                 self.problem("camera", "needs vpn (view direction) or tp (target point), or a LookAround or Track animation");
                 None
@@ -89,17 +111,13 @@ impl Checker {
     }
 
     /// 1 to [`MAX_FRAMES`]; by default enough frames to reach the last key.
-    fn frames(&mut self, frames: Option<u64>, fps: Option<f64>, tracks: &Tracks) -> Option<u64> {
+    fn frames(&mut self, frames: Option<i64>, fps: Option<f64>, tracks: &Tracks) -> Option<u64> {
         match frames {
-            Some(0) => {
-                self.problem("frames", "must be at least 1");
+            Some(f) if f < 1 || f as u64 > MAX_FRAMES => {
+                self.problem("frames", format!("must lie in 1..={MAX_FRAMES}, got {f}"));
                 None
             }
-            Some(f) if f > MAX_FRAMES => {
-                self.problem("frames", format!("at most {MAX_FRAMES}, got {f}"));
-                None
-            }
-            Some(f) => Some(f),
+            Some(f) => Some(f as u64),
             None => fps.map(|fps| {
                 let end = tracks.last_key_time();
                 ((end * fps).floor() as u64)

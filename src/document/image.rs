@@ -6,19 +6,23 @@ use crate::raster::{Raster, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
 
 impl Checker {
     pub(super) fn raster(&mut self, image: &format::ImageSpec) -> Option<Raster> {
-        let width = image.width.unwrap_or(640);
-        let height = image.height.unwrap_or(360);
-        let samples = image.samples.unwrap_or(1);
         let mut ok = true;
-        for (field, side) in [("image.width", width), ("image.height", height)] {
-            if side == 0 || side > MAX_SIDE {
-                self.problem(
-                    field,
-                    format!("must lie in 1..={MAX_SIDE} pixels, got {side}"),
-                );
-                ok = false;
+        let mut side = |c: &mut Self, field: &str, value: Option<i64>, default: u32| {
+            let value = value.unwrap_or(i64::from(default));
+            match u32::try_from(value) {
+                Ok(v) if (1..=MAX_SIDE).contains(&v) => v,
+                _ => {
+                    c.problem(
+                        field,
+                        format!("must lie in 1..={MAX_SIDE} pixels, got {value}"),
+                    );
+                    ok = false;
+                    1
+                }
             }
-        }
+        };
+        let width = side(self, "image.width", image.width, 640);
+        let height = side(self, "image.height", image.height, 360);
         if ok && u64::from(width) * u64::from(height) > MAX_PIXELS {
             self.problem(
                 "image",
@@ -26,13 +30,18 @@ impl Checker {
             );
             ok = false;
         }
-        if samples == 0 || samples > MAX_SAMPLES {
-            self.problem(
-                "image.samples",
-                format!("must lie in 1..={MAX_SAMPLES} (an s×s grid per pixel), got {samples}"),
-            );
-            ok = false;
-        }
+        let samples = image.samples.unwrap_or(1);
+        let samples = match u32::try_from(samples) {
+            Ok(s) if (1..=MAX_SAMPLES).contains(&s) => s,
+            _ => {
+                self.problem(
+                    "image.samples",
+                    format!("must lie in 1..={MAX_SAMPLES} (an s×s grid per pixel), got {samples}"),
+                );
+                ok = false;
+                1
+            }
+        };
         ok.then_some(Raster {
             width,
             height,

@@ -25,8 +25,11 @@ pub const MAX_FRAMES: u64 = 10_000_000;
 pub struct Document {
     /// Where it was read from, for messages.
     pub path: PathBuf,
+    /// Image size and sampling.
     pub raster: Raster,
+    /// The camera and its tracks, with the frame count and rate.
     pub animation: Animation,
+    /// The spheres and lights.
     pub scene: Scene,
     /// The sphere files the scene names, in order, with how many spheres each gave.
     pub sphere_files: Vec<SphereFile>,
@@ -39,6 +42,7 @@ pub struct SphereFile {
     pub name: String,
     /// Where it was read from: relative to the keyframe file's folder.
     pub path: PathBuf,
+    /// How many spheres it gave.
     pub spheres: usize,
 }
 
@@ -54,6 +58,8 @@ impl Document {
     }
 
     /// Checks a parsed file; the sphere files it names are read relative to `path`'s folder.
+    /// Problems are listed in the order of the file's sections ([`FileSpec::order`]; the
+    /// checker's order within a section and where it is unknown).
     pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
         let folder = path.parent().unwrap_or(Path::new(""));
         let files: Vec<ReadFile> = spec
@@ -71,13 +77,28 @@ impl Document {
             })
             .collect();
         let mut c = Checker::default();
+        let order = spec.order.clone();
         let doc = c.document(path, spec, &files);
         match doc {
             Some(doc) if c.problems.is_empty() => Ok(doc),
-            _ => Err(Error::Invalid {
-                path: path.to_path_buf(),
-                problems: Problems(c.problems),
-            }),
+            _ => {
+                let mut problems = c.problems;
+                // By section, then by field within it (`camera.vpn`), as the file writes them.
+                let at = |name: &str| order.iter().position(|s| s == name).unwrap_or(usize::MAX);
+                problems.sort_by_key(|p| {
+                    let mut parts = p.field.split(['.', '[', ' ']);
+                    let section = parts.next().unwrap_or("");
+                    let field = p.field[section.len()..]
+                        .strip_prefix('.')
+                        .and_then(|rest| rest.split(['.', '[', ' ']).next())
+                        .map_or(usize::MAX, |f| at(&format!("{section}.{f}")));
+                    (at(section), field)
+                });
+                Err(Error::Invalid {
+                    path: path.to_path_buf(),
+                    problems: Problems(problems),
+                })
+            }
         }
     }
 
@@ -224,6 +245,13 @@ impl Checker {
         // A static camera must be well formed at its first frame; animated ones are checked
         // frame by frame when evaluated.
         if let Err(e) = doc.animation.camera_at(0.0, None) {
+            if let (CameraError::ZeroVpn, Some(field)) = (e, track_at_zero(&spec)) {
+                self.problem(
+                    field,
+                    "at t = 0 s: the target equals the VRP, so the camera has no view direction; move the target or the VRP",
+                );
+                return Some(doc);
+            }
             let field = match e {
                 CameraError::ZeroVpn if matches!(doc.animation.pointing, Pointing::Target(_)) => {
                     "camera.tp"
@@ -237,4 +265,20 @@ impl Checker {
         }
         Some(doc)
     }
+}
+
+/// The field that holds the target of `spec`'s Track at t = 0, if it has a Track: its key at
+/// t = 0, or its first key if that comes later (the track holds it until then), or the track.
+fn track_at_zero(spec: &FileSpec) -> Option<String> {
+    spec.animate.iter().enumerate().find_map(|(i, t)| match t {
+        format::TrackSpec::Track { keys, .. } => {
+            let field = format!("animate[{i}] ({})", t.mode());
+            Some(match keys.iter().position(|k| k.t == 0.0) {
+                Some(k) => format!("{field}.keys[{k}]"),
+                None if keys.first().is_some_and(|k| k.t > 0.0) => format!("{field}.keys[0]"),
+                None => field,
+            })
+        }
+        _ => None,
+    })
 }

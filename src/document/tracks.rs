@@ -110,9 +110,9 @@ impl Checker {
         keys: &[KeySpec<Triple>],
         interpolation: Option<InterpolationSpec>,
         speed: Option<SpeedSpec>,
-        arc_samples: Option<u32>,
+        arc_samples: Option<i64>,
     ) -> Option<PathTrack> {
-        let samples = arc_samples.unwrap_or(UniformSpeed::DEFAULT_SAMPLES);
+        let samples = arc_samples.unwrap_or(i64::from(UniformSpeed::DEFAULT_SAMPLES));
         let samples_ok = (1..=1 << 20).contains(&samples);
         if !samples_ok {
             self.problem(
@@ -131,7 +131,9 @@ impl Checker {
             return None;
         }
         Some(match speed {
-            Some(SpeedSpec::Uniform) => PathTrack::Uniform(UniformSpeed::new(track, samples)),
+            Some(SpeedSpec::Uniform) => {
+                PathTrack::Uniform(UniformSpeed::new(track, samples as u32))
+            }
             _ => PathTrack::Keyed(track),
         })
     }

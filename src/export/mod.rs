@@ -103,6 +103,7 @@ pub struct Dropped {
     pub off_axis: u64,
     /// The first and last such frame (numbered from 0, as in campath).
     pub first: u64,
+    /// The last such frame.
     pub last: u64,
 }
 

@@ -35,10 +35,15 @@ pub const FILM_WIDTH: f64 = 0.36;
 /// scene unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UsdLens {
+    /// `focalLength`: [`FILM_WIDTH`] · d / w.
     pub focal_length: f64,
+    /// `horizontalAperture`: [`FILM_WIDTH`].
     pub horizontal_aperture: f64,
+    /// `verticalAperture`: the film back's height in the window's aspect.
     pub vertical_aperture: f64,
+    /// `horizontalApertureOffset`: the COP's u offset on the film back, negated.
     pub horizontal_offset: f64,
+    /// `verticalApertureOffset`: the COP's v offset on the film back, negated.
     pub vertical_offset: f64,
 }
 

@@ -18,49 +18,82 @@ pub type Triple = (f64, f64, f64);
 /// `(a, b)`: a window's (width, height) or a COP's (u, v).
 pub type Pair = (f64, f64);
 
+/// The whole keyframe file (docs/format.md).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "file")]
 pub struct FileSpec {
-    pub frames: Option<u64>,
+    /// Any whole number, so that the checker can say what range it must lie in.
+    pub frames: Option<i64>,
+    /// Frames per second, > 0 (default 24).
     pub fps: Option<f64>,
+    /// Image size and sampling.
     #[serde(default)]
     pub image: ImageSpec,
+    /// The base camera.
     pub camera: CameraSpec,
+    /// The tracks, at most one per animated parameter.
     #[serde(default)]
     pub animate: Vec<TrackSpec>,
+    /// Spheres, lights, background and ambient.
     #[serde(default)]
     pub scene: SceneSpec,
+    /// The file's fields in the order it writes them, top-level (`frames`, `camera`) and one
+    /// level down (`camera.vpn`, `image.width`), for listing problems in the file's order.
+    /// Filled by [`parse`].
+    #[serde(skip)]
+    pub order: Vec<String>,
 }
 
+/// The file's `image`.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, rename = "image")]
 pub struct ImageSpec {
-    pub width: Option<u32>,
-    pub height: Option<u32>,
-    pub samples: Option<u32>,
+    /// Whole numbers of any sign; the checker says the range each must lie in.
+    pub width: Option<i64>,
+    /// Pixels, 1 to 16384 (default 360).
+    pub height: Option<i64>,
+    /// An s×s grid of samples per pixel, 1 to 16 (default 1).
+    pub samples: Option<i64>,
+    /// With s ≥ 2, trace the grid's corners first (default false).
     pub adaptive: Option<bool>,
 }
 
+/// The file's `camera`; see docs/format.md for each field.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, rename = "camera")]
 pub struct CameraSpec {
+    /// View Reference Point, world units (default the origin).
     pub vrp: Option<Triple>,
+    /// View Plane Normal, any length ≠ 0; or `tp`.
     pub vpn: Option<Triple>,
+    /// Target point (look-at), instead of `vpn`.
     pub tp: Option<Triple>,
+    /// View Up Vector (default (0, 1, 0)).
     pub vuv: Option<Triple>,
+    /// Centre Of Projection in view coordinates (u, v, n), n < 0 (default (0, 0, −1)).
     pub cop: Option<Triple>,
+    /// Window (width, height) on the view plane, world units; or a field of view.
     pub window: Option<Pair>,
+    /// Horizontal field of view, degrees in (0, 180).
     pub hfov: Option<f64>,
+    /// Vertical field of view, degrees in (0, 180).
     pub vfov: Option<f64>,
 }
 
+/// How a track moves between two keys.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 pub enum InterpolationSpec {
+    /// Holds each key's value until the next key.
     Step,
+    /// Straight line at constant speed (slerp for directions).
     Linear,
+    /// Eases in and out: (1 − cos(πs)) / 2.
     Cosine,
+    /// Catmull-Rom through the keys, mirrored phantom keys at the ends.
     CatmullRom,
+    /// A monotone cubic: no overshoot between keys.
     Monotone,
+    /// Centripetal Catmull-Rom: no cusps or loops within a segment.
     Centripetal,
 }
 
@@ -73,37 +106,59 @@ pub enum SpeedSpec {
     Uniform,
 }
 
+/// One key of a track.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "key")]
 pub struct KeySpec<V> {
+    /// Seconds.
     pub t: f64,
+    /// The animated parameter's value at `t`.
     pub value: V,
+    /// The segment from this key to the next, overriding the track's.
     pub interpolation: Option<InterpolationSpec>,
 }
 
+/// One track of `animate`: the mode it animates and its keys.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "animate")]
 pub enum TrackSpec {
+    /// Animates the VRP.
     Observer {
+        /// VRP positions, world units.
         keys: Vec<KeySpec<Triple>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
+        /// `Keyed` (default) or `Uniform` (constant speed along the path).
         speed: Option<SpeedSpec>,
-        arc_samples: Option<u32>,
+        /// Arc-length table steps per key segment with `Uniform` (default 256).
+        arc_samples: Option<i64>,
     },
+    /// Animates the VPN, on the unit sphere.
     LookAround {
+        /// View directions, any length ≠ 0.
         keys: Vec<KeySpec<Triple>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
+    /// Animates the target point: VPN = TP − VRP.
     Track {
+        /// Target points, world units.
         keys: Vec<KeySpec<Triple>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
+    /// Animates the COP's n (along the VPN).
     Zoom {
+        /// The COP's n, < 0.
         keys: Vec<KeySpec<f64>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
+    /// Animates the COP's (u, v) (across the VPN).
     Distort {
+        /// The COP's (u, v).
         keys: Vec<KeySpec<Pair>>,
+        /// Default for every segment.
         interpolation: Option<InterpolationSpec>,
     },
 }
@@ -121,13 +176,18 @@ impl TrackSpec {
     }
 }
 
+/// The file's `scene`.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields, rename = "scene")]
 pub struct SceneSpec {
+    /// Linear RGB where no sphere is hit (default black).
     pub background: Option<Triple>,
+    /// Ambient term, ≥ 0 (default 1 without lights, 0.1 with).
     pub ambient: Option<f64>,
+    /// Directional lights.
     #[serde(default)]
     pub lights: Vec<LightSpec>,
+    /// The spheres.
     #[serde(default)]
     pub spheres: Vec<SphereSpec>,
     /// PLY or CSV files of more spheres, relative to the keyframe file; their spheres follow
@@ -136,19 +196,27 @@ pub struct SceneSpec {
     pub sphere_files: Vec<String>,
 }
 
+/// A directional light.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "light")]
 pub struct LightSpec {
+    /// The direction the light travels, any length ≠ 0.
     pub direction: Triple,
+    /// Linear RGB, ≥ 0 (default white).
     pub color: Option<Triple>,
+    /// Whether spheres cast shadows from it (default true).
     pub shadows: Option<bool>,
 }
 
+/// A sphere.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, rename = "sphere")]
 pub struct SphereSpec {
+    /// World units.
     pub center: Triple,
+    /// World units, > 0.
     pub radius: f64,
+    /// Linear RGB in [0, 1] (default white).
     pub color: Option<Triple>,
 }
 
@@ -157,15 +225,146 @@ pub struct SphereSpec {
 /// without RON (`quick.rs`), on one thread as on several; the result, and any error, is the
 /// same as RON's on the whole text.
 pub fn parse(path: &Path, text: &str) -> Result<FileSpec> {
-    if let Some(spec) = pieces::parse(text, pieces::PIECE_BYTES) {
-        return Ok(spec);
+    // A byte-order mark some editors write first: not part of the text (columns on the first
+    // line are counted as the editor shows them, without it).
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let spec = match pieces::parse(text, pieces::PIECE_BYTES) {
+        Some(spec) => Ok(spec),
+        None => options().from_str::<FileSpec>(text),
+    };
+    let mut spec = spec.map_err(|e| {
+        let (line, col) = (e.span.start.line, e.span.start.col);
+        Error::Parse {
+            path: path.to_path_buf(),
+            line,
+            col,
+            message: message(text, line, col, &e.code),
+        }
+    })?;
+    spec.order = field_order(text);
+    Ok(spec)
+}
+
+/// The names of the outermost struct's fields and of the fields of the structs they hold
+/// (`camera.vpn`), in the order the text writes them; strings and comments are passed over.
+fn field_order(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut depth = 0usize;
+    let mut top = String::new();
+    let mut chars = text.char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
+        match c {
+            '"' => {
+                while let Some((_, c)) = chars.next() {
+                    match c {
+                        '\\' => {
+                            chars.next();
+                        }
+                        '"' => break,
+                        _ => {}
+                    }
+                }
+            }
+            '/' if chars.peek().map(|p| p.1) == Some('/') => {
+                for (_, c) in chars.by_ref() {
+                    if c == '\n' {
+                        break;
+                    }
+                }
+            }
+            '/' if chars.peek().map(|p| p.1) == Some('*') => {
+                chars.next();
+                let mut prev = ' ';
+                for (_, c) in chars.by_ref() {
+                    if prev == '*' && c == '/' {
+                        break;
+                    }
+                    prev = c;
+                }
+            }
+            '(' | '[' | '{' => depth += 1,
+            ')' | ']' | '}' => depth = depth.saturating_sub(1),
+            c if (depth == 1 || depth == 2) && (c.is_ascii_alphabetic() || c == '_') => {
+                let mut end = i + c.len_utf8();
+                while let Some(&(j, d)) = chars.peek() {
+                    if d.is_ascii_alphanumeric() || d == '_' {
+                        end = j + d.len_utf8();
+                        chars.next();
+                    } else {
+                        break;
+                    }
+                }
+                if text[end..].trim_start().starts_with(':') {
+                    let name = &text[i..end];
+                    if depth == 1 {
+                        top = name.to_string();
+                        out.push(top.clone());
+                    } else {
+                        out.push(format!("{top}.{name}"));
+                    }
+                }
+            }
+            _ => {}
+        }
     }
-    options().from_str(text).map_err(|e| Error::Parse {
-        path: path.to_path_buf(),
-        line: e.span.start.line,
-        col: e.span.start.col,
-        message: e.code.to_string(),
-    })
+    out
+}
+
+/// RON's message in the file's words: the field a bad value belongs to, and the file's names
+/// for what RON calls by campath's type names.
+fn message(text: &str, line: usize, col: usize, code: &ron::Error) -> String {
+    let field = field_before(text, line, col);
+    let message = match code {
+        ron::Error::NoSuchEnumVariant {
+            expected, found, ..
+        } => {
+            let what = match field {
+                Some("interpolation") => "an interpolation",
+                Some("speed") => "a speed",
+                _ if expected.contains(&"Observer") => "a track",
+                _ => "a name campath knows here",
+            };
+            return format!(
+                "`{found}` is not {what}; expected one of {}",
+                expected
+                    .iter()
+                    .map(|e| format!("`{e}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        ron::Error::IntegerOutOfBounds => {
+            "the number is out of range for a whole number (at most 9223372036854775807)"
+                .to_string()
+        }
+        other => other.to_string(),
+    };
+    match field {
+        Some(f) => format!("{f}: {message}"),
+        None => message,
+    }
+}
+
+/// The field whose value starts at `line`:`col` (1-based, columns in characters), if the text
+/// there follows `name:`.
+fn field_before(text: &str, line: usize, col: usize) -> Option<&str> {
+    let start: usize = text
+        .split_inclusive('\n')
+        .take(line.saturating_sub(1))
+        .map(str::len)
+        .sum();
+    let row = text.get(start..)?;
+    let offset = row
+        .char_indices()
+        .nth(col.saturating_sub(1))
+        .map_or(row.len(), |(i, _)| i);
+    let before = text.get(..start + offset)?.trim_end().strip_suffix(':')?;
+    let before = before.trim_end();
+    let name_start = before
+        .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+        .map_or(0, |i| i + 1);
+    let name = &before[name_start..];
+    (!name.is_empty() && !name.starts_with(|c: char| c.is_ascii_digit())).then_some(name)
 }
 
 /// RON as campath reads it.
@@ -173,8 +372,90 @@ fn options() -> ron::Options {
     ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
 }
 
-/// Reads and parses a keyframe file.
+/// Reads and parses a keyframe file, which must be UTF-8 (a leading byte-order mark is
+/// skipped).
 pub fn read(path: &Path) -> Result<FileSpec> {
-    let text = std::fs::read_to_string(path).map_err(Error::read(path.to_path_buf()))?;
-    parse(path, &text)
+    let bytes = std::fs::read(path).map_err(Error::read(path.to_path_buf()))?;
+    parse(path, utf8(path, &bytes)?)
+}
+
+/// The file's bytes as text, or a parse error at the line and column of the first byte that
+/// is not UTF-8.
+fn utf8<'a>(path: &Path, bytes: &'a [u8]) -> Result<&'a str> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let good = std::str::from_utf8(&bytes[..e.valid_up_to()]).expect("valid up to here");
+        let good = good.strip_prefix('\u{feff}').unwrap_or(good);
+        let last = good.rsplit('\n').next().unwrap_or("");
+        Error::Parse {
+            path: path.to_path_buf(),
+            line: good.matches('\n').count() + 1,
+            col: last.chars().count() + 1,
+            message: format!(
+                "the file is not UTF-8: byte 0x{:02X} does not belong here (a file saved as \
+                 Latin-1 or Windows-1252?); save it as UTF-8",
+                bytes[e.valid_up_to()]
+            ),
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fields_in_the_order_written() {
+        let text = "// frames: 1\n(scene: (spheres: [(center: (0.0, 0.0, 0.0))]), /* fps: 2 */\n \
+                    camera: (vpn: (0.0, 0.0, 1.0)), frames: 3, animate: [Observer(keys: [])])";
+        assert_eq!(
+            field_order(text),
+            [
+                "scene",
+                "scene.spheres",
+                "camera",
+                "camera.vpn",
+                "frames",
+                "animate"
+            ]
+        );
+    }
+
+    #[test]
+    fn the_field_before_a_value() {
+        let text = "(\n  frames: -5,\n  image: (width:  -1))";
+        assert_eq!(field_before(text, 2, 11), Some("frames"));
+        assert_eq!(field_before(text, 3, 19), Some("width"));
+        assert_eq!(field_before(text, 3, 10), Some("image"));
+        assert_eq!(field_before(text, 3, 11), None);
+        assert_eq!(field_before(text, 1, 1), None);
+        assert_eq!(field_before("(a: (1.0 2.0))", 1, 10), None);
+    }
+
+    #[test]
+    fn the_first_byte_that_is_not_utf8_is_placed() {
+        // "é" in Latin-1 is the single byte 0xE9, which UTF-8 reads as an unfinished character.
+        let bytes = b"(\n  // caf\xe9\n)";
+        let e = utf8(Path::new("x.ron"), bytes).unwrap_err();
+        let Error::Parse {
+            line, col, message, ..
+        } = e
+        else {
+            panic!("{e}")
+        };
+        assert_eq!((line, col), (2, 9));
+        assert!(message.contains("0xE9"), "{message}");
+        // A BOM is not a column.
+        let e = utf8(Path::new("x.ron"), b"\xef\xbb\xbfab\xff").unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::Parse {
+                    line: 1,
+                    col: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
 }

@@ -36,7 +36,9 @@ impl std::fmt::Display for Location {
 /// What is wrong with a sphere file's form, and where.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FileProblem {
+    /// Where in the file, when the problem has a place (not for a missing header line).
     pub at: Option<Location>,
+    /// What is wrong.
     pub message: String,
 }
 
@@ -59,6 +61,7 @@ impl FileProblem {
 /// A sphere file's spheres, unchecked, in file order.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Spheres {
+    /// The spheres, unchecked, in file order.
     pub spheres: Vec<SphereSpec>,
     /// Each sphere's line, for a text file whose lines are not one a sphere (CSV with blank
     /// lines); empty when sphere `i` is at [`Spheres::location`]'s default.

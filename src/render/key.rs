@@ -35,6 +35,7 @@ impl std::fmt::Display for FrameKey {
 pub struct KeyBase(Sha256);
 
 impl KeyBase {
+    /// The part of every frame key that does not change between frames: scene and raster.
     pub fn new(scene: &Scene, raster: Raster) -> KeyBase {
         let mut h = Feed(Sha256::new());
         h.bytes(b"campath frame key");

@@ -134,6 +134,7 @@ impl Simd {
         }))
     }
 
+    /// The path's name, as `CAMPATH_SIMD` takes it.
     pub fn name(self) -> &'static str {
         match self {
             Simd::Scalar => "scalar",

@@ -28,6 +28,7 @@ struct Node {
 
 /// A scene ready to render: its spheres in a hierarchy and its lights' shadow grids.
 pub struct SceneIndex<'a> {
+    /// The scene indexed.
     pub scene: &'a Scene,
     nodes: Vec<Node>,
     order: Vec<u32>,

@@ -74,7 +74,20 @@ fn frames_option_and_out_option() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["frame_0001.png", "frame_0002.png", "hashes.txt"]);
+    // The folder's lock file stays, empty, once the run is over (see docs/farms.md).
+    assert_eq!(
+        names,
+        [
+            "campath.lock",
+            "frame_0001.png",
+            "frame_0002.png",
+            "hashes.txt"
+        ]
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("elsewhere/campath.lock")).unwrap(),
+        ""
+    );
     let all = stdout(&campath(tmp.path(), &["hash", &f], &[]));
     let part = std::fs::read_to_string(tmp.path().join("elsewhere/hashes.txt")).unwrap();
     let expect: String = all
@@ -158,10 +171,9 @@ fn check_accepts_every_example() {
     }
 }
 
-/// Runs `check` and `render` on bad input: exit status 2, nothing written, and every expected
-/// fragment in the message.
 /// Every `tests/data/bad/NAME.ron` is refused by `check` and `render` with exit status 2, writing
-/// nothing, and with every line of `NAME.expected` in the message. A new case is two files.
+/// nothing, and with every line of `NAME.expected` in the message, in that order (a line
+/// `!TEXT`: TEXT must not be in it). A new case is two files.
 #[test]
 fn bad_input_cases_are_refused_with_their_messages() {
     let dir = root().join("tests/data/bad");
@@ -193,17 +205,108 @@ fn bad_input_cases_are_refused_with_their_messages() {
             let err = stderr(&o);
             assert_eq!(o.status.code(), Some(2), "{name}, {verb}: {err}");
             assert!(!err.contains("panicked"), "{name}: {err}");
+            assert!(err.starts_with("campath: error: "), "{name}, {verb}: {err}");
+            // Each line in turn, after the one before: problems come in the file's order.
+            let mut rest = err.as_str();
             for want in expected.lines().filter(|l| !l.is_empty()) {
-                assert!(
-                    err.contains(want),
-                    "{name}, {verb}: expected {want:?} in:\n{err}"
-                );
+                if let Some(absent) = want.strip_prefix('!') {
+                    assert!(
+                        !err.contains(absent),
+                        "{name}, {verb}: {absent:?} must not be in:\n{err}"
+                    );
+                    continue;
+                }
+                let at = rest.find(want).unwrap_or_else(|| {
+                    panic!(
+                        "{name}, {verb}: expected {want:?} (after the lines before it) in:\n{err}"
+                    )
+                });
+                rest = &rest[at + want.len()..];
             }
         }
         assert!(
             !tmp.path().join("out").exists(),
             "{name}: bad input must write nothing"
         );
+    }
+}
+
+#[test]
+fn a_leading_byte_order_mark_is_skipped() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = "(camera: (vpn: (0.0, 0.0, 1.0)), frames: 2, image: (width: 8, height: 8))";
+    std::fs::write(tmp.path().join("plain.ron"), text).unwrap();
+    std::fs::write(tmp.path().join("bom.ron"), format!("\u{feff}{text}")).unwrap();
+    assert_eq!(
+        std::fs::read(tmp.path().join("bom.ron")).unwrap()[..3],
+        [0xEF, 0xBB, 0xBF]
+    );
+    let plain = campath(tmp.path(), &["hash", "plain.ron"], &[]);
+    let bom = campath(tmp.path(), &["hash", "bom.ron"], &[]);
+    assert!(bom.status.success(), "{}", stderr(&bom));
+    assert_eq!(stdout(&bom), stdout(&plain));
+    // Columns on the first line are counted without it, as an editor shows them: "1.0" is the
+    // 26th character.
+    let bad = "(camera: (vpn: (0.0, 0.0 1.0)))";
+    assert_eq!(bad.chars().position(|c| c == '1'), Some(25));
+    std::fs::write(tmp.path().join("bad.ron"), format!("\u{feff}{bad}")).unwrap();
+    let o = campath(tmp.path(), &["check", "bad.ron"], &[]);
+    assert!(stderr(&o).contains("bad.ron:1:26: "), "{}", stderr(&o));
+}
+
+#[test]
+fn output_paths_say_the_format_and_are_checked_before_any_work() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = write(tmp.path(), "small.ron", SMALL);
+    // path: the format from the extension when --format is not given.
+    for (out, starts) in [
+        ("shot.glb", &b"glTF"[..]),
+        ("shot.gltf", b"{"),
+        ("shot.json", b"["),
+        ("shot.csv", b"frame,"),
+        ("shot.py", b"#"),
+    ] {
+        let o = campath(tmp.path(), &["path", &f, "--out", out], &[]);
+        assert!(o.status.success(), "{out}: {}", stderr(&o));
+        let bytes = std::fs::read(tmp.path().join(out)).unwrap();
+        assert!(bytes.starts_with(starts), "{out}: {:?}", &bytes[..8]);
+    }
+    let py = std::fs::read_to_string(tmp.path().join("shot.py")).unwrap();
+    assert!(py.contains("import bpy"), "{py}");
+    // Given both, they must agree; nothing is written otherwise.
+    std::fs::create_dir(tmp.path().join("clips")).unwrap();
+    for (args, want) in [
+        (
+            &["path", &f, "--format", "csv", "--out", "x.glb"][..],
+            "--out x.glb names a glTF file, but --format csv writes CSV",
+        ),
+        (
+            &["plot", &f, "--out", "plot.jpg"],
+            "--out plot.jpg: plot writes PNG; name it .png",
+        ),
+        (
+            &["report", &f, "--plot", "r.jpg"],
+            "--plot r.jpg: the report's plot is PNG; name it .png",
+        ),
+        (
+            &["video", &f, "--lossless", "--out", "shot.mp4"],
+            "--out shot.mp4: --lossless writes FFV1 in Matroska; name it .mkv",
+        ),
+        (
+            &["video", &f, "--out", "shot.mkv"],
+            "--out shot.mkv: the video is H.264 in MP4 (--lossless: FFV1 in .mkv); name it .mp4",
+        ),
+        (
+            &["video", &f, "--out", "clips"],
+            "--out clips is a folder: name the video file",
+        ),
+    ] {
+        let o = campath(tmp.path(), args, &[]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+    }
+    for name in ["x.glb", "plot.jpg", "r.jpg", "shot.mp4", "shot.mkv", "out"] {
+        assert!(!tmp.path().join(name).exists(), "{name} was written");
     }
 }
 
@@ -251,11 +354,37 @@ fn bad_option_values_name_the_allowed_range() {
             &["report", &f, "--plot", "a-file/report.png"],
             "a-file is a file, not a folder",
         ),
+        // Values and options clap refuses read like every other error.
+        (
+            &["render", &f, "--frames", "x"],
+            "invalid value 'x' for '--frames <FRAMES>'",
+        ),
+        (&["render", &f, "--bogus"], "unexpected argument '--bogus'"),
+        (&["bogus"], "unrecognized subcommand 'bogus'"),
     ] {
         let o = campath(tmp.path(), args, &[]);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+        assert!(
+            stderr(&o).starts_with("campath: error: ") && !stderr(&o).contains("\nerror:"),
+            "{args:?}: one style for every error: {}",
+            stderr(&o)
+        );
     }
+    // Help and version are not errors.
+    for args in [&["--help"][..], &["--version"], &["render", "--help"]] {
+        let o = campath(tmp.path(), args, &[]);
+        assert_eq!(o.status.code(), Some(0), "{args:?}");
+        assert!(stderr(&o).is_empty() && !stdout(&o).is_empty(), "{args:?}");
+    }
+    // No command at all: the help, on standard error, with exit 2.
+    let o = campath(tmp.path(), &[], &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("Usage: campath <COMMAND>") && !stderr(&o).contains("error"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -534,8 +663,38 @@ fn completions_and_the_manual_come_from_the_clap_definitions() {
     assert_eq!(stdout(&o).trim(), "render report", "{}", stderr(&o));
     let man = stdout(&campath(tmp.path(), &["man"], &[]));
     assert!(man.contains(".TH campath 1"), "{man}");
+    // One page holds everything: every command with its options, exit status, the file.
+    for verb in verbs
+        .iter()
+        .chain(&["video", "watch", "completions", "man"])
+    {
+        assert!(
+            man.contains(&format!(".SS \"campath {verb}\"")),
+            "the manual lacks {verb}"
+        );
+    }
+    for want in [
+        "\\-\\-no\\-wait",
+        "\\-\\-lossless",
+        "\\-\\-shard",
+        ".SH \"EXIT STATUS\"",
+        ".SH ENVIRONMENT",
+        "CAMPATH_SIMD",
+        ".SH FILES",
+    ] {
+        assert!(man.contains(want), "the manual lacks {want}");
+    }
+    // It names no page that is not produced.
+    assert!(!man.contains("campath\\-render(1)"), "{man}");
+    // --dir writes it and a page per command, the ones its parts point at.
+    let o = campath(tmp.path(), &["man", "--dir", "man1"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = std::fs::read_to_string(tmp.path().join("man1/campath.1")).unwrap();
+    assert_eq!(page, man);
     for verb in verbs {
-        assert!(man.contains(verb), "the manual lacks {verb}");
+        let sub = std::fs::read_to_string(tmp.path().join(format!("man1/campath-{verb}.1")))
+            .unwrap_or_else(|e| panic!("campath-{verb}.1: {e}"));
+        assert!(sub.contains(".TH campath-"), "{sub}");
     }
 }
 

@@ -67,15 +67,147 @@ pub fn have_tool(program: &str, package: &str) -> bool {
         .status()
         .is_ok();
     if !found {
-        let why = format!("{program} is not on PATH (Debian package {package})");
-        if std::env::var_os("CAMPATH_REQUIRE_TOOLS").is_some_and(|v| v == "1") {
-            panic!("{why}, and CAMPATH_REQUIRE_TOOLS=1 makes this check mandatory");
-        }
-        // Straight to stderr, past the test harness's capture, so the skip is seen.
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: {why}; .ci/run installs it and makes this check mandatory"
-        );
+        skip(&format!(
+            "{program} is not on PATH (Debian package {package})"
+        ));
     }
     found
+}
+
+/// Whether the outside program `program` (on PATH) has a part the test needs, as `probe` says:
+/// `probe` runs it and returns why the part is missing, if it is. A missing part is skipped or
+/// required like a missing program ([`have_tool`]).
+pub fn have_part(program: &str, package: &str, probe: impl Fn(&str) -> Option<String>) -> bool {
+    if !have_tool(program, package) {
+        return false;
+    }
+    match probe(program) {
+        None => true,
+        Some(why) => {
+            skip(&why);
+            false
+        }
+    }
+}
+
+/// Prints why an outside-program check is skipped, past the test harness's capture; with
+/// `CAMPATH_REQUIRE_TOOLS=1` fails the test instead.
+pub fn skip(why: &str) {
+    if std::env::var_os("CAMPATH_REQUIRE_TOOLS").is_some_and(|v| v == "1") {
+        panic!("{why}, and CAMPATH_REQUIRE_TOOLS=1 makes this check mandatory");
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "skipped: {why}; .ci/run installs it and makes this check mandatory"
+    );
+}
+
+/// Why `blender` (a path or a name on PATH) cannot import the Python module `module` into its
+/// own Python, or None if it can. Blender brings its own Python, or uses the system's (Debian);
+/// either may lack a module that Blender's add-ons (the glTF importer: NumPy) need.
+pub fn blender_lacks_module(blender: &str, module: &str, package: &str) -> Option<String> {
+    let o = Command::new(blender)
+        .args([
+            "--background",
+            "--factory-startup",
+            "--python-exit-code",
+            "1",
+            "--python-expr",
+            &format!("import {module}"),
+        ])
+        .output();
+    match o {
+        Ok(o) if o.status.success() => None,
+        Ok(o) => {
+            let text = String::from_utf8_lossy(&o.stderr) + String::from_utf8_lossy(&o.stdout);
+            let error = text
+                .lines()
+                .find(|l| l.contains("Error"))
+                .unwrap_or("")
+                .trim()
+                .to_string();
+            Some(format!(
+                "Blender's Python cannot import {module} ({error}; Debian package {package})"
+            ))
+        }
+        Err(e) => Some(format!("{blender} does not run: {e}")),
+    }
+}
+
+/// Why `program` (a path or a name on PATH) is there but does not run: `--version` fails, as
+/// with Ubuntu's `chromium` stub that asks for the snap, or a binary missing a shared library.
+pub fn does_not_run(program: &str) -> Option<String> {
+    match Command::new(program).arg("--version").output() {
+        Ok(o) if o.status.success() => None,
+        Ok(o) => Some(format!(
+            "{program} is on PATH but `{program} --version` fails ({}): {}",
+            o.status,
+            String::from_utf8_lossy(&o.stderr)
+                .lines()
+                .chain(String::from_utf8_lossy(&o.stdout).lines())
+                .next()
+                .unwrap_or("")
+                .trim()
+        )),
+        Err(e) => Some(format!("{program} does not run: {e}")),
+    }
+}
+
+/// Why `ffmpeg` (a path or a name on PATH) has no encoder `encoder`, or None if it has.
+pub fn ffmpeg_lacks_encoder(ffmpeg: &str, encoder: &str) -> Option<String> {
+    let o = Command::new(ffmpeg)
+        .args(["-hide_banner", "-encoders"])
+        .output();
+    match o {
+        Ok(o)
+            if String::from_utf8_lossy(&o.stdout)
+                .lines()
+                .any(|l| l.split_whitespace().nth(1) == Some(encoder)) =>
+        {
+            None
+        }
+        Ok(_) => Some(format!(
+            "{ffmpeg} has no {encoder} encoder (a build without it; Debian's ffmpeg has it)"
+        )),
+        Err(e) => Some(format!("{ffmpeg} does not run: {e}")),
+    }
+}
+
+#[test]
+fn a_program_present_without_the_part_a_check_needs_is_told_apart() {
+    use std::os::unix::fs::PermissionsExt;
+    // Stand-ins that answer the probes as the real programs do: Blender exits 1 on a failed
+    // import under --python-exit-code 1, ffmpeg lists encoders in columns after a flags column.
+    let tmp = tempfile::tempdir().unwrap();
+    let script = |name: &str, body: &str| {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let without = script(
+        "blender-without",
+        "echo \"ModuleNotFoundError: No module named 'numpy'\" >&2; exit 1",
+    );
+    let with = script("blender-with", "exit 0");
+    let why = blender_lacks_module(&without, "numpy", "python3-numpy").unwrap();
+    assert!(
+        why.contains("cannot import numpy (ModuleNotFoundError: No module named 'numpy'")
+            && why.contains("python3-numpy"),
+        "{why}"
+    );
+    assert_eq!(blender_lacks_module(&with, "numpy", "python3-numpy"), None);
+    let encoders = script(
+        "ffmpeg-encoders",
+        "echo ' V....D libx264rgb  libx264 RGB'; echo ' V.S... ffv1  FFmpeg video codec #1'",
+    );
+    assert_eq!(ffmpeg_lacks_encoder(&encoders, "ffv1"), None);
+    assert!(ffmpeg_lacks_encoder(&encoders, "libx264").is_some());
+    let stub = script(
+        "chromium-stub",
+        "echo \"Command '/usr/bin/chromium' requires the chromium snap to be installed.\"; exit 1",
+    );
+    let why = does_not_run(&stub).unwrap();
+    assert!(why.contains("requires the chromium snap"), "{why}");
+    assert_eq!(does_not_run(&with), None);
 }

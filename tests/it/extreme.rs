@@ -1,7 +1,7 @@
 //! The catalogue of stiff and extreme cases (files in tests/data/). Each case is measured against
 //! an independent value: a closed form, or the f64 reference caster below, written here apart
-//! from campath's renderer. Run with `--nocapture` to see the measured numbers that README's
-//! "Numerical behaviour" reports.
+//! from campath's renderer. Run with `--nocapture` to see the measured numbers that
+//! docs/numerics.md reports (`cargo test --test it extreme:: -- --nocapture`).
 
 use std::path::Path;
 

@@ -8,7 +8,8 @@ use std::path::Path;
 use crate::common::{root, EXAMPLES};
 use campath::document::Document;
 use campath::frames::FrameSet;
-use campath::sequence::{render, RenderOptions, RenderSummary};
+use campath::lock::Wait;
+use campath::sequence::{lock, render, RenderOptions, RenderSummary};
 
 /// An example at 64×36, so that every frame of every example renders quickly.
 fn small_example(name: &str) -> String {
@@ -24,7 +25,8 @@ fn load(text: &str) -> Document {
 fn render_into(text: &str, dir: &Path) -> RenderSummary {
     let doc = load(text);
     let set = FrameSet::all(0..doc.animation.frames);
-    render(&doc, dir, &set, RenderOptions::default(), &mut |_| {}).unwrap()
+    let lock = lock(&doc, dir, &set, Wait::No).unwrap();
+    render(&doc, &lock, &set, RenderOptions::default(), &mut |_| {}).unwrap()
 }
 
 /// Each frame file's inode and modification time: a rewrite (temporary file and rename) changes

@@ -12,6 +12,7 @@ mod fuzz;
 mod gltf;
 mod golden;
 mod incremental;
+mod lock;
 mod modes;
 mod povray;
 mod production;

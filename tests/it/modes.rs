@@ -162,7 +162,7 @@ fn look_around_moves_on_the_great_circle() {
 #[test]
 fn track_points_at_the_target_from_the_moving_vrp() {
     let d = doc(&file(
-        "vpn: (0.0, 0.0, 1.0)",
+        "",
         "Observer(keys: [(t: 0.0, value: (0.0, 2.0, -10.0)), (t: 4.0, value: (8.0, 2.0, -2.0))], interpolation: Linear), \
          Track(keys: [(t: 0.0, value: (0.0, 0.0, 0.0)), (t: 4.0, value: (4.0, 0.0, 4.0))], interpolation: Linear)",
     ));

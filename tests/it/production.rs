@@ -274,21 +274,47 @@ fn merge_refuses_while_a_killed_shard_is_unfinished() {
 #[test]
 fn progress_lines_off_a_terminal_and_quiet_prints_nothing() {
     let tmp = setup();
-    let o = campath(
-        tmp.path(),
-        &["render", "long.ron", "--out", "a", "--frames", "0..3"],
-        &[],
+    // Off a terminal: a line at the start, one every few seconds, one at the end (so a CI log
+    // of 48 frames holds a handful of lines, not 48).
+    let started = std::time::Instant::now();
+    let o = campath(tmp.path(), &["render", "long.ron", "--out", "a"], &[]);
+    let secs = started.elapsed().as_secs_f64();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines[0], "48 frame(s) to render, 0 kept", "{err}");
+    let last = lines.last().unwrap();
+    assert!(
+        last.starts_with("48/48 frame(s), 48 of 48 to render done in "),
+        "{last}"
     );
-    assert_eq!(
-        stderr(&o).lines().filter(|l| l.ends_with(" done")).count(),
-        3,
-        "{}",
+    assert!(
+        lines.len() <= 2 + (secs / 5.0).ceil() as usize,
+        "{} lines in {secs:.1} s: {}",
+        lines.len(),
         stderr(&o)
     );
+    // CAMPATH_PROGRESS_SECS sets the interval: 0 gives a line per frame.
+    let o = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "b", "--frames", "0..3"],
+        &[("CAMPATH_PROGRESS_SECS", "0")],
+    );
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 4, "{err}");
+    for (line, done) in lines[1..].iter().zip(1..) {
+        assert!(
+            line.starts_with(&format!(
+                "{done}/3 frame(s), {done} of 3 to render done in "
+            )),
+            "{line}"
+        );
+    }
     let q = campath(
         tmp.path(),
         &[
-            "render", "long.ron", "--out", "b", "--frames", "0..3", "--quiet",
+            "render", "long.ron", "--out", "c", "--frames", "0..3", "--quiet",
         ],
         &[],
     );
@@ -322,7 +348,7 @@ fn absurd_requests_are_refused_before_allocating() {
         ),
         (
             "(frames: 1000000000, camera: (vpn: (0.0, 0.0, 1.0)))",
-            "frames: at most",
+            "frames: must lie in 1..=10000000, got 1000000000",
         ),
     ] {
         std::fs::write(tmp.path().join("absurd.ron"), text).unwrap();
@@ -344,11 +370,20 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         &[],
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    // 240×135 shrinks to 60×34; six tiles in two rows of four columns, 2 px apart.
+    // 240×135 shrinks to 60×34; six tiles in two rows of four columns, 2 px apart, each with a
+    // 16 px band under it for its frame number.
     let sheet = image::open(tmp.path().join("p/preview.png"))
         .unwrap()
         .to_rgb8();
-    assert_eq!(sheet.dimensions(), (4 * 60 + 3 * 2, 2 * 34 + 2));
+    assert_eq!(sheet.dimensions(), (4 * 60 + 3 * 2, 2 * (34 + 16) + 2));
+    // The bands hold dark text (the frame numbers) on white.
+    for (x0, y0) in [(0, 34), (62, 34), (0, 86)] {
+        let dark = (x0..x0 + 60)
+            .flat_map(|x| (y0..y0 + 16).map(move |y| (x, y)))
+            .filter(|&(x, y)| sheet.get_pixel(x, y).0.iter().all(|&c| c < 128))
+            .count();
+        assert!(dark > 5, "no frame number under the tile at ({x0}, {y0})");
+    }
     // The first tile is frame 0 rendered at 60×34 with one sample.
     let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
     doc.raster = campath::render::Raster {
@@ -389,11 +424,12 @@ fn plot_draws_the_path_from_above_and_from_the_side() {
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (1400, 700));
-    // The blue VRP path appears in both panels; the red keyframe dots too.
+    // The blue VRP path appears in both panels (above the legend strip, the bottom 70 px);
+    // the red keyframe dots too.
     for (x0, x1) in [(0, 700), (700, 1400)] {
         let count = |rgb: [u8; 3]| {
             (x0..x1)
-                .flat_map(|x| (0..img.height()).map(move |y| (x, y)))
+                .flat_map(|x| (0..img.height() - 70).map(move |y| (x, y)))
                 .filter(|&(x, y)| img.get_pixel(x, y).0 == rgb)
                 .count()
         };
@@ -459,7 +495,7 @@ fn the_plot_from_above_agrees_with_the_frames_left_and_right() {
     let plot = image::open(tmp.path().join("plot.png")).unwrap().to_rgb8();
     let mean_x = |rgb: [u8; 3]| {
         let xs: Vec<u32> = (0..700)
-            .flat_map(|x| (0..700).map(move |y| (x, y)))
+            .flat_map(|x| (0..630).map(move |y| (x, y)))
             .filter(|&(x, y)| plot.get_pixel(x, y).0 == rgb)
             .map(|(x, _)| x)
             .collect();

@@ -53,7 +53,7 @@ fn the_camera_inside_a_sphere_and_a_target_at_the_camera_are_named() {
 
     // A target that passes 0.05 units from the VRP, against a median distance of about 4.
     let file = format!(
-        "(frames: 21, fps: 10.0, camera: (vrp: (0.0, 3.0, 0.0), tp: (0.0, 0.0, 0.0)),
+        "(frames: 21, fps: 10.0, camera: (vrp: (0.0, 3.0, 0.0)),
          animate: [Track(keys: [(t: 0.0, value: (-4.0, 3.05, -4.0)), (t: 2.0, value: (4.0, 3.05, 4.0))],
              interpolation: Linear)], {SCENE})"
     );

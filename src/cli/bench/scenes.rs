@@ -278,7 +278,7 @@ fn fly(s: &BenchScene) -> Parts {
         g = k(0.2),
         i = k(0.35),
     );
-    let camera = "(vrp: (0.0, 3.0, 0.0), tp: (0.0, 0.0, 0.0), cop: (0.0, 0.0, -1.0), hfov: 70.0)";
+    let camera = "(vrp: (0.0, 3.0, 0.0), cop: (0.0, 0.0, -1.0), hfov: 70.0)";
     Parts {
         description: "",
         camera: camera.into(),
@@ -337,7 +337,7 @@ fn patch(s: &BenchScene) -> Parts {
         "[Observer(keys: [(t: 0.0, value: (-15.0, 8.0, -8.0)), (t: {secs:?}, value: (15.0, 8.0, -8.0))]),
         Track(keys: [(t: 0.0, value: (-15.0, 0.0, 0.0)), (t: {secs:?}, value: (15.0, 0.0, 0.0))])]"
     );
-    let camera = "(vrp: (-15.0, 8.0, -8.0), tp: (-15.0, 0.0, 0.0), hfov: 70.0)";
+    let camera = "(vrp: (-15.0, 8.0, -8.0), hfov: 70.0)";
     Parts {
         description: " over a field, seen from above",
         camera: camera.into(),

@@ -1,0 +1,384 @@
+//! An output folder is written by one run at a time: advisory locks (the operating system's
+//! `flock`, through std's [`File::lock`]) on files inside the folder.
+//!
+//! - `campath.lock`, the folder's lock: a whole run (render, video, watch, merge) holds it
+//!   exclusively; a shard holds it shared, so the shards of one run go side by side while no
+//!   whole run meets any of them.
+//! - `campath.shards-of-N.lock`: held shared by every running shard of N. A shard of another
+//!   count M waits until it could take it exclusively, because shards of different counts render
+//!   the same frames.
+//! - `campath.gate.lock`: held by a starting shard while it looks for shards of other counts and
+//!   takes its own count's lock, so that two shards of different counts cannot both pass.
+//! - `campath.part-K-of-N.lock`: held exclusively by shard K/N, which owns its part file.
+//!
+//! Every run takes the folder's lock first and the others only while holding it, and a whole run
+//! removes the other lock files it finds, since nobody else can hold them then.
+//!
+//! The operating system drops a lock when its process ends, however it ends, so a killed run
+//! never blocks a later one. `campath.lock` also lists the runs holding it (process id, claim and
+//! command line), for the message of a run that has to wait; that text is read only for
+//! messages and never decides anything.
+
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Seek, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::manifest::Shard;
+
+/// The folder's lock file, as it appears in the folder.
+pub const FILE_NAME: &str = "campath.lock";
+const GATE: &str = "campath.gate.lock";
+
+/// Whether campath writes a lock file of this name into an output folder.
+pub fn is_lock_file(name: &str) -> bool {
+    name.starts_with("campath.") && name.ends_with(".lock")
+}
+
+/// What a run writes in a folder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Claim {
+    /// The whole folder: a render without `--shard` (with or without `--frames`), `video`,
+    /// `watch`, `merge`.
+    Whole,
+    /// Its frames and its part file only; other shards of the same count run beside it.
+    Shard(Shard),
+}
+
+impl Claim {
+    /// The claim of a render of `shard` (None: a whole run).
+    pub fn of(shard: Option<Shard>) -> Claim {
+        shard.map_or(Claim::Whole, Claim::Shard)
+    }
+}
+
+impl std::fmt::Display for Claim {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Claim::Whole => write!(f, "whole"),
+            Claim::Shard(s) => write!(f, "shard {s}"),
+        }
+    }
+}
+
+/// What to do when another run holds what this run needs.
+pub enum Wait<'a> {
+    /// Refuse at once with [`Error::Busy`].
+    No,
+    /// Wait for it, after calling this with the [`Error::Busy`] a refusal would have returned
+    /// (which names the runs in the way).
+    Yes(&'a mut dyn FnMut(&Error)),
+}
+
+/// The locks a run holds on its output folder, released when dropped (or when the process
+/// ends). Only [`FolderLock::acquire`] makes one, so a function that takes `&FolderLock` runs
+/// with the folder to itself (or, for a shard, its part of it).
+#[derive(Debug)]
+pub struct FolderLock {
+    dir: PathBuf,
+    claim: Claim,
+    folder: File,
+    /// The count's and the part's locks of a shard.
+    held: Vec<File>,
+}
+
+/// A run that holds `campath.lock`, as it recorded itself:
+/// `<pid>\t<claim>\t<host>\t<command line>`.
+struct Holder {
+    pid: u32,
+    claim: String,
+    host: String,
+    command: String,
+}
+
+impl Holder {
+    fn line(&self) -> String {
+        format!(
+            "{}\t{}\t{}\t{}",
+            self.pid, self.claim, self.host, self.command
+        )
+    }
+
+    fn parse(line: &str) -> Option<Holder> {
+        let mut cols = line.splitn(4, '\t');
+        Some(Holder {
+            pid: cols.next()?.parse().ok()?,
+            claim: cols.next()?.to_string(),
+            host: cols.next()?.to_string(),
+            command: cols.next()?.to_string(),
+        })
+    }
+
+    /// Whether the process still runs, where this host can tell (Linux's /proc, for a holder
+    /// on this host); any other recorded holder counts as running.
+    fn alive(&self) -> bool {
+        let proc = Path::new("/proc");
+        self.host != host()
+            || !proc.join("self").exists()
+            || proc.join(self.pid.to_string()).exists()
+    }
+}
+
+/// This machine's name, where the platform tells (Linux), to tell holders on shared storage
+/// apart.
+fn host() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_default()
+}
+
+fn holder_line(claim: Claim) -> String {
+    let command: Vec<String> = std::env::args().collect();
+    Holder {
+        pid: std::process::id(),
+        claim: claim.to_string(),
+        host: host(),
+        command: command.join(" "),
+    }
+    .line()
+}
+
+/// The live holders recorded in `campath.lock`, other than this process.
+fn holders(dir: &Path) -> Vec<Holder> {
+    let text = std::fs::read_to_string(dir.join(FILE_NAME)).unwrap_or_default();
+    let here = host();
+    text.lines()
+        .filter_map(Holder::parse)
+        .filter(|h| !(h.pid == std::process::id() && h.host == here) && h.alive())
+        .collect()
+}
+
+/// [`Error::Busy`] naming the live holders that `which` picks (all, if it picks none).
+fn busy(dir: &Path, which: impl Fn(&str) -> bool) -> Error {
+    let all = holders(dir);
+    let picked: Vec<&Holder> = all.iter().filter(|h| which(&h.claim)).collect();
+    let shown = if picked.is_empty() {
+        all.iter().collect()
+    } else {
+        picked
+    };
+    Error::Busy {
+        dir: dir.to_path_buf(),
+        holders: shown
+            .iter()
+            .map(|h| {
+                let mut who = format!("pid {}", h.pid);
+                if h.host != host() {
+                    who += &format!(" on {}", h.host);
+                }
+                if h.claim != "whole" {
+                    who += &format!(" ({})", h.claim);
+                }
+                format!("{who}: {}", h.command)
+            })
+            .collect(),
+    }
+}
+
+fn open(path: &Path) -> Result<File> {
+    OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(path)
+        .map_err(Error::write(path))
+}
+
+/// Takes a shared or exclusive lock on `file`; when another process holds it, refuses or
+/// reports and waits, as `wait` says.
+fn take(
+    file: &File,
+    path: &Path,
+    shared: bool,
+    wait: &mut Wait,
+    refusal: impl Fn() -> Error,
+) -> Result<()> {
+    let tried = if shared {
+        file.try_lock_shared()
+    } else {
+        file.try_lock()
+    };
+    match tried {
+        Ok(()) => Ok(()),
+        Err(TryLockError::WouldBlock) => match wait {
+            Wait::No => Err(refusal()),
+            Wait::Yes(report) => {
+                report(&refusal());
+                if shared {
+                    file.lock_shared()
+                } else {
+                    file.lock()
+                }
+                .map_err(Error::write(path))
+            }
+        },
+        Err(TryLockError::Error(e)) => Err(Error::write(path)(e)),
+    }
+}
+
+/// Replaces the holders recorded in `file` with the live ones `keep` picks, plus `own`.
+fn record(dir: &Path, mut file: &File, keep: bool, own: Option<&str>) -> Result<()> {
+    let mut text = String::new();
+    if keep {
+        for h in holders(dir) {
+            text += &h.line();
+            text.push('\n');
+        }
+    }
+    if let Some(own) = own {
+        text += own;
+        text.push('\n');
+    }
+    let path = dir.join(FILE_NAME);
+    file.set_len(0).map_err(Error::write(&path))?;
+    file.rewind().map_err(Error::write(&path))?;
+    file.write_all(text.as_bytes()).map_err(Error::write(&path))
+}
+
+impl FolderLock {
+    /// Creates `dir` if needed and takes its lock for `claim`:
+    ///
+    /// - a whole run waits for every other run in the folder;
+    /// - a shard K/N waits for whole runs, for shards of other counts and for another run of
+    ///   K/N, and runs beside the other shards of N.
+    ///
+    /// Refuses a `dir` that is a file. The lock files it leaves are named `campath.*.lock`.
+    pub fn acquire(dir: &Path, claim: Claim, mut wait: Wait) -> Result<FolderLock> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(Error::Usage(format!(
+                "{} is a file, not a folder: --out names the folder the frames go into",
+                dir.display()
+            )));
+        }
+        std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
+        let path = dir.join(FILE_NAME);
+        let folder = open(&path)?;
+        let own = holder_line(claim);
+        match claim {
+            Claim::Whole => {
+                take(&folder, &path, false, &mut wait, || busy(dir, |_| true))?;
+                record(dir, &folder, false, Some(&own))?;
+                remove_shard_locks(dir)?;
+                Ok(FolderLock {
+                    dir: dir.to_path_buf(),
+                    claim,
+                    folder,
+                    held: Vec::new(),
+                })
+            }
+            Claim::Shard(shard) => {
+                take(&folder, &path, true, &mut wait, || {
+                    busy(dir, |c| c == "whole")
+                })?;
+                let count = lock_count(dir, shard.count, &mut wait, &folder, &own)?;
+                let part_path = dir.join(format!(
+                    "campath.part-{}-of-{}.lock",
+                    shard.index, shard.count
+                ));
+                let part = open(&part_path)?;
+                let mine = Claim::Shard(shard).to_string();
+                take(&part, &part_path, false, &mut wait, || {
+                    busy(dir, |c| c == mine)
+                })?;
+                Ok(FolderLock {
+                    dir: dir.to_path_buf(),
+                    claim,
+                    folder,
+                    held: vec![count, part],
+                })
+            }
+        }
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// What this run may write.
+    pub fn claim(&self) -> Claim {
+        self.claim
+    }
+}
+
+/// Under the gate: waits until no shard of another count runs, then takes this count's lock
+/// (shared) and records this run in `campath.lock`.
+fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str) -> Result<File> {
+    let gate_path = dir.join(GATE);
+    let gate = open(&gate_path)?;
+    // A starting shard holds the gate for a moment only, unless it waits for another count: so
+    // a shard that must not wait still tries for a while (shards of one array job start at
+    // once), and refuses only a gate held longer.
+    for _ in 0..200 {
+        match gate.try_lock() {
+            Err(TryLockError::WouldBlock) => {
+                std::thread::sleep(std::time::Duration::from_millis(10))
+            }
+            _ => break,
+        }
+    }
+    take(&gate, &gate_path, false, wait, || {
+        busy(dir, |c| c.starts_with("shard"))
+    })?;
+    for other in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
+        let name = other.file_name().to_string_lossy().into_owned();
+        let Some(n) = name
+            .strip_prefix("campath.shards-of-")
+            .and_then(|n| n.strip_suffix(".lock"))
+            .and_then(|n| n.parse::<u64>().ok())
+        else {
+            continue;
+        };
+        if n == count {
+            continue;
+        }
+        let file = open(&other.path())?;
+        let suffix = format!("/{n}");
+        take(&file, &other.path(), false, wait, || {
+            busy(dir, |c| c.starts_with("shard") && c.ends_with(&suffix))
+        })?;
+    }
+    let count_path = dir.join(format!("campath.shards-of-{count}.lock"));
+    let file = open(&count_path)?;
+    // Only shards of this count hold it now, and only shared: never blocks.
+    file.lock_shared().map_err(Error::write(&count_path))?;
+    record(dir, folder, true, Some(own))?;
+    Ok(file)
+}
+
+/// A whole run, holding the folder exclusively, removes the shard lock files: nobody holds them.
+fn remove_shard_locks(dir: &Path) -> Result<()> {
+    for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if is_lock_file(&name) && name != FILE_NAME {
+            match std::fs::remove_file(e.path()) {
+                Err(err) if err.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(Error::write(e.path())(err))
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Drop for FolderLock {
+    fn drop(&mut self) {
+        // The count's and the part's locks go first: a starting shard may hold the gate while
+        // it waits for this count to end.
+        self.held.clear();
+        let _ = match self.claim {
+            Claim::Whole => record(&self.dir, &self.folder, false, None),
+            Claim::Shard(_) => {
+                let gate = open(&self.dir.join(GATE));
+                match gate {
+                    Ok(gate) if gate.try_lock().is_ok() => {
+                        record(&self.dir, &self.folder, true, None)
+                    }
+                    _ => Ok(()),
+                }
+            }
+        };
+    }
+}
