@@ -13,8 +13,9 @@ use glam::{DVec2, DVec3};
 use splines::{Interpolate, Spline};
 use std::ops::{Add, Mul, Sub};
 
-/// How the segment from one key to the next is interpolated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// How the segment from one key to the next is interpolated; the file names it the same way
+/// (`interpolation: Cosine`), so the file's type and this are one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
 pub enum Interpolation {
     /// Hold the key's value until the next key.
     Step,

@@ -68,6 +68,31 @@ pub enum Compression {
     Best,
 }
 
+impl Compression {
+    /// Every level, fastest first.
+    pub const ALL: [Compression; 3] = [Compression::Fast, Compression::Default, Compression::Best];
+
+    /// The level's name on the command line: `fast`, `default`, `best`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Compression::Fast => "fast",
+            Compression::Default => "default",
+            Compression::Best => "best",
+        }
+    }
+}
+
+impl std::str::FromStr for Compression {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Compression, String> {
+        Compression::ALL
+            .into_iter()
+            .find(|c| c.name() == s)
+            .ok_or_else(|| format!("{s:?} is not a compression level"))
+    }
+}
+
 /// Writes `width`×`height` RGB8 pixels as an 8-bit sRGB PNG.
 pub fn write_png(
     path: &Path,

@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use super::error::{CliError, Result};
+use campath::export::PathFormat;
+use campath::output::Compression;
 
 /// `--frames`: `A..B` (frames A to B − 1), `A..` (A to the end), `..B`, `A..=B` or a single `K`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,117 +69,63 @@ impl FrameSpec {
     }
 }
 
-/// PNG compression, as `--compression` names it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum Compression {
-    /// Fastest encoding, larger files.
-    #[default]
-    Fast,
-    /// zlib's default level.
-    Default,
-    /// Smallest files, slowest encoding.
-    Best,
+/// `--compression`: the library's levels, with a line of help each.
+pub fn compression() -> impl clap::builder::TypedValueParser<Value = Compression> {
+    let help = |c: Compression| match c {
+        Compression::Fast => "Fastest encoding, larger files",
+        Compression::Default => "zlib's default level",
+        Compression::Best => "Smallest files, slowest encoding",
+    };
+    choice(Compression::ALL.map(|c| (c, c.name(), help(c))))
 }
 
-impl From<Compression> for campath::output::Compression {
-    fn from(c: Compression) -> Self {
-        match c {
-            Compression::Fast => Self::Fast,
-            Compression::Default => Self::Default,
-            Compression::Best => Self::Best,
-        }
-    }
+/// `path --format`: the library's formats, with a line of help each.
+pub fn path_format() -> impl clap::builder::TypedValueParser<Value = PathFormat> {
+    let help = |f: PathFormat| match f {
+        PathFormat::Csv => "frame, t, VRP, u, v, n, COP in world, window (one row per frame)",
+        PathFormat::Json => "an array of per-frame objects with the same fields",
+        PathFormat::Chan => "`frame tx ty tz rx ry rz vfov` for Nuke; frames numbered from 1",
+        PathFormat::Gltf => "the whole shot as glTF 2.0 (binary when --out ends in .glb)",
+        PathFormat::Blender => "a Python script for Blender that builds the whole shot",
+        PathFormat::Usd => "the whole shot as an OpenUSD stage (USDA), lens shift included",
+    };
+    choice(PathFormat::ALL.map(|f| (f, f.name(), help(f))))
 }
 
-/// `campath path --format`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum PathFormat {
-    /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
-    #[default]
-    Csv,
-    /// An array of per-frame objects with the same fields.
-    Json,
-    /// `frame tx ty tz rx ry rz vfov` for Nuke and Blender; frames numbered from 1.
-    Chan,
-    /// The whole shot as glTF 2.0: the animated camera, the spheres and the lights (binary
-    /// `.glb` when --out ends in .glb).
-    Gltf,
-    /// A Python script for Blender that builds the whole shot: camera (with lens shift for an
-    /// off-axis COP), render size and rate, spheres and lights.
-    Blender,
-    /// The whole shot as an OpenUSD stage (USDA text): the camera with lens shift for an
-    /// off-axis COP, the spheres and the lights; for Blender, Houdini, Maya, Nuke, Omniverse.
-    Usd,
+/// A clap parser for one of `values` (value, name, help): the library's enums on the command
+/// line without a second copy of them here.
+fn choice<T: Copy + Send + Sync + 'static, const N: usize>(
+    values: [(T, &'static str, &'static str); N],
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let names = values.map(|(_, name, help)| PossibleValue::new(name).help(help));
+    PossibleValuesParser::new(names).map(move |name| {
+        values
+            .iter()
+            .find(|(_, n, _)| *n == name)
+            .map(|(v, _, _)| *v)
+            .expect("clap accepts only the possible values")
+    })
 }
 
-impl PathFormat {
-    /// The format a file name's extension says, if it says one.
-    pub fn of_extension(path: &Path) -> Option<PathFormat> {
-        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
-        Some(match ext.as_str() {
-            "csv" => PathFormat::Csv,
-            "json" => PathFormat::Json,
-            "chan" => PathFormat::Chan,
-            "gltf" | "glb" => PathFormat::Gltf,
-            "py" => PathFormat::Blender,
-            "usda" | "usd" => PathFormat::Usd,
-            _ => return None,
-        })
-    }
-
-    /// `--format`, or the one `--out`'s extension says (CSV when neither says); a `--format`
-    /// that another known extension contradicts is refused.
-    pub fn resolve(format: Option<PathFormat>, out: Option<&Path>) -> Result<PathFormat> {
-        let by_name = out.and_then(PathFormat::of_extension);
-        match (format, by_name) {
-            (Some(f), Some(n)) if f != n => {
-                let out = out.expect("an extension comes from --out");
-                Err(CliError::Usage(format!(
-                    "--out {} names a {} file, but --format {} writes {}: change the extension or \
-                     leave --format out",
-                    out.display(),
-                    n.name(),
-                    f.value(),
-                    f.name()
-                )))
-            }
-            (Some(f), _) | (None, Some(f)) => Ok(f),
-            (None, None) => Ok(PathFormat::Csv),
+/// `--format`, or the one `--out`'s extension says (CSV when neither says); a `--format` that
+/// another known extension contradicts is refused.
+pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<PathFormat> {
+    let by_name = out.and_then(PathFormat::of_extension);
+    match (format, by_name) {
+        (Some(f), Some(n)) if f != n => {
+            let out = out.expect("an extension comes from --out");
+            Err(CliError::Usage(format!(
+                "--out {} names a {} file, but --format {} writes {}: change the extension or \
+                 leave --format out",
+                out.display(),
+                n.title(),
+                f.name(),
+                f.title()
+            )))
         }
-    }
-
-    /// What the format is called in messages.
-    fn name(self) -> &'static str {
-        match self {
-            PathFormat::Csv => "CSV",
-            PathFormat::Json => "JSON",
-            PathFormat::Chan => ".chan",
-            PathFormat::Gltf => "glTF",
-            PathFormat::Blender => "Blender Python",
-            PathFormat::Usd => "USD",
-        }
-    }
-
-    /// The `--format` value.
-    fn value(self) -> &'static str {
-        match self {
-            PathFormat::Csv => "csv",
-            PathFormat::Json => "json",
-            PathFormat::Chan => "chan",
-            PathFormat::Gltf => "gltf",
-            PathFormat::Blender => "blender",
-            PathFormat::Usd => "usd",
-        }
-    }
-
-    /// The library's per-frame text format; None for the formats written whole.
-    pub fn per_frame(self) -> Option<campath::export::PathFormat> {
-        match self {
-            PathFormat::Csv => Some(campath::export::PathFormat::Csv),
-            PathFormat::Json => Some(campath::export::PathFormat::Json),
-            PathFormat::Chan => Some(campath::export::PathFormat::Chan),
-            PathFormat::Gltf | PathFormat::Blender | PathFormat::Usd => None,
-        }
+        (Some(f), _) | (None, Some(f)) => Ok(f),
+        (None, None) => Ok(PathFormat::Csv),
     }
 }
 
@@ -267,7 +215,7 @@ mod tests {
 
     #[test]
     fn path_formats_from_the_extension() {
-        let r = |f: Option<PathFormat>, out: &str| PathFormat::resolve(f, Some(Path::new(out)));
+        let r = |f: Option<PathFormat>, out: &str| resolve_format(f, Some(Path::new(out)));
         assert_eq!(r(None, "x.glb").unwrap(), PathFormat::Gltf);
         assert_eq!(r(None, "x.GLTF").unwrap(), PathFormat::Gltf);
         assert_eq!(r(None, "x.py").unwrap(), PathFormat::Blender);
@@ -281,6 +229,6 @@ mod tests {
             PathFormat::Chan
         );
         assert!(r(Some(PathFormat::Csv), "x.glb").is_err());
-        assert_eq!(PathFormat::resolve(None, None).unwrap(), PathFormat::Csv);
+        assert_eq!(resolve_format(None, None).unwrap(), PathFormat::Csv);
     }
 }

@@ -56,8 +56,8 @@ enum Command {
         #[arg(long)]
         frames: Option<FrameSpec>,
         /// PNG compression (the pixels are the same).
-        #[arg(long, value_enum, default_value_t)]
-        compression: args::Compression,
+        #[arg(long, value_parser = args::compression(), default_value = "fast")]
+        compression: campath::output::Compression,
         /// Render only frames k with k mod N = K, into hashes.part-K-of-N.txt (see `merge`).
         #[arg(long, value_name = "K/N")]
         shard: Option<Shard>,
@@ -171,8 +171,8 @@ enum Command {
         /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,
         /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py, .usda), else csv]
-        #[arg(long, value_enum)]
-        format: Option<args::PathFormat>,
+        #[arg(long, value_parser = args::path_format())]
+        format: Option<campath::export::PathFormat>,
         /// Write to this file instead of standard output (glTF: binary when it ends in .glb; USD:
         /// .usda or .usd).
         #[arg(long)]
@@ -304,10 +304,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                 file,
                 frames,
                 shard,
-                options: RenderOptions {
-                    compression: compression.into(),
-                    force,
-                },
+                options: RenderOptions { compression, force },
                 quiet,
                 no_wait,
                 stats_json,
@@ -390,7 +387,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             format,
             out: file_out,
         } => {
-            let format = args::PathFormat::resolve(format, file_out.as_deref())?;
+            let format = args::resolve_format(format, file_out.as_deref())?;
             verbs::path(&file, format, file_out.as_deref(), out)?
         }
         Command::Check { file, strict } => return verbs::check(&file, strict, out),

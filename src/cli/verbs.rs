@@ -4,9 +4,10 @@
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
-use super::args::{FrameSpec, PathFormat};
+use super::args::FrameSpec;
 use super::error::{CliError, Result};
 use campath::document::Document;
+use campath::export::PathFormat;
 use campath::frames::{FrameSet, Timing};
 use campath::lock::{Claim, FolderLock, Wait};
 use campath::manifest::Shard;
@@ -366,58 +367,28 @@ pub fn path(
     }
     let doc = Document::load(file)?;
     let frames = doc.animation.frames;
+    let glb = file_out.is_some_and(|p| p.extension().is_some_and(|e| e == "glb"));
     let mut bytes = Vec::new();
-    match format.per_frame() {
-        Some(f) => {
-            let dropped = match file_out {
-                Some(_) => campath::export::write_path(&doc, f, &mut bytes)?,
-                None => campath::export::write_path(&doc, f, out)?,
-            };
-            if dropped.off_axis > 0 {
-                eprintln!(
-                    "campath: note: .chan has no place for an off-axis COP (distort): {} of {frames} frame(s), \
-                     campath frames {}..={} (.chan frames {}..={}), are written as if the COP were on \
-                     the VPN, so their pictures are centred; csv and json keep the COP",
-                    dropped.off_axis,
-                    dropped.first,
-                    dropped.last,
-                    dropped.first + 1,
-                    dropped.last + 1
-                );
-            }
-        }
-        None if matches!(format, PathFormat::Blender | PathFormat::Usd) => {
-            let text = match format {
-                PathFormat::Blender => campath::export::blender::script(&doc)?,
-                _ => campath::export::usd::usda(&doc)?,
-            };
-            match file_out {
-                Some(_) => bytes = text.into_bytes(),
-                None => out.write_all(text.as_bytes()).map_err(Error::stdout)?,
-            }
-        }
-        None => {
-            let binary = file_out.is_some_and(|p| p.extension().is_some_and(|e| e == "glb"));
-            let off_axis = if binary {
-                let (glb, off_axis) = campath::export::gltf::glb(&doc)?;
-                bytes = glb;
-                off_axis
-            } else {
-                let (text, off_axis) = campath::export::gltf::gltf(&doc)?;
-                match file_out {
-                    Some(_) => bytes = text.into_bytes(),
-                    None => out.write_all(text.as_bytes()).map_err(Error::stdout)?,
-                }
-                off_axis
-            };
-            if off_axis > 0 {
-                eprintln!(
-                    "campath: note: glTF has no place for an off-axis COP (distort): {off_axis} of \
-                     {frames} frame(s) are written as if the COP were on the VPN, so their pictures \
-                     are centred; csv and json keep the COP"
-                );
-            }
-        }
+    let dropped = match file_out {
+        Some(_) => campath::export::write_path(&doc, format, glb, &mut bytes)?,
+        None => campath::export::write_path(&doc, format, glb, out)?,
+    };
+    if dropped.off_axis > 0 {
+        let (off_axis, first, last) = (dropped.off_axis, dropped.first, dropped.last);
+        let which = match format {
+            PathFormat::Chan => format!(
+                ", campath frames {first}..={last} (.chan frames {}..={}),",
+                first + 1,
+                last + 1
+            ),
+            _ => String::new(),
+        };
+        eprintln!(
+            "campath: note: {} has no place for an off-axis COP (distort): {off_axis} of {frames} \
+             frame(s){which} are written as if the COP were on the VPN, so their pictures are \
+             centred; csv, json, blender and usd keep the COP",
+            format.title()
+        );
     }
     if let Some(path) = file_out {
         super::args::create_parent(path)?;

@@ -4,7 +4,7 @@
 use glam::{DVec2, DVec3};
 
 use super::Checker;
-use crate::format::{InterpolationSpec, KeySpec, SpeedSpec, TrackSpec, Triple};
+use crate::format::{KeySpec, SpeedSpec, TrackSpec, Triple};
 use crate::keyframes::{
     DirectionTrack, Interpolation, Key, Keyable, PathTrack, Track, UniformSpeed,
 };
@@ -108,7 +108,7 @@ impl Checker {
         &mut self,
         field: &str,
         keys: &[KeySpec<Triple>],
-        interpolation: Option<InterpolationSpec>,
+        interpolation: Option<Interpolation>,
         speed: Option<SpeedSpec>,
         arc_samples: Option<i64>,
     ) -> Option<PathTrack> {
@@ -153,14 +153,14 @@ impl Checker {
         &mut self,
         field: &str,
         keys: &[KeySpec<S>],
-        track_interpolation: Option<InterpolationSpec>,
+        track_interpolation: Option<Interpolation>,
         mut value: impl FnMut(&mut Self, &str, &S) -> Option<V>,
     ) -> Option<Vec<Key<V>>> {
         if keys.is_empty() {
             self.problem(format!("{field}.keys"), "a track needs at least one key");
             return None;
         }
-        let default = track_interpolation.unwrap_or(InterpolationSpec::CatmullRom);
+        let default = track_interpolation.unwrap_or(Interpolation::CatmullRom);
         let mut out = Vec::with_capacity(keys.len());
         let mut ok = true;
         for (k, key) in keys.iter().enumerate() {
@@ -171,7 +171,7 @@ impl Checker {
                 (Some(t), Some(value)) => out.push(Key {
                     t,
                     value,
-                    interpolation: interpolation(key.interpolation.unwrap_or(default)),
+                    interpolation: key.interpolation.unwrap_or(default),
                 }),
                 _ => ok = false,
             }
@@ -191,16 +191,5 @@ impl Checker {
             }
         }
         ok.then_some(out)
-    }
-}
-
-fn interpolation(spec: InterpolationSpec) -> Interpolation {
-    match spec {
-        InterpolationSpec::Step => Interpolation::Step,
-        InterpolationSpec::Linear => Interpolation::Linear,
-        InterpolationSpec::Cosine => Interpolation::Cosine,
-        InterpolationSpec::CatmullRom => Interpolation::CatmullRom,
-        InterpolationSpec::Monotone => Interpolation::Monotone,
-        InterpolationSpec::Centripetal => Interpolation::Centripetal,
     }
 }

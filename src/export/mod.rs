@@ -14,7 +14,7 @@ use crate::camera::{Basis, Camera};
 use crate::document::Document;
 use crate::error::{Error, Result};
 
-/// Output format of `campath path`.
+/// What the camera is exported as (`campath path --format`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PathFormat {
     /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
@@ -23,8 +23,78 @@ pub enum PathFormat {
     /// An array of per-frame objects with the same fields.
     Json,
     /// `frame tx ty tz rx ry rz vfov`: position of the COP, rotation in degrees (ZXY order),
-    /// vertical field of view in degrees; frames numbered from 1.
+    /// vertical field of view in degrees; frames numbered from 1. For Nuke and Blender.
     Chan,
+    /// The whole shot as glTF 2.0: the animated camera, the spheres and the lights (binary GLB
+    /// when asked for).
+    Gltf,
+    /// A Python script for Blender that builds the whole shot: camera (with lens shift for an
+    /// off-axis COP), render size and rate, spheres and lights.
+    Blender,
+    /// The whole shot as an OpenUSD stage (USDA text): the camera with lens shift for an
+    /// off-axis COP, the spheres and the lights.
+    Usd,
+}
+
+impl PathFormat {
+    /// Every format, in the order `--help` lists them.
+    pub const ALL: [PathFormat; 6] = [
+        PathFormat::Csv,
+        PathFormat::Json,
+        PathFormat::Chan,
+        PathFormat::Gltf,
+        PathFormat::Blender,
+        PathFormat::Usd,
+    ];
+
+    /// The format's name on the command line: `csv`, `json`, `chan`, `gltf`, `blender`, `usd`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PathFormat::Csv => "csv",
+            PathFormat::Json => "json",
+            PathFormat::Chan => "chan",
+            PathFormat::Gltf => "gltf",
+            PathFormat::Blender => "blender",
+            PathFormat::Usd => "usd",
+        }
+    }
+
+    /// What the format is called in messages.
+    pub fn title(self) -> &'static str {
+        match self {
+            PathFormat::Csv => "CSV",
+            PathFormat::Json => "JSON",
+            PathFormat::Chan => ".chan",
+            PathFormat::Gltf => "glTF",
+            PathFormat::Blender => "Blender Python",
+            PathFormat::Usd => "USD",
+        }
+    }
+
+    /// The format a file name's extension says, if it says one (`.glb` is glTF).
+    pub fn of_extension(path: &std::path::Path) -> Option<PathFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "csv" => PathFormat::Csv,
+            "json" => PathFormat::Json,
+            "chan" => PathFormat::Chan,
+            "gltf" | "glb" => PathFormat::Gltf,
+            "py" => PathFormat::Blender,
+            "usda" | "usd" => PathFormat::Usd,
+            _ => return None,
+        })
+    }
+}
+
+impl std::str::FromStr for PathFormat {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<PathFormat, String> {
+        PathFormat::ALL
+            .into_iter()
+            .find(|f| f.name() == s)
+            .ok_or_else(|| format!("{s:?} is not a format"))
+    }
 }
 
 /// Euler angles in degrees (rx, ry, rz) of a camera looking down its local −Z with +Y up, for
@@ -99,7 +169,8 @@ struct JsonFrame {
 /// Frames whose camera a format could not carry whole.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Dropped {
-    /// Frames with an off-axis COP (distort) written to `.chan` as if the COP were on the VPN.
+    /// Frames with an off-axis COP (distort) written as if the COP were on the VPN (`.chan` and
+    /// glTF have no place for it).
     pub off_axis: u64,
     /// The first and last such frame (numbered from 0, as in campath).
     pub first: u64,
@@ -107,9 +178,35 @@ pub struct Dropped {
     pub last: u64,
 }
 
-/// Writes every frame's evaluated camera in `format`; says which frames lost part of their
-/// camera on the way.
-pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Result<Dropped> {
+/// Writes the shot in `format` (glTF as binary GLB when `glb`); says which frames lost part of
+/// their camera on the way. The per-frame formats stream a frame at a time.
+pub fn write_path(
+    doc: &Document,
+    format: PathFormat,
+    glb: bool,
+    out: &mut dyn Write,
+) -> Result<Dropped> {
+    let whole = |bytes: &[u8], off_axis: u64, out: &mut dyn Write| {
+        out.write_all(bytes).map_err(Error::stdout)?;
+        out.flush().map_err(Error::stdout)?;
+        Ok(Dropped {
+            off_axis,
+            ..Dropped::default()
+        })
+    };
+    match format {
+        PathFormat::Csv | PathFormat::Json | PathFormat::Chan => {}
+        PathFormat::Gltf if glb => {
+            let (bytes, off_axis) = gltf::glb(doc)?;
+            return whole(&bytes, off_axis, out);
+        }
+        PathFormat::Gltf => {
+            let (text, off_axis) = gltf::gltf(doc)?;
+            return whole(text.as_bytes(), off_axis, out);
+        }
+        PathFormat::Blender => return whole(blender::script(doc)?.as_bytes(), 0, out),
+        PathFormat::Usd => return whole(usd::usda(doc)?.as_bytes(), 0, out),
+    }
     let mut out = std::io::BufWriter::new(out);
     let mut dropped = Dropped::default();
     let mut angles = ChanAngles::default();
@@ -117,7 +214,7 @@ pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Re
     let header = match format {
         PathFormat::Csv => "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h\n",
         PathFormat::Json => "[\n",
-        PathFormat::Chan => "",
+        _ => "",
     };
     out.write_all(header.as_bytes()).map_err(Error::stdout)?;
     for item in doc.cameras() {
@@ -129,7 +226,7 @@ pub fn write_path(doc: &Document, format: PathFormat, out: &mut dyn Write) -> Re
                 let comma = if frame + 1 < frames { "," } else { "" };
                 format!("  {}{comma}", json_row(frame, t, &cam))
             }
-            PathFormat::Chan => {
+            _ => {
                 if cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0 {
                     if dropped.off_axis == 0 {
                         dropped.first = frame;

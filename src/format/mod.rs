@@ -8,6 +8,7 @@ mod pieces;
 mod quick;
 pub mod sphere_files;
 
+use crate::keyframes::Interpolation;
 use crate::mode::Mode;
 use std::path::Path;
 
@@ -80,23 +81,6 @@ pub struct CameraSpec {
     pub vfov: Option<f64>,
 }
 
-/// How a track moves between two keys.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-pub enum InterpolationSpec {
-    /// Holds each key's value until the next key.
-    Step,
-    /// Straight line at constant speed (slerp for directions).
-    Linear,
-    /// Eases in and out: (1 − cos(πs)) / 2.
-    Cosine,
-    /// Catmull-Rom through the keys, mirrored phantom keys at the ends.
-    CatmullRom,
-    /// A monotone cubic: no overshoot between keys.
-    Monotone,
-    /// Centripetal Catmull-Rom: no cusps or loops within a segment.
-    Centripetal,
-}
-
 /// How an Observer path is timed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 pub enum SpeedSpec {
@@ -115,7 +99,7 @@ pub struct KeySpec<V> {
     /// The animated parameter's value at `t`.
     pub value: V,
     /// The segment from this key to the next, overriding the track's.
-    pub interpolation: Option<InterpolationSpec>,
+    pub interpolation: Option<Interpolation>,
 }
 
 /// One track of `animate`: the mode it animates and its keys.
@@ -127,7 +111,7 @@ pub enum TrackSpec {
         /// VRP positions, world units.
         keys: Vec<KeySpec<Triple>>,
         /// Default for every segment.
-        interpolation: Option<InterpolationSpec>,
+        interpolation: Option<Interpolation>,
         /// `Keyed` (default) or `Uniform` (constant speed along the path).
         speed: Option<SpeedSpec>,
         /// Arc-length table steps per key segment with `Uniform` (default 256).
@@ -138,28 +122,28 @@ pub enum TrackSpec {
         /// View directions, any length ≠ 0.
         keys: Vec<KeySpec<Triple>>,
         /// Default for every segment.
-        interpolation: Option<InterpolationSpec>,
+        interpolation: Option<Interpolation>,
     },
     /// Animates the target point: VPN = TP − VRP.
     Track {
         /// Target points, world units.
         keys: Vec<KeySpec<Triple>>,
         /// Default for every segment.
-        interpolation: Option<InterpolationSpec>,
+        interpolation: Option<Interpolation>,
     },
     /// Animates the COP's n (along the VPN).
     Zoom {
         /// The COP's n, < 0.
         keys: Vec<KeySpec<f64>>,
         /// Default for every segment.
-        interpolation: Option<InterpolationSpec>,
+        interpolation: Option<Interpolation>,
     },
     /// Animates the COP's (u, v) (across the VPN).
     Distort {
         /// The COP's (u, v).
         keys: Vec<KeySpec<Pair>>,
         /// Default for every segment.
-        interpolation: Option<InterpolationSpec>,
+        interpolation: Option<Interpolation>,
     },
 }
 
