@@ -1,13 +1,15 @@
 //! Ray packets: [`LANES`] neighbouring pixels of a row (or samples of neighbouring pixels) cast
 //! together, primary and shadow rays alike, and the choice of CPU instructions that runs them.
 //!
-//! Each lane does exactly the operations, in exactly the order, of the one-ray-at-a-time code in
-//! `mod.rs` and `shadows.rs`: the same dot products, the same stable roots, the same tests. Only
+//! This is the renderer's only copy of each step: the ray directions, the hit, the shading, the
+//! shadow rays, adaptive sampling and the sRGB levels. Each lane does exactly the operations, in
+//! exactly the order, of the plain one-ray-at-a-time oracle in the tests
+//! (tests/it/reference.rs): the same dot products, the same stable roots, the same tests. Only
 //! the control flow differs — branches become 8-bit lane masks, and a packet leaves the sorted
 //! candidate list once every lane would have left it. IEEE addition, multiplication, division
 //! and square root are correctly rounded at every vector width, Rust never fuses a multiply and
 //! an add on its own, and nothing here uses an approximate reciprocal, so every [`Simd`] path
-//! gives the scalar path's bits. The code is written once against [`Lanes`] (`lanes.rs`): one
+//! gives the same bits. The code is written once against [`Lanes`] (`lanes.rs`): one
 //! AVX-512 register, two AVX2 registers, or arrays the compiler vectorises for SSE2.
 //!
 //! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
@@ -75,7 +77,8 @@ const STRETCH: usize = 32 * LANES;
 /// How the renderer casts its rays. Every choice gives the same bytes; they differ in speed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Simd {
-    /// One ray at a time, with branches (the reference).
+    /// The packet code on plain arrays of lanes (`Portable`), the form every target runs;
+    /// on x86-64 the same code as `Baseline`.
     Scalar,
     /// Packets with the target's baseline vectors (SSE2 on x86-64).
     Baseline,
@@ -181,7 +184,7 @@ const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2
 
 impl RowJob<'_> {
     /// Renders row `j` into `row` (RGB8) in packets, with the instructions of `simd`, which
-    /// must be [`Simd::supported`] and not `Scalar`.
+    /// must be [`Simd::supported`].
     pub fn row(&self, simd: Simd, j: usize, row: &mut [u8]) {
         let one = self.samples == 1;
         match simd {
@@ -266,7 +269,8 @@ impl RowJob<'_> {
                 pixels,
             };
             self.cast::<V, false>(span, &list[..n], &mut stages, &mut colors, &mut []);
-            for (p, px) in out.chunks_exact_mut(3).enumerate() {
+            let mut linear = [[0.0; LANES]; 3];
+            for p in 0..pixels {
                 let mut sum = [0.0; 3];
                 for c in &colors[p * s2..(p + 1) * s2] {
                     for a in 0..3 {
@@ -274,15 +278,16 @@ impl RowJob<'_> {
                     }
                 }
                 for a in 0..3 {
-                    px[a] = self.encode.encode(sum[a] / s2 as f64);
+                    linear[a][p] = sum[a] / s2 as f64;
                 }
             }
+            self.encode_pixels::<V>(&linear, out);
         }
     }
 
-    /// Row `j` with adaptive s×s samples, as `Shading::pixel_adaptive` does it: each pixel's
-    /// four corner samples first, and the average of those where all four saw the same sphere
-    /// lit by the same lights; elsewhere every sample, the corners reused, summed in order.
+    /// Row `j` with adaptive s×s samples: each pixel's four corner samples first, and the
+    /// average of those where all four saw the same sphere lit by the same lights; elsewhere
+    /// every sample, the corners reused, summed in order.
     /// A tile's pixels go together: all their corners, then the other samples of the pixels
     /// whose corners disagree.
     #[inline(always)]
@@ -307,6 +312,8 @@ impl RowJob<'_> {
         let per_cast = (MAX_GROUP_SAMPLES / others.len().max(1)).min(TILE);
         let mut rest: Vec<Sample> = Vec::with_capacity(MAX_GROUP_SAMPLES);
         let mut disagree = Vec::with_capacity(TILE);
+        // The tile's pixels' linear colours, encoded a packet at a time once all are known.
+        let mut linear = [[0.0; 3]; TILE];
         for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
             let i0 = g * TILE;
             let pixels = out.len() / 3;
@@ -318,12 +325,11 @@ impl RowJob<'_> {
             let n = 4 * pixels;
             self.cast::<V, true>(span, &corner_list[..n], &mut stages, &mut shaded, &mut seen);
             disagree.clear();
-            for (p, px) in out.chunks_exact_mut(3).enumerate() {
+            for p in 0..pixels {
                 let (c, what) = (&shaded[4 * p..4 * p + 4], &seen[4 * p..4 * p + 4]);
                 if what.iter().all(|w| *w == what[0]) {
                     for a in 0..3 {
-                        let sum = (((c[0][a] + c[1][a]) + c[2][a]) + c[3][a]) / 4.0;
-                        px[a] = self.encode.encode(sum);
+                        linear[p][a] = (((c[0][a] + c[1][a]) + c[2][a]) + c[3][a]) / 4.0;
                     }
                 } else {
                     disagree.push(p);
@@ -349,16 +355,39 @@ impl RowJob<'_> {
                         }
                     }
                     for a in 0..3 {
-                        out[3 * p + a] = self.encode.encode(sum[a] / s2 as f64);
+                        linear[p][a] = sum[a] / s2 as f64;
                     }
                 }
+            }
+            for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
+                let mut lanes = [[0.0; LANES]; 3];
+                for (l, c) in linear[q * LANES..].iter().take(out.len() / 3).enumerate() {
+                    for a in 0..3 {
+                        lanes[a][l] = c[a];
+                    }
+                }
+                self.encode_pixels::<V>(&lanes, out);
             }
         }
     }
 
+    /// The sRGB levels of up to [`LANES`] pixels' linear colours (a lane per pixel, an array
+    /// per channel) into `out`, RGB8, as many pixels as it holds.
+    #[inline(always)]
+    fn encode_pixels<V: Lanes>(&self, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+        let mut rgb = [0u8; 3 * LANES];
+        for (a, channel) in linear.iter().enumerate() {
+            self.encode.encode_into(V::load(channel), &mut rgb, a);
+        }
+        let n = out.len();
+        out.copy_from_slice(&rgb[..n]);
+    }
+
     /// Casts the samples `list` of the pixels of `span`, in packets of 8 (the last packet's
     /// spare lanes repeat the last sample): each one's linear colour into `colors`, and, when
-    /// `SEEN`, what it saw into `seen` (`Shading::shade`'s `Seen`).
+    /// `SEEN`, what it saw into `seen`: the sphere (or `u64::MAX` for the background) in the
+    /// high 32 bits and, in the low 32, which lights reach the point. Adaptive sampling compares
+    /// these.
     #[inline(always)]
     fn cast<V: Lanes, const SEEN: bool>(
         &self,
@@ -383,7 +412,6 @@ impl RowJob<'_> {
         let mut hints = [NO_HINT; HINTED_LIGHTS];
         let Stages { dirs, founds } = stages;
         for (q, d) in dirs[..packets].iter_mut().enumerate() {
-            // Directions as `RayTable::compute` makes them.
             let mut xs = [0.0; LANES];
             let mut ys = [0.0; LANES];
             for l in 0..LANES {
@@ -392,8 +420,7 @@ impl RowJob<'_> {
                 ys[l] = t.ys[j * s + line as usize];
             }
             let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
-            let r = V::splat(1.0).div(x.mul(x).add(y.mul(y)).add(z.mul(z)).sqrt());
-            *d = [x.mul(r), y.mul(r), z.mul(r)];
+            *d = unit(x, y, z, y.mul(y), z.mul(z));
         }
         for pair in 0..packets.div_ceil(2) {
             let d = [dirs[2 * pair], dirs[2 * pair + 1]];
@@ -548,8 +575,15 @@ fn row_direction<V: Lanes>(xs: &[f64], at: usize, y: f64, z: f64, yy: V, zz: V) 
         v[..width - at].copy_from_slice(&xs[at..width]);
         V::load(&v)
     };
+    unit(x, V::splat(y), V::splat(z), yy, zz)
+}
+
+/// The unit vectors along (x, y, z) per lane, given yy = y² and zz = z² (a row's are the same in
+/// every packet), normalised exactly as `DVec3::normalize` does: v · (1 / √((x² + y²) + z²)).
+#[inline(always)]
+fn unit<V: Lanes>(x: V, y: V, z: V, yy: V, zz: V) -> [V; 3] {
     let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
-    [x.mul(r), V::splat(y).mul(r), V::splat(z).mul(r)]
+    [x.mul(r), y.mul(r), z.mul(r)]
 }
 
 /// (a·b for x and y) + z: glam's dot product order.
@@ -567,15 +601,16 @@ fn splat3<V: Lanes>(v: glam::DVec3) -> [V; 3] {
 type Found<V> = (u8, <V as Lanes>::Index, V);
 
 impl Shading<'_> {
-    /// `Shading::nearest` for two packets (directions `d`, `covers(k, packet)`) at once. Each
-    /// packet does exactly what it would alone: it passes a sphere that does not cover it, and
+    /// The nearest hit in front of the COP, among `candidates` (sphere indices, nearest possible
+    /// hit first), for two packets (directions `d`, `covers(k, packet)`) at once; the search
+    /// stops once no candidate left can be nearer. Each packet does exactly what it would alone: it passes a sphere that does not cover it, and
     /// stops for good at the first one none of its lanes would test; a packet not `live` takes
     /// no part. A lane takes part in a candidate while the one-ray search would still be
     /// running; it may also test a sphere that its tile placed by a bound of its own, below
     /// spheres with a larger `min_dist` (a ground, `tiles.rs`), after the one-ray search has
     /// stopped — a hit there is no nearer than that bound, so the answer is the same.
     #[inline(always)]
-    fn nearest_packets<V: Lanes>(
+    pub(super) fn nearest_packets<V: Lanes>(
         &self,
         d: &[[V; 3]; 2],
         candidates: &[u32],
@@ -606,8 +641,13 @@ impl Shading<'_> {
             let f = splat3::<V>(s.f);
             let (c, radius2, k) = (V::splat(s.c), V::splat(s.radius2), V::index(k as u64));
             for q in 0..2 {
-                // `nearest_positive_root`, lane by lane. No branch past the discriminant when
-                // no lane meets the sphere: the roots cost less than the mispredicted branches.
+                // The smallest t > 0 with |f + t·d| = r, lane by lane, in the numerically stable
+                // form (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray
+                // Tracing Gems ch. 7): the discriminant from |f − (f·d)d|² instead of b² − c,
+                // and the root q = −(b + sign(b)√Δ) with the other root c/q, so neither root is
+                // the difference of two nearly equal numbers. No branch past the discriminant
+                // when no lane meets the sphere: the roots cost less than the mispredicted
+                // branches.
                 let d = &d[q];
                 let b = dot(&f, d);
                 let g = [
@@ -634,8 +674,9 @@ impl Shading<'_> {
         [(hit[0], index[0], best[0]), (hit[1], index[1], best[1])]
     }
 
-    /// `Shading::shade`'s linear colours (r, g and b lanes) for a packet with a hit,
-    /// background where a lane missed, with the shadow rays of each light cast as one packet
+    /// The linear colours (r, g and b lanes) for a packet with a hit: the ambient plus each
+    /// light facing the point and not blocked, times the sphere's colour, clamped; background
+    /// where a lane missed, with the shadow rays of each light cast as one packet
     /// (the first [`HINTED_LIGHTS`] lights' with the row's `hints`, see [`occluded`]).
     #[inline(always)]
     fn shade_packet<V: Lanes, const SEEN: bool>(
@@ -654,7 +695,8 @@ impl Shading<'_> {
             let f = fields.vec3(offset_of!(ViewSphere, f), |s| s.f);
             let c = fields.vec3(offset_of!(ViewSphere, center), |s| s.center);
             let r = fields.field(offset_of!(ViewSphere, radius), |s| s.radius);
-            // ViewSphere::surface: rel = f + d·t, normal = rel / r, point = centre + rel.
+            // The hit relative to the centre, rel = f + d·t, has length r: normal = rel / r,
+            // point = centre + rel.
             let rel = [
                 f[0].add(d[0].mul(t)),
                 f[1].add(d[1].mul(t)),
@@ -690,8 +732,8 @@ impl Shading<'_> {
         let flat = self.lights.is_empty();
         let mut out = [zero; 3];
         for a in 0..3 {
-            // Shading::color: clamp to [0, 1] as glam does (max, then min), or only to 1 for a
-            // flat scene.
+            // Clamp to [0, 1] as glam does (max, then min), or only to 1 for a flat scene (no
+            // lights: the ambient alone).
             let c = color[a].mul(light[a]);
             let c = if flat {
                 c.min(one)
@@ -765,8 +807,8 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
     }
 }
 
-/// `FrameShadows::occluded` for a packet of view points on spheres `own`, for the lanes in
-/// `need`: which of them the light does not reach. Whether any sphere blocks a ray does not
+/// Whether the ray from each view point (on sphere `own`) towards the light meets another
+/// sphere, for the lanes in `need`: which of them the light does not reach. Whether any sphere blocks a ray does not
 /// depend on the order of the tests, so lanes sharing a grid cell test its spheres together,
 /// and `hint`, the last sphere found blocking a ray of an earlier packet of the row (or
 /// [`NO_HINT`]), is tested first: neighbouring points are mostly in the same sphere's shadow,
@@ -805,13 +847,15 @@ fn occluded<V: Lanes>(
             return blocked;
         }
     }
-    // FrameShadows::square on whole lanes.
+    // The square (in cells, unclamped) that each point stands for on the grid: its projection
+    // widened by the rounding allowance (1e-9 of the coordinates' scale, far above the rounding
+    // by which a view point reaches the grid in world coordinates), so a point on a cell's edge
+    // looks in both cells.
     let (ax, ay) = sh.axes;
     let q = [
         dot(point, &splat3(ax)).add(V::splat(sh.offset.x)),
         dot(point, &splat3(ay)).add(V::splat(sh.offset.y)),
     ];
-    // FrameShadows::allowance on whole lanes.
     let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
     let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
     // How far each point lies towards the light, less the allowance (`FrameShadows::up`):
@@ -820,8 +864,8 @@ fn occluded<V: Lanes>(
     let inv = V::splat(sh.grid.inv_cell);
     let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];
     let hi = [q[0].add(err).mul(inv), q[1].add(err).mul(inv)];
-    // ShadowGrid::clamp_cells on whole lanes: lanes whose square misses the grid (or is NaN)
-    // have no cells; the others' ranges are clamped to it.
+    // Lanes whose square misses the grid (or is NaN) have no cells; the others' ranges are
+    // clamped to it (the far edges belong to the last cells).
     let zero = V::splat(0.0);
     let (w, h) = sh.grid.dims;
     let on_grid = hi[0].ge(zero) & hi[1].ge(zero);
@@ -940,8 +984,10 @@ fn cell_index<V: Lanes>(v: V, n: usize) -> [i32; LANES] {
     v.max(V::splat(0.0)).min(V::splat(last as f64)).to_i32(last)
 }
 
-/// The lanes whose shadow ray sphere k (centre `c`, r² `r2`, in view coordinates) blocks, as
-/// `blocks_ray`, leaving out lanes on sphere k itself.
+/// The lanes whose shadow ray sphere k (centre `c`, r² `r2`, in view coordinates) blocks,
+/// leaving out lanes on sphere k itself. A point inside (or on) the sphere is blocked; outside,
+/// both roots share a sign, positive exactly when the sphere lies ahead. No epsilon is needed:
+/// a point's own sphere, being convex, never shadows its own lit side.
 #[inline(always)]
 fn blocks<V: Lanes>(
     sh: &FrameShadows,
@@ -975,7 +1021,7 @@ impl SrgbEncoder {
     /// clamp and bucket on whole lanes, then a table read per value, and a comparison only for
     /// values in a bucket that a threshold splits.
     #[inline(always)]
-    fn encode_into<V: Lanes>(&self, linear: V, rgb: &mut [u8; 3 * LANES], a: usize) {
+    pub(super) fn encode_into<V: Lanes>(&self, linear: V, rgb: &mut [u8; 3 * LANES], a: usize) {
         let (zero, one) = (V::splat(0.0), V::splat(1.0));
         // f64::clamp(0, 1), which keeps a NaN.
         let x = V::blend(linear.lt(zero), linear, zero);
@@ -1003,6 +1049,60 @@ mod tests {
     use super::super::shadows::tests::cluster;
     use super::super::shadows::view_center;
     use super::*;
+    use glam::DVec3;
+
+    /// The packets' nearest hit of one sphere (centre `center`, radius `r`, view coordinates)
+    /// by the ray from the origin along unit `d`, in every lane.
+    fn hit(center: DVec3, r: f64, d: DVec3) -> Option<f64> {
+        let f = -center;
+        let sphere = ViewSphere {
+            center,
+            radius: r,
+            radius2: r * r,
+            f,
+            c: f.length_squared() - r * r,
+            min_dist: f.length() - r,
+            color: DVec3::ONE,
+            id: 0,
+        };
+        let shading = Shading {
+            spheres: &[sphere],
+            lights: &[],
+            ambient: 0.0,
+            background: DVec3::ZERO,
+        };
+        let d = [d.x, d.y, d.z].map(Portable::splat);
+        let [(hit, _, t), _] =
+            shading.nearest_packets::<Portable>(&[d, d], &[0], |_, _| true, [true, false]);
+        let t = t.store();
+        assert!(hit == 0 || hit == 0xff, "every lane alike");
+        assert!(t.iter().all(|x| x.to_bits() == t[0].to_bits()));
+        (hit != 0).then_some(t[0])
+    }
+
+    #[test]
+    fn roots_match_the_textbook_quadratic() {
+        // Unit sphere at (0, 0, 5), ray from the origin along +z: hits at 4 and 6.
+        let t = hit(DVec3::new(0.0, 0.0, 5.0), 1.0, DVec3::Z).unwrap();
+        assert!((t - 4.0).abs() < 1e-15);
+        // From inside: the far root.
+        let t = hit(DVec3::new(0.0, 0.0, 0.5), 1.0, DVec3::Z).unwrap();
+        assert!((t - 1.5).abs() < 1e-15);
+        // Behind: none.
+        assert_eq!(hit(DVec3::new(0.0, 0.0, -5.0), 1.0, DVec3::Z), None);
+        // Miss.
+        assert_eq!(hit(DVec3::new(-2.0, 0.0, 5.0), 1.0, DVec3::Z), None);
+    }
+
+    #[test]
+    fn stable_roots_keep_a_tiny_sphere_far_away() {
+        // r = 1e-3 at distance 1e4 along a slightly oblique ray; the naive b² − c loses every
+        // digit of the discriminant here. Closed form: t = D·cosθ − sqrt(r² − D² sin²θ).
+        let (dist, offset, r) = (1e4, 0.5e-3, 1e-3_f64);
+        let t = hit(DVec3::new(0.0, offset, dist), r, DVec3::Z).unwrap();
+        let expect = dist - (r * r - offset * offset).sqrt();
+        assert!((t - expect).abs() < 1e-9, "{t} vs {expect}");
+    }
 
     /// Eight values at a time, [`SrgbEncoder::encode_into`] is [`SrgbEncoder::encode`], in its
     /// channel and nowhere else: at, just below and just above every threshold (values in split

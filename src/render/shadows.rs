@@ -33,7 +33,7 @@ pub struct ShadowGrid {
     /// Each sphere's top: how far its highest point lies towards the light (c·to_light + r).
     /// A sphere can block only a ray that starts below its top, so every cell lists its
     /// spheres highest top first, and a shadow packet stops reading a cell at the first one
-    /// below all its open lanes (`walk` in `packet.rs`; the scalar path reads them all).
+    /// below all its open lanes (`walk` in `packet.rs`).
     pub(super) tops: Vec<f64>,
 }
 
@@ -114,24 +114,6 @@ impl ShadowGrid {
         let clampx = |v: f64| v.max(0.0).min(self.dims.0 as f64 - 1.0) as usize;
         let clampy = |v: f64| v.max(0.0).min(self.dims.1 as f64 - 1.0) as usize;
         (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
-    }
-
-    /// The clamped cell range of the grid rectangle [a, b] (in cells), None when it misses
-    /// the grid (the far edges belong to the last cells).
-    #[inline(always)]
-    fn clamp_cells(&self, a: DVec2, b: DVec2) -> Option<CellRect> {
-        let (w, h) = (self.dims.0 as f64, self.dims.1 as f64);
-        if !(b.x >= 0.0 && b.y >= 0.0 && a.x <= w && a.y <= h) {
-            return None;
-        }
-        // Truncation is floor for these non-negative values, without a libm call.
-        let cell = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
-        Some((
-            cell(a.x, self.dims.0),
-            cell(b.x, self.dims.0),
-            cell(a.y, self.dims.1),
-            cell(b.y, self.dims.1),
-        ))
     }
 }
 
@@ -214,64 +196,6 @@ impl<'a> FrameShadows<'a> {
         (k, c, r2)
     }
 
-    /// The cells that can hold a blocker of the shadow ray from view point `point`, None if
-    /// no binned disc can hold it. The grid lies in world coordinates and the point reaches it
-    /// through rounding, so the point is taken as a small square (1e-9 of the coordinates'
-    /// scale, far above the rounding): a point on a cell's edge looks in both cells.
-    #[inline(always)]
-    fn cells(&self, point: DVec3) -> Option<CellRect> {
-        if self.grid.dims.0 == 0 {
-            return None;
-        }
-        let (lo, hi) = self.square(point.to_array());
-        self.grid
-            .clamp_cells(DVec2::from_array(lo), DVec2::from_array(hi))
-    }
-
-    /// The square (in cells, unclamped) that view point `p` stands for on the grid: its
-    /// projection widened by the rounding allowance.
-    #[inline(always)]
-    fn square(&self, p: [f64; 3]) -> ([f64; 2], [f64; 2]) {
-        let (ax, ay) = self.axes;
-        let q = [
-            (p[0] * ax.x + p[1] * ax.y) + p[2] * ax.z + self.offset.x,
-            (p[0] * ay.x + p[1] * ay.y) + p[2] * ay.z + self.offset.y,
-        ];
-        let err = self.allowance(p);
-        let inv = self.grid.inv_cell;
-        (
-            [(q[0] - err) * inv, (q[1] - err) * inv],
-            [(q[0] + err) * inv, (q[1] + err) * inv],
-        )
-    }
-
-    /// Whether the ray from view point `point` (on sphere `own`) towards the light meets
-    /// another sphere.
-    pub fn occluded(&self, point: DVec3, own: u32) -> bool {
-        let dir = self.to_light;
-        let blocks = |&(k, c, r2): &(u32, DVec3, f64)| k != own && blocks_ray(c, r2, point, dir);
-        if self.always.iter().any(blocks) {
-            return true;
-        }
-        let Some((x0, x1, y0, y1)) = self.cells(point) else {
-            return false;
-        };
-        // Every sphere of the cells (the packet code stops at the first top below the point;
-        // here, the same cut cost more than the tests it saved).
-        (y0..=y1).any(|y| {
-            (x0..=x1).any(|x| {
-                let cell = self.grid.bins.cell(x, y);
-                cell.iter().any(|&k| blocks(&self.blocker(k)))
-            })
-        })
-    }
-
-    /// The rounding allowance at view point `p`: 1e-9 of the coordinates' scale.
-    #[inline(always)]
-    fn allowance(&self, p: [f64; 3]) -> f64 {
-        1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()))
-    }
-
     /// The binned spheres of grid cell (x, y).
     #[inline(always)]
     pub(super) fn cell(&self, x: usize, y: usize) -> &[u32] {
@@ -320,24 +244,9 @@ fn grid_size(extent: DVec2, count: usize) -> ((usize, usize), f64) {
     (dims, 1.0 / cell)
 }
 
-/// Whether the sphere about view point `center` with squared radius `radius2` blocks the ray
-/// from `point` along unit `dir` (t > 0). A point inside (or on) the sphere is blocked; outside,
-/// both roots share a sign, positive exactly when the sphere lies ahead. No epsilon is needed:
-/// the caller skips the sphere the point lies on, which, being convex, never shadows its own
-/// lit side.
-#[inline]
-pub fn blocks_ray(center: DVec3, radius2: f64, point: DVec3, dir: DVec3) -> bool {
-    let f = point - center;
-    let c = f.length_squared() - radius2;
-    if c <= 0.0 {
-        return true;
-    }
-    let b = f.dot(dir);
-    b < 0.0 && (f - dir * b).length_squared() <= radius2
-}
-
 #[cfg(test)]
 pub(super) mod tests {
+    use super::super::oracle::blocks_ray;
     use super::*;
     use crate::camera::Basis;
     use crate::splitmix::SplitMix;
@@ -426,30 +335,6 @@ pub(super) mod tests {
                 let (c, r2) = view_center(&self.camera, other);
                 o as u32 != own && blocks_ray(c, r2, point, to_light)
             })
-        }
-    }
-
-    /// The grid finds a blocker exactly when testing every sphere does (the packet code's
-    /// test, which also cuts each cell at the point's height, is in `packet.rs`).
-    #[test]
-    fn the_grid_finds_every_blocker() {
-        let c = cluster();
-        for light in &c.lights {
-            let frame = FrameShadows::new(&light.grid, &c.camera, &c.spheres, None, light.to_light);
-            let mut blocked = 0;
-            for (k, &(point, own)) in c.points.iter().enumerate() {
-                let every = c.any_blocker(light.to_light, (point, own));
-                assert_eq!(
-                    frame.occluded(point, own),
-                    every,
-                    "point {k} on sphere {own}, light {}",
-                    light.direction
-                );
-                blocked += every as usize;
-            }
-            // Neither answer is vacuous.
-            let lit = c.points.len() - blocked;
-            assert!(blocked > 1000 && lit > 1000, "{blocked} blocked, {lit} lit");
         }
     }
 }

@@ -15,6 +15,7 @@ mod incremental;
 mod modes;
 mod povray;
 mod production;
+mod reference;
 mod simd;
 mod suites;
 mod video;
