@@ -30,7 +30,7 @@ mod shadows;
 mod tiles;
 mod world;
 
-use lanes::Lanes;
+use lanes::{Isa, Lanes};
 pub use packet::Simd;
 use packet::{RowJob, LANES};
 pub use world::SceneIndex;
@@ -82,9 +82,7 @@ impl RayTable {
 }
 
 /// A sphere in view coordinates, with the terms every primary ray shares.
-// C layout: packets read its fields by offset (`lanes.rs`).
 #[derive(Debug, Clone, Copy)]
-#[repr(C)]
 struct ViewSphere {
     center: DVec3,
     radius: f64,
@@ -120,6 +118,32 @@ impl ViewSphere {
     }
 }
 
+/// The fields of the frame's view spheres that a packet whose lanes hit several spheres reads
+/// lane by lane (`Lanes::gather`): one slice per field, in the order of the spheres.
+struct ViewColumns {
+    f: [Vec<f64>; 3],
+    center: [Vec<f64>; 3],
+    radius: Vec<f64>,
+    color: [Vec<f64>; 3],
+    /// The spheres' indices in the scene.
+    id: Vec<u64>,
+}
+
+impl ViewColumns {
+    fn new(spheres: &[ViewSphere]) -> ViewColumns {
+        let column = |f: &dyn Fn(&ViewSphere) -> f64| spheres.iter().map(f).collect::<Vec<_>>();
+        let xyz =
+            |f: &dyn Fn(&ViewSphere) -> DVec3| [0, 1, 2].map(|a| column(&|s: &ViewSphere| f(s)[a]));
+        ViewColumns {
+            f: xyz(&|s| s.f),
+            center: xyz(&|s| s.center),
+            radius: column(&|s| s.radius),
+            color: xyz(&|s| s.color),
+            id: spheres.iter().map(|s| s.id as u64).collect(),
+        }
+    }
+}
+
 /// A light in view coordinates.
 struct ViewLight<'a> {
     /// Unit vector from a surface towards the light: −direction.
@@ -133,6 +157,8 @@ struct ViewLight<'a> {
 pub struct Renderer {
     table: Option<Arc<RayTable>>,
     simd: Simd,
+    /// `simd`'s instruction set, with the proof that this CPU runs it.
+    isa: Isa,
 }
 
 impl Default for Renderer {
@@ -144,18 +170,21 @@ impl Default for Renderer {
 impl Renderer {
     /// A renderer on the fastest instruction path this CPU runs.
     pub fn new() -> Renderer {
+        let simd = Simd::detect();
         Renderer {
             table: None,
-            simd: Simd::detect(),
+            simd,
+            isa: simd.isa().expect("Simd::detect picks a path this CPU runs"),
         }
     }
 
     /// A renderer on instruction path `simd`, None if this CPU cannot run it. Every path gives
     /// the same bytes.
     pub fn with_simd(simd: Simd) -> Option<Renderer> {
-        simd.supported().then(|| Renderer {
+        Some(Renderer {
+            table: None,
             simd,
-            ..Renderer::new()
+            isa: simd.isa()?,
         })
     }
 
@@ -244,9 +273,10 @@ impl Renderer {
             .collect();
         let bins = TileBins::build(&spheres, &table, raster);
         PreparedFrame {
-            simd: self.simd,
+            isa: self.isa,
             raster,
             table,
+            columns: ViewColumns::new(&spheres),
             spheres,
             lights,
             bins,
@@ -262,10 +292,11 @@ pub const RING_ROWS: usize = 64;
 
 /// A frame made ready for its rays by [`Renderer::prepare`].
 pub struct PreparedFrame<'a> {
-    simd: Simd,
+    isa: Isa,
     raster: Raster,
     table: Arc<RayTable>,
     spheres: Vec<ViewSphere>,
+    columns: ViewColumns,
     lights: Vec<ViewLight<'a>>,
     bins: TileBins,
     ambient: f64,
@@ -308,6 +339,7 @@ impl PreparedFrame<'_> {
         let rows = raster.height as usize;
         let ctx = Shading {
             spheres: &self.spheres,
+            columns: &self.columns,
             lights: &self.lights,
             ambient: self.ambient,
             background: self.background,
@@ -327,8 +359,8 @@ impl PreparedFrame<'_> {
             samples: raster.samples as usize,
             adaptive,
         };
-        let simd = self.simd;
-        let render = |j, row: &mut [u8]| job.row(simd, j, row);
+        let isa = self.isa;
+        let render = |j, row: &mut [u8]| job.row(isa, j, row);
         rows_in_order(buffer, width * 3, rows, render, in_order);
     }
 }
@@ -336,6 +368,7 @@ impl PreparedFrame<'_> {
 /// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
 struct Shading<'a> {
     spheres: &'a [ViewSphere],
+    columns: &'a ViewColumns,
     lights: &'a [ViewLight<'a>],
     ambient: f64,
     background: DVec3,
@@ -391,7 +424,7 @@ impl SrgbEncoder {
     /// background's levels, once a frame).
     pub fn encode(&self, linear: f64) -> u8 {
         let mut rgb = [0u8; 3 * LANES];
-        self.encode_into(lanes::Portable::splat(linear), &mut rgb, 0);
+        self.encode_into(lanes::Portable::splat((), linear), &mut rgb, 0);
         rgb[0]
     }
 

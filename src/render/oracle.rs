@@ -53,9 +53,9 @@ pub(super) fn nearest(
     d: DVec3,
 ) -> Option<(usize, f64)> {
     let d = [
-        Portable::splat(d.x),
-        Portable::splat(d.y),
-        Portable::splat(d.z),
+        Portable::splat((), d.x),
+        Portable::splat((), d.y),
+        Portable::splat((), d.z),
     ];
     let covers = |k: u32, _: usize| bins.covers(k, i, i, j);
     let [(hit, index, t), _] =

@@ -18,13 +18,11 @@
 //! level. Each stage is a short loop over independent packets, which the CPU overlaps; taken
 //! packet by packet, the same work ran 15–20% slower.
 
-use std::mem::offset_of;
-
 use super::bins::CellRect;
-use super::lanes::{Lanes, Portable};
+use super::lanes::{InBounds, Isa, Lanes, Portable};
 use super::shadows::{cell_key, cell_range, FrameShadows};
 use super::tiles::{TileBins, TILE};
-use super::{RayTable, Shading, SrgbEncoder, ViewSphere, BUCKETS, SPLIT};
+use super::{RayTable, Shading, SrgbEncoder, ViewColumns, ViewSphere, BUCKETS, SPLIT};
 use crate::raster::MAX_SAMPLES;
 
 /// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
@@ -53,11 +51,11 @@ struct Stages<V: Lanes> {
 
 impl<V: Lanes> Stages<V> {
     #[inline(always)]
-    fn new() -> Self {
-        let zero = V::splat(0.0);
+    fn new(tok: V::Token) -> Self {
+        let zero = V::splat(tok, 0.0);
         Stages {
             dirs: [[zero; 3]; MAX_GROUP_SAMPLES / LANES],
-            founds: [(0, V::index(0), zero); MAX_GROUP_SAMPLES / LANES],
+            founds: [(0, V::index(tok, 0), zero); MAX_GROUP_SAMPLES / LANES],
         }
     }
 }
@@ -94,14 +92,19 @@ impl Simd {
 
     /// Whether this CPU can run the path.
     pub fn supported(self) -> bool {
+        self.isa().is_some()
+    }
+
+    /// The path's instruction set, with the proof that this CPU runs it; None when it does not.
+    pub(super) fn isa(self) -> Option<Isa> {
         match self {
-            Simd::Scalar | Simd::Baseline => true,
+            Simd::Scalar | Simd::Baseline => Some(Isa::Portable),
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            Simd::Avx2 => super::lanes::Avx2::detect().map(Isa::Avx2),
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            Simd::Avx512 => super::lanes::Avx512::detect().map(Isa::Avx512),
             #[cfg(not(target_arch = "x86_64"))]
-            Simd::Avx2 | Simd::Avx512 => false,
+            Simd::Avx2 | Simd::Avx512 => None,
         }
     }
 
@@ -183,61 +186,64 @@ pub struct RowJob<'a> {
 const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
 
 impl RowJob<'_> {
-    /// Renders row `j` into `row` (RGB8) in packets, with the instructions of `simd`, which
-    /// must be [`Simd::supported`].
-    pub fn row(&self, simd: Simd, j: usize, row: &mut [u8]) {
+    /// Renders row `j` into `row` (RGB8) in packets, with the instruction set `isa`, which
+    /// proves that the CPU runs it.
+    pub fn row(&self, isa: Isa, j: usize, row: &mut [u8]) {
         let one = self.samples == 1;
-        match simd {
-            // SAFETY (both x86 arms): the caller checked `Simd::supported`, so the CPU has
-            // AVX2, or AVX-512F.
+        match isa {
+            Isa::Portable if one => self.row_packets::<Portable>((), j, row),
+            Isa::Portable => self.row_several::<Portable>((), j, row),
+            // SAFETY: `t` proves AVX2.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 if one => unsafe { self.row_avx2(j, row) },
+            Isa::Avx2(t) if one => unsafe { self.row_avx2(t, j, row) },
+            // SAFETY: `t` proves AVX2.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => unsafe { self.row_samples_avx2(j, row) },
+            Isa::Avx2(t) => unsafe { self.row_samples_avx2(t, j, row) },
+            // SAFETY: `t` proves AVX-512F.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 if one => unsafe { self.row_avx512(j, row) },
+            Isa::Avx512(t) if one => unsafe { self.row_avx512(t, j, row) },
+            // SAFETY: `t` proves AVX-512F.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => unsafe { self.row_samples_avx512(j, row) },
-            _ if one => self.row_packets::<Portable>(j, row),
-            _ => self.row_several::<Portable>(j, row),
+            Isa::Avx512(t) => unsafe { self.row_samples_avx512(t, j, row) },
         }
     }
 
     /// A row of several samples a pixel, adaptive or not.
     #[inline(always)]
-    fn row_several<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+    fn row_several<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
         if self.adaptive {
-            self.row_adaptive::<V>(j, row)
+            self.row_adaptive::<V>(tok, j, row)
         } else {
-            self.row_samples::<V>(j, row)
+            self.row_samples::<V>(tok, j, row)
         }
     }
 
     // One function per path and per kind of row: each is compiled on its own, so the
-    // single-sample loop keeps its registers and layout.
+    // single-sample loop keeps its registers and layout. Each takes the token that proves its
+    // instruction set: `#[target_feature]` makes it unsafe to call without one.
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn row_avx2(&self, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Ymm2>(j, row)
+    fn row_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
+        self.row_packets::<super::lanes::Ymm2>(t, j, row)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn row_avx512(&self, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Zmm>(j, row)
+    fn row_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
+        self.row_packets::<super::lanes::Zmm>(t, j, row)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn row_samples_avx2(&self, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Ymm2>(j, row)
+    fn row_samples_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
+        self.row_several::<super::lanes::Ymm2>(t, j, row)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn row_samples_avx512(&self, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Zmm>(j, row)
+    fn row_samples_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
+        self.row_several::<super::lanes::Zmm>(t, j, row)
     }
 
     /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
@@ -245,7 +251,7 @@ impl RowJob<'_> {
     /// pixels in one tile (4 pixels up to 8×8, 2 up to 11×11, else 1) are cast together
     /// ([`RowJob::cast`]), stage by stage.
     #[inline(always)]
-    fn row_samples<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+    fn row_samples<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
         let s = self.samples;
         let s2 = s * s;
         // Four pixels a group, or as many as fit (a group stays inside a tile).
@@ -254,7 +260,7 @@ impl RowJob<'_> {
             .find(|g| g * s2 <= MAX_GROUP_SAMPLES)
             .unwrap_or(1);
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
-        let mut stages = Stages::<V>::new();
+        let mut stages = Stages::<V>::new(tok);
         // The group's samples in (pixel, sample) order.
         let list: Vec<Sample> = (0..group * s2)
             .map(|at| sample(s, at / s2, at % s2))
@@ -281,7 +287,7 @@ impl RowJob<'_> {
                     linear[a][p] = sum[a] / s2 as f64;
                 }
             }
-            self.encode_pixels::<V>(&linear, out);
+            self.encode_pixels::<V>(tok, &linear, out);
         }
     }
 
@@ -291,7 +297,7 @@ impl RowJob<'_> {
     /// A tile's pixels go together: all their corners, then the other samples of the pixels
     /// whose corners disagree.
     #[inline(always)]
-    fn row_adaptive<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+    fn row_adaptive<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
         let s = self.samples;
         let s2 = s * s;
         let corners = [0, s - 1, s * (s - 1), s2 - 1];
@@ -301,7 +307,7 @@ impl RowJob<'_> {
         let mut shaded = [[0.0; 3]; 4 * TILE];
         let mut seen = [0u64; 4 * TILE];
         let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
-        let mut stages = Stages::<V>::new();
+        let mut stages = Stages::<V>::new(tok);
         // A pixel's samples other than its corners, and where each sample's colour comes from:
         // a corner (its index among the four) or the next of those others.
         let others: Vec<usize> = (0..s2).filter(|k| !corners.contains(k)).collect();
@@ -366,7 +372,7 @@ impl RowJob<'_> {
                         lanes[a][l] = c[a];
                     }
                 }
-                self.encode_pixels::<V>(&lanes, out);
+                self.encode_pixels::<V>(tok, &lanes, out);
             }
         }
     }
@@ -374,10 +380,10 @@ impl RowJob<'_> {
     /// The sRGB levels of up to [`LANES`] pixels' linear colours (a lane per pixel, an array
     /// per channel) into `out`, RGB8, as many pixels as it holds.
     #[inline(always)]
-    fn encode_pixels<V: Lanes>(&self, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+    fn encode_pixels<V: Lanes>(&self, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
         let mut rgb = [0u8; 3 * LANES];
         for (a, channel) in linear.iter().enumerate() {
-            self.encode.encode_into(V::load(channel), &mut rgb, a);
+            self.encode.encode_into(V::load(tok, channel), &mut rgb, a);
         }
         let n = out.len();
         out.copy_from_slice(&rgb[..n]);
@@ -397,6 +403,7 @@ impl RowJob<'_> {
         colors: &mut [[f64; 3]],
         seen: &mut [u64],
     ) {
+        let tok = stages.dirs[0][0].token();
         let (s, t, n) = (self.samples, self.table, list.len());
         let Span {
             row: j,
@@ -419,7 +426,7 @@ impl RowJob<'_> {
                 xs[l] = t.xs[i0 * s + column as usize];
                 ys[l] = t.ys[j * s + line as usize];
             }
-            let (x, y, z) = (V::load(&xs), V::load(&ys), V::splat(t.dz));
+            let (x, y, z) = (V::load(tok, &xs), V::load(tok, &ys), V::splat(tok, t.dz));
             *d = unit(x, y, z, y.mul(y), z.mul(z));
         }
         for pair in 0..packets.div_ceil(2) {
@@ -462,11 +469,11 @@ impl RowJob<'_> {
     /// a tile's row are searched together: they share its candidates, and their chains of
     /// dependent work interleave.
     #[inline(always)]
-    fn row_packets<V: Lanes>(&self, j: usize, row: &mut [u8]) {
+    fn row_packets<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
         let width = row.len() / 3;
         let t = self.table;
         let (y, z) = (t.ys[j], t.dz);
-        let (yy, zz) = (V::splat(y * y), V::splat(z * z));
+        let (yy, zz) = (V::splat(tok, y * y), V::splat(tok, z * z));
         // A stretch of the row's unit directions (`row_direction`), computed ahead of its
         // packets: independent square roots and divisions, out of each packet's chain of
         // dependent work. The first stretch's are computed here, each next stretch's in this
@@ -474,7 +481,7 @@ impl RowJob<'_> {
         // tables and stores bytes, and leaves the divider idle (1–2% less CPU time on the
         // dense cluster, 2–3% on fly1000, than in a loop of their own).
         let xs = &t.xs[..width];
-        let mut dirs = [[V::splat(0.0); 3]; STRETCH / LANES];
+        let mut dirs = [[V::splat(tok, 0.0); 3]; STRETCH / LANES];
         for (q, d) in dirs[..width.min(STRETCH).div_ceil(LANES)]
             .iter_mut()
             .enumerate()
@@ -484,8 +491,8 @@ impl RowJob<'_> {
         // The stretch's nearest hits, then its colours, then its levels, each stage a short loop
         // over independent packets, so that one packet's square roots, divisions and table
         // lookups overlap the next one's.
-        let mut founds = [(0u8, V::index(0), V::splat(0.0)); STRETCH / LANES];
-        let mut colors = [[V::splat(0.0); 3]; STRETCH / LANES];
+        let mut founds = [(0u8, V::index(tok, 0), V::splat(tok, 0.0)); STRETCH / LANES];
+        let mut colors = [[V::splat(tok, 0.0); 3]; STRETCH / LANES];
         // The shadow hints, along the whole row.
         let mut hints = [NO_HINT; HINTED_LIGHTS];
         for (s, out) in row.chunks_mut(3 * STRETCH).enumerate() {
@@ -567,22 +574,24 @@ impl RowJob<'_> {
 /// row function compiled for the instruction set (1.5× the time, measured).
 #[inline(always)]
 fn row_direction<V: Lanes>(xs: &[f64], at: usize, y: f64, z: f64, yy: V, zz: V) -> [V; 3] {
+    let tok = yy.token();
     let width = xs.len();
     let x = if at + LANES <= width {
-        V::load(xs[at..at + LANES].try_into().expect("LANES values"))
+        V::load(tok, xs[at..at + LANES].try_into().expect("LANES values"))
     } else {
         let mut v = [xs[width - 1]; LANES];
         v[..width - at].copy_from_slice(&xs[at..width]);
-        V::load(&v)
+        V::load(tok, &v)
     };
-    unit(x, V::splat(y), V::splat(z), yy, zz)
+    unit(x, V::splat(tok, y), V::splat(tok, z), yy, zz)
 }
 
 /// The unit vectors along (x, y, z) per lane, given yy = y² and zz = z² (a row's are the same in
 /// every packet), normalised exactly as `DVec3::normalize` does: v · (1 / √((x² + y²) + z²)).
 #[inline(always)]
 fn unit<V: Lanes>(x: V, y: V, z: V, yy: V, zz: V) -> [V; 3] {
-    let r = V::splat(1.0).div(x.mul(x).add(yy).add(zz).sqrt());
+    let tok = x.token();
+    let r = V::splat(tok, 1.0).div(x.mul(x).add(yy).add(zz).sqrt());
     [x.mul(r), y.mul(r), z.mul(r)]
 }
 
@@ -593,8 +602,8 @@ fn dot<V: Lanes>(a: &[V; 3], b: &[V; 3]) -> V {
 }
 
 #[inline(always)]
-fn splat3<V: Lanes>(v: glam::DVec3) -> [V; 3] {
-    [V::splat(v.x), V::splat(v.y), V::splat(v.z)]
+fn splat3<V: Lanes>(tok: V::Token, v: glam::DVec3) -> [V; 3] {
+    [V::splat(tok, v.x), V::splat(tok, v.y), V::splat(tok, v.z)]
 }
 
 /// Per lane of a packet: whether it hit (a mask), which sphere, and where.
@@ -617,13 +626,14 @@ impl Shading<'_> {
         covers: impl Fn(u32, usize) -> bool,
         mut live: [bool; 2],
     ) -> [Found<V>; 2] {
-        let zero = V::splat(0.0);
+        let tok = d[0][0].token();
+        let zero = V::splat(tok, 0.0);
         let mut hit = [0u8; 2];
-        let mut index = [V::index(0); 2];
-        let mut best = [V::splat(f64::INFINITY); 2];
+        let mut index = [V::index(tok, 0); 2];
+        let mut best = [V::splat(tok, f64::INFINITY); 2];
         for &k in candidates {
             let s = &self.spheres[k as usize];
-            let min_dist = V::splat(s.min_dist);
+            let min_dist = V::splat(tok, s.min_dist);
             let mut active = [0u8; 2];
             for q in 0..2 {
                 if live[q] && covers(k, q) {
@@ -638,8 +648,12 @@ impl Shading<'_> {
             if active[0] | active[1] == 0 {
                 continue;
             }
-            let f = splat3::<V>(s.f);
-            let (c, radius2, k) = (V::splat(s.c), V::splat(s.radius2), V::index(k as u64));
+            let f = splat3::<V>(tok, s.f);
+            let (c, radius2, k) = (
+                V::splat(tok, s.c),
+                V::splat(tok, s.radius2),
+                V::index(tok, k as u64),
+            );
             for q in 0..2 {
                 // The smallest t > 0 with |f + t·d| = r, lane by lane, in the numerically stable
                 // form (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray
@@ -687,14 +701,15 @@ impl Shading<'_> {
         t: V,
         hints: &mut Hints,
     ) -> ([V; 3], [u32; LANES]) {
+        let tok = t.token();
         let mut lights = [0u32; LANES];
-        let (zero, one) = (V::splat(0.0), V::splat(1.0));
-        let fields = SphereLanes::<V>::new(self.spheres, hit, index);
-        let mut light = [V::splat(self.ambient); 3];
+        let (zero, one) = (V::splat(tok, 0.0), V::splat(tok, 1.0));
+        let fields = SphereLanes::<V>::new(tok, self.spheres, self.columns, hit, index);
+        let mut light = [V::splat(tok, self.ambient); 3];
         if !self.lights.is_empty() {
-            let f = fields.vec3(offset_of!(ViewSphere, f), |s| s.f);
-            let c = fields.vec3(offset_of!(ViewSphere, center), |s| s.center);
-            let r = fields.field(offset_of!(ViewSphere, radius), |s| s.radius);
+            let f = fields.vec3(tok, |c| &c.f, |s| s.f);
+            let c = fields.vec3(tok, |c| &c.center, |s| s.center);
+            let r = fields.field(tok, |c| &c.radius, |s| s.radius);
             // The hit relative to the centre, rel = f + d·t, has length r: normal = rel / r,
             // point = centre + rel.
             let rel = [
@@ -705,18 +720,18 @@ impl Shading<'_> {
             let normal = [rel[0].div(r), rel[1].div(r), rel[2].div(r)];
             let point = [c[0].add(rel[0]), c[1].add(rel[1]), c[2].add(rel[2])];
             for (n, l) in self.lights.iter().enumerate() {
-                let facing = dot(&normal, &splat3(l.to_light));
+                let facing = dot(&normal, &splat3(tok, l.to_light));
                 let mut lit = hit & !facing.le(zero);
                 if let Some(grid) = &l.shadows {
                     if lit != 0 {
                         let mut none = NO_HINT;
                         let hint = hints.get_mut(n).unwrap_or(&mut none);
-                        lit &= !occluded(grid, &point, fields.ids(), lit, hint);
+                        lit &= !occluded(grid, &point, fields.ids(tok), lit, hint);
                     }
                 }
                 let color = l.color.to_array();
                 for a in 0..3 {
-                    let add = light[a].add(V::splat(color[a]).mul(facing));
+                    let add = light[a].add(V::splat(tok, color[a]).mul(facing));
                     light[a] = V::blend(lit, light[a], add);
                 }
                 if SEEN {
@@ -727,7 +742,7 @@ impl Shading<'_> {
                 }
             }
         }
-        let color = fields.vec3(offset_of!(ViewSphere, color), |s| s.color);
+        let color = fields.vec3(tok, |c| &c.color, |s| s.color);
         let background = self.background.to_array();
         let flat = self.lights.is_empty();
         let mut out = [zero; 3];
@@ -740,7 +755,7 @@ impl Shading<'_> {
             } else {
                 c.max(zero).min(one)
             };
-            out[a] = V::blend(hit, V::splat(background[a]), c);
+            out[a] = V::blend(hit, V::splat(tok, background[a]), c);
         }
         (out, lights)
     }
@@ -748,61 +763,84 @@ impl Shading<'_> {
 
 /// Each lane's sphere, for reading its fields: one sphere for the whole packet when every lane
 /// that hit found the same one (the common case), two at a sphere's edge, otherwise lane by
-/// lane (gathers, which cost far more than two reads and a blend). A lane that missed reads
-/// some sphere; its results are never used.
+/// lane (gathers from the fields' slices, which cost far more than two reads and a blend). A
+/// lane that missed reads sphere 0 (there is one: some lane hit); its results are never used.
 enum SphereLanes<'a, V: Lanes> {
     One(&'a ViewSphere),
     /// The second sphere's lanes, and the two spheres.
     Two(u8, &'a ViewSphere, &'a ViewSphere),
-    Each(&'a [ViewSphere], V::Index),
+    Each(&'a ViewColumns, InBounds<V::Index>),
 }
 
 impl<'a, V: Lanes> SphereLanes<'a, V> {
     #[inline(always)]
-    fn new(spheres: &'a [ViewSphere], hit: u8, index: V::Index) -> SphereLanes<'a, V> {
+    fn new(
+        tok: V::Token,
+        spheres: &'a [ViewSphere],
+        columns: &'a ViewColumns,
+        hit: u8,
+        index: V::Index,
+    ) -> SphereLanes<'a, V> {
         let lanes = V::index_store(index);
         let k = lanes[hit.trailing_zeros() as usize];
-        let rest = hit & !V::index_eq(index, V::index(k));
+        let rest = hit & !V::index_eq(index, V::index(tok, k));
         if rest == 0 {
             return SphereLanes::One(&spheres[k as usize]);
         }
         let k2 = lanes[rest.trailing_zeros() as usize];
-        let second = V::index_eq(index, V::index(k2));
+        let second = V::index_eq(index, V::index(tok, k2));
         if rest & !second == 0 {
             SphereLanes::Two(second, &spheres[k as usize], &spheres[k2 as usize])
         } else {
-            SphereLanes::Each(spheres, V::index_blend(hit, V::index(0), index))
+            let own = V::index_blend(hit, V::index(tok, 0), index);
+            let len = columns.id.len();
+            let own = InBounds::new(own, &V::index_store(own), len).expect("hits index spheres");
+            SphereLanes::Each(columns, own)
         }
     }
 
-    /// The f64 field at byte `offset` of `ViewSphere`, which `one` reads from a sphere.
+    /// A field of each lane's sphere: `column` of the slices, `one` of a sphere.
     #[inline(always)]
-    fn field(&self, offset: usize, one: impl Fn(&ViewSphere) -> f64) -> V {
+    fn field(
+        &self,
+        tok: V::Token,
+        column: impl Fn(&ViewColumns) -> &[f64],
+        one: impl Fn(&ViewSphere) -> f64,
+    ) -> V {
         match *self {
-            SphereLanes::One(s) => V::splat(one(s)),
-            SphereLanes::Two(second, a, b) => V::blend(second, V::splat(one(a)), V::splat(one(b))),
-            SphereLanes::Each(spheres, own) => V::gather(spheres, own, offset),
+            SphereLanes::One(s) => V::splat(tok, one(s)),
+            SphereLanes::Two(second, a, b) => {
+                V::blend(second, V::splat(tok, one(a)), V::splat(tok, one(b)))
+            }
+            SphereLanes::Each(columns, own) => V::gather(column(columns), own),
         }
     }
 
     #[inline(always)]
-    fn vec3(&self, offset: usize, one: impl Fn(&ViewSphere) -> glam::DVec3) -> [V; 3] {
+    fn vec3(
+        &self,
+        tok: V::Token,
+        column: impl Fn(&ViewColumns) -> &[Vec<f64>; 3],
+        one: impl Fn(&ViewSphere) -> glam::DVec3,
+    ) -> [V; 3] {
         [
-            self.field(offset, |s| one(s).x),
-            self.field(offset + 8, |s| one(s).y),
-            self.field(offset + 16, |s| one(s).z),
+            self.field(tok, |c| &column(c)[0], |s| one(s).x),
+            self.field(tok, |c| &column(c)[1], |s| one(s).y),
+            self.field(tok, |c| &column(c)[2], |s| one(s).z),
         ]
     }
 
     /// The spheres' scene indices.
     #[inline(always)]
-    fn ids(&self) -> V::Index {
+    fn ids(&self, tok: V::Token) -> V::Index {
         match *self {
-            SphereLanes::One(s) => V::index(s.id as u64),
-            SphereLanes::Two(second, a, b) => {
-                V::index_blend(second, V::index(a.id as u64), V::index(b.id as u64))
-            }
-            SphereLanes::Each(spheres, own) => V::gather_ids(spheres, own),
+            SphereLanes::One(s) => V::index(tok, s.id as u64),
+            SphereLanes::Two(second, a, b) => V::index_blend(
+                second,
+                V::index(tok, a.id as u64),
+                V::index(tok, b.id as u64),
+            ),
+            SphereLanes::Each(columns, own) => V::gather_index(&columns.id, own),
         }
     }
 }
@@ -822,10 +860,11 @@ fn occluded<V: Lanes>(
     need: u8,
     hint: &mut u32,
 ) -> u8 {
+    let tok = point[0].token();
     let mut blocked = 0u8;
     for &(k, c, r2) in &sh.always {
         // Lanes on the sphere itself (points on a ground sphere) skip it.
-        if need & !V::index_eq(own, V::index(k as u64)) == 0 {
+        if need & !V::index_eq(own, V::index(tok, k as u64)) == 0 {
             continue;
         }
         blocked |= need & blocks(sh, point, own, k, c, r2);
@@ -853,23 +892,25 @@ fn occluded<V: Lanes>(
     // looks in both cells.
     let (ax, ay) = sh.axes;
     let q = [
-        dot(point, &splat3(ax)).add(V::splat(sh.offset.x)),
-        dot(point, &splat3(ay)).add(V::splat(sh.offset.y)),
+        dot(point, &splat3(tok, ax)).add(V::splat(tok, sh.offset.x)),
+        dot(point, &splat3(tok, ay)).add(V::splat(tok, sh.offset.y)),
     ];
     let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
-    let err = V::splat(1e-9).mul(V::splat(sh.slack).add(size));
+    let err = V::splat(tok, 1e-9).mul(V::splat(tok, sh.slack).add(size));
     // How far each point lies towards the light, less the allowance (`FrameShadows::up`):
     // a sphere whose top is below this cannot block the lane's ray.
-    let low = dot(point, &splat3(sh.up)).add(V::splat(sh.height)).sub(err);
-    let inv = V::splat(sh.grid.inv_cell);
+    let low = dot(point, &splat3(tok, sh.up))
+        .add(V::splat(tok, sh.height))
+        .sub(err);
+    let inv = V::splat(tok, sh.grid.inv_cell);
     let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];
     let hi = [q[0].add(err).mul(inv), q[1].add(err).mul(inv)];
     // Lanes whose square misses the grid (or is NaN) have no cells; the others' ranges are
     // clamped to it (the far edges belong to the last cells).
-    let zero = V::splat(0.0);
+    let zero = V::splat(tok, 0.0);
     let (w, h) = sh.grid.dims;
     let on_grid = hi[0].ge(zero) & hi[1].ge(zero);
-    let on_grid = on_grid & lo[0].le(V::splat(w as f64)) & lo[1].le(V::splat(h as f64));
+    let on_grid = on_grid & lo[0].le(V::splat(tok, w as f64)) & lo[1].le(V::splat(tok, h as f64));
     let pending = need & !blocked & on_grid;
     if pending == 0 {
         return blocked;
@@ -939,12 +980,13 @@ fn walk<V: Lanes>(
     lanes: u8,
     mut blocked: u8,
 ) -> (u8, u32) {
+    let tok = low.token();
     let mut last = NO_HINT;
     let tops = &sh.grid.tops;
     for y in y0..=y1 {
         for x in x0..=x1 {
             for &k in sh.cell(x, y) {
-                let reach = lanes & !blocked & V::splat(tops[k as usize]).ge(low);
+                let reach = lanes & !blocked & V::splat(tok, tops[k as usize]).ge(low);
                 if reach == 0 {
                     break;
                 }
@@ -979,9 +1021,12 @@ const UNION_CELLS: i32 = 4;
 /// grid coordinate, clamped to a side of `n` cells.
 #[inline(always)]
 fn cell_index<V: Lanes>(v: V, n: usize) -> [i32; LANES] {
+    let tok = v.token();
     let last = n as i32 - 1;
     // Clamped as floats first, so that no lane is out of the conversion's range.
-    v.max(V::splat(0.0)).min(V::splat(last as f64)).to_i32(last)
+    v.max(V::splat(tok, 0.0))
+        .min(V::splat(tok, last as f64))
+        .to_i32(last)
 }
 
 /// The lanes whose shadow ray sphere k (centre `c`, r² `r2`, in view coordinates) blocks,
@@ -997,12 +1042,13 @@ fn blocks<V: Lanes>(
     c: glam::DVec3,
     r2: f64,
 ) -> u8 {
-    let (zero, r2) = (V::splat(0.0), V::splat(r2));
-    let dir = splat3::<V>(sh.to_light);
+    let tok = point[0].token();
+    let (zero, r2) = (V::splat(tok, 0.0), V::splat(tok, r2));
+    let dir = splat3::<V>(tok, sh.to_light);
     let f = [
-        point[0].sub(V::splat(c.x)),
-        point[1].sub(V::splat(c.y)),
-        point[2].sub(V::splat(c.z)),
+        point[0].sub(V::splat(tok, c.x)),
+        point[1].sub(V::splat(tok, c.y)),
+        point[2].sub(V::splat(tok, c.z)),
     ];
     let cc = dot(&f, &f).sub(r2);
     let b = dot(&f, &dir);
@@ -1013,7 +1059,7 @@ fn blocks<V: Lanes>(
     ];
     let g2 = dot(&g, &g);
     let hit = cc.le(zero) | (b.lt(zero) & g2.le(r2));
-    hit & !V::index_eq(own, V::index(k as u64))
+    hit & !V::index_eq(own, V::index(tok, k as u64))
 }
 
 impl SrgbEncoder {
@@ -1022,11 +1068,12 @@ impl SrgbEncoder {
     /// values in a bucket that a threshold splits.
     #[inline(always)]
     pub(super) fn encode_into<V: Lanes>(&self, linear: V, rgb: &mut [u8; 3 * LANES], a: usize) {
-        let (zero, one) = (V::splat(0.0), V::splat(1.0));
+        let tok = linear.token();
+        let (zero, one) = (V::splat(tok, 0.0), V::splat(tok, 1.0));
         // f64::clamp(0, 1), which keeps a NaN.
         let x = V::blend(linear.lt(zero), linear, zero);
         let x = V::blend(x.gt(one), x, one);
-        let bucket = x.mul(V::splat(BUCKETS as f64)).to_i32(BUCKETS as i32);
+        let bucket = x.mul(V::splat(tok, BUCKETS as f64)).to_i32(BUCKETS as i32);
         let mut any = 0;
         for l in 0..LANES {
             let entry = self.buckets[bucket[l] as usize];
@@ -1065,13 +1112,15 @@ mod tests {
             color: DVec3::ONE,
             id: 0,
         };
+        let columns = ViewColumns::new(&[sphere]);
         let shading = Shading {
             spheres: &[sphere],
+            columns: &columns,
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,
         };
-        let d = [d.x, d.y, d.z].map(Portable::splat);
+        let d = [d.x, d.y, d.z].map(|x| Portable::splat((), x));
         let [(hit, _, t), _] =
             shading.nearest_packets::<Portable>(&[d, d], &[0], |_, _| true, [true, false]);
         let t = t.store();
@@ -1131,7 +1180,7 @@ mod tests {
         for (k, lanes) in xs.chunks_exact(LANES).enumerate() {
             let a = k % 3;
             let mut rgb = [7u8; 3 * LANES];
-            enc.encode_into(Portable::load(lanes.try_into().unwrap()), &mut rgb, a);
+            enc.encode_into(Portable::load((), lanes.try_into().unwrap()), &mut rgb, a);
             for (l, px) in rgb.chunks(3).enumerate() {
                 let want: Vec<u8> = (0..3)
                     .map(|c| if c == a { enc.encode(lanes[l]) } else { 7 })
@@ -1174,7 +1223,7 @@ mod tests {
                         }
                         own[l] = o as u64;
                     }
-                    let point = xyz.map(|a| Portable::load(&a));
+                    let point = xyz.map(|a| Portable::load((), &a));
                     let need = (0xffu16 >> (LANES - lanes.len())) as u8;
                     let got = occluded::<Portable>(&frame, &point, own, need, &mut NO_HINT.clone());
                     let before = hint;

@@ -331,7 +331,7 @@ impl TileBins {
 #[cfg(test)]
 mod tests {
     use super::super::oracle::{nearest, root};
-    use super::super::Shading;
+    use super::super::{Shading, ViewColumns};
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
@@ -400,7 +400,8 @@ mod tests {
                     .enumerate()
                     .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
                     .collect();
-                let shading = unlit(&view);
+                let columns = ViewColumns::new(&view);
+                let shading = unlit(&view, &columns);
                 for samples in [1, 3] {
                     let raster = Raster {
                         width: 96,
@@ -476,9 +477,10 @@ mod tests {
     }
 
     /// The primary-ray search over `spheres`, with no lights.
-    fn unlit(spheres: &[ViewSphere]) -> Shading<'_> {
+    fn unlit<'a>(spheres: &'a [ViewSphere], columns: &'a ViewColumns) -> Shading<'a> {
         Shading {
             spheres,
+            columns,
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,
@@ -544,7 +546,8 @@ mod tests {
                         Footprint::Everywhere
                     );
                     let bins = TileBins::build(&view, &table, raster);
-                    let shading = unlit(&view);
+                    let columns = ViewColumns::new(&view);
+                    let shading = unlit(&view, &columns);
                     let t = root(f, sphere.c, sphere.radius2, d);
                     assert!(t.is_some(), "the ray meets the sphere");
                     let found = nearest(&shading, &bins, (i, j), d);
