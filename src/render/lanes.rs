@@ -1,7 +1,7 @@
 //! Eight f64 lanes and 8-bit lane masks (lane l is bit l), in three forms: one AVX-512
 //! register, two AVX2 registers, and plain arrays for every other target (the compiler
-//! vectorises them for SSE2). The packet code in `packet.rs` is written once against
-//! [`Lanes`].
+//! vectorises them for SSE2). The packet code (`kernels.rs`, `drivers.rs`, `shadows/`, `srgb.rs`)
+//! is written once against [`Lanes`]. A leaf: it imports nothing of the renderer.
 //!
 //! Every operation is the IEEE operation Rust's scalar code does, correctly rounded at any width:
 //! no fused multiply-add, no approximate reciprocal or square root. Comparisons are ordered
@@ -28,7 +28,9 @@
 // The portable lane loops index their arrays by lane, as the compiler vectorises them best.
 #![allow(clippy::needless_range_loop)]
 
-use super::packet::LANES;
+/// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
+/// the tile side, so a packet never straddles two tiles.
+pub(super) const LANES: usize = 8;
 
 /// An instruction set this CPU was found to run, with its proof: the argument of the renderer's
 /// dispatch (`RowJob::row`). Adding one is an arm here and a file of `Lanes` (ARCHITECTURE.md).
@@ -88,6 +90,18 @@ pub(super) trait Lanes: Copy {
     fn gather(field: &[f64], own: InBounds<Self::Index>) -> Self;
     /// `field[own[l]]` in lane l.
     fn gather_index(field: &[u64], own: InBounds<Self::Index>) -> Self::Index;
+}
+
+/// (a·b for x and y) + z: glam's dot product order.
+#[inline(always)]
+pub(super) fn dot<V: Lanes>(a: &[V; 3], b: &[V; 3]) -> V {
+    a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
+}
+
+/// `v` in every lane, per coordinate.
+#[inline(always)]
+pub(super) fn splat3<V: Lanes>(tok: V::Token, v: glam::DVec3) -> [V; 3] {
+    [V::splat(tok, v.x), V::splat(tok, v.y), V::splat(tok, v.z)]
 }
 
 /// Lane indices that are each below `len`, checked when made: a gather with them stays inside
@@ -301,7 +315,9 @@ pub(super) use x86::{Avx2, Avx512, Ymm2, Zmm};
 mod x86 {
     use std::arch::x86_64::*;
 
-    use super::{InBounds, Lanes, LANES};
+    // From the crate root: the file-level import check (tests/it/architecture.rs) reads a
+    // `super::` as the file's parent, not this inline module's.
+    use crate::render::lanes::{InBounds, Lanes, LANES};
 
     /// Proof that this CPU runs AVX2: made only by [`Avx2::detect`].
     #[derive(Debug, Clone, Copy)]

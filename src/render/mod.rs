@@ -6,152 +6,49 @@
 //! precision. Ray directions depend only on the COP, the window and the raster, so their offsets
 //! are computed once and reused while those stay fixed.
 //!
-//! Every step (the hit, the shading, the shadow rays, adaptive sampling, the sRGB levels) is
-//! written once, in packets (`packet.rs`); the plain one-ray-at-a-time oracle they are compared
-//! with, pixel for pixel, lives in the tests (tests/it/reference.rs).
+//! Every step (the ray directions, the hit, the shading, the shadow rays, adaptive sampling, the
+//! sRGB levels) is written once, in packets of [`lanes`]; the plain one-ray-at-a-time oracle they
+//! are compared with, pixel for pixel, lives in the tests (tests/it/reference.rs). This file is
+//! the orchestration: a frame prepared (spheres and lights into view coordinates, shadow work,
+//! tiles), then its rows handed to the row drivers (`drivers.rs`) on the rayon pool.
 //!
 //! Render does no file I/O.
 
-use glam::{DVec2, DVec3};
-use std::sync::{Arc, OnceLock};
+use glam::DVec3;
+use std::sync::Arc;
 
-use crate::camera::{window_point, Camera};
+use crate::camera::Camera;
 pub use crate::raster::Raster;
-use crate::scene::{Scene, Sphere};
+use crate::scene::Scene;
 
 mod bins;
+mod drivers;
+mod kernels;
 pub mod key;
 mod lanes;
 #[cfg(test)]
 mod oracle;
-mod packet;
+mod rays;
 mod rows;
 mod shadows;
+mod simd;
+mod srgb;
 mod tiles;
+mod view;
 mod world;
 
-use lanes::{Isa, Lanes};
-pub use packet::Simd;
-use packet::{RowJob, LANES};
+pub use simd::Simd;
+pub use srgb::{srgb_decode, srgb_encoder, SrgbEncoder};
 pub use world::SceneIndex;
 
+use drivers::RowJob;
+use kernels::Shading;
+use lanes::{Isa, LANES};
+use rays::RayTable;
 use rows::rows_in_order;
 use shadows::FrameShadows;
 use tiles::TileBins;
-
-/// Ray directions in view coordinates, for one COP, window and raster. Sample (sx, sy) of pixel
-/// (i, j) leaves the COP towards window point (xs[i·s + sx], ys[j·s + sy]) relative to the COP,
-/// at depth dz; the packets normalise that offset (`packet::unit`).
-struct RayTable {
-    cop_view: DVec3,
-    window: DVec2,
-    raster: Raster,
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    dz: f64,
-}
-
-impl RayTable {
-    fn new(cop_view: DVec3, window: DVec2, raster: Raster) -> RayTable {
-        let s = raster.samples as usize;
-        let size = (raster.width, raster.height);
-        let offset = |k: usize| (k / s) as f64 + ((k % s) as f64 + 0.5) / s as f64;
-        let xs = (0..raster.width as usize * s)
-            .map(|k| window_point(window, size, offset(k), 0.0).x - cop_view.x)
-            .collect();
-        let ys = (0..raster.height as usize * s)
-            .map(|k| window_point(window, size, 0.0, offset(k)).y - cop_view.y)
-            .collect();
-        RayTable {
-            cop_view,
-            window,
-            raster,
-            xs,
-            ys,
-            dz: -cop_view.z,
-        }
-    }
-
-    fn fits(&self, cop_view: DVec3, window: DVec2, raster: Raster) -> bool {
-        // Adaptive sampling does not change the directions.
-        let same = |a: Raster, b: Raster| {
-            a.width == b.width && a.height == b.height && a.samples == b.samples
-        };
-        self.cop_view == cop_view && self.window == window && same(self.raster, raster)
-    }
-}
-
-/// A sphere in view coordinates, with the terms every primary ray shares.
-#[derive(Debug, Clone, Copy)]
-struct ViewSphere {
-    center: DVec3,
-    radius: f64,
-    radius2: f64,
-    /// COP − centre.
-    f: DVec3,
-    /// |f|² − r².
-    c: f64,
-    /// |f| − r: no primary ray meets the sphere nearer than this.
-    min_dist: f64,
-    color: DVec3,
-    /// The sphere's index in the scene.
-    id: u32,
-}
-
-impl ViewSphere {
-    /// `sphere` moved camera-relative into view coordinates: the VRP is subtracted first, so a
-    /// scene far from the origin keeps its precision.
-    fn new(camera: &Camera, sphere: &Sphere, id: u32) -> ViewSphere {
-        let center = camera.point_to_view(sphere.center_world);
-        let f = camera.cop_view - center;
-        let radius2 = sphere.radius * sphere.radius;
-        ViewSphere {
-            center,
-            radius: sphere.radius,
-            radius2,
-            f,
-            c: f.length_squared() - radius2,
-            min_dist: f.length() - sphere.radius,
-            color: sphere.color,
-            id,
-        }
-    }
-}
-
-/// The fields of the frame's view spheres that a packet whose lanes hit several spheres reads
-/// lane by lane (`Lanes::gather`): one slice per field, in the order of the spheres.
-struct ViewColumns {
-    f: [Vec<f64>; 3],
-    center: [Vec<f64>; 3],
-    radius: Vec<f64>,
-    color: [Vec<f64>; 3],
-    /// The spheres' indices in the scene.
-    id: Vec<u64>,
-}
-
-impl ViewColumns {
-    fn new(spheres: &[ViewSphere]) -> ViewColumns {
-        let column = |f: &dyn Fn(&ViewSphere) -> f64| spheres.iter().map(f).collect::<Vec<_>>();
-        let xyz =
-            |f: &dyn Fn(&ViewSphere) -> DVec3| [0, 1, 2].map(|a| column(&|s: &ViewSphere| f(s)[a]));
-        ViewColumns {
-            f: xyz(&|s| s.f),
-            center: xyz(&|s| s.center),
-            radius: column(&|s| s.radius),
-            color: xyz(&|s| s.color),
-            id: spheres.iter().map(|s| s.id as u64).collect(),
-        }
-    }
-}
-
-/// A light in view coordinates.
-struct ViewLight<'a> {
-    /// Unit vector from a surface towards the light: −direction.
-    to_light: DVec3,
-    color: DVec3,
-    /// Spheres binned for this light's shadow rays; None when the light casts no shadows.
-    shadows: Option<FrameShadows<'a>>,
-}
+use view::{ViewColumns, ViewLight, ViewSphere};
 
 /// Renders frames, keeping the ray table between frames.
 pub struct Renderer {
@@ -365,102 +262,12 @@ impl PreparedFrame<'_> {
     }
 }
 
-/// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
-struct Shading<'a> {
-    spheres: &'a [ViewSphere],
-    columns: &'a ViewColumns,
-    lights: &'a [ViewLight<'a>],
-    ambient: f64,
-    background: DVec3,
-}
-
-/// Exact sRGB quantisation: the linear value at which each 8-bit level begins.
-pub struct SrgbEncoder {
-    /// `thresholds[k]` is the linear value whose encoding is level k + ½; the last entry is a
-    /// sentinel above 1.
-    thresholds: [f64; 256],
-    /// `buckets[b]`: the level of the linear value b / BUCKETS, plus [`SPLIT`] when a threshold
-    /// falls inside the bucket (values in it are that level or the next).
-    buckets: Box<[u16; BUCKETS + 1]>,
-}
-
-/// Buckets of the linear range, a power of two so that x·BUCKETS is exact and its floor is the
-/// bucket of x. Consecutive thresholds are at least 1/(255·12.92) ≈ 3.0e-4 apart (the linear
-/// toe is the steepest part), far more than a bucket's 1.5e-5: a bucket holds at most one
-/// threshold, and only 255 of the 65,536 hold one, so nearly every value is looked up with no
-/// comparison at all.
-const BUCKETS: usize = 1 << 16;
-
-/// The flag of a bucket that a threshold splits.
-const SPLIT: u16 = 0x100;
-
-impl SrgbEncoder {
-    fn new() -> SrgbEncoder {
-        let mut thresholds = [f64::INFINITY; 256];
-        for (k, t) in thresholds.iter_mut().take(255).enumerate() {
-            *t = srgb_decode((k as f64 + 0.5) / 255.0);
-        }
-        let mut buckets = Box::new([0u16; BUCKETS + 1]);
-        let mut level = 0;
-        for (b, entry) in buckets.iter_mut().enumerate() {
-            // The level of b / BUCKETS: the thresholds at or below it.
-            let start = b as f64 / BUCKETS as f64;
-            while thresholds[level] <= start {
-                level += 1;
-            }
-            let end = (b + 1) as f64 / BUCKETS as f64;
-            let split = thresholds[level] < end && b < BUCKETS;
-            *entry = level as u16 | if split { SPLIT } else { 0 };
-        }
-        SrgbEncoder {
-            thresholds,
-            buckets,
-        }
-    }
-
-    /// Linear [0, 1] to the nearest 8-bit sRGB level (values outside are clamped): the level
-    /// whose threshold interval holds the value, exactly. One value through the lanes' encoder
-    /// (`encode_into`), the one copy of the rule; for values outside the packets (the
-    /// background's levels, once a frame).
-    pub fn encode(&self, linear: f64) -> u8 {
-        let mut rgb = [0u8; 3 * LANES];
-        self.encode_into(lanes::Portable::splat((), linear), &mut rgb, 0);
-        rgb[0]
-    }
-
-    /// The level of `x` from its bucket's entry: the bucket's level, or the next one when x
-    /// is at or above the threshold that splits the bucket.
-    #[inline(always)]
-    fn finish(&self, entry: u16, x: f64) -> u8 {
-        let level = entry as u8;
-        if entry & SPLIT == 0 {
-            level
-        } else {
-            level + (x >= self.thresholds[level as usize]) as u8
-        }
-    }
-}
-
-/// The shared encoder; built once with libm, so it is the same on every platform.
-pub fn srgb_encoder() -> &'static SrgbEncoder {
-    static ENCODER: OnceLock<SrgbEncoder> = OnceLock::new();
-    ENCODER.get_or_init(SrgbEncoder::new)
-}
-
-/// sRGB transfer function, encoded [0, 1] to linear [0, 1] (IEC 61966-2-1).
-pub fn srgb_decode(e: f64) -> f64 {
-    if e <= 0.04045 {
-        e / 12.92
-    } else {
-        libm::pow((e + 0.055) / 1.055, 2.4)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::camera::Basis;
-    use crate::scene::Light;
+    use crate::scene::{Light, Sphere};
+    use glam::DVec2;
 
     /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
     /// of the wrong size), every path and kind of sampling gives the fresh frame.
@@ -507,46 +314,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn srgb_levels_match_the_formula() {
-        let enc = srgb_encoder();
-        // Independent: the forward sRGB formula, rounded.
-        let forward = |x: f64| {
-            let e = if x <= 0.0031308 {
-                12.92 * x
-            } else {
-                1.055 * x.powf(1.0 / 2.4) - 0.055
-            };
-            (e * 255.0).round() as u8
-        };
-        for k in 0..=1000 {
-            let x = k as f64 / 1000.0;
-            assert_eq!(enc.encode(x), forward(x), "x = {x}");
-        }
-        assert_eq!(enc.encode(0.0), 0);
-        assert_eq!(enc.encode(1.0), 255);
-        assert_eq!(enc.encode(0.5), 188);
-        assert_eq!(enc.encode(-1.0), 0);
-        assert_eq!(enc.encode(2.0), 255);
-        // Exactly at and just below every threshold, and at both ends of every bucket,
-        // against the plain binary search.
-        let slow = |x: f64| enc.thresholds.partition_point(|&th| th <= x) as u8;
-        for k in 0..255 {
-            let t = srgb_decode((k as f64 + 0.5) / 255.0);
-            for x in [t, t.next_down(), t.next_up()] {
-                assert_eq!(enc.encode(x), slow(x), "x = {x}");
-            }
-        }
-        for b in 0..=BUCKETS {
-            let start = b as f64 / BUCKETS as f64;
-            for x in [start, start.next_down(), start.next_up()] {
-                assert_eq!(enc.encode(x), slow(x.clamp(0.0, 1.0)), "x = {x}");
-            }
-        }
-        // 255 buckets are split, one by each threshold.
-        let split = enc.buckets.iter().filter(|&&e| e & SPLIT != 0).count();
-        assert_eq!(split, 255);
     }
 }

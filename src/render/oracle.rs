@@ -3,9 +3,10 @@
 
 use glam::DVec3;
 
+use super::kernels::Shading;
 use super::lanes::{Lanes, Portable};
+use super::rays::RayTable;
 use super::tiles::TileBins;
-use super::{RayTable, Shading};
 
 impl RayTable {
     /// Sample k (row-major in its s×s grid) of pixel (i, j): the unit direction from the COP

@@ -7,7 +7,9 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::Bins;
-use super::{Raster, RayTable, ViewSphere};
+use super::rays::RayTable;
+use super::view::ViewSphere;
+use crate::raster::Raster;
 
 /// Tile side in pixels.
 pub const TILE: usize = 16;
@@ -330,8 +332,9 @@ impl TileBins {
 
 #[cfg(test)]
 mod tests {
+    use super::super::kernels::Shading;
     use super::super::oracle::{nearest, root};
-    use super::super::{Shading, ViewColumns};
+    use super::super::view::ViewColumns;
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;

@@ -9,11 +9,16 @@
 
 use glam::{DVec2, DVec3};
 
-use super::bins::{Bins, CellRect};
 use std::sync::Arc;
+
+use super::bins::{Bins, CellRect};
 
 use crate::camera::Camera;
 use crate::scene::Sphere;
+
+mod occlusion;
+
+pub(super) use occlusion::{Hints, HINTED_LIGHTS, NO_HINT};
 
 /// A scene's spheres binned for one light direction, in world coordinates: built once per
 /// scene and light, used by every frame.
@@ -21,8 +26,8 @@ pub struct ShadowGrid {
     /// Orthonormal axes of the projection plane (world).
     axes: (DVec3, DVec3),
     origin: DVec2,
-    pub(super) inv_cell: f64,
-    pub(super) dims: (usize, usize),
+    inv_cell: f64,
+    dims: (usize, usize),
     bins: Bins,
     /// Spheres tested for every ray.
     always: Vec<u32>,
@@ -33,8 +38,8 @@ pub struct ShadowGrid {
     /// Each sphere's top: how far its highest point lies towards the light (c·to_light + r).
     /// A sphere can block only a ray that starts below its top, so every cell lists its
     /// spheres highest top first, and a shadow packet stops reading a cell at the first one
-    /// below all its open lanes (`walk` in `packet.rs`).
-    pub(super) tops: Vec<f64>,
+    /// below all its open lanes (`walk` in `occlusion.rs`).
+    tops: Vec<f64>,
 }
 
 impl ShadowGrid {
@@ -120,28 +125,28 @@ impl ShadowGrid {
 /// One light's shadow rays in one frame: the scene's grid, the frame's camera, and the light
 /// and its always-tested spheres in view coordinates.
 pub struct FrameShadows<'a> {
-    pub(super) grid: &'a ShadowGrid,
+    grid: &'a ShadowGrid,
     camera: Camera,
     spheres: &'a [Sphere],
     /// Unit vector towards the light, view coordinates.
-    pub(super) to_light: DVec3,
+    to_light: DVec3,
     /// The grid's always-tested spheres: (index, centre in view coordinates, r²).
-    pub(super) always: Vec<(u32, DVec3, f64)>,
+    always: Vec<(u32, DVec3, f64)>,
     /// Every sphere's centre in view coordinates and r², when the frame computed them all
     /// (small scenes); otherwise each blocker is moved into view coordinates when tested.
     centers: Option<Arc<[(DVec3, f64)]>>,
     /// The grid's projection from view coordinates: a point p falls at
     /// (p·axes.0 + offset.x, p·axes.1 + offset.y) on the grid's plane, relative to its origin.
-    pub(super) axes: (DVec3, DVec3),
-    pub(super) offset: DVec2,
+    axes: (DVec3, DVec3),
+    offset: DVec2,
     /// The part of the rounding allowance that does not depend on the point.
-    pub(super) slack: f64,
+    slack: f64,
     /// A view point p lies p·up + height towards the light, on the scale of the grid's tops:
     /// a sphere whose top is below that, less the rounding allowance, cannot block its ray.
     /// (Blocking needs the point inside the sphere or the sphere ahead along the ray: either
     /// way (p − c)·to_light ≤ r.)
-    pub(super) up: DVec3,
-    pub(super) height: f64,
+    up: DVec3,
+    height: f64,
 }
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame
@@ -188,7 +193,7 @@ impl<'a> FrameShadows<'a> {
 
     /// Sphere k with its centre in view coordinates and r² ([`view_center`]).
     #[inline(always)]
-    pub(super) fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
+    fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
         let (c, r2) = match &self.centers {
             Some(all) => all[k as usize],
             None => view_center(&self.camera, &self.spheres[k as usize]),
@@ -198,7 +203,7 @@ impl<'a> FrameShadows<'a> {
 
     /// The binned spheres of grid cell (x, y).
     #[inline(always)]
-    pub(super) fn cell(&self, x: usize, y: usize) -> &[u32] {
+    fn cell(&self, x: usize, y: usize) -> &[u32] {
         self.grid.bins.cell(x, y)
     }
 }
@@ -206,13 +211,13 @@ impl<'a> FrameShadows<'a> {
 /// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
 /// lanes: 16 bits each (the grid is at most 4096 a side).
 #[inline(always)]
-pub(super) fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
+fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
     x0 | x1 << 16 | y0 << 32 | y1 << 48
 }
 
 /// The cell range (x0, x1, y0, y1) of a [`cell_key`].
 #[inline(always)]
-pub(super) fn cell_range(key: u64) -> CellRect {
+fn cell_range(key: u64) -> CellRect {
     let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
     (field(0), field(16), field(32), field(48))
 }
