@@ -200,10 +200,28 @@ fn file_imports() -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
                 if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':') {
                     continue;
                 }
+                // A visibility, `pub(in crate::render)`, imports nothing.
+                if code[..i].ends_with("(in ") {
+                    continue;
+                }
                 for m in named(&modules, base.clone(), &code[i + prefix.len()..]) {
                     if &m != module {
                         deps.insert(m);
                     }
+                }
+            }
+        }
+        // And `use child::…`: a path from a name in scope, which for a file is one of its own
+        // child modules (`mod.rs` importing its folder's files).
+        for (i, _) in code.match_indices("use ") {
+            let line_start = code[..i].rfind('\n').map_or(0, |n| n + 1);
+            let lead = code[line_start..i].trim();
+            if !(lead.is_empty() || lead.starts_with("pub")) {
+                continue;
+            }
+            for m in named(&modules, module.clone(), &code[i + 4..]) {
+                if &m != module {
+                    deps.insert(m);
                 }
             }
         }
@@ -218,6 +236,7 @@ fn no_file_imports_one_that_imports_it_back() {
     // The scan sees paths of every form: render's files import each other through `super::`.
     let render = |f: &str| vec!["render".to_string(), f.to_string()];
     assert!(deps[&render("drivers")].contains(&render("kernels")));
+    assert!(deps[&vec!["render".into()]].contains(&render("drivers")));
     assert!(
         deps[&vec!["render".into(), "shadows".into(), "occlusion".into()]]
             .contains(&render("lanes"))

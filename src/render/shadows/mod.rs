@@ -18,8 +18,6 @@ use crate::scene::Sphere;
 
 mod occlusion;
 
-pub(super) use occlusion::{Hints, HINTED_LIGHTS, NO_HINT};
-
 /// A scene's spheres binned for one light direction, in world coordinates: built once per
 /// scene and light, used by every frame.
 pub struct ShadowGrid {
@@ -208,19 +206,14 @@ impl<'a> FrameShadows<'a> {
     }
 }
 
-/// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
-/// lanes: 16 bits each (the grid is at most 4096 a side).
-#[inline(always)]
-fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
-    x0 | x1 << 16 | y0 << 32 | y1 << 48
-}
+/// No shadow hint (see [`FrameShadows::occluded`]).
+pub(super) const NO_HINT: u32 = u32::MAX;
 
-/// The cell range (x0, x1, y0, y1) of a [`cell_key`].
-#[inline(always)]
-fn cell_range(key: u64) -> CellRect {
-    let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
-    (field(0), field(16), field(32), field(48))
-}
+/// The lights whose shadow packets keep a hint along a row.
+pub(super) const HINTED_LIGHTS: usize = 4;
+
+/// A row's shadow hints, one per light (the first [`HINTED_LIGHTS`]).
+pub(super) type Hints = [u32; HINTED_LIGHTS];
 
 /// Spheres larger than this (16 × the median radius, like a ground sphere) are tested for every
 /// ray instead of being binned, so they do not inflate the grid.

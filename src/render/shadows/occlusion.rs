@@ -3,7 +3,7 @@
 
 use super::super::bins::CellRect;
 use super::super::lanes::{dot, splat3, Lanes, LANES};
-use super::{cell_key, cell_range, FrameShadows};
+use super::{FrameShadows, NO_HINT};
 
 impl FrameShadows<'_> {
     /// Whether the ray from each view point (on sphere `own`) towards the light meets another
@@ -170,15 +170,6 @@ fn walk<V: Lanes>(
     (blocked, last)
 }
 
-/// No shadow hint (see [`FrameShadows::occluded`]).
-pub(in crate::render) const NO_HINT: u32 = u32::MAX;
-
-/// The lights whose shadow packets keep a hint along a row.
-pub(in crate::render) const HINTED_LIGHTS: usize = 4;
-
-/// A row's shadow hints, one per light (the first [`HINTED_LIGHTS`]).
-pub(in crate::render) type Hints = [u32; HINTED_LIGHTS];
-
 /// The most grid cells that a shadow packet walks for all its lanes together.
 const UNION_CELLS: i32 = 4;
 
@@ -225,6 +216,20 @@ fn blocks<V: Lanes>(
     let g2 = dot(&g, &g);
     let hit = cc.le(zero) | (b.lt(zero) & g2.le(r2));
     hit & !V::index_eq(own, V::index(tok, k as u64))
+}
+
+/// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
+/// lanes: 16 bits each (the grid is at most 4096 a side).
+#[inline(always)]
+fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
+    x0 | x1 << 16 | y0 << 32 | y1 << 48
+}
+
+/// The cell range (x0, x1, y0, y1) of a [`cell_key`].
+#[inline(always)]
+fn cell_range(key: u64) -> CellRect {
+    let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
+    (field(0), field(16), field(32), field(48))
 }
 
 #[cfg(test)]
