@@ -11,8 +11,8 @@
 use glam::{DVec2, DVec3};
 use sha2::{Digest, Sha256};
 
-use super::Raster;
 use crate::camera::{Basis, Camera};
+use crate::raster::Raster;
 use crate::scene::{Light, Scene, Sphere};
 
 /// The renderer's version. Bump it with every change that changes any frame's pixels (the golden

@@ -1,32 +1,62 @@
 //! Eight f64 lanes and 8-bit lane masks (lane l is bit l), in three forms: one AVX-512
 //! register, two AVX2 registers, and plain arrays for every other target (the compiler
-//! vectorises them for SSE2). The packet code in `packet.rs` is written once against
-//! [`Lanes`].
+//! vectorises them for SSE2). The packet code (`kernels.rs`, `drivers.rs`, `shadows/`, `srgb.rs`)
+//! is written once against [`Lanes`]. A leaf: it imports nothing of the renderer.
 //!
 //! Every operation is the IEEE operation Rust's scalar code does, correctly rounded at any width:
 //! no fused multiply-add, no approximate reciprocal or square root. Comparisons are ordered
 //! (false for NaN), as Rust's; the code negates a mask where the scalar code negates a
 //! comparison.
 //!
-//! The x86 forms call intrinsics from methods without `#[target_feature]`: they are inlined into
-//! the row functions compiled for AVX-512F or AVX2 (`RowJob::row_avx512` and the like), which
-//! the dispatcher enters only after checking the CPU, and are used nowhere else (`Zmm` and
-//! `Ymm2` are private to the renderer). A closure between the two (`array::map`, a callback)
-//! may be left out of line and compiled without the instruction set, which turns every
-//! intrinsic in it into a call: no closure in the packet code calls one.
+//! # Safety, by construction
+//!
+//! The x86 forms run instructions that not every x86-64 CPU has. Each holds a token (`Avx2`,
+//! `Avx512`) that only feature detection makes (`Avx2::detect`), and a value of a form can be
+//! made only from its token (`Lanes::splat`, `load`, `index`) or from another value of it, so
+//! holding a `Zmm` proves that the CPU runs AVX-512F, and a `Ymm2` AVX2. That is the whole
+//! contract of the trait's methods: safe to call wherever a value of the type exists. Each
+//! `unsafe` block inside them says which value proves the feature there, and what else it needs
+//! (a load's length, a gather's checked indices).
+//!
+//! Speed, not soundness, asks one more thing: the methods call intrinsics without
+//! `#[target_feature]`, so they must be inlined into the row functions compiled for AVX-512F or
+//! AVX2 (`RowJob::row_avx512` and the like). A closure between the two (`array::map`, a
+//! callback) may be left out of line and compiled without the instruction set, which turns
+//! every intrinsic in it into a call: no closure in the packet code calls one, and `.ci/run`
+//! checks that the row functions call no intrinsic out of line.
 
 // The portable lane loops index their arrays by lane, as the compiler vectorises them best.
 #![allow(clippy::needless_range_loop)]
 
-use super::packet::LANES;
-use super::ViewSphere;
+/// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
+/// the tile side, so a packet never straddles two tiles.
+pub(super) const LANES: usize = 8;
+
+/// An instruction set this CPU was found to run, with its proof: the argument of the renderer's
+/// dispatch (`RowJob::row`). Adding one is an arm here and a file of `Lanes` (ARCHITECTURE.md).
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Isa {
+    /// Plain arrays: every CPU.
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2(Avx2),
+    #[cfg(target_arch = "x86_64")]
+    Avx512(Avx512),
+}
 
 /// Eight lanes of f64 and a matching set of eight 64-bit sphere indices.
+///
+/// Every method is safe: a value of `Self` (or of `Self::Index`) exists only where the CPU runs
+/// the instructions its methods use, because the only ways to make one from nothing take a
+/// `Self::Token`, which only feature detection makes (see the module's documentation).
 pub(super) trait Lanes: Copy {
+    /// The proof that the CPU runs this form's instructions.
+    type Token: Copy;
     type Index: Copy;
 
-    fn splat(x: f64) -> Self;
-    fn load(x: &[f64; LANES]) -> Self;
+    fn token(self) -> Self::Token;
+    fn splat(t: Self::Token, x: f64) -> Self;
+    fn load(t: Self::Token, x: &[f64; LANES]) -> Self;
     fn store(self) -> [f64; LANES];
     fn add(self, b: Self) -> Self;
     fn sub(self, b: Self) -> Self;
@@ -52,14 +82,53 @@ pub(super) trait Lanes: Copy {
     /// `(self as i32).clamp(0, max)` per lane, for lanes in [0, max] or NaN (which gives 0).
     fn to_i32(self, max: i32) -> [i32; LANES];
 
-    fn index(k: u64) -> Self::Index;
+    fn index(t: Self::Token, k: u64) -> Self::Index;
     fn index_blend(m: u8, a: Self::Index, b: Self::Index) -> Self::Index;
     fn index_eq(a: Self::Index, b: Self::Index) -> u8;
     fn index_store(a: Self::Index) -> [u64; LANES];
-    /// The f64 at byte `offset` of each lane's sphere `spheres[own]`.
-    fn gather(spheres: &[ViewSphere], own: Self::Index, offset: usize) -> Self;
-    /// Each lane's sphere's `id`.
-    fn gather_ids(spheres: &[ViewSphere], own: Self::Index) -> Self::Index;
+    /// `field[own[l]]` in lane l.
+    fn gather(field: &[f64], own: InBounds<Self::Index>) -> Self;
+    /// `field[own[l]]` in lane l.
+    fn gather_index(field: &[u64], own: InBounds<Self::Index>) -> Self::Index;
+}
+
+/// (a·b for x and y) + z: glam's dot product order.
+#[inline(always)]
+pub(super) fn dot<V: Lanes>(a: &[V; 3], b: &[V; 3]) -> V {
+    a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
+}
+
+/// `v` in every lane, per coordinate.
+#[inline(always)]
+pub(super) fn splat3<V: Lanes>(tok: V::Token, v: glam::DVec3) -> [V; 3] {
+    [V::splat(tok, v.x), V::splat(tok, v.y), V::splat(tok, v.z)]
+}
+
+/// Lane indices that are each below `len`, checked when made: a gather with them stays inside
+/// any slice of at least `len` elements.
+#[derive(Clone, Copy)]
+pub(super) struct InBounds<I> {
+    own: I,
+    len: usize,
+}
+
+impl<I: Copy> InBounds<I> {
+    /// `own` (whose lanes are `lanes`), if every lane is below `len`.
+    #[inline(always)]
+    pub(super) fn new(own: I, lanes: &[u64; LANES], len: usize) -> Option<InBounds<I>> {
+        lanes
+            .iter()
+            .all(|&k| k < len as u64)
+            .then_some(InBounds { own, len })
+    }
+
+    /// The indices, for a gather from `field`, which must hold `len` elements (a panic
+    /// otherwise: the check that makes the gather sound).
+    #[inline(always)]
+    fn within<T>(self, field: &[T]) -> I {
+        assert!(field.len() >= self.len, "a gather from a shorter slice");
+        self.own
+    }
 }
 
 /// Plain arrays, for the baseline path and targets without an x86 form.
@@ -96,14 +165,18 @@ impl Portable {
 }
 
 impl Lanes for Portable {
+    /// Plain arrays run everywhere: nothing to prove.
+    type Token = ();
     type Index = [u64; LANES];
 
     #[inline(always)]
-    fn splat(x: f64) -> Self {
+    fn token(self) {}
+    #[inline(always)]
+    fn splat((): (), x: f64) -> Self {
         Portable([x; LANES])
     }
     #[inline(always)]
-    fn load(x: &[f64; LANES]) -> Self {
+    fn load((): (), x: &[f64; LANES]) -> Self {
         Portable(*x)
     }
     #[inline(always)]
@@ -190,7 +263,7 @@ impl Lanes for Portable {
     }
 
     #[inline(always)]
-    fn index(k: u64) -> Self::Index {
+    fn index((): (), k: u64) -> Self::Index {
         [k; LANES]
     }
     #[inline(always)]
@@ -216,164 +289,201 @@ impl Lanes for Portable {
         a
     }
     #[inline(always)]
-    fn gather(spheres: &[ViewSphere], own: Self::Index, offset: usize) -> Self {
+    fn gather(field: &[f64], own: InBounds<Self::Index>) -> Self {
+        let own = own.within(field);
         let mut out = [0.0; LANES];
         for l in 0..LANES {
-            out[l] = read_f64(&spheres[own[l] as usize], offset);
+            out[l] = field[own[l] as usize];
         }
         Portable(out)
     }
     #[inline(always)]
-    fn gather_ids(spheres: &[ViewSphere], own: Self::Index) -> Self::Index {
+    fn gather_index(field: &[u64], own: InBounds<Self::Index>) -> Self::Index {
+        let own = own.within(field);
         let mut out = [0; LANES];
         for l in 0..LANES {
-            out[l] = spheres[own[l] as usize].id as u64;
+            out[l] = field[own[l] as usize];
         }
         out
     }
 }
 
-/// The f64 field at byte `offset` of a sphere (`ViewSphere` is `repr(C)`; the offsets come from
-/// `offset_of!` on its f64 and DVec3 fields).
-#[inline(always)]
-fn read_f64(s: &ViewSphere, offset: usize) -> f64 {
-    debug_assert!(offset.is_multiple_of(8) && offset + 8 <= std::mem::size_of::<ViewSphere>());
-    // SAFETY: the offset names an f64 inside the sphere.
-    unsafe {
-        (s as *const ViewSphere)
-            .cast::<u8>()
-            .add(offset)
-            .cast::<f64>()
-            .read()
-    }
-}
-
 #[cfg(target_arch = "x86_64")]
-pub(super) use x86::{Ymm2, Zmm};
+pub(super) use x86::{Avx2, Avx512, Ymm2, Zmm};
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::*;
-    use std::mem::{offset_of, size_of};
 
-    use super::{Lanes, LANES};
-    use crate::render::ViewSphere;
+    // From the crate root: the file-level import check (tests/it/architecture.rs) reads a
+    // `super::` as the file's parent, not this inline module's.
+    use crate::render::lanes::{InBounds, Lanes, LANES};
 
-    const SPHERE: i64 = size_of::<ViewSphere>() as i64;
-    const ID: i64 = offset_of!(ViewSphere, id) as i64;
+    /// Proof that this CPU runs AVX2: made only by [`Avx2::detect`].
+    #[derive(Debug, Clone, Copy)]
+    pub struct Avx2(());
 
-    /// One AVX-512 register.
+    impl Avx2 {
+        pub fn detect() -> Option<Avx2> {
+            std::arch::is_x86_feature_detected!("avx2").then_some(Avx2(()))
+        }
+    }
+
+    /// Proof that this CPU runs AVX-512F: made only by [`Avx512::detect`].
+    #[derive(Debug, Clone, Copy)]
+    pub struct Avx512(());
+
+    impl Avx512 {
+        pub fn detect() -> Option<Avx512> {
+            std::arch::is_x86_feature_detected!("avx512f").then_some(Avx512(()))
+        }
+    }
+
+    /// One AVX-512 register, with the proof that the CPU runs AVX-512F.
     #[derive(Clone, Copy)]
-    pub struct Zmm(__m512d);
+    pub struct Zmm(__m512d, Avx512);
 
-    // SAFETY (every `unsafe` block in this impl): the CPU has AVX-512F, see the module's
-    // documentation; loads, stores and gathers stay inside the arrays and spheres given.
+    /// Eight 64-bit indices in one AVX-512 register, with the same proof.
+    #[derive(Clone, Copy)]
+    pub struct ZmmIndex(__m512i, Avx512);
+
+    impl Zmm {
+        /// `f` of the register, kept with the proof.
+        #[inline(always)]
+        fn with(self, v: __m512d) -> Zmm {
+            Zmm(v, self.1)
+        }
+    }
+
     impl Lanes for Zmm {
-        type Index = __m512i;
+        type Token = Avx512;
+        type Index = ZmmIndex;
 
         #[inline(always)]
-        fn splat(x: f64) -> Self {
-            unsafe { Zmm(_mm512_set1_pd(x)) }
+        fn token(self) -> Avx512 {
+            self.1
         }
         #[inline(always)]
-        fn load(x: &[f64; LANES]) -> Self {
-            unsafe { Zmm(_mm512_loadu_pd(x.as_ptr())) }
+        fn splat(t: Avx512, x: f64) -> Self {
+            // SAFETY: `t` proves AVX-512F.
+            Zmm(unsafe { _mm512_set1_pd(x) }, t)
+        }
+        #[inline(always)]
+        fn load(t: Avx512, x: &[f64; LANES]) -> Self {
+            // SAFETY: `t` proves AVX-512F; `x` holds the eight f64 read.
+            Zmm(unsafe { _mm512_loadu_pd(x.as_ptr()) }, t)
         }
         #[inline(always)]
         fn store(self) -> [f64; LANES] {
             let mut out = [0.0; LANES];
+            // SAFETY: `self` proves AVX-512F; `out` holds the eight f64 written.
             unsafe { _mm512_storeu_pd(out.as_mut_ptr(), self.0) };
             out
         }
         #[inline(always)]
         fn add(self, b: Self) -> Self {
-            unsafe { Zmm(_mm512_add_pd(self.0, b.0)) }
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { _mm512_add_pd(self.0, b.0) })
         }
         #[inline(always)]
         fn sub(self, b: Self) -> Self {
-            unsafe { Zmm(_mm512_sub_pd(self.0, b.0)) }
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { _mm512_sub_pd(self.0, b.0) })
         }
         #[inline(always)]
         fn mul(self, b: Self) -> Self {
-            unsafe { Zmm(_mm512_mul_pd(self.0, b.0)) }
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { _mm512_mul_pd(self.0, b.0) })
         }
         #[inline(always)]
         fn div(self, b: Self) -> Self {
-            unsafe { Zmm(_mm512_div_pd(self.0, b.0)) }
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { _mm512_div_pd(self.0, b.0) })
         }
         #[inline(always)]
         fn sqrt(self) -> Self {
-            unsafe { Zmm(_mm512_sqrt_pd(self.0)) }
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { _mm512_sqrt_pd(self.0) })
         }
         #[inline(always)]
         fn neg(self) -> Self {
-            unsafe {
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe {
                 let sign = _mm512_set1_epi64(i64::MIN);
-                Zmm(_mm512_castsi512_pd(_mm512_xor_epi64(
-                    _mm512_castpd_si512(self.0),
-                    sign,
-                )))
-            }
+                _mm512_castsi512_pd(_mm512_xor_epi64(_mm512_castpd_si512(self.0), sign))
+            })
         }
         #[inline(always)]
         fn copysign(self, s: Self) -> Self {
-            unsafe {
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe {
                 let sign = _mm512_set1_epi64(i64::MIN);
                 let (a, b) = (_mm512_castpd_si512(self.0), _mm512_castpd_si512(s.0));
-                Zmm(_mm512_castsi512_pd(_mm512_or_epi64(
+                _mm512_castsi512_pd(_mm512_or_epi64(
                     _mm512_andnot_epi64(sign, a),
                     _mm512_and_epi64(sign, b),
-                )))
-            }
+                ))
+            })
         }
         #[inline(always)]
         fn abs(self) -> Self {
-            unsafe { Zmm(_mm512_abs_pd(self.0)) }
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { _mm512_abs_pd(self.0) })
         }
         #[inline(always)]
         fn min(self, b: Self) -> Self {
             // vminpd gives its second operand when either is NaN.
-            unsafe {
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe {
                 let m = _mm512_min_pd(self.0, b.0);
                 let b_nan = _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(b.0, b.0);
-                Zmm(_mm512_mask_blend_pd(b_nan, m, self.0))
-            }
+                _mm512_mask_blend_pd(b_nan, m, self.0)
+            })
         }
         #[inline(always)]
         fn max(self, b: Self) -> Self {
-            unsafe {
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe {
                 let m = _mm512_max_pd(self.0, b.0);
                 let b_nan = _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(b.0, b.0);
-                Zmm(_mm512_mask_blend_pd(b_nan, m, self.0))
-            }
+                _mm512_mask_blend_pd(b_nan, m, self.0)
+            })
         }
         #[inline(always)]
         fn lt(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX-512F.
             unsafe { _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, b.0) }
         }
         #[inline(always)]
         fn le(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX-512F.
             unsafe { _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, b.0) }
         }
         #[inline(always)]
         fn gt(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX-512F.
             unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, b.0) }
         }
         #[inline(always)]
         fn ge(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX-512F.
             unsafe { _mm512_cmp_pd_mask::<_CMP_GE_OQ>(self.0, b.0) }
         }
         #[inline(always)]
         fn eq(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX-512F.
             unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, b.0) }
         }
         #[inline(always)]
         fn blend(m: u8, a: Self, b: Self) -> Self {
-            unsafe { Zmm(_mm512_mask_blend_pd(m, a.0, b.0)) }
+            // SAFETY: `a` proves AVX-512F.
+            a.with(unsafe { _mm512_mask_blend_pd(m, a.0, b.0) })
         }
         #[inline(always)]
         fn to_i32(self, max: i32) -> [i32; LANES] {
             let mut out = [0; LANES];
+            // SAFETY: `self` proves AVX-512F (and with it AVX2); `out` holds the eight i32
+            // written.
             unsafe {
                 // NaN converts to i32::MIN, which the max lifts to 0, as `as` does.
                 let i = _mm512_cvttpd_epi32(self.0);
@@ -387,70 +497,81 @@ mod x86 {
         }
 
         #[inline(always)]
-        fn index(k: u64) -> __m512i {
-            unsafe { _mm512_set1_epi64(k as i64) }
+        fn index(t: Avx512, k: u64) -> ZmmIndex {
+            // SAFETY: `t` proves AVX-512F.
+            ZmmIndex(unsafe { _mm512_set1_epi64(k as i64) }, t)
         }
         #[inline(always)]
-        fn index_blend(m: u8, a: __m512i, b: __m512i) -> __m512i {
-            unsafe { _mm512_mask_blend_epi64(m, a, b) }
+        fn index_blend(m: u8, a: ZmmIndex, b: ZmmIndex) -> ZmmIndex {
+            // SAFETY: `a` proves AVX-512F.
+            ZmmIndex(unsafe { _mm512_mask_blend_epi64(m, a.0, b.0) }, a.1)
         }
         #[inline(always)]
-        fn index_eq(a: __m512i, b: __m512i) -> u8 {
-            unsafe { _mm512_cmpeq_epi64_mask(a, b) }
+        fn index_eq(a: ZmmIndex, b: ZmmIndex) -> u8 {
+            // SAFETY: `a` proves AVX-512F.
+            unsafe { _mm512_cmpeq_epi64_mask(a.0, b.0) }
         }
         #[inline(always)]
-        fn index_store(a: __m512i) -> [u64; LANES] {
+        fn index_store(a: ZmmIndex) -> [u64; LANES] {
             let mut out = [0; LANES];
-            unsafe { _mm512_storeu_si512(out.as_mut_ptr().cast(), a) };
+            // SAFETY: `a` proves AVX-512F; `out` holds the eight u64 written.
+            unsafe { _mm512_storeu_si512(out.as_mut_ptr().cast(), a.0) };
             out
         }
         #[inline(always)]
-        fn gather(spheres: &[ViewSphere], own: __m512i, offset: usize) -> Self {
-            unsafe {
-                let bytes = _mm512_add_epi64(
-                    _mm512_mul_epu32(own, _mm512_set1_epi64(SPHERE)),
-                    _mm512_set1_epi64(offset as i64),
-                );
-                Zmm(_mm512_i64gather_pd::<1>(bytes, spheres.as_ptr().cast()))
-            }
+        fn gather(field: &[f64], own: InBounds<ZmmIndex>) -> Self {
+            let own = own.within(field);
+            // SAFETY: `own` proves AVX-512F, and every lane of it indexes `field` (checked by
+            // `InBounds`, the length by `within`); the scale 8 makes an index an f64's.
+            Zmm(
+                unsafe { _mm512_i64gather_pd::<8>(own.0, field.as_ptr()) },
+                own.1,
+            )
         }
         #[inline(always)]
-        fn gather_ids(spheres: &[ViewSphere], own: __m512i) -> __m512i {
-            unsafe {
-                let bytes = _mm512_add_epi64(
-                    _mm512_mul_epu32(own, _mm512_set1_epi64(SPHERE)),
-                    _mm512_set1_epi64(ID),
-                );
-                _mm512_cvtepu32_epi64(_mm512_i64gather_epi32::<1>(bytes, spheres.as_ptr().cast()))
-            }
+        fn gather_index(field: &[u64], own: InBounds<ZmmIndex>) -> ZmmIndex {
+            let own = own.within(field);
+            // SAFETY: as `gather`: AVX-512F by `own`, indices checked, the scale a u64's.
+            let v = unsafe { _mm512_i64gather_epi64::<8>(own.0, field.as_ptr().cast()) };
+            ZmmIndex(v, own.1)
         }
     }
 
-    /// Two AVX2 registers: lanes 0–3 and 4–7.
+    /// Two AVX2 registers (lanes 0–3 and 4–7), with the proof that the CPU runs AVX2.
     #[derive(Clone, Copy)]
-    pub struct Ymm2([__m256d; 2]);
+    pub struct Ymm2([__m256d; 2], Avx2);
 
-    /// The 4-lane vector mask of bits 0–3 of `m`.
-    #[inline(always)]
-    unsafe fn unpack(m: u8) -> __m256d {
-        let bits = _mm256_setr_epi64x(1, 2, 4, 8);
-        let set = _mm256_and_si256(_mm256_set1_epi64x(m as i64), bits);
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(set, bits))
+    /// Eight 64-bit indices in two AVX2 registers, with the same proof.
+    #[derive(Clone, Copy)]
+    pub struct Ymm2Index([__m256i; 2], Avx2);
+
+    impl Avx2 {
+        /// The 4-lane vector mask of bits 0–3 of `m`.
+        #[inline(always)]
+        fn unpack(self, m: u8) -> __m256d {
+            // SAFETY: `self` proves AVX2.
+            unsafe {
+                let bits = _mm256_setr_epi64x(1, 2, 4, 8);
+                let set = _mm256_and_si256(_mm256_set1_epi64x(m as i64), bits);
+                _mm256_castsi256_pd(_mm256_cmpeq_epi64(set, bits))
+            }
+        }
     }
 
     impl Ymm2 {
         #[inline(always)]
         fn each(self, f: impl Fn(__m256d) -> __m256d) -> Ymm2 {
-            Ymm2([f(self.0[0]), f(self.0[1])])
+            Ymm2([f(self.0[0]), f(self.0[1])], self.1)
         }
 
         #[inline(always)]
         fn both(self, b: Ymm2, f: impl Fn(__m256d, __m256d) -> __m256d) -> Ymm2 {
-            Ymm2([f(self.0[0], b.0[0]), f(self.0[1], b.0[1])])
+            Ymm2([f(self.0[0], b.0[0]), f(self.0[1], b.0[1])], self.1)
         }
 
         #[inline(always)]
         fn test(self, b: Ymm2, f: impl Fn(__m256d, __m256d) -> __m256d) -> u8 {
+            // SAFETY: `self` proves AVX2.
             unsafe {
                 let lo = _mm256_movemask_pd(f(self.0[0], b.0[0]));
                 let hi = _mm256_movemask_pd(f(self.0[1], b.0[1]));
@@ -459,27 +580,36 @@ mod x86 {
         }
     }
 
-    // SAFETY (every `unsafe` block in this impl): the CPU has AVX2, see the module's
-    // documentation; loads, stores and gathers stay inside the arrays and spheres given.
+    // In the closures below, `self` (a `Ymm2`) proves AVX2: each is called only by `each`,
+    // `both` or `test` on it.
     impl Lanes for Ymm2 {
-        type Index = [__m256i; 2];
+        type Token = Avx2;
+        type Index = Ymm2Index;
 
         #[inline(always)]
-        fn splat(x: f64) -> Self {
-            unsafe { Ymm2([_mm256_set1_pd(x); 2]) }
+        fn token(self) -> Avx2 {
+            self.1
         }
         #[inline(always)]
-        fn load(x: &[f64; LANES]) -> Self {
-            unsafe {
-                Ymm2([
+        fn splat(t: Avx2, x: f64) -> Self {
+            // SAFETY: `t` proves AVX2.
+            Ymm2([unsafe { _mm256_set1_pd(x) }; 2], t)
+        }
+        #[inline(always)]
+        fn load(t: Avx2, x: &[f64; LANES]) -> Self {
+            // SAFETY: `t` proves AVX2; `x` holds the eight f64 read.
+            let v = unsafe {
+                [
                     _mm256_loadu_pd(x.as_ptr()),
                     _mm256_loadu_pd(x.as_ptr().add(4)),
-                ])
-            }
+                ]
+            };
+            Ymm2(v, t)
         }
         #[inline(always)]
         fn store(self) -> [f64; LANES] {
             let mut out = [0.0; LANES];
+            // SAFETY: `self` proves AVX2; `out` holds the eight f64 written.
             unsafe {
                 _mm256_storeu_pd(out.as_mut_ptr(), self.0[0]);
                 _mm256_storeu_pd(out.as_mut_ptr().add(4), self.0[1]);
@@ -488,30 +618,37 @@ mod x86 {
         }
         #[inline(always)]
         fn add(self, b: Self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.both(b, |x, y| unsafe { _mm256_add_pd(x, y) })
         }
         #[inline(always)]
         fn sub(self, b: Self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.both(b, |x, y| unsafe { _mm256_sub_pd(x, y) })
         }
         #[inline(always)]
         fn mul(self, b: Self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.both(b, |x, y| unsafe { _mm256_mul_pd(x, y) })
         }
         #[inline(always)]
         fn div(self, b: Self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.both(b, |x, y| unsafe { _mm256_div_pd(x, y) })
         }
         #[inline(always)]
         fn sqrt(self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.each(|x| unsafe { _mm256_sqrt_pd(x) })
         }
         #[inline(always)]
         fn neg(self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.each(|x| unsafe { _mm256_xor_pd(x, _mm256_set1_pd(-0.0)) })
         }
         #[inline(always)]
         fn copysign(self, s: Self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.both(s, |x, y| unsafe {
                 let sign = _mm256_set1_pd(-0.0);
                 _mm256_or_pd(_mm256_andnot_pd(sign, x), _mm256_and_pd(sign, y))
@@ -519,11 +656,13 @@ mod x86 {
         }
         #[inline(always)]
         fn abs(self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.each(|x| unsafe { _mm256_andnot_pd(_mm256_set1_pd(-0.0), x) })
         }
         #[inline(always)]
         fn min(self, b: Self) -> Self {
             // vminpd gives its second operand when either is NaN.
+            // SAFETY: `self` proves AVX2.
             self.both(b, |x, y| unsafe {
                 let y_nan = _mm256_cmp_pd::<_CMP_UNORD_Q>(y, y);
                 _mm256_blendv_pd(_mm256_min_pd(x, y), x, y_nan)
@@ -531,6 +670,7 @@ mod x86 {
         }
         #[inline(always)]
         fn max(self, b: Self) -> Self {
+            // SAFETY: `self` proves AVX2.
             self.both(b, |x, y| unsafe {
                 let y_nan = _mm256_cmp_pd::<_CMP_UNORD_Q>(y, y);
                 _mm256_blendv_pd(_mm256_max_pd(x, y), x, y_nan)
@@ -538,36 +678,45 @@ mod x86 {
         }
         #[inline(always)]
         fn lt(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX2.
             self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(x, y) })
         }
         #[inline(always)]
         fn le(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX2.
             self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_LE_OQ>(x, y) })
         }
         #[inline(always)]
         fn gt(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX2.
             self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_GT_OQ>(x, y) })
         }
         #[inline(always)]
         fn ge(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX2.
             self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_GE_OQ>(x, y) })
         }
         #[inline(always)]
         fn eq(self, b: Self) -> u8 {
+            // SAFETY: `self` proves AVX2.
             self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_EQ_OQ>(x, y) })
         }
         #[inline(always)]
         fn blend(m: u8, a: Self, b: Self) -> Self {
-            unsafe {
-                Ymm2([
-                    _mm256_blendv_pd(a.0[0], b.0[0], unpack(m)),
-                    _mm256_blendv_pd(a.0[1], b.0[1], unpack(m >> 4)),
-                ])
-            }
+            let t = a.1;
+            // SAFETY: `a` proves AVX2.
+            let v = unsafe {
+                [
+                    _mm256_blendv_pd(a.0[0], b.0[0], t.unpack(m)),
+                    _mm256_blendv_pd(a.0[1], b.0[1], t.unpack(m >> 4)),
+                ]
+            };
+            Ymm2(v, t)
         }
         #[inline(always)]
         fn to_i32(self, max: i32) -> [i32; LANES] {
             let mut out = [0; LANES];
+            // SAFETY: `self` proves AVX2; `out` holds the eight i32 written, four at a time.
             unsafe {
                 for h in 0..2 {
                     // NaN converts to i32::MIN, which the max lifts to 0, as `as` does.
@@ -581,65 +730,60 @@ mod x86 {
         }
 
         #[inline(always)]
-        fn index(k: u64) -> [__m256i; 2] {
-            unsafe { [_mm256_set1_epi64x(k as i64); 2] }
+        fn index(t: Avx2, k: u64) -> Ymm2Index {
+            // SAFETY: `t` proves AVX2.
+            Ymm2Index([unsafe { _mm256_set1_epi64x(k as i64) }; 2], t)
         }
         #[inline(always)]
-        fn index_blend(m: u8, a: [__m256i; 2], b: [__m256i; 2]) -> [__m256i; 2] {
-            unsafe {
-                let pick = |h: usize, m: u8| {
-                    let (a, b) = (_mm256_castsi256_pd(a[h]), _mm256_castsi256_pd(b[h]));
-                    _mm256_castpd_si256(_mm256_blendv_pd(a, b, unpack(m)))
-                };
-                [pick(0, m), pick(1, m >> 4)]
-            }
+        fn index_blend(m: u8, a: Ymm2Index, b: Ymm2Index) -> Ymm2Index {
+            let t = a.1;
+            let pick = |h: usize, m: u8| {
+                // SAFETY: `a` proves AVX2.
+                unsafe {
+                    let (a, b) = (_mm256_castsi256_pd(a.0[h]), _mm256_castsi256_pd(b.0[h]));
+                    _mm256_castpd_si256(_mm256_blendv_pd(a, b, t.unpack(m)))
+                }
+            };
+            Ymm2Index([pick(0, m), pick(1, m >> 4)], t)
         }
         #[inline(always)]
-        fn index_eq(a: [__m256i; 2], b: [__m256i; 2]) -> u8 {
-            unsafe {
-                let half = |h: usize| {
-                    _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a[h], b[h])))
-                };
-                (half(0) | half(1) << 4) as u8
-            }
+        fn index_eq(a: Ymm2Index, b: Ymm2Index) -> u8 {
+            let half = |h: usize| {
+                // SAFETY: `a` proves AVX2.
+                unsafe {
+                    _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a.0[h], b.0[h])))
+                }
+            };
+            (half(0) | half(1) << 4) as u8
         }
         #[inline(always)]
-        fn index_store(a: [__m256i; 2]) -> [u64; LANES] {
+        fn index_store(a: Ymm2Index) -> [u64; LANES] {
             let mut out = [0; LANES];
+            // SAFETY: `a` proves AVX2; `out` holds the eight u64 written, four at a time.
             unsafe {
-                _mm256_storeu_si256(out.as_mut_ptr().cast(), a[0]);
-                _mm256_storeu_si256(out.as_mut_ptr().add(4).cast(), a[1]);
+                _mm256_storeu_si256(out.as_mut_ptr().cast(), a.0[0]);
+                _mm256_storeu_si256(out.as_mut_ptr().add(4).cast(), a.0[1]);
             }
             out
         }
         #[inline(always)]
-        fn gather(spheres: &[ViewSphere], own: [__m256i; 2], offset: usize) -> Self {
-            unsafe {
-                let half = |h: usize| {
-                    let bytes = _mm256_add_epi64(
-                        _mm256_mul_epu32(own[h], _mm256_set1_epi64x(SPHERE)),
-                        _mm256_set1_epi64x(offset as i64),
-                    );
-                    _mm256_i64gather_pd::<1>(spheres.as_ptr().cast(), bytes)
-                };
-                Ymm2([half(0), half(1)])
-            }
+        fn gather(field: &[f64], own: InBounds<Ymm2Index>) -> Self {
+            let own = own.within(field);
+            let half = |h: usize| {
+                // SAFETY: `own` proves AVX2, and every lane of it indexes `field` (checked by
+                // `InBounds`, the length by `within`); the scale 8 makes an index an f64's.
+                unsafe { _mm256_i64gather_pd::<8>(field.as_ptr(), own.0[h]) }
+            };
+            Ymm2([half(0), half(1)], own.1)
         }
         #[inline(always)]
-        fn gather_ids(spheres: &[ViewSphere], own: [__m256i; 2]) -> [__m256i; 2] {
-            unsafe {
-                let half = |h: usize| {
-                    let bytes = _mm256_add_epi64(
-                        _mm256_mul_epu32(own[h], _mm256_set1_epi64x(SPHERE)),
-                        _mm256_set1_epi64x(ID),
-                    );
-                    _mm256_cvtepu32_epi64(_mm256_i64gather_epi32::<1>(
-                        spheres.as_ptr().cast(),
-                        bytes,
-                    ))
-                };
-                [half(0), half(1)]
-            }
+        fn gather_index(field: &[u64], own: InBounds<Ymm2Index>) -> Ymm2Index {
+            let own = own.within(field);
+            let half = |h: usize| {
+                // SAFETY: as `gather`: AVX2 by `own`, indices checked, the scale a u64's.
+                unsafe { _mm256_i64gather_epi64::<8>(field.as_ptr().cast(), own.0[h]) }
+            };
+            Ymm2Index([half(0), half(1)], own.1)
         }
     }
 }

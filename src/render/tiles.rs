@@ -7,7 +7,9 @@
 use glam::{DVec2, DVec3};
 
 use super::bins::Bins;
-use super::{Raster, RayTable, ViewSphere};
+use super::rays::RayTable;
+use super::view::ViewSphere;
+use crate::raster::Raster;
 
 /// Tile side in pixels.
 pub const TILE: usize = 16;
@@ -330,7 +332,9 @@ impl TileBins {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{nearest_positive_root, Shading};
+    use super::super::kernels::Shading;
+    use super::super::oracle::{nearest, root};
+    use super::super::view::ViewColumns;
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
@@ -399,7 +403,8 @@ mod tests {
                     .enumerate()
                     .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
                     .collect();
-                let shading = unlit(&view);
+                let columns = ViewColumns::new(&view);
+                let shading = unlit(&view, &columns);
                 for samples in [1, 3] {
                     let raster = Raster {
                         width: 96,
@@ -407,13 +412,13 @@ mod tests {
                         samples,
                         adaptive: false,
                     };
-                    let table = RayTable::new(cop, camera.window, raster, true);
+                    let table = RayTable::new(cop, camera.window, raster);
                     let bins = TileBins::build(&view, &table, raster);
                     let wide = Wide::new(ground, &view[ground as usize], &table, raster);
                     let g = &view[ground as usize];
                     // Per tile, the ground's bound and its nearest hit by a sample.
                     let mut bound = vec![(None, f64::INFINITY); 6 * 5];
-                    let mut scratch = [DVec3::ZERO; 9];
+                    let s2 = (samples * samples) as usize;
                     for j in 0..72 {
                         for i in 0..96 {
                             let list = bins.at(i, j);
@@ -426,8 +431,8 @@ mod tests {
                                     None => Some(g.min_dist),
                                 };
                             }
-                            for d in table.pixel(i, j, &mut scratch) {
-                                if let Some(t) = nearest_positive_root(g.f, g.c, g.radius2, *d) {
+                            for d in (0..s2).map(|k| table.direction(i, j, k)) {
+                                if let Some(t) = root(g.f, g.c, g.radius2, d) {
                                     tile.1 = tile.1.min(t);
                                 }
                             }
@@ -437,15 +442,15 @@ mod tests {
                                     Some(at) => after += (at > 0) as usize,
                                 }
                             }
-                            for d in table.pixel(i, j, &mut scratch) {
+                            for d in (0..s2).map(|k| table.direction(i, j, k)) {
                                 let mut every: Option<(usize, f64)> = None;
                                 for (k, s) in view.iter().enumerate() {
-                                    let t = nearest_positive_root(s.f, s.c, s.radius2, *d);
+                                    let t = root(s.f, s.c, s.radius2, d);
                                     if let Some(t) = t.filter(|&t| every.is_none_or(|b| t < b.1)) {
                                         every = Some((k, t));
                                     }
                                 }
-                                let fast = shading.nearest(*d, list);
+                                let fast = nearest(&shading, &bins, (i, j), d);
                                 assert_eq!(fast, every, "ground {radius}, pixel ({i}, {j})");
                             }
                         }
@@ -475,9 +480,10 @@ mod tests {
     }
 
     /// The primary-ray search over `spheres`, with no lights.
-    fn unlit(spheres: &[ViewSphere]) -> Shading<'_> {
+    fn unlit<'a>(spheres: &'a [ViewSphere], columns: &'a ViewColumns) -> Shading<'a> {
         Shading {
             spheres,
+            columns,
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,
@@ -513,9 +519,8 @@ mod tests {
                 samples,
                 adaptive: false,
             };
-            let table = RayTable::new(cop, window, raster, true);
+            let table = RayTable::new(cop, window, raster);
             let s = samples as usize;
-            let mut scratch = [DVec3::ZERO; 9];
             for (tx, ty) in (0..3).flat_map(|tx| (0..2).map(move |ty| (tx, ty))) {
                 let (i0, j0) = (tx * TILE, ty * TILE);
                 let (i1, j1) = (((tx + 1) * TILE).min(40) - 1, ((ty + 1) * TILE).min(24) - 1);
@@ -534,7 +539,7 @@ mod tests {
                     ((i1, j1), s * s - 1, DVec3::new(1.0, -1.0, 0.0)),
                 ];
                 for ((i, j), k, out) in edges {
-                    let d = table.pixel(i, j, &mut scratch)[k];
+                    let d = table.direction(i, j, k);
                     let n = (out - d * d.dot(out)).normalize();
                     let sphere = in_view(cop + d * 50.0 + n * (r * (1.0 - 1e-6)), r, cop);
                     let f = sphere.f;
@@ -544,10 +549,11 @@ mod tests {
                         Footprint::Everywhere
                     );
                     let bins = TileBins::build(&view, &table, raster);
-                    let shading = unlit(&view);
-                    let t = nearest_positive_root(f, sphere.c, sphere.radius2, d);
+                    let columns = ViewColumns::new(&view);
+                    let shading = unlit(&view, &columns);
+                    let t = root(f, sphere.c, sphere.radius2, d);
                     assert!(t.is_some(), "the ray meets the sphere");
-                    let found = shading.nearest(d, bins.at(i, j));
+                    let found = nearest(&shading, &bins, (i, j), d);
                     assert_eq!(
                         found,
                         t.map(|t| (0, t)),
@@ -575,14 +581,13 @@ mod tests {
                 samples: 1,
                 adaptive: false,
             };
-            let table = RayTable::new(cop, window, raster, true);
-            let mut scratch = [DVec3::ZERO; 1];
+            let table = RayTable::new(cop, window, raster);
             for tx in 0..(w as usize).div_ceil(TILE) {
                 for ty in 0..(h as usize).div_ceil(TILE) {
                     let cone = TileCone::new(&table, raster, tx, ty).unwrap();
                     let (i0, i1) = (tx * TILE, ((tx + 1) * TILE).min(w as usize) - 1);
                     let (j0, j1) = (ty * TILE, ((ty + 1) * TILE).min(h as usize) - 1);
-                    let mut dir = |(i, j): (usize, usize)| table.pixel(i, j, &mut scratch)[0];
+                    let mut dir = |(i, j): (usize, usize)| table.direction(i, j, 0);
                     let u = [(i0, j0), (i1, j0), (i0, j1), (i1, j1)]
                         .map(&mut dir)
                         .into_iter()
@@ -599,7 +604,7 @@ mod tests {
                                 let center = cop + (u * ca + away * (1.0 - ca * ca).sqrt()) * d;
                                 let sphere = in_view(center, r, cop);
                                 let f = sphere.f;
-                                let Some(t) = nearest_positive_root(f, sphere.c, r * r, u) else {
+                                let Some(t) = root(f, sphere.c, r * r, u) else {
                                     continue;
                                 };
                                 hits += 1;

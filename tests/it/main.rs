@@ -16,6 +16,7 @@ mod lock;
 mod modes;
 mod povray;
 mod production;
+mod reference;
 mod simd;
 mod sphere_files;
 mod suites;

@@ -1,23 +1,25 @@
-//! Every instruction path gives the scalar path's bytes: the examples and the stability
-//! catalogue (tests/data and the far-from-the-origin scenes), frame by frame, at one sample per
-//! pixel and at s×s samples, adaptive or not (every path but `scalar` casts them in packets).
+//! Every instruction path gives the oracle's bytes (`reference.rs`, every sphere for every ray,
+//! one ray at a time): the examples and the stability catalogue (tests/data and the
+//! far-from-the-origin scenes), frame by frame, at one sample per pixel and at s×s samples,
+//! adaptive or not.
 
 use std::path::Path;
 
 use crate::common::{example, root, EXAMPLES};
+use campath::camera::{Basis, Camera};
 use campath::document::Document;
-use campath::render::{Renderer, Simd};
+use campath::render::{Raster, Renderer, Simd};
+use campath::scene::{Light, Scene, Sphere};
+use glam::{DVec2, DVec3};
 
-/// Frames 0, middle and last of `doc` through every path this CPU runs; the number of frames
-/// compared.
+/// Frames 0, middle and last of `doc` through every path this CPU runs, each against the oracle;
+/// the number of frames compared.
 fn same_bytes_on_every_path(name: &str, doc: &Document) -> usize {
     let last = doc.animation.frames - 1;
     let mut compared = 0;
     for frame in [0, last / 2, last] {
         let camera = doc.camera(frame).unwrap();
-        let reference = Renderer::with_simd(Simd::Scalar)
-            .unwrap()
-            .render(&camera, &doc.scene, doc.raster);
+        let reference = crate::reference::render(&camera, &doc.scene, doc.raster);
         for simd in Simd::ALL {
             let Some(mut r) = Renderer::with_simd(simd) else {
                 continue;
@@ -135,6 +137,103 @@ fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
             doc.raster.adaptive = adaptive;
             let how = if adaptive { ", adaptive" } else { "" };
             same_bytes_on_every_path(&format!("{name} at {samples}×{samples}{how}"), &doc);
+        }
+    }
+}
+
+#[test]
+/// A field of 300 spheres over a ground sphere, under two shadowing lights, seen from outside,
+/// from inside (the COP off the axis) and from just above the ground: the tiles and the shadow
+/// grid change no byte of the oracle's, at one sample, 2×2 and 3×3.
+fn tiles_and_shadow_grid_give_the_oracle_bytes() {
+    let mut gen = campath::splitmix::SplitMix(7);
+    let mut spheres: Vec<Sphere> = (0..300)
+        .map(|_| {
+            let mut r = || gen.unit();
+            Sphere {
+                center_world: DVec3::new(r() * 40.0 - 20.0, r() * 6.0, r() * 40.0 - 20.0),
+                radius: 0.2 + r() * 1.5,
+                color: DVec3::new(r(), r(), r()),
+            }
+        })
+        .collect();
+    spheres.push(Sphere {
+        center_world: DVec3::new(0.0, -1000.0, 0.0),
+        radius: 1000.0,
+        color: DVec3::splat(0.6),
+    });
+    let scene = Scene {
+        background: DVec3::new(0.1, 0.1, 0.2),
+        ambient: 0.1,
+        lights: vec![
+            Light {
+                direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
+                color: DVec3::splat(0.8),
+                shadows: true,
+            },
+            Light {
+                direction_world: DVec3::new(1.0, -0.3, 0.2).normalize(),
+                color: DVec3::splat(0.3),
+                shadows: true,
+            },
+        ],
+        spheres,
+    };
+    let raster = Raster {
+        width: 96,
+        height: 64,
+        samples: 2,
+        adaptive: false,
+    };
+    let cameras = [
+        // Outside the field, looking in.
+        (
+            DVec3::new(0.0, 8.0, -40.0),
+            DVec3::new(0.0, -0.2, 1.0),
+            DVec3::new(0.0, 0.0, -1.0),
+        ),
+        // Inside the field, off-axis COP, spheres on all sides and behind.
+        (
+            DVec3::new(1.0, 2.0, 0.0),
+            DVec3::new(1.0, -0.1, 0.3),
+            DVec3::new(0.3, -0.2, -0.8),
+        ),
+        // Inside the ground sphere's neighbourhood, looking down.
+        (
+            DVec3::new(-5.0, 0.5, 3.0),
+            DVec3::new(0.2, -1.0, 0.1),
+            DVec3::new(0.0, 0.0, -1.5),
+        ),
+    ];
+    // Every path but `Scalar` casts one sample, and 2×2 or 3×3 samples averaged, in packets.
+    let one = Raster {
+        samples: 1,
+        ..raster
+    };
+    let three = Raster {
+        samples: 3,
+        ..raster
+    };
+    for (k, (vrp, vpn, cop)) in cameras.into_iter().enumerate() {
+        let camera = Camera {
+            vrp_world: vrp,
+            basis: Basis::from_vpn_vuv(vpn, DVec3::Y).unwrap(),
+            cop_view: cop,
+            window: DVec2::new(1.5, 1.0),
+        };
+        for raster in [raster, one, three] {
+            let slow = crate::reference::render(&camera, &scene, raster);
+            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                let fast = Renderer::with_simd(simd)
+                    .unwrap()
+                    .render(&camera, &scene, raster);
+                let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
+                let name = simd.name();
+                assert_eq!(
+                    differ, 0,
+                    "camera {k}, {raster:?}, {name}: {differ} bytes differ"
+                );
+            }
         }
     }
 }

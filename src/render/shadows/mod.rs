@@ -9,11 +9,14 @@
 
 use glam::{DVec2, DVec3};
 
-use super::bins::{Bins, CellRect};
 use std::sync::Arc;
+
+use super::bins::{Bins, CellRect};
 
 use crate::camera::Camera;
 use crate::scene::Sphere;
+
+mod occlusion;
 
 /// A scene's spheres binned for one light direction, in world coordinates: built once per
 /// scene and light, used by every frame.
@@ -21,8 +24,8 @@ pub struct ShadowGrid {
     /// Orthonormal axes of the projection plane (world).
     axes: (DVec3, DVec3),
     origin: DVec2,
-    pub(super) inv_cell: f64,
-    pub(super) dims: (usize, usize),
+    inv_cell: f64,
+    dims: (usize, usize),
     bins: Bins,
     /// Spheres tested for every ray.
     always: Vec<u32>,
@@ -33,8 +36,8 @@ pub struct ShadowGrid {
     /// Each sphere's top: how far its highest point lies towards the light (c·to_light + r).
     /// A sphere can block only a ray that starts below its top, so every cell lists its
     /// spheres highest top first, and a shadow packet stops reading a cell at the first one
-    /// below all its open lanes (`walk` in `packet.rs`; the scalar path reads them all).
-    pub(super) tops: Vec<f64>,
+    /// below all its open lanes (`walk` in `occlusion.rs`).
+    tops: Vec<f64>,
 }
 
 impl ShadowGrid {
@@ -115,51 +118,33 @@ impl ShadowGrid {
         let clampy = |v: f64| v.max(0.0).min(self.dims.1 as f64 - 1.0) as usize;
         (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
     }
-
-    /// The clamped cell range of the grid rectangle [a, b] (in cells), None when it misses
-    /// the grid (the far edges belong to the last cells).
-    #[inline(always)]
-    fn clamp_cells(&self, a: DVec2, b: DVec2) -> Option<CellRect> {
-        let (w, h) = (self.dims.0 as f64, self.dims.1 as f64);
-        if !(b.x >= 0.0 && b.y >= 0.0 && a.x <= w && a.y <= h) {
-            return None;
-        }
-        // Truncation is floor for these non-negative values, without a libm call.
-        let cell = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
-        Some((
-            cell(a.x, self.dims.0),
-            cell(b.x, self.dims.0),
-            cell(a.y, self.dims.1),
-            cell(b.y, self.dims.1),
-        ))
-    }
 }
 
 /// One light's shadow rays in one frame: the scene's grid, the frame's camera, and the light
 /// and its always-tested spheres in view coordinates.
 pub struct FrameShadows<'a> {
-    pub(super) grid: &'a ShadowGrid,
+    grid: &'a ShadowGrid,
     camera: Camera,
     spheres: &'a [Sphere],
     /// Unit vector towards the light, view coordinates.
-    pub(super) to_light: DVec3,
+    to_light: DVec3,
     /// The grid's always-tested spheres: (index, centre in view coordinates, r²).
-    pub(super) always: Vec<(u32, DVec3, f64)>,
+    always: Vec<(u32, DVec3, f64)>,
     /// Every sphere's centre in view coordinates and r², when the frame computed them all
     /// (small scenes); otherwise each blocker is moved into view coordinates when tested.
     centers: Option<Arc<[(DVec3, f64)]>>,
     /// The grid's projection from view coordinates: a point p falls at
     /// (p·axes.0 + offset.x, p·axes.1 + offset.y) on the grid's plane, relative to its origin.
-    pub(super) axes: (DVec3, DVec3),
-    pub(super) offset: DVec2,
+    axes: (DVec3, DVec3),
+    offset: DVec2,
     /// The part of the rounding allowance that does not depend on the point.
-    pub(super) slack: f64,
+    slack: f64,
     /// A view point p lies p·up + height towards the light, on the scale of the grid's tops:
     /// a sphere whose top is below that, less the rounding allowance, cannot block its ray.
     /// (Blocking needs the point inside the sphere or the sphere ahead along the ray: either
     /// way (p − c)·to_light ≤ r.)
-    pub(super) up: DVec3,
-    pub(super) height: f64,
+    up: DVec3,
+    height: f64,
 }
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame
@@ -206,7 +191,7 @@ impl<'a> FrameShadows<'a> {
 
     /// Sphere k with its centre in view coordinates and r² ([`view_center`]).
     #[inline(always)]
-    pub(super) fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
+    fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
         let (c, r2) = match &self.centers {
             Some(all) => all[k as usize],
             None => view_center(&self.camera, &self.spheres[k as usize]),
@@ -214,84 +199,21 @@ impl<'a> FrameShadows<'a> {
         (k, c, r2)
     }
 
-    /// The cells that can hold a blocker of the shadow ray from view point `point`, None if
-    /// no binned disc can hold it. The grid lies in world coordinates and the point reaches it
-    /// through rounding, so the point is taken as a small square (1e-9 of the coordinates'
-    /// scale, far above the rounding): a point on a cell's edge looks in both cells.
-    #[inline(always)]
-    fn cells(&self, point: DVec3) -> Option<CellRect> {
-        if self.grid.dims.0 == 0 {
-            return None;
-        }
-        let (lo, hi) = self.square(point.to_array());
-        self.grid
-            .clamp_cells(DVec2::from_array(lo), DVec2::from_array(hi))
-    }
-
-    /// The square (in cells, unclamped) that view point `p` stands for on the grid: its
-    /// projection widened by the rounding allowance.
-    #[inline(always)]
-    fn square(&self, p: [f64; 3]) -> ([f64; 2], [f64; 2]) {
-        let (ax, ay) = self.axes;
-        let q = [
-            (p[0] * ax.x + p[1] * ax.y) + p[2] * ax.z + self.offset.x,
-            (p[0] * ay.x + p[1] * ay.y) + p[2] * ay.z + self.offset.y,
-        ];
-        let err = self.allowance(p);
-        let inv = self.grid.inv_cell;
-        (
-            [(q[0] - err) * inv, (q[1] - err) * inv],
-            [(q[0] + err) * inv, (q[1] + err) * inv],
-        )
-    }
-
-    /// Whether the ray from view point `point` (on sphere `own`) towards the light meets
-    /// another sphere.
-    pub fn occluded(&self, point: DVec3, own: u32) -> bool {
-        let dir = self.to_light;
-        let blocks = |&(k, c, r2): &(u32, DVec3, f64)| k != own && blocks_ray(c, r2, point, dir);
-        if self.always.iter().any(blocks) {
-            return true;
-        }
-        let Some((x0, x1, y0, y1)) = self.cells(point) else {
-            return false;
-        };
-        // Every sphere of the cells (the packet code stops at the first top below the point;
-        // here, the same cut cost more than the tests it saved).
-        (y0..=y1).any(|y| {
-            (x0..=x1).any(|x| {
-                let cell = self.grid.bins.cell(x, y);
-                cell.iter().any(|&k| blocks(&self.blocker(k)))
-            })
-        })
-    }
-
-    /// The rounding allowance at view point `p`: 1e-9 of the coordinates' scale.
-    #[inline(always)]
-    fn allowance(&self, p: [f64; 3]) -> f64 {
-        1e-9 * (self.slack + p[0].abs().max(p[1].abs()).max(p[2].abs()))
-    }
-
     /// The binned spheres of grid cell (x, y).
     #[inline(always)]
-    pub(super) fn cell(&self, x: usize, y: usize) -> &[u32] {
+    fn cell(&self, x: usize, y: usize) -> &[u32] {
         self.grid.bins.cell(x, y)
     }
 }
 
-/// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
-/// lanes: 16 bits each (the grid is at most 4096 a side).
-#[inline(always)]
-pub(super) fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
-    x0 | x1 << 16 | y0 << 32 | y1 << 48
-}
+/// No shadow hint (see [`FrameShadows::occluded`]).
+pub(super) const NO_HINT: u32 = u32::MAX;
 
-/// The cell range (x0, x1, y0, y1) of a [`cell_key`].
-#[inline(always)]
-pub(super) fn cell_range(key: u64) -> CellRect {
-    let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
-    (field(0), field(16), field(32), field(48))
-}
+/// The lights whose shadow packets keep a hint along a row.
+pub(super) const HINTED_LIGHTS: usize = 4;
+
+/// A row's shadow hints, one per light (the first [`HINTED_LIGHTS`]).
+pub(super) type Hints = [u32; HINTED_LIGHTS];
 
 /// Spheres larger than this (16 × the median radius, like a ground sphere) are tested for every
 /// ray instead of being binned, so they do not inflate the grid.
@@ -320,24 +242,9 @@ fn grid_size(extent: DVec2, count: usize) -> ((usize, usize), f64) {
     (dims, 1.0 / cell)
 }
 
-/// Whether the sphere about view point `center` with squared radius `radius2` blocks the ray
-/// from `point` along unit `dir` (t > 0). A point inside (or on) the sphere is blocked; outside,
-/// both roots share a sign, positive exactly when the sphere lies ahead. No epsilon is needed:
-/// the caller skips the sphere the point lies on, which, being convex, never shadows its own
-/// lit side.
-#[inline]
-pub fn blocks_ray(center: DVec3, radius2: f64, point: DVec3, dir: DVec3) -> bool {
-    let f = point - center;
-    let c = f.length_squared() - radius2;
-    if c <= 0.0 {
-        return true;
-    }
-    let b = f.dot(dir);
-    b < 0.0 && (f - dir * b).length_squared() <= radius2
-}
-
 #[cfg(test)]
 pub(super) mod tests {
+    use super::super::oracle::blocks_ray;
     use super::*;
     use crate::camera::Basis;
     use crate::splitmix::SplitMix;
@@ -426,30 +333,6 @@ pub(super) mod tests {
                 let (c, r2) = view_center(&self.camera, other);
                 o as u32 != own && blocks_ray(c, r2, point, to_light)
             })
-        }
-    }
-
-    /// The grid finds a blocker exactly when testing every sphere does (the packet code's
-    /// test, which also cuts each cell at the point's height, is in `packet.rs`).
-    #[test]
-    fn the_grid_finds_every_blocker() {
-        let c = cluster();
-        for light in &c.lights {
-            let frame = FrameShadows::new(&light.grid, &c.camera, &c.spheres, None, light.to_light);
-            let mut blocked = 0;
-            for (k, &(point, own)) in c.points.iter().enumerate() {
-                let every = c.any_blocker(light.to_light, (point, own));
-                assert_eq!(
-                    frame.occluded(point, own),
-                    every,
-                    "point {k} on sphere {own}, light {}",
-                    light.direction
-                );
-                blocked += every as usize;
-            }
-            // Neither answer is vacuous.
-            let lit = c.points.len() - blocked;
-            assert!(blocked > 1000 && lit > 1000, "{blocked} blocked, {lit} lit");
         }
     }
 }

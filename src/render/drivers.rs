@@ -1,0 +1,459 @@
+//! The row drivers: a row of pixels cast in packets of [`LANES`] rays — at one sample a
+//! pixel a stretch at a time, at s×s samples in groups of pixels, adaptively corners first —
+//! and the dispatch to the row function compiled for each instruction set.
+//!
+//! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
+//! a row is taken a stretch at a time and stage by stage: every packet's directions, then every
+//! packet's nearest hit (two packets of a tile together), then every colour, then every sRGB
+//! level. Each stage is a short loop over independent packets, which the CPU overlaps; taken
+//! packet by packet, the same work ran 15–20% slower.
+
+use super::kernels::{Found, Shading};
+use super::lanes::{Isa, Lanes, Portable, LANES};
+use super::rays::{row_direction, unit, RayTable};
+use super::shadows::{HINTED_LIGHTS, NO_HINT};
+use super::srgb::SrgbEncoder;
+use super::tiles::{TileBins, TILE};
+use crate::raster::MAX_SAMPLES;
+
+/// Most samples in one cast (`RowJob::cast`): a group of pixels at s×s samples holds four of
+/// them up to 8×8, two up to 11×11 and one above; adaptive sampling fits as many pixels' other
+/// samples as it can.
+const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
+
+/// Pixels `first` .. `first + pixels` of row `row`, inside one tile.
+#[derive(Clone, Copy)]
+struct Span {
+    row: usize,
+    first: usize,
+    pixels: usize,
+}
+
+/// The packets of a group of samples between the stages of [`RowJob::cast`]: their
+/// directions, then their nearest hits. Made once per row.
+struct Stages<V: Lanes> {
+    dirs: [[V; 3]; MAX_GROUP_SAMPLES / LANES],
+    founds: [Found<V>; MAX_GROUP_SAMPLES / LANES],
+}
+
+impl<V: Lanes> Stages<V> {
+    #[inline(always)]
+    fn new(tok: V::Token) -> Self {
+        let zero = V::splat(tok, 0.0);
+        Stages {
+            dirs: [[zero; 3]; MAX_GROUP_SAMPLES / LANES],
+            founds: [(0, V::index(tok, 0), zero); MAX_GROUP_SAMPLES / LANES],
+        }
+    }
+}
+
+/// A sample of a group of pixels: its column in the ray table's `xs` past the group's first
+/// pixel's, and its line in `ys` past the pixel row's first.
+type Sample = (u16, u16);
+
+/// Sample k (row-major in the s×s grid) of pixel p of a group.
+fn sample(s: usize, p: usize, k: usize) -> Sample {
+    ((p * s + k % s) as u16, (k / s) as u16)
+}
+
+/// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
+const STRETCH: usize = 32 * LANES;
+
+/// What one row needs: the scene in view coordinates, the ray table and the tiles.
+pub struct RowJob<'a> {
+    pub ctx: &'a Shading<'a>,
+    pub table: &'a RayTable,
+    pub bins: &'a TileBins,
+    pub encode: &'a SrgbEncoder,
+    /// The background's sRGB levels, for a packet's eight pixels.
+    pub background: [u8; 3 * LANES],
+    /// Samples per pixel side: 1, or s ≥ 2 for s×s samples averaged.
+    pub samples: usize,
+    /// With s ≥ 2: the corners first, the rest only where they disagree.
+    pub adaptive: bool,
+}
+
+// Two packets side by side lie in one tile, and a stretch holds whole pairs.
+const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
+
+impl RowJob<'_> {
+    /// Renders row `j` into `row` (RGB8) in packets, with the instruction set `isa`, which
+    /// proves that the CPU runs it.
+    pub fn row(&self, isa: Isa, j: usize, row: &mut [u8]) {
+        let one = self.samples == 1;
+        match isa {
+            Isa::Portable if one => self.row_packets::<Portable>((), j, row),
+            Isa::Portable => self.row_several::<Portable>((), j, row),
+            // SAFETY: `t` proves AVX2.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2(t) if one => unsafe { self.row_avx2(t, j, row) },
+            // SAFETY: `t` proves AVX2.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2(t) => unsafe { self.row_samples_avx2(t, j, row) },
+            // SAFETY: `t` proves AVX-512F.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512(t) if one => unsafe { self.row_avx512(t, j, row) },
+            // SAFETY: `t` proves AVX-512F.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512(t) => unsafe { self.row_samples_avx512(t, j, row) },
+        }
+    }
+
+    /// A row of several samples a pixel, adaptive or not.
+    #[inline(always)]
+    fn row_several<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+        if self.adaptive {
+            self.row_adaptive::<V>(tok, j, row)
+        } else {
+            self.row_samples::<V>(tok, j, row)
+        }
+    }
+
+    // One function per path and per kind of row: each is compiled on its own, so the
+    // single-sample loop keeps its registers and layout. Each takes the token that proves its
+    // instruction set: `#[target_feature]` makes it unsafe to call without one.
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn row_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
+        self.row_packets::<super::lanes::Ymm2>(t, j, row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn row_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
+        self.row_packets::<super::lanes::Zmm>(t, j, row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn row_samples_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
+        self.row_several::<super::lanes::Ymm2>(t, j, row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn row_samples_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
+        self.row_several::<super::lanes::Zmm>(t, j, row)
+    }
+
+    /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
+    /// each sample's colour, summed in sample order and divided by s². The samples of a group of
+    /// pixels in one tile (4 pixels up to 8×8, 2 up to 11×11, else 1) are cast together
+    /// ([`RowJob::cast`]), stage by stage.
+    #[inline(always)]
+    fn row_samples<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+        let s = self.samples;
+        let s2 = s * s;
+        // Four pixels a group, or as many as fit (a group stays inside a tile).
+        let group = [4, 2, 1]
+            .into_iter()
+            .find(|g| g * s2 <= MAX_GROUP_SAMPLES)
+            .unwrap_or(1);
+        let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
+        let mut stages = Stages::<V>::new(tok);
+        // The group's samples in (pixel, sample) order.
+        let list: Vec<Sample> = (0..group * s2)
+            .map(|at| sample(s, at / s2, at % s2))
+            .collect();
+        for (g, out) in row.chunks_mut(3 * group).enumerate() {
+            let i0 = g * group;
+            let pixels = out.len() / 3;
+            let n = pixels * s2;
+            let span = Span {
+                row: j,
+                first: i0,
+                pixels,
+            };
+            self.cast::<V, false>(span, &list[..n], &mut stages, &mut colors, &mut []);
+            let mut linear = [[0.0; LANES]; 3];
+            for p in 0..pixels {
+                let mut sum = [0.0; 3];
+                for c in &colors[p * s2..(p + 1) * s2] {
+                    for a in 0..3 {
+                        sum[a] += c[a];
+                    }
+                }
+                for a in 0..3 {
+                    linear[a][p] = sum[a] / s2 as f64;
+                }
+            }
+            self.encode_pixels::<V>(tok, &linear, out);
+        }
+    }
+
+    /// Row `j` with adaptive s×s samples: each pixel's four corner samples first, and the
+    /// average of those where all four saw the same sphere lit by the same lights; elsewhere
+    /// every sample, the corners reused, summed in order.
+    /// A tile's pixels go together: all their corners, then the other samples of the pixels
+    /// whose corners disagree.
+    #[inline(always)]
+    fn row_adaptive<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+        let s = self.samples;
+        let s2 = s * s;
+        let corners = [0, s - 1, s * (s - 1), s2 - 1];
+        let corner_list: Vec<Sample> = (0..TILE)
+            .flat_map(|p| corners.map(|k| sample(s, p, k)))
+            .collect();
+        let mut shaded = [[0.0; 3]; 4 * TILE];
+        let mut seen = [0u64; 4 * TILE];
+        let mut colors = [[0.0; 3]; MAX_GROUP_SAMPLES];
+        let mut stages = Stages::<V>::new(tok);
+        // A pixel's samples other than its corners, and where each sample's colour comes from:
+        // a corner (its index among the four) or the next of those others.
+        let others: Vec<usize> = (0..s2).filter(|k| !corners.contains(k)).collect();
+        let corner_of: Vec<Option<usize>> = (0..s2)
+            .map(|k| corners.iter().position(|&c| c == k))
+            .collect();
+        // The other samples of the disagreeing pixels of a tile, as many pixels a cast as fit.
+        let per_cast = (MAX_GROUP_SAMPLES / others.len().max(1)).min(TILE);
+        let mut rest: Vec<Sample> = Vec::with_capacity(MAX_GROUP_SAMPLES);
+        let mut disagree = Vec::with_capacity(TILE);
+        // The tile's pixels' linear colours, encoded a packet at a time once all are known.
+        let mut linear = [[0.0; 3]; TILE];
+        for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
+            let i0 = g * TILE;
+            let pixels = out.len() / 3;
+            let span = Span {
+                row: j,
+                first: i0,
+                pixels,
+            };
+            let n = 4 * pixels;
+            self.cast::<V, true>(span, &corner_list[..n], &mut stages, &mut shaded, &mut seen);
+            disagree.clear();
+            for p in 0..pixels {
+                let (c, what) = (&shaded[4 * p..4 * p + 4], &seen[4 * p..4 * p + 4]);
+                if what.iter().all(|w| *w == what[0]) {
+                    for a in 0..3 {
+                        linear[p][a] = (((c[0][a] + c[1][a]) + c[2][a]) + c[3][a]) / 4.0;
+                    }
+                } else {
+                    disagree.push(p);
+                }
+            }
+            for chunk in disagree.chunks(per_cast) {
+                rest.clear();
+                for &p in chunk {
+                    rest.extend(others.iter().map(|&k| sample(s, p, k)));
+                }
+                self.cast::<V, false>(span, &rest, &mut stages, &mut colors, &mut []);
+                for (m, &p) in chunk.iter().enumerate() {
+                    let c = &shaded[4 * p..4 * p + 4];
+                    let mut sum = [0.0; 3];
+                    let mut next = colors[m * others.len()..].iter();
+                    for corner in &corner_of {
+                        let v = match *corner {
+                            Some(m) => c[m],
+                            None => *next.next().unwrap(),
+                        };
+                        for a in 0..3 {
+                            sum[a] += v[a];
+                        }
+                    }
+                    for a in 0..3 {
+                        linear[p][a] = sum[a] / s2 as f64;
+                    }
+                }
+            }
+            for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
+                let mut lanes = [[0.0; LANES]; 3];
+                for (l, c) in linear[q * LANES..].iter().take(out.len() / 3).enumerate() {
+                    for a in 0..3 {
+                        lanes[a][l] = c[a];
+                    }
+                }
+                self.encode_pixels::<V>(tok, &lanes, out);
+            }
+        }
+    }
+
+    /// The sRGB levels of up to [`LANES`] pixels' linear colours (a lane per pixel, an array
+    /// per channel) into `out`, RGB8, as many pixels as it holds.
+    #[inline(always)]
+    fn encode_pixels<V: Lanes>(&self, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+        let mut rgb = [0u8; 3 * LANES];
+        for (a, channel) in linear.iter().enumerate() {
+            self.encode.encode_into(V::load(tok, channel), &mut rgb, a);
+        }
+        let n = out.len();
+        out.copy_from_slice(&rgb[..n]);
+    }
+
+    /// Casts the samples `list` of the pixels of `span`, in packets of 8 (the last packet's
+    /// spare lanes repeat the last sample): each one's linear colour into `colors`, and, when
+    /// `SEEN`, what it saw into `seen`: the sphere (or `u64::MAX` for the background) in the
+    /// high 32 bits and, in the low 32, which lights reach the point. Adaptive sampling compares
+    /// these.
+    #[inline(always)]
+    fn cast<V: Lanes, const SEEN: bool>(
+        &self,
+        span: Span,
+        list: &[Sample],
+        stages: &mut Stages<V>,
+        colors: &mut [[f64; 3]],
+        seen: &mut [u64],
+    ) {
+        let tok = stages.dirs[0][0].token();
+        let (s, t, n) = (self.samples, self.table, list.len());
+        let Span {
+            row: j,
+            first: i0,
+            pixels,
+        } = span;
+        let background = self.ctx.background.to_array();
+        let candidates = self.bins.at(i0, j);
+        let covers = |k: u32, _: usize| self.bins.covers(k, i0, i0 + pixels - 1, j);
+        // Stage by stage, as `row_packets`: every packet's directions, then the nearest hits
+        // two packets at a time, then the colours.
+        let packets = n.div_ceil(LANES);
+        let mut hints = [NO_HINT; HINTED_LIGHTS];
+        let Stages { dirs, founds } = stages;
+        for (q, d) in dirs[..packets].iter_mut().enumerate() {
+            let mut xs = [0.0; LANES];
+            let mut ys = [0.0; LANES];
+            for l in 0..LANES {
+                let (column, line) = list[(q * LANES + l).min(n - 1)];
+                xs[l] = t.xs[i0 * s + column as usize];
+                ys[l] = t.ys[j * s + line as usize];
+            }
+            let (x, y, z) = (V::load(tok, &xs), V::load(tok, &ys), V::splat(tok, t.dz));
+            *d = unit(x, y, z, y.mul(y), z.mul(z));
+        }
+        for pair in 0..packets.div_ceil(2) {
+            let d = [dirs[2 * pair], dirs[2 * pair + 1]];
+            let live = [true, 2 * pair + 1 < packets];
+            let found = self.ctx.nearest_packets(&d, candidates, covers, live);
+            founds[2 * pair] = found[0];
+            founds[2 * pair + 1] = found[1];
+        }
+        for q in 0..packets {
+            let (hit, index, t) = founds[q];
+            let (c, lights) = if hit == 0 {
+                let [r, g, b] = background;
+                ([[r; LANES], [g; LANES], [b; LANES]], [0; LANES])
+            } else {
+                let (c, lights) = self
+                    .ctx
+                    .shade_packet::<V, SEEN>(&dirs[q], hit, index, t, &mut hints);
+                ([c[0].store(), c[1].store(), c[2].store()], lights)
+            };
+            let start = q * LANES;
+            let end = (start + LANES).min(n);
+            for (l, color) in colors[start..end].iter_mut().enumerate() {
+                *color = [c[0][l], c[1][l], c[2][l]];
+            }
+            if SEEN {
+                let index = V::index_store(index);
+                for (l, what) in seen[start..end].iter_mut().enumerate() {
+                    *what = if hit >> l & 1 == 1 {
+                        index[l] << 32 | lights[l] as u64
+                    } else {
+                        u64::MAX
+                    };
+                }
+            }
+        }
+    }
+
+    /// Row `j` at one sample a pixel, a stretch at a time and stage by stage; the two packets of
+    /// a tile's row are searched together: they share its candidates, and their chains of
+    /// dependent work interleave.
+    #[inline(always)]
+    fn row_packets<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+        let width = row.len() / 3;
+        let t = self.table;
+        let (y, z) = (t.ys[j], t.dz);
+        let (yy, zz) = (V::splat(tok, y * y), V::splat(tok, z * z));
+        // A stretch of the row's unit directions (`row_direction`), computed ahead of its
+        // packets: independent square roots and divisions, out of each packet's chain of
+        // dependent work. The first stretch's are computed here, each next stretch's in this
+        // stretch's last stage, packet by packet as its slots are freed: that stage reads
+        // tables and stores bytes, and leaves the divider idle (1–2% less CPU time on the
+        // dense cluster, 2–3% on fly1000, than in a loop of their own).
+        let xs = &t.xs[..width];
+        let mut dirs = [[V::splat(tok, 0.0); 3]; STRETCH / LANES];
+        for (q, d) in dirs[..width.min(STRETCH).div_ceil(LANES)]
+            .iter_mut()
+            .enumerate()
+        {
+            *d = row_direction(xs, q * LANES, y, z, yy, zz);
+        }
+        // The stretch's nearest hits, then its colours, then its levels, each stage a short loop
+        // over independent packets, so that one packet's square roots, divisions and table
+        // lookups overlap the next one's.
+        let mut founds = [(0u8, V::index(tok, 0), V::splat(tok, 0.0)); STRETCH / LANES];
+        let mut colors = [[V::splat(tok, 0.0); 3]; STRETCH / LANES];
+        // The shadow hints, along the whole row.
+        let mut hints = [NO_HINT; HINTED_LIGHTS];
+        for (s, out) in row.chunks_mut(3 * STRETCH).enumerate() {
+            let i0 = s * STRETCH;
+            let packets = (out.len() / 3).div_ceil(LANES);
+            let next = i0 + STRETCH;
+            let next_packets = width.saturating_sub(next).min(STRETCH).div_ceil(LANES);
+            for pair in 0..packets.div_ceil(2) {
+                let i0 = i0 + pair * 2 * LANES;
+                let d = [dirs[2 * pair], dirs[2 * pair + 1]];
+                // Pixels in each packet; the second is empty when a row ends after the first.
+                let n = [
+                    (width - i0).min(LANES),
+                    (width - i0).saturating_sub(LANES).min(LANES),
+                ];
+                let candidates = self.bins.at(i0, j);
+                let covers = |k: u32, q: usize| {
+                    let first = i0 + q * LANES;
+                    self.bins.covers(k, first, first + n[q] - 1, j)
+                };
+                let found = self
+                    .ctx
+                    .nearest_packets(&d, candidates, covers, [true, n[1] > 0]);
+                founds[2 * pair] = found[0];
+                founds[2 * pair + 1] = found[1];
+            }
+            for q in 0..packets {
+                let (hit, index, t) = founds[q];
+                if hit != 0 {
+                    colors[q] = self
+                        .ctx
+                        .shade_packet::<V, false>(&dirs[q], hit, index, t, &mut hints)
+                        .0;
+                }
+            }
+            for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
+                // Packet q's direction is used: its slot takes the next stretch's packet q.
+                if q < next_packets {
+                    dirs[q] = row_direction(xs, next + q * LANES, y, z, yy, zz);
+                }
+                if founds[q].0 == 0 {
+                    // All background (sky): the frame's background levels, already encoded;
+                    // a whole packet's as one fixed-size copy, not a call to `memcpy`.
+                    match <&mut [u8; 3 * LANES]>::try_from(&mut *out) {
+                        Ok(rgb) => *rgb = self.background,
+                        Err(_) => {
+                            let n = out.len();
+                            out.copy_from_slice(&self.background[..n]);
+                        }
+                    }
+                    continue;
+                }
+                // Plain calls, not `array::map`: its closure is not inlined into the function
+                // compiled for the instruction set, and would run its intrinsics out of line.
+                // Each level straight to its pixel: in the row for a whole packet, through a
+                // packet's worth of pixels at the row's end.
+                let enc = self.encode;
+                if let Ok(rgb) = <&mut [u8; 3 * LANES]>::try_from(&mut *out) {
+                    for (a, &linear) in colors[q].iter().enumerate() {
+                        enc.encode_into::<V>(linear, rgb, a);
+                    }
+                } else {
+                    let mut rgb = [0u8; 3 * LANES];
+                    for (a, &linear) in colors[q].iter().enumerate() {
+                        enc.encode_into::<V>(linear, &mut rgb, a);
+                    }
+                    let n = out.len();
+                    out.copy_from_slice(&rgb[..n]);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,301 @@
+//! A packet's shadow rays: which of its lanes' points a light does not reach, through the
+//! frame's [`FrameShadows`] (the grid's cells under the points, a row's hint first).
+
+use super::super::bins::CellRect;
+use super::super::lanes::{dot, splat3, Lanes, LANES};
+use super::{FrameShadows, NO_HINT};
+
+impl FrameShadows<'_> {
+    /// Whether the ray from each view point (on sphere `own`) towards the light meets another
+    /// sphere, for the lanes in `need`: which of them the light does not reach. Whether any
+    /// sphere blocks a ray does not depend on the order of the tests, so lanes sharing a grid
+    /// cell test its spheres together, and `hint`, the last sphere found blocking a ray of an
+    /// earlier packet of the row (or [`NO_HINT`]), is tested first: neighbouring points are
+    /// mostly in the same sphere's shadow, and a packet that it blocks whole skips the grid. The
+    /// hint is cleared when it blocks no lane, and set to each sphere the grid's walk finds
+    /// blocking.
+    #[inline(always)]
+    pub(in crate::render) fn occluded<V: Lanes>(
+        &self,
+        point: &[V; 3],
+        own: V::Index,
+        need: u8,
+        hint: &mut u32,
+    ) -> u8 {
+        let sh = self;
+        let tok = point[0].token();
+        let mut blocked = 0u8;
+        for &(k, c, r2) in &sh.always {
+            // Lanes on the sphere itself (points on a ground sphere) skip it.
+            if need & !V::index_eq(own, V::index(tok, k as u64)) == 0 {
+                continue;
+            }
+            blocked |= need & blocks(sh, point, own, k, c, r2);
+            if need & !blocked == 0 {
+                return blocked;
+            }
+        }
+        if sh.grid.dims.0 == 0 {
+            return blocked;
+        }
+        if *hint != NO_HINT {
+            let (k, c, r2) = sh.blocker(*hint);
+            let found = need & !blocked & blocks(sh, point, own, k, c, r2);
+            if found == 0 {
+                *hint = NO_HINT;
+            }
+            blocked |= found;
+            if need & !blocked == 0 {
+                return blocked;
+            }
+        }
+        // The square (in cells, unclamped) that each point stands for on the grid: its projection
+        // widened by the rounding allowance (1e-9 of the coordinates' scale, far above the rounding
+        // by which a view point reaches the grid in world coordinates), so a point on a cell's edge
+        // looks in both cells.
+        let (ax, ay) = sh.axes;
+        let q = [
+            dot(point, &splat3(tok, ax)).add(V::splat(tok, sh.offset.x)),
+            dot(point, &splat3(tok, ay)).add(V::splat(tok, sh.offset.y)),
+        ];
+        let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
+        let err = V::splat(tok, 1e-9).mul(V::splat(tok, sh.slack).add(size));
+        // How far each point lies towards the light, less the allowance (`FrameShadows::up`):
+        // a sphere whose top is below this cannot block the lane's ray.
+        let low = dot(point, &splat3(tok, sh.up))
+            .add(V::splat(tok, sh.height))
+            .sub(err);
+        let inv = V::splat(tok, sh.grid.inv_cell);
+        let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];
+        let hi = [q[0].add(err).mul(inv), q[1].add(err).mul(inv)];
+        // Lanes whose square misses the grid (or is NaN) have no cells; the others' ranges are
+        // clamped to it (the far edges belong to the last cells).
+        let zero = V::splat(tok, 0.0);
+        let (w, h) = sh.grid.dims;
+        let on_grid = hi[0].ge(zero) & hi[1].ge(zero);
+        let on_grid =
+            on_grid & lo[0].le(V::splat(tok, w as f64)) & lo[1].le(V::splat(tok, h as f64));
+        let pending = need & !blocked & on_grid;
+        if pending == 0 {
+            return blocked;
+        }
+        let (x0, x1) = (cell_index(lo[0], w), cell_index(hi[0], w));
+        let (y0, y1) = (cell_index(lo[1], h), cell_index(hi[1], h));
+        // The cells of all pending lanes together. Testing a lane against a sphere outside its own
+        // cells cannot change its answer: every sphere that blocks its ray is binned in its cells.
+        // So when the lanes' cells make a small rectangle, its spheres are tested on all of them.
+        let (mut cx, mut cy) = ((i32::MAX, 0), (i32::MAX, 0));
+        for l in 0..LANES {
+            if pending >> l & 1 == 1 {
+                cx = (cx.0.min(x0[l]), cx.1.max(x1[l]));
+                cy = (cy.0.min(y0[l]), cy.1.max(y1[l]));
+            }
+        }
+        if (cx.1 - cx.0 + 1) * (cy.1 - cy.0 + 1) <= UNION_CELLS {
+            let cells = (cx.0 as usize, cx.1 as usize, cy.0 as usize, cy.1 as usize);
+            let (blocked, found) = walk(sh, point, own, low, cells, pending, blocked);
+            if found != NO_HINT {
+                *hint = found;
+            }
+            return blocked;
+        }
+        let mut key = [u64::MAX; LANES];
+        for l in 0..LANES {
+            if pending >> l & 1 == 1 {
+                let at = |c: [i32; LANES]| c[l] as u64;
+                key[l] = cell_key(at(x0), at(x1), at(y0), at(y1));
+            }
+        }
+        // Lanes whose squares fall in the same single cell test its spheres together.
+        for l in 0..LANES {
+            let here = key[l];
+            if here == u64::MAX {
+                continue;
+            }
+            let cells = cell_range(here);
+            let single = cells.0 == cells.1 && cells.2 == cells.3;
+            let mut lanes = 0u8;
+            for (m, other) in key.iter_mut().enumerate().skip(l) {
+                if *other == here && (single || m == l) {
+                    lanes |= 1 << m;
+                    *other = u64::MAX;
+                }
+            }
+            let found;
+            (blocked, found) = walk(sh, point, own, low, cells, lanes, blocked);
+            if found != NO_HINT {
+                *hint = found;
+            }
+        }
+        blocked
+    }
+}
+
+/// `blocked` with the lanes in `lanes` that a sphere of grid cells `cells` blocks added, until
+/// every one of them is blocked, and the last sphere found blocking (or [`NO_HINT`]). A cell
+/// is read down to the first sphere whose top is below every open lane's `low`. A function,
+/// not a closure, so that it is inlined into the one compiled for the instruction set.
+#[inline(always)]
+fn walk<V: Lanes>(
+    sh: &FrameShadows,
+    point: &[V; 3],
+    own: V::Index,
+    low: V,
+    (x0, x1, y0, y1): CellRect,
+    lanes: u8,
+    mut blocked: u8,
+) -> (u8, u32) {
+    let tok = low.token();
+    let mut last = NO_HINT;
+    let tops = &sh.grid.tops;
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            for &k in sh.cell(x, y) {
+                let reach = lanes & !blocked & V::splat(tok, tops[k as usize]).ge(low);
+                if reach == 0 {
+                    break;
+                }
+                let (k, c, r2) = sh.blocker(k);
+                let found = reach & blocks(sh, point, own, k, c, r2);
+                if found != 0 {
+                    last = k;
+                }
+                blocked |= found;
+                if lanes & !blocked == 0 {
+                    return (blocked, last);
+                }
+            }
+        }
+    }
+    (blocked, last)
+}
+
+/// The most grid cells that a shadow packet walks for all its lanes together.
+const UNION_CELLS: i32 = 4;
+
+/// `(v.max(0.0) as usize).min(n - 1)` per lane, for lanes that are not NaN: the cell of a
+/// grid coordinate, clamped to a side of `n` cells.
+#[inline(always)]
+fn cell_index<V: Lanes>(v: V, n: usize) -> [i32; LANES] {
+    let tok = v.token();
+    let last = n as i32 - 1;
+    // Clamped as floats first, so that no lane is out of the conversion's range.
+    v.max(V::splat(tok, 0.0))
+        .min(V::splat(tok, last as f64))
+        .to_i32(last)
+}
+
+/// The lanes whose shadow ray sphere k (centre `c`, r² `r2`, in view coordinates) blocks,
+/// leaving out lanes on sphere k itself. A point inside (or on) the sphere is blocked; outside,
+/// both roots share a sign, positive exactly when the sphere lies ahead. No epsilon is needed:
+/// a point's own sphere, being convex, never shadows its own lit side.
+#[inline(always)]
+fn blocks<V: Lanes>(
+    sh: &FrameShadows,
+    point: &[V; 3],
+    own: V::Index,
+    k: u32,
+    c: glam::DVec3,
+    r2: f64,
+) -> u8 {
+    let tok = point[0].token();
+    let (zero, r2) = (V::splat(tok, 0.0), V::splat(tok, r2));
+    let dir = splat3::<V>(tok, sh.to_light);
+    let f = [
+        point[0].sub(V::splat(tok, c.x)),
+        point[1].sub(V::splat(tok, c.y)),
+        point[2].sub(V::splat(tok, c.z)),
+    ];
+    let cc = dot(&f, &f).sub(r2);
+    let b = dot(&f, &dir);
+    let g = [
+        f[0].sub(dir[0].mul(b)),
+        f[1].sub(dir[1].mul(b)),
+        f[2].sub(dir[2].mul(b)),
+    ];
+    let g2 = dot(&g, &g);
+    let hit = cc.le(zero) | (b.lt(zero) & g2.le(r2));
+    hit & !V::index_eq(own, V::index(tok, k as u64))
+}
+
+/// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
+/// lanes: 16 bits each (the grid is at most 4096 a side).
+#[inline(always)]
+fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
+    x0 | x1 << 16 | y0 << 32 | y1 << 48
+}
+
+/// The cell range (x0, x1, y0, y1) of a [`cell_key`].
+#[inline(always)]
+fn cell_range(key: u64) -> CellRect {
+    let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
+    (field(0), field(16), field(32), field(48))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::lanes::Portable;
+    use super::super::tests::cluster;
+    use super::super::view_center;
+    use super::*;
+
+    /// A shadow packet's answer per lane is the one-ray answer of testing every sphere: eight
+    /// points at a time from spheres next to each other in the list, so that a packet's lanes
+    /// lie on different spheres and in cells near or far apart (the union walk and the walks
+    /// per group of lanes), with the light's tops cutting each cell short; without a hint, and
+    /// with the hint carried from packet to packet as along a row (some packets answered by
+    /// the hint alone, some in part, some not at all).
+    #[test]
+    fn shadow_packets_find_every_blocker() {
+        let c = cluster();
+        let centers: std::sync::Arc<[_]> = c
+            .spheres
+            .iter()
+            .map(|s| view_center(&c.camera, s))
+            .collect();
+        // Neighbouring points of a sphere (lanes in one cell or a few), and every 7th point
+        // (lanes on different spheres, cells far apart).
+        let picked = [1, 7].map(|n| c.points.iter().step_by(n).copied().collect::<Vec<_>>());
+        for light in &c.lights {
+            for all in [None, Some(centers.clone())] {
+                let frame =
+                    FrameShadows::new(&light.grid, &c.camera, &c.spheres, all, light.to_light);
+                let mut hint = NO_HINT;
+                let mut hinted = [0; 3];
+                for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {
+                    let mut xyz = [[0.0; LANES]; 3];
+                    let mut own = [0u64; LANES];
+                    for l in 0..LANES {
+                        let (point, o) = lanes[l.min(lanes.len() - 1)];
+                        for a in 0..3 {
+                            xyz[a][l] = point[a];
+                        }
+                        own[l] = o as u64;
+                    }
+                    let point = xyz.map(|a| Portable::load((), &a));
+                    let need = (0xffu16 >> (LANES - lanes.len())) as u8;
+                    let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
+                    let before = hint;
+                    let with_hint = frame.occluded::<Portable>(&point, own, need, &mut hint);
+                    assert_eq!(with_hint, got, "packet {p} with hint {before}");
+                    if before != NO_HINT {
+                        let (k, center, r2) = frame.blocker(before);
+                        let by_hint = need & blocks(&frame, &point, own, k, center, r2);
+                        hinted[(by_hint != 0) as usize + (by_hint == need) as usize] += 1;
+                    }
+                    for (l, &lane) in lanes.iter().enumerate() {
+                        let every = c.any_blocker(light.to_light, lane);
+                        let direction = light.direction;
+                        assert_eq!(
+                            got >> l & 1 == 1,
+                            every,
+                            "packet {p}, lane {l}, {direction}"
+                        );
+                    }
+                }
+                // Packets whose hint blocked none of their lanes, some, and all.
+                assert!(hinted.iter().all(|&n| n > 0), "{hinted:?}");
+            }
+        }
+    }
+}
