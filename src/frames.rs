@@ -9,7 +9,7 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::manifest::Shard;
-use crate::output::FrameHasher;
+use crate::output::{FrameHash, FrameHasher};
 use crate::render::key::{FrameKey, KeyBase};
 use crate::render::{PreparedFrame, Renderer, SceneIndex};
 
@@ -100,7 +100,7 @@ pub fn for_each_frame(
     doc: &Document,
     set: &FrameSet,
     done: impl FnMut(u64) -> bool,
-    mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>, &str) -> Result<()>,
+    mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
     run(doc, set, done, Keep::Frames, |frame, key, pixels, hash| {
         sink(frame, key, pixels.expect("frames kept"), hash)
@@ -117,7 +117,7 @@ enum Keep {
 }
 
 /// A frame's pixels (if kept) and hash.
-type Delivered = (Option<Arc<Vec<u8>>>, String);
+type Delivered = (Option<Arc<Vec<u8>>>, FrameHash);
 
 /// [`for_each_frame`], with the pixels handed to `sink` only if `keep` says so.
 fn run(
@@ -125,7 +125,7 @@ fn run(
     set: &FrameSet,
     mut done: impl FnMut(u64) -> bool,
     keep: Keep,
-    mut sink: impl FnMut(u64, &FrameKey, Option<&Arc<Vec<u8>>>, &str) -> Result<()>,
+    mut sink: impl FnMut(u64, &FrameKey, Option<&Arc<Vec<u8>>>, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
     let started = Instant::now();
     let base = KeyBase::new(&doc.scene, doc.raster);
@@ -191,7 +191,7 @@ fn run(
                 (pixels, hash)
             }
         };
-        sink(frame, &base.key(&camera), pixels.as_ref(), &hash)?;
+        sink(frame, &base.key(&camera), pixels.as_ref(), hash)?;
         timing.frames += 1;
         timing.first_frame_at.get_or_insert_with(Instant::now);
         previous = Some((camera, (pixels, hash)));
@@ -242,22 +242,22 @@ pub fn stream_frames(
     doc: &Document,
     set: &FrameSet,
     done: impl FnMut(u64) -> bool,
-    mut consume: impl FnMut(u64, &FrameKey, &[u8], &str) -> Result<()> + Send,
+    mut consume: impl FnMut(u64, &FrameKey, &[u8], FrameHash) -> Result<()> + Send,
 ) -> Result<Timing> {
     let started = Instant::now();
     std::thread::scope(|scope| {
-        type Sent = (u64, FrameKey, Arc<Vec<u8>>, String);
+        type Sent = (u64, FrameKey, Arc<Vec<u8>>, FrameHash);
         let (tx, rx) = std::sync::mpsc::sync_channel::<Sent>(1);
         let consumer = scope.spawn(move || -> Result<()> {
             for (frame, key, pixels, hash) in rx {
-                consume(frame, &key, &pixels, &hash)?;
+                consume(frame, &key, &pixels, hash)?;
             }
             Ok(())
         });
         let rendered = for_each_frame(doc, set, done, |frame, key, pixels, hash| {
             // A failed send means the consumer stopped on an error: stop rendering too; the
             // consumer's error is the one reported.
-            tx.send((frame, key.clone(), Arc::clone(pixels), hash.to_string()))
+            tx.send((frame, key.clone(), Arc::clone(pixels), hash))
                 .map_err(|_| Error::Usage("the frame consumer stopped".into()))
         });
         drop(tx);
@@ -277,7 +277,7 @@ pub fn stream_frames(
 pub fn hash_frames(
     doc: &Document,
     frames: Range<u64>,
-    mut each: impl FnMut(u64, &str) -> Result<()>,
+    mut each: impl FnMut(u64, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
     let set = FrameSet::all(frames);
     run(
@@ -297,12 +297,12 @@ pub fn hash_frames(
 /// #       scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]))").unwrap();
 /// let hashes = campath::frames::hashes(&doc, 0..2).unwrap();
 /// assert_eq!(hashes.len(), 2);
-/// assert_eq!(hashes[1].1.len(), 64);
+/// assert_eq!(hashes[1].1.to_string().len(), 64);
 /// ```
-pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, String)>> {
+pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, FrameHash)>> {
     let mut out = Vec::new();
     hash_frames(doc, frames, |frame, hash| {
-        out.push((frame, hash.to_string()));
+        out.push((frame, hash));
         Ok(())
     })?;
     Ok(out)
@@ -320,9 +320,9 @@ pub struct Difference {
     /// The frame.
     pub frame: u64,
     /// The golden hash; None when the golden does not list the frame (or there is none).
-    pub expected: Option<String>,
+    pub expected: Option<FrameHash>,
     /// The fresh render's hash; None when the animation has no such frame.
-    pub actual: Option<String>,
+    pub actual: Option<FrameHash>,
 }
 
 /// Renders the frames listed in `expected` (for example a hashes.txt read with
@@ -334,24 +334,23 @@ pub struct Difference {
 /// #     "(frames: 3, image: (width: 8, height: 4), camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),
 /// #       scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]))").unwrap();
 /// let mut golden = campath::frames::hashes(&doc, 0..3).unwrap();
-/// golden[1].1 = "0".repeat(64);
+/// golden[1].1 = campath::output::FrameHash([0; 32]);
 /// let differ = campath::frames::compare(&doc, &golden).unwrap();
 /// assert_eq!(differ.len(), 1);
 /// assert_eq!(differ[0].frame, 1);
 /// ```
-pub fn compare(doc: &Document, expected: &[(u64, String)]) -> Result<Vec<Difference>> {
+pub fn compare(doc: &Document, expected: &[(u64, FrameHash)]) -> Result<Vec<Difference>> {
     compare_each(doc, expected, |_, _| Ok(()))
 }
 
 /// [`compare`], also handing each differing frame's fresh pixels to `each` as it is found.
 pub fn compare_each(
     doc: &Document,
-    expected: &[(u64, String)],
+    expected: &[(u64, FrameHash)],
     mut each: impl FnMut(&Difference, &[u8]) -> Result<()> + Send,
 ) -> Result<Vec<Difference>> {
     let total = doc.animation.frames;
-    let wanted: std::collections::BTreeMap<u64, &String> =
-        expected.iter().map(|(f, h)| (*f, h)).collect();
+    let wanted: std::collections::BTreeMap<u64, FrameHash> = expected.iter().copied().collect();
     let end = wanted.keys().last().map_or(0, |last| (last + 1).min(total));
     let mut differ = Vec::new();
     stream_frames(
@@ -362,8 +361,8 @@ pub fn compare_each(
             if wanted[&frame] != hash {
                 let d = Difference {
                     frame,
-                    expected: Some(wanted[&frame].clone()),
-                    actual: Some(hash.to_string()),
+                    expected: Some(wanted[&frame]),
+                    actual: Some(hash),
                 };
                 each(&d, pixels)?;
                 differ.push(d);
@@ -378,7 +377,7 @@ pub fn compare_each(
             .filter(|(f, _)| **f >= total)
             .map(|(f, h)| Difference {
                 frame: *f,
-                expected: Some((*h).clone()),
+                expected: Some(*h),
                 actual: None,
             }),
     );
@@ -417,7 +416,7 @@ mod tests {
                         &FrameSet::all(0..10),
                         |frame| frame == 1 || frame == 4,
                         |frame, _, pixels, hash| {
-                            seen.push((frame, pixels.to_vec(), hash.to_string()));
+                            seen.push((frame, pixels.to_vec(), hash));
                             Ok(())
                         },
                     )

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::manifest::{Entry, Manifest};
-use crate::output::{frame_of, write_atomic};
+use crate::output::{frame_of, write_atomic, FrameHash};
 use crate::render::key::VERSION;
 
 /// The name of the hashes file inside a golden folder.
@@ -26,7 +26,7 @@ pub struct Golden {
     /// The renderer version named in the file's first line; None for files without it.
     pub renderer: Option<u32>,
     /// Lower-case hex SHA-256 of each listed frame's RGB8 pixels, by frame.
-    pub hashes: BTreeMap<u64, String>,
+    pub hashes: BTreeMap<u64, FrameHash>,
 }
 
 impl Golden {
@@ -46,7 +46,7 @@ impl Golden {
         };
         let mut hashes = BTreeMap::new();
         for e in m.entries {
-            if let Some(before) = hashes.insert(e.frame, e.hash.clone()) {
+            if let Some(before) = hashes.insert(e.frame, e.hash) {
                 if before != e.hash {
                     return Err(bad(format!(
                         "frame {} is listed twice with different hashes",
@@ -67,13 +67,13 @@ impl Golden {
     }
 
     /// The golden hash of `frame`, if the golden lists it.
-    pub fn hash(&self, frame: u64) -> Option<&str> {
-        self.hashes.get(&frame).map(String::as_str)
+    pub fn hash(&self, frame: u64) -> Option<FrameHash> {
+        self.hashes.get(&frame).copied()
     }
 
     /// `(frame, hash)` pairs in frame order, as [`crate::frames::compare`] takes them.
-    pub fn pairs(&self) -> Vec<(u64, String)> {
-        self.hashes.iter().map(|(f, h)| (*f, h.clone())).collect()
+    pub fn pairs(&self) -> Vec<(u64, FrameHash)> {
+        self.hashes.iter().map(|(f, h)| (*f, *h)).collect()
     }
 
     /// Whether the golden was made by another renderer version than this campath's: its pixels
@@ -103,14 +103,14 @@ pub fn frames_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
 
 /// The text of a golden `hashes.txt` for these `(frame, hash)` pairs, naming this campath's
 /// renderer. Frame keys are left out: a golden changes only when pixels change.
-pub fn text(hashes: &[(u64, String)]) -> String {
+pub fn text(hashes: &[(u64, FrameHash)]) -> String {
     Manifest::new(
         None,
         hashes
             .iter()
             .map(|(frame, hash)| Entry {
                 frame: *frame,
-                hash: hash.clone(),
+                hash: *hash,
                 key: None,
             })
             .collect(),
@@ -119,7 +119,7 @@ pub fn text(hashes: &[(u64, String)]) -> String {
 }
 
 /// Writes a golden `hashes.txt` (through a temporary file and a rename) for these pairs.
-pub fn write(path: &Path, hashes: &[(u64, String)]) -> Result<()> {
+pub fn write(path: &Path, hashes: &[(u64, FrameHash)]) -> Result<()> {
     write_atomic(path, &text(hashes))
 }
 
@@ -130,8 +130,11 @@ mod tests {
     #[test]
     fn a_golden_loads_from_its_folder_or_file_and_names_its_renderer() {
         let tmp = tempfile::tempdir().unwrap();
-        let (a, b) = ("a".repeat(64), "b".repeat(64));
-        write(&tmp.path().join(HASHES), &[(2, b.clone()), (0, a.clone())]).unwrap();
+        let (a, b): (FrameHash, FrameHash) = (
+            "a".repeat(64).parse().unwrap(),
+            "b".repeat(64).parse().unwrap(),
+        );
+        write(&tmp.path().join(HASHES), &[(2, b), (0, a)]).unwrap();
         let text = std::fs::read_to_string(tmp.path().join(HASHES)).unwrap();
         assert_eq!(
             text,
@@ -141,7 +144,7 @@ mod tests {
         let g = Golden::load(tmp.path()).unwrap();
         assert_eq!(g.renderer, Some(VERSION));
         assert_eq!(g.other_renderer(), None);
-        assert_eq!(g.hash(2), Some(&*b));
+        assert_eq!(g.hash(2), Some(b));
         assert_eq!(g.hash(1), None);
         assert_eq!(g.frames().keys().copied().collect::<Vec<_>>(), [2]);
         let file = Golden::load(&tmp.path().join(HASHES)).unwrap();

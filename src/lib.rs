@@ -48,6 +48,7 @@ pub mod export;
 pub mod format;
 pub mod frames;
 pub mod golden;
+pub mod hash;
 pub mod keyframes;
 pub mod lock;
 pub mod manifest;

@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
+use crate::hash::FrameHash;
 use crate::render::key::{FrameKey, VERSION};
 
 /// Shard K of N: the frames k with k mod N = K (interleaved, so every shard gets a share of the
@@ -76,7 +77,7 @@ pub struct Entry {
     /// The frame index.
     pub frame: u64,
     /// Lower-case hex SHA-256 of the frame's raw RGB8 pixels.
-    pub hash: String,
+    pub hash: FrameHash,
     /// What the pixels were rendered from; absent in hand-written golden files.
     pub key: Option<FrameKey>,
 }
@@ -170,7 +171,10 @@ fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
         .next()
         .and_then(|f| f.parse::<u64>().ok())
         .ok_or("bad frame index")?;
-    let hash = parts.next().and_then(is_hex64).ok_or("bad hash")?;
+    let hash: FrameHash = parts
+        .next()
+        .and_then(|h| h.parse().ok())
+        .ok_or("bad hash")?;
     let key = match parts.next() {
         None => None,
         Some(k) => Some(FrameKey(is_hex64(k).ok_or("bad key")?.to_ascii_lowercase())),
@@ -178,11 +182,7 @@ fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
     if parts.next().is_some() {
         return Err("extra text");
     }
-    Ok(Entry {
-        frame,
-        hash: hash.to_ascii_lowercase(),
-        key,
-    })
+    Ok(Entry { frame, hash, key })
 }
 
 impl Manifest {
@@ -283,7 +283,7 @@ impl Manifest {
 }
 
 /// Parses a hashes.txt (or a golden file) into `(frame, hash)` pairs.
-pub fn parse_hashes(path: &Path, text: &str) -> Result<Vec<(u64, String)>> {
+pub fn parse_hashes(path: &Path, text: &str) -> Result<Vec<(u64, FrameHash)>> {
     Ok(Manifest::parse(path, text)?
         .entries
         .into_iter()
@@ -558,7 +558,7 @@ mod tests {
                 .iter()
                 .map(|f| Entry {
                     frame: *f,
-                    hash: "a".repeat(64),
+                    hash: "a".repeat(64).parse().unwrap(),
                     key: Some(FrameKey("b".repeat(64))),
                 })
                 .collect(),

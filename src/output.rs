@@ -3,36 +3,12 @@
 //! The frame hash is the SHA-256 of the frame's raw 8-bit RGB pixels, row-major, top row first:
 //! anyone can recompute it from the PNG with any image library.
 
-use sha2::{Digest, Sha256};
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+pub use crate::hash::{frame_hash, FrameHash, FrameHasher};
 use crate::manifest;
-
-/// Lower-case hex SHA-256 of raw RGB8 pixels.
-pub fn frame_hash(pixels: &[u8]) -> String {
-    let mut h = FrameHasher::default();
-    h.update(pixels);
-    h.finish()
-}
-
-/// [`frame_hash`] fed a frame's bytes a piece at a time, in order (a row at a time as the
-/// rows are rendered).
-#[derive(Default)]
-pub struct FrameHasher(Sha256);
-
-impl FrameHasher {
-    /// Adds the next bytes of the frame.
-    pub fn update(&mut self, bytes: &[u8]) {
-        self.0.update(bytes);
-    }
-
-    /// The hash: lower-case hex SHA-256.
-    pub fn finish(self) -> String {
-        format!("{:x}", self.0.finalize())
-    }
-}
 
 /// Digits of zero padding for frame numbers: enough for `frames − 1`, at least 4.
 pub fn pad_width(frames: u64) -> usize {
@@ -130,7 +106,7 @@ pub fn write_png_atomic(
 }
 
 /// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.
-pub fn png_hash(path: &Path) -> Option<String> {
+pub fn png_hash(path: &Path) -> Option<FrameHash> {
     let img = image::open(path).ok()?.to_rgb8();
     Some(frame_hash(img.as_raw()))
 }
@@ -170,15 +146,6 @@ pub fn is_ours(name: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hash_of_known_bytes() {
-        // SHA-256("abc") from FIPS 180-2, appendix B.1.
-        assert_eq!(
-            frame_hash(b"abc"),
-            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
-        );
-    }
 
     #[test]
     fn padding_fits_the_frame_count() {

@@ -316,7 +316,7 @@ pub fn render(
             )?;
             let entry = Entry {
                 frame,
-                hash: hash.to_string(),
+                hash,
                 key: Some(key.clone()),
             };
             writeln!(file, "{entry}").map_err(Error::write(&manifest_path))?;

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 pub use crate::document::Document;
 pub use crate::frames::{hashes, render_frame};
 pub use crate::golden::Golden;
-pub use crate::output::frame_hash;
+pub use crate::output::{frame_hash, FrameHash};
 
 use crate::error::{Error, Result};
 use crate::frames::{stream_frames, FrameSet};
@@ -60,7 +60,7 @@ pub struct ShotRun {
     /// The animation's frame count.
     pub frames: u64,
     /// Every frame's fresh hash, in order.
-    pub fresh: Vec<(u64, String)>,
+    pub fresh: Vec<(u64, FrameHash)>,
     /// The frames that differ, in order (every frame when there is no golden).
     pub differ: Vec<Difference>,
     /// Frames that match their golden hash while the golden keeps frames, but whose golden
@@ -253,7 +253,7 @@ impl Shot {
             &FrameSet::all(0..total),
             |_| false,
             |frame, _, pixels, hash| {
-                fresh.push((frame, hash.to_string()));
+                fresh.push((frame, hash));
                 let expected = golden.as_ref().and_then(|g| g.hash(frame));
                 let same = expected == Some(hash);
                 // A golden that keeps frames must keep the pictures its hashes name.
@@ -261,7 +261,7 @@ impl Shot {
                     || golden_frames
                         .get(&frame)
                         .and_then(|p| png_hash(p))
-                        .is_some_and(|h| Some(h.as_str()) == expected);
+                        .is_some_and(|h| Some(h) == expected);
                 if same && !picture_ok {
                     stale.push(frame);
                 }
@@ -276,8 +276,8 @@ impl Shot {
                 }
                 let d = Difference {
                     frame,
-                    expected: expected.map(str::to_string),
-                    actual: Some(hash.to_string()),
+                    expected,
+                    actual: Some(hash),
                 };
                 each(&d, pixels)?;
                 differ.push(d);
@@ -295,7 +295,7 @@ impl Shot {
         if let Some(g) = &golden {
             differ.extend(g.hashes.range(total..).map(|(frame, hash)| Difference {
                 frame: *frame,
-                expected: Some(hash.clone()),
+                expected: Some(*hash),
                 actual: None,
             }));
         }
@@ -392,7 +392,7 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
     }
     let mut message = format!("campath shot {}: {}", shot.display(), run.summary());
     for d in run.differ.iter().take(8) {
-        let hash = |h: &Option<String>| h.clone().unwrap_or_else(|| "none".into());
+        let hash = |h: &Option<FrameHash>| h.map_or_else(|| "none".into(), |h| h.to_string());
         message += &format!(
             "\n  frame {}: golden {}, fresh {}",
             d.frame,

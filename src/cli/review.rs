@@ -9,12 +9,13 @@ use std::path::{Path, PathBuf};
 use super::error::Result;
 use super::failures::PixelDiff;
 use super::junit::escape;
+use campath::output::FrameHash;
 
 /// A differing frame's pictures in the review folder (file names) and hashes.
 pub struct ReviewFrame {
     pub frame: u64,
-    pub golden_hash: Option<String>,
-    pub fresh_hash: Option<String>,
+    pub golden_hash: Option<FrameHash>,
+    pub fresh_hash: Option<FrameHash>,
     /// The new frame; None for a golden frame past the animation's end.
     pub new: Option<String>,
     /// The golden frame, when the golden keeps frames.
@@ -127,7 +128,7 @@ pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> 
 }
 
 fn frame(html: &mut String, f: &ReviewFrame) {
-    let hash = |h: &Option<String>| escape(h.as_deref().unwrap_or("none"));
+    let hash = |h: &Option<FrameHash>| h.map_or_else(|| "none".to_string(), |h| h.to_string());
     let _ = write!(
         html,
         "<div class=\"frame\" id=\"frame-{}\"><h3>frame {}",

@@ -229,8 +229,8 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
         write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
         let mut f = ReviewFrame {
             frame: d.frame,
-            golden_hash: d.expected.clone(),
-            fresh_hash: d.actual.clone(),
+            golden_hash: d.expected,
+            fresh_hash: d.actual,
             new: Some(new),
             golden: None,
             diff: None,
@@ -257,7 +257,7 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
                 .filter(|d| d.actual.is_none())
                 .map(|d| ReviewFrame {
                     frame: d.frame,
-                    golden_hash: d.expected.clone(),
+                    golden_hash: d.expected,
                     fresh_hash: None,
                     new: None,
                     golden: None,

@@ -113,7 +113,9 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         let mut suite = junit::Suite::new(&a.file.display().to_string());
         for (frame, hash) in &golden.hashes {
             let failure = differ.iter().find(|d| d.frame == *frame).map(|d| {
-                let got = d.actual.as_deref().unwrap_or("no such frame");
+                let got = d
+                    .actual
+                    .map_or_else(|| "no such frame".to_string(), |h| h.to_string());
                 let mut message = format!("expected {hash}, got {got}");
                 if let Some(p) = pixel_diffs.get(frame) {
                     message += &pixels_changed(p);
@@ -135,8 +137,9 @@ fn pixels_changed(p: &PixelDiff) -> String {
 }
 
 /// The golden hash of a differing frame (verify compares only the frames its golden lists).
-fn expected(d: &Difference) -> &str {
-    d.expected.as_deref().unwrap_or("none")
+fn expected(d: &Difference) -> String {
+    d.expected
+        .map_or_else(|| "none".to_string(), |h| h.to_string())
 }
 
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {

@@ -90,7 +90,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
 
     let manifest_path = a.frames_dir.join("hashes.txt");
     let manifest = Manifest::read_lenient(&manifest_path);
-    let hashes: std::collections::BTreeMap<u64, String> = manifest
+    let hashes: std::collections::BTreeMap<u64, campath::output::FrameHash> = manifest
         .entries
         .into_iter()
         .map(|e| (e.frame, e.hash))
@@ -190,7 +190,7 @@ fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
 fn feed(
     dir: &Path,
     total: u64,
-    hashes: &std::collections::BTreeMap<u64, String>,
+    hashes: &std::collections::BTreeMap<u64, campath::output::FrameHash>,
     stdin: &mut impl Write,
     progress: &mut Progress,
 ) -> Result<()> {
