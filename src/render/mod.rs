@@ -7,7 +7,7 @@
 //! are computed once and reused while those stay fixed.
 //!
 //! Every step (the ray directions, the hit, the shading, the shadow rays, adaptive sampling, the
-//! sRGB levels) is written once, in packets of [`lanes`]; the plain one-ray-at-a-time oracle they
+//! sRGB levels) is written once, in packets of `lanes`; the plain one-ray-at-a-time oracle they
 //! are compared with, pixel for pixel, lives in the tests (tests/it/reference.rs). This file is
 //! the orchestration: a frame prepared (spheres and lights into view coordinates, shadow work,
 //! tiles), then its rows handed to the row drivers (`drivers.rs`) on the rayon pool.
