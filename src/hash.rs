@@ -39,7 +39,8 @@ impl std::str::FromStr for FrameHash {
     /// 64 hex digits.
     fn from_str(s: &str) -> std::result::Result<FrameHash, String> {
         let bad = || format!("{s:?} is not a SHA-256 (64 hex digits)");
-        if s.len() != 64 || !s.is_ascii() {
+        // Only digits: `from_str_radix` alone would take a sign (`+f`).
+        if s.len() != 64 || !s.bytes().all(|b| b.is_ascii_hexdigit()) {
             return Err(bad());
         }
         let mut out = [0u8; 32];
@@ -110,7 +111,14 @@ mod tests {
         assert_eq!(h, frame_hash(b"abc"));
         assert_eq!(h.to_string(), hex);
         assert_eq!(h.0[0], 0xba);
-        for bad in ["", &hex[1..], &format!("{hex}0"), &hex.replace('b', "g")] {
+        let signed = format!("+{}", &hex[1..]);
+        for bad in [
+            "",
+            &hex[1..],
+            &format!("{hex}0"),
+            &hex.replace('b', "g"),
+            &signed,
+        ] {
             assert!(bad.parse::<FrameHash>().is_err(), "{bad}");
         }
     }

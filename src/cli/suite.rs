@@ -126,32 +126,20 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     });
     printed.map_err(Error::stdout)?;
 
-    let count = |v: Verdict| {
-        checked
-            .iter()
-            .filter(|c| c.run.as_ref().is_ok_and(|r| r.verdict() == v && !r.updated))
-            .count()
-    };
-    let passed = count(Verdict::Passed);
-    let no_golden = count(Verdict::NoGolden);
-    let differ = checked
-        .iter()
-        .filter(|c| {
-            c.run.as_ref().is_ok_and(|r| {
-                !r.ok()
-                    && matches!(
-                        r.verdict(),
-                        Verdict::Differ | Verdict::StaleFrames | Verdict::OtherRenderer(_)
-                    )
-            })
-        })
+    // Shots approved by this run count as neither passed nor failing.
+    let runs: Vec<&ShotRun> = checked.iter().filter_map(|c| c.run.as_ref().ok()).collect();
+    let bad = checked.len() - runs.len();
+    let updated = runs.iter().filter(|r| r.updated).count();
+    let open = runs.iter().filter(|r| !r.updated);
+    let passed = open
+        .clone()
+        .filter(|r| r.verdict() == Verdict::Passed)
         .count();
-    let bad = checked.iter().filter(|c| c.run.is_err()).count();
-    let updated: Vec<String> = checked
-        .iter()
-        .filter_map(|c| c.run.as_ref().ok().filter(|r| r.updated))
-        .map(|r| golden_dir(&r.shot).display().to_string())
-        .collect();
+    let no_golden = open
+        .clone()
+        .filter(|r| r.verdict() == Verdict::NoGolden)
+        .count();
+    let differ = runs.len() - updated - passed - no_golden;
     let mut summary = format!(
         "test result: {}. {} shot(s): {passed} passed, {differ} differ, {no_golden} without \
          golden, {bad} could not be checked",
@@ -162,8 +150,8 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         },
         shots.len()
     );
-    if !updated.is_empty() {
-        summary += &format!("; {} golden(s) written", updated.len());
+    if updated > 0 {
+        summary += &format!("; {updated} golden(s) written");
     } else if a.update && differ + no_golden == 0 {
         summary += "; no golden needed writing";
     } else if !a.update && differ + no_golden > 0 {

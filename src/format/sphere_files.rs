@@ -380,20 +380,18 @@ impl Columns {
 
     fn sphere(&self, values: &[f64]) -> SphereSpec {
         let [x, y, z, r] = self.xyz_radius.map(|k| values[k]);
-        let scale = if self.rgb_bytes { 255.0 } else { 1.0 };
+        // A byte's level k is k / 255, as the same colour written in RON.
+        let c = |k: usize| {
+            if self.rgb_bytes {
+                values[k] / 255.0
+            } else {
+                values[k]
+            }
+        };
         SphereSpec {
             center: (x, y, z),
             radius: r,
-            color: self.rgb.map(|[r, g, b]| {
-                let c = |k: usize| {
-                    if self.rgb_bytes {
-                        values[k] / scale
-                    } else {
-                        values[k]
-                    }
-                };
-                (c(r), c(g), c(b))
-            }),
+            color: self.rgb.map(|[r, g, b]| (c(r), c(g), c(b))),
         }
     }
 }

@@ -271,17 +271,7 @@ mod tests {
     /// The packets' nearest hit of one sphere (centre `center`, radius `r`, view coordinates)
     /// by the ray from the origin along unit `d`, in every lane.
     fn hit(center: DVec3, r: f64, d: DVec3) -> Option<f64> {
-        let f = -center;
-        let sphere = ViewSphere {
-            center,
-            radius: r,
-            radius2: r * r,
-            f,
-            c: f.length_squared() - r * r,
-            min_dist: f.length() - r,
-            color: DVec3::ONE,
-            id: 0,
-        };
+        let sphere = ViewSphere::in_view(center, r, DVec3::ZERO, DVec3::ONE, 0);
         let columns = ViewColumns::new(&[sphere]);
         let shading = Shading {
             spheres: &[sphere],

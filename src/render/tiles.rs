@@ -492,17 +492,7 @@ mod tests {
 
     /// A sphere given in view coordinates, as `ViewSphere::new` makes it.
     fn in_view(center: DVec3, r: f64, cop: DVec3) -> ViewSphere {
-        let f = cop - center;
-        ViewSphere {
-            center,
-            radius: r,
-            radius2: r * r,
-            f,
-            c: f.length_squared() - r * r,
-            min_dist: f.length() - r,
-            color: DVec3::ONE,
-            id: 0,
-        }
+        ViewSphere::in_view(center, r, cop, DVec3::ONE, 0)
     }
 
     /// A sphere without screen bounds that a ray at a tile's edge or corner barely enters

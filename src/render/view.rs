@@ -28,16 +28,27 @@ impl ViewSphere {
     /// scene far from the origin keeps its precision.
     pub(super) fn new(camera: &Camera, sphere: &Sphere, id: u32) -> ViewSphere {
         let center = camera.point_to_view(sphere.center_world);
-        let f = camera.cop_view - center;
-        let radius2 = sphere.radius * sphere.radius;
+        ViewSphere::in_view(center, sphere.radius, camera.cop_view, sphere.color, id)
+    }
+
+    /// A sphere of centre `center` (view coordinates) seen from `cop_view`.
+    pub(super) fn in_view(
+        center: DVec3,
+        radius: f64,
+        cop_view: DVec3,
+        color: DVec3,
+        id: u32,
+    ) -> ViewSphere {
+        let f = cop_view - center;
+        let radius2 = radius * radius;
         ViewSphere {
             center,
-            radius: sphere.radius,
+            radius,
             radius2,
             f,
             c: f.length_squared() - radius2,
-            min_dist: f.length() - sphere.radius,
-            color: sphere.color,
+            min_dist: f.length() - radius,
+            color,
             id,
         }
     }
