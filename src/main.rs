@@ -10,6 +10,7 @@ use clap::error::ErrorKind;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    campath::phase("start");
     cli::started();
     let parsed = match cli::Cli::try_parse() {
         Ok(parsed) => parsed,

@@ -19,6 +19,81 @@ impl Bins {
         Bins::build_in_order(dims, 0..n, rect)
     }
 
+    /// [`Bins::build_in_order`] on the rayon pool, in bands of rows: each band reads every
+    /// item's rectangle and writes only its own rows' cells, so the bins are those built on one
+    /// thread. For large grids (a shadow grid of a million spheres); `order` is a slice.
+    pub fn build_in_bands(
+        dims: (usize, usize),
+        order: &[u32],
+        rect: impl Fn(usize) -> Option<CellRect> + Sync,
+    ) -> Bins {
+        use rayon::prelude::*;
+        let (width, height) = dims;
+        let bands = (rayon::current_num_threads() * 2).clamp(1, height.max(1));
+        let rows_per = height.div_ceil(bands).max(1);
+        let band_rows = |b: usize| (b * rows_per).min(height)..((b + 1) * rows_per).min(height);
+        // Per band, its cells' counts.
+        let counts: Vec<Vec<u32>> = (0..bands)
+            .into_par_iter()
+            .map(|b| {
+                let rows = band_rows(b);
+                let mut counts = vec![0u32; rows.len() * width];
+                for (x0, x1, y0, y1) in order.iter().filter_map(|&k| rect(k as usize)) {
+                    for y in y0.max(rows.start)..=y1.min(rows.end.wrapping_sub(1)) {
+                        let row = (y - rows.start) * width;
+                        for c in &mut counts[row + x0..=row + x1] {
+                            *c += 1;
+                        }
+                    }
+                }
+                counts
+            })
+            .collect();
+        let mut offsets = Vec::with_capacity(width * height + 1);
+        let mut total = 0u32;
+        let mut band_starts = Vec::with_capacity(bands + 1);
+        for c in counts.iter() {
+            band_starts.push(total as usize);
+            for &n in c {
+                offsets.push(total);
+                total += n;
+            }
+        }
+        band_starts.push(total as usize);
+        offsets.push(total);
+        drop(counts);
+        let mut items = vec![0u32; total as usize];
+        let mut slices = Vec::with_capacity(bands);
+        let mut rest = &mut items[..];
+        for b in 0..bands {
+            let (mine, after) = rest.split_at_mut(band_starts[b + 1] - band_starts[b]);
+            slices.push((b, mine));
+            rest = after;
+        }
+        slices.into_par_iter().for_each(|(b, mine)| {
+            let rows = band_rows(b);
+            let base = band_starts[b] as u32;
+            let cells = rows.start * width..rows.end * width;
+            let mut fill: Vec<u32> = offsets[cells].iter().map(|&o| o - base).collect();
+            for &k in order {
+                if let Some((x0, x1, y0, y1)) = rect(k as usize) {
+                    for y in y0.max(rows.start)..=y1.min(rows.end.wrapping_sub(1)) {
+                        let row = (y - rows.start) * width;
+                        for slot in &mut fill[row + x0..=row + x1] {
+                            mine[*slot as usize] = k;
+                            *slot += 1;
+                        }
+                    }
+                }
+            }
+        });
+        Bins {
+            width,
+            offsets,
+            items,
+        }
+    }
+
     /// [`Bins::build`] with the items taken in the order of `order`, which every cell's list
     /// keeps.
     pub fn build_in_order(
@@ -62,11 +137,18 @@ impl Bins {
         }
     }
 
-    /// Reorders every cell's items with `sort`.
-    pub fn sort_cells(&mut self, mut sort: impl FnMut(&mut [u32])) {
-        for k in 0..self.offsets.len() - 1 {
-            sort(&mut self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]);
+    /// Reorders every cell's items with `sort`, the cells on the rayon pool (each cell by one
+    /// task, so the result does not depend on the thread count).
+    pub fn sort_cells(&mut self, sort: impl Fn(&mut [u32]) + Sync) {
+        use rayon::prelude::*;
+        let mut cells: Vec<&mut [u32]> = Vec::with_capacity(self.offsets.len());
+        let mut rest = &mut self.items[..];
+        for w in self.offsets.windows(2) {
+            let (cell, after) = rest.split_at_mut((w[1] - w[0]) as usize);
+            cells.push(cell);
+            rest = after;
         }
+        cells.into_par_iter().with_min_len(64).for_each(&sort);
     }
 
     /// Rewrites every cell's items in place with `edit`, given the cell (x, y) and its items:
@@ -91,6 +173,11 @@ impl Bins {
         }
         *self.offsets.last_mut().expect("one offset past the cells") = write as u32;
         self.items.truncate(write);
+    }
+
+    /// Total items.
+    pub fn len(&self) -> usize {
+        self.items.len()
     }
 
     /// The items of cell (x, y).
@@ -125,6 +212,35 @@ mod tests {
         assert_eq!(bins.cell(0, 0), [1, 0]);
         assert_eq!(bins.cell(2, 1), [3, 1]);
         assert_eq!(bins.cell(1, 1), [1]);
+        // In bands, the same.
+        let banded = Bins::build_in_bands((3, 2), &[3, 1, 2, 0], |k| rects[k]);
+        assert_eq!((banded.offsets, banded.items), (bins.offsets, bins.items));
+    }
+
+    /// Built in bands of rows on pools of 1 to 3 threads (bands of one row to all rows), a
+    /// seeded grid's bins are those built in one pass.
+    #[test]
+    fn bins_built_in_bands_are_the_same() {
+        let mut rng = crate::splitmix::SplitMix(5);
+        let (w, h) = (37, 23);
+        let rects: Vec<Option<CellRect>> = (0..3000)
+            .map(|k| {
+                let mut r = |n: usize| (rng.unit() * n as f64) as usize;
+                let (x0, y0) = (r(w), r(h));
+                (k % 7 != 0).then(|| (x0, (x0 + r(4)).min(w - 1), y0, (y0 + r(5)).min(h - 1)))
+            })
+            .collect();
+        let order: Vec<u32> = (0..3000u32).map(|k| (k * 1013) % 3000).collect();
+        let one = Bins::build_in_order((w, h), order.iter().map(|&k| k as usize), |k| rects[k]);
+        for threads in 1..=3 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let banded = pool.install(|| Bins::build_in_bands((w, h), &order, |k| rects[k]));
+            assert_eq!(banded.offsets, one.offsets);
+            assert_eq!(banded.items, one.items);
+        }
     }
 
     #[test]

@@ -70,15 +70,23 @@ impl KeyBase {
             h.u64(u64::from(shadows));
         }
         h.u64(spheres.len() as u64);
-        for &Sphere {
-            center_world,
-            radius,
-            color,
-        } in spheres
-        {
-            h.vec3(center_world);
-            h.f64(radius);
-            h.vec3(color);
+        // The same bytes as seven `f64`s a sphere, fed a thousand spheres at a time: one
+        // update per number cost more than the hash (0.15 s at a million spheres).
+        let mut chunk = Vec::with_capacity(56 * 1024);
+        for group in spheres.chunks(1024) {
+            chunk.clear();
+            for &Sphere {
+                center_world,
+                radius,
+                color,
+            } in group
+            {
+                let (c, k) = (center_world, color);
+                for x in [c.x, c.y, c.z, radius, k.x, k.y, k.z] {
+                    chunk.extend_from_slice(&x.to_bits().to_le_bytes());
+                }
+            }
+            h.bytes(&chunk);
         }
         KeyBase(h.0)
     }

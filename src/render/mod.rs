@@ -15,6 +15,7 @@
 //! Render does no file I/O.
 
 use glam::DVec3;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 use crate::camera::Camera;
@@ -140,11 +141,14 @@ impl Renderer {
             _ => Arc::new(RayTable::new(camera.cop_view, camera.window, raster)),
         };
         self.table = Some(Arc::clone(&table));
+        crate::phase("prepare start");
         let spheres: Vec<ViewSphere> = index
             .visible(camera)
-            .into_iter()
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|k| ViewSphere::new(camera, &scene.spheres[k as usize], k))
             .collect();
+        crate::phase("visible + view spheres");
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
         let centers: Option<Arc<[(DVec3, f64)]>> =
@@ -168,12 +172,17 @@ impl Renderer {
                 }
             })
             .collect();
-        let bins = TileBins::build(&spheres, &table, raster);
+        crate::phase("lights");
+        let (bins, columns) = rayon::join(
+            || TileBins::build(&spheres, &table, raster),
+            || ViewColumns::new(&spheres),
+        );
+        crate::phase("tiles");
         PreparedFrame {
             isa: self.isa,
             raster,
             table,
-            columns: ViewColumns::new(&spheres),
+            columns,
             spheres,
             lights,
             bins,

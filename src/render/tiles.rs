@@ -5,6 +5,7 @@
 //! above it), into the tiles whose rays can meet it, at the nearest hit they can have there.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use super::bins::Bins;
 use super::rays::RayTable;
@@ -190,6 +191,17 @@ impl Wide {
     }
 }
 
+/// `x` as a u64 in the order of `f64::total_cmp`: the sign bit flipped for positive values, every
+/// bit for negative ones.
+fn total_key(x: f64) -> u64 {
+    let b = x.to_bits();
+    if b >> 63 == 1 {
+        !b
+    } else {
+        b | 1 << 63
+    }
+}
+
 /// The first and last of the ray table's sample positions (in `xs` or `ys`) in tile column or
 /// row `t` of an image side of `n` pixels.
 fn samples(t: usize, n: u32, raster: Raster) -> (usize, usize) {
@@ -241,7 +253,8 @@ impl TileBins {
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
         let prints: Vec<Footprint> = spheres
-            .iter()
+            .par_iter()
+            .with_min_len(4096)
             .map(|s| footprint(s, cop, window, raster))
             .collect();
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
@@ -253,6 +266,7 @@ impl TileBins {
             .filter(|&(k, _)| prints[k] == Footprint::Everywhere)
             .filter_map(|(k, s)| Wide::new(k as u32, s, table, raster))
             .collect();
+        crate::phase("  tiles: prints + wide");
         let mut bins = Bins::build((tiles_x, tiles_y), spheres.len(), |k| match prints[k] {
             Footprint::Culled => None,
             Footprint::Everywhere => Some((0, tiles_x - 1, 0, tiles_y - 1)),
@@ -263,9 +277,19 @@ impl TileBins {
         // Nearest possible hit first; ties by index, so the order is total and deterministic.
         // Sorted tile by tile: one sort of every sphere in view (binned in that order) costs
         // more once hundreds of thousands are in view, its reads scattered over all of them.
+        // The sort reads each sphere's `min_dist` as a key of its own (8 bytes a sphere, where
+        // a view sphere is 112), ordered as `total_cmp` orders the f64.
+        crate::phase("  tiles: binned");
+        let keys: Vec<u64> = spheres
+            .par_iter()
+            .with_min_len(4096)
+            .map(|s| total_key(s.min_dist))
+            .collect();
         let key = |k: u32| (spheres[k as usize].min_dist, k);
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-        bins.sort_cells(|items| items.sort_unstable_by(|&a, &b| before(key(a), key(b))));
+        bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (keys[k as usize], k)));
+        drop(keys);
+        crate::phase("  tiles: sorted");
         if !wide.is_empty() {
             let mut keyed: Vec<(f64, u32)> = Vec::with_capacity(wide.len());
             // They were binned into every tile; each tile's list is merged anew from its other
@@ -610,6 +634,34 @@ mod tests {
             }
         }
         assert!(hits > 1000, "{hits} hits");
+    }
+
+    #[test]
+    fn total_keys_order_as_total_cmp() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            5e-324,
+            -5e-324,
+            0.1,
+            -0.1,
+            3.5,
+            -3.5,
+        ];
+        xs.extend((0..1000).map(|k| (k as f64 - 500.0) * 0.37e-3));
+        for a in &xs {
+            for b in &xs {
+                assert_eq!(total_key(*a).cmp(&total_key(*b)), a.total_cmp(b), "{a} {b}");
+            }
+        }
     }
 
     #[test]

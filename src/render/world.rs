@@ -11,19 +11,30 @@ use glam::{DVec2, DVec3};
 
 use super::shadows::ShadowGrid;
 use crate::camera::Camera;
-use crate::scene::Scene;
+use crate::scene::{Scene, Sphere};
 
 /// Spheres per leaf.
 const LEAF: usize = 4;
 
-/// A node's box; a leaf (`count` > 0) holds `order[start..start + count]`, an inner node has its
-/// children at its own index + 1 and at `start`.
+/// A node's box, in f32 rounded outward from the spheres' f64 bounds; a leaf (`count` > 0)
+/// holds `order[start..start + count]`, an inner node has its children at its own index + 1 and
+/// at `start`. 32 bytes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Node {
-    lo: DVec3,
-    hi: DVec3,
+    lo: [f32; 3],
+    hi: [f32; 3],
     start: u32,
     count: u32,
+}
+
+impl Node {
+    fn lo(&self) -> DVec3 {
+        DVec3::new(self.lo[0] as f64, self.lo[1] as f64, self.lo[2] as f64)
+    }
+
+    fn hi(&self) -> DVec3 {
+        DVec3::new(self.hi[0] as f64, self.hi[1] as f64, self.hi[2] as f64)
+    }
 }
 
 /// A scene ready to render: its spheres in a hierarchy and its lights' shadow grids.
@@ -38,10 +49,14 @@ pub struct SceneIndex<'a> {
 
 impl<'a> SceneIndex<'a> {
     /// The hierarchy and the shadow grids, built side by side on the rayon pool (and the
-    /// hierarchy's large subtrees too): the same index as built on one thread.
+    /// hierarchy's sort and large subtrees too): the same index as built on one thread.
     pub fn new(scene: &'a Scene) -> SceneIndex<'a> {
         let ((nodes, order), shadows) = rayon::join(
-            || hierarchy(scene),
+            || {
+                let h = hierarchy(scene);
+                crate::phase("hierarchy");
+                h
+            },
             || {
                 scene
                     .lights
@@ -61,33 +76,55 @@ impl<'a> SceneIndex<'a> {
         }
     }
 
-    /// The spheres that can meet a ray of `camera`, in increasing index order.
+    /// Bytes the hierarchy holds: its nodes and sphere order.
+    pub fn hierarchy_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>() + self.order.len() * 4
+    }
+
+    /// The spheres that can meet a ray of `camera`, in increasing index order. A subtree whose
+    /// box lies wholly inside the pyramid gives all its spheres untested (each would pass); the
+    /// spheres found are marked in a bitset read in index order, so no sort.
     pub fn visible(&self, camera: &Camera) -> Vec<u32> {
         let planes = Pyramid::new(camera);
-        let mut out = Vec::new();
+        let n = self.scene.spheres.len();
+        let mut marks = vec![0u64; n.div_ceil(64)];
         let mut stack = Vec::with_capacity(64);
         if !self.nodes.is_empty() {
-            stack.push(0usize);
+            stack.push((0usize, false));
         }
-        while let Some(k) = stack.pop() {
+        let mut count = 0;
+        while let Some((k, inside)) = stack.pop() {
             let node = &self.nodes[k];
-            if !planes.meets_box(node.lo, node.hi) {
-                continue;
-            }
+            let inside = inside || {
+                let (lo, hi) = (node.lo(), node.hi());
+                match planes.box_side(lo, hi) {
+                    Side::Outside => continue,
+                    Side::Inside => true,
+                    Side::Both => false,
+                }
+            };
             if node.count > 0 {
                 let items = &self.order[node.start as usize..(node.start + node.count) as usize];
                 for &i in items {
                     let s = &self.scene.spheres[i as usize];
-                    if planes.meets_sphere(s.center_world, s.radius) {
-                        out.push(i);
+                    if inside || planes.meets_sphere(s.center_world, s.radius) {
+                        marks[i as usize / 64] |= 1 << (i % 64);
+                        count += 1;
                     }
                 }
             } else {
-                stack.push(node.start as usize);
-                stack.push(k + 1);
+                stack.push((node.start as usize, inside));
+                stack.push((k + 1, inside));
             }
         }
-        out.sort_unstable();
+        let mut out = Vec::with_capacity(count);
+        for (w, &bits) in marks.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                out.push((w * 64) as u32 + bits.trailing_zeros());
+                bits &= bits - 1;
+            }
+        }
         out
     }
 }
@@ -95,40 +132,88 @@ impl<'a> SceneIndex<'a> {
 /// Subtrees of at least this many spheres build their two halves in parallel.
 const PARALLEL_BUILD: usize = 1 << 16;
 
-/// The spheres' centres, one array per axis, and their radii: the median splits read them in
-/// the order of `order`, which is random in memory, and a coordinate is 8 bytes of an array
-/// where a sphere is 56 bytes of the scene's.
-struct Points {
-    axes: [Vec<f64>; 3],
-    radius: Vec<f64>,
-}
-
-impl Points {
-    fn center(&self, i: u32) -> DVec3 {
-        let i = i as usize;
-        DVec3::new(self.axes[0][i], self.axes[1][i], self.axes[2][i])
+/// `x` rounded down to an f32 (towards −∞): never above `x`.
+fn f32_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x {
+        f.next_down()
+    } else {
+        f
     }
 }
 
-/// The hierarchy's nodes (the root first) and the sphere order its leaves index.
+/// `x` rounded up to an f32 (towards +∞): never below `x`.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// Bits per axis of a Morton code.
+const MORTON_BITS: u32 = 21;
+
+/// `v` (below 2²¹) with two zero bits after each of its bits.
+fn spread3(v: u64) -> u64 {
+    let mut x = v & 0x1f_ffff;
+    x = (x | x << 32) & 0x001f_0000_0000_ffff;
+    x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
+}
+
+/// The hierarchy's nodes (the root first) and the sphere order its leaves index: the spheres
+/// sorted along a Morton curve of their centres (ties by index), then split at the median
+/// position, level after level. Sorting once costs O(N log N) with sequential reads, where a
+/// median split per node read every sphere again at random; the tree only culls, so the
+/// curve's splits do as well as the widest axis's.
 fn hierarchy(scene: &Scene) -> (Vec<Node>, Vec<u32>) {
+    use rayon::prelude::*;
     let spheres = &scene.spheres;
-    let mut order: Vec<u32> = (0..spheres.len() as u32).collect();
-    if order.is_empty() {
-        return (Vec::new(), order);
+    if spheres.is_empty() {
+        return (Vec::new(), Vec::new());
     }
-    let points = Points {
-        axes: [0, 1, 2].map(|a| spheres.iter().map(|s| s.center_world[a]).collect()),
-        radius: spheres.iter().map(|s| s.radius).collect(),
+    let (clo, chi) = spheres
+        .par_iter()
+        .fold(
+            || (DVec3::INFINITY, DVec3::NEG_INFINITY),
+            |(lo, hi), s| (lo.min(s.center_world), hi.max(s.center_world)),
+        )
+        .reduce(
+            || (DVec3::INFINITY, DVec3::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
+    let cells = (1u64 << MORTON_BITS) as f64;
+    let scale = (chi - clo).max_element();
+    let inv = if scale > 0.0 {
+        (cells - 1.0) / scale
+    } else {
+        0.0
     };
+    let mut keys: Vec<(u64, u32)> = spheres
+        .par_iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let q = ((s.center_world - clo) * inv).to_array().map(|v| v as u64);
+            let code = spread3(q[0]) << 2 | spread3(q[1]) << 1 | spread3(q[2]);
+            (code, k as u32)
+        })
+        .collect();
+    keys.par_sort_unstable();
+    let order: Vec<u32> = keys.iter().map(|k| k.1).collect();
+    drop(keys);
     let empty = Node {
-        lo: DVec3::ZERO,
-        hi: DVec3::ZERO,
+        lo: [0.0; 3],
+        hi: [0.0; 3],
         start: 0,
         count: 0,
     };
     let mut nodes = vec![empty; node_count(order.len())];
-    build(&points, &mut nodes, 0, &mut order, 0);
+    build(spheres, &mut nodes, 0, &order, 0);
     (nodes, order)
 }
 
@@ -142,93 +227,58 @@ fn node_count(n: usize) -> usize {
 }
 
 /// Builds the subtree of `order` (at `start..` of the whole order) into `nodes`, which has
-/// exactly its [`node_count`] entries and begins at index `base` of the whole tree.
-fn build(points: &Points, nodes: &mut [Node], base: usize, order: &mut [u32], start: usize) {
-    if order.len() < PARALLEL_BUILD {
-        let mut local = Vec::with_capacity(nodes.len());
-        build_serial(points, &mut local, order, start);
-        assert_eq!(local.len(), nodes.len(), "node_count");
-        for (slot, mut node) in nodes.iter_mut().zip(local) {
-            if node.count == 0 {
-                node.start += base as u32;
-            }
-            *slot = node;
-        }
+/// exactly its [`node_count`] entries and begins at index `base` of the whole tree; large
+/// subtrees build their halves in parallel.
+fn build(spheres: &[Sphere], nodes: &mut [Node], base: usize, order: &[u32], start: usize) {
+    if order.len() <= LEAF {
+        nodes[0] = leaf(spheres, order, start);
         return;
     }
-    let axis;
-    (nodes[0], axis) = node(points, order, start);
-    let mid = split(points, order, axis);
-    let (left, right) = order.split_at_mut(mid);
-    let (_, below) = nodes.split_at_mut(1);
+    let mid = order.len() / 2;
+    let (left, right) = order.split_at(mid);
+    let (me, below) = nodes.split_at_mut(1);
     let (left_nodes, right_nodes) = below.split_at_mut(node_count(mid));
     let right_base = base + 1 + left_nodes.len();
-    rayon::join(
-        || build(points, left_nodes, base + 1, left, start),
-        || build(points, right_nodes, right_base, right, start + mid),
-    );
-    nodes[0].start = right_base as u32;
-    nodes[0].count = 0;
-}
-
-/// Builds the subtree of `order[start..]` (the slice given) at the end of `nodes`, its inner
-/// nodes indexing their right children from the start of `nodes`.
-fn build_serial(points: &Points, nodes: &mut Vec<Node>, order: &mut [u32], start: usize) {
-    let me = nodes.len();
-    let (node, axis) = node(points, order, start);
-    nodes.push(node);
-    if order.len() <= LEAF {
-        return;
-    }
-    let mid = split(points, order, axis);
-    let (left, right) = order.split_at_mut(mid);
-    build_serial(points, nodes, left, start);
-    let right_node = nodes.len() as u32;
-    build_serial(points, nodes, right, start + mid);
-    nodes[me].start = right_node;
-    nodes[me].count = 0;
-}
-
-/// A leaf over `order` (at `start` of the whole order), with the box of its spheres, and the
-/// axis of the widest spread of their centres: one pass over the spheres, in `order`.
-fn node(points: &Points, order: &[u32], start: usize) -> (Node, usize) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    let mut clo = lo;
-    let mut chi = hi;
-    for &i in order {
-        let (c, r) = (points.center(i), points.radius[i as usize]);
-        lo = lo.min(c - r);
-        hi = hi.max(c + r);
-        clo = clo.min(c);
-        chi = chi.max(c);
-    }
-    let spread = chi - clo;
-    let axis = if spread.x >= spread.y && spread.x >= spread.z {
-        0
-    } else if spread.y >= spread.z {
-        1
+    if order.len() >= PARALLEL_BUILD {
+        rayon::join(
+            || build(spheres, left_nodes, base + 1, left, start),
+            || build(spheres, right_nodes, right_base, right, start + mid),
+        );
     } else {
-        2
+        build(spheres, left_nodes, base + 1, left, start);
+        build(spheres, right_nodes, right_base, right, start + mid);
+    }
+    let (a, b) = (&left_nodes[0], &right_nodes[0]);
+    me[0] = Node {
+        lo: std::array::from_fn(|i| a.lo[i].min(b.lo[i])),
+        hi: std::array::from_fn(|i| a.hi[i].max(b.hi[i])),
+        start: right_base as u32,
+        count: 0,
     };
-    let node = Node {
-        lo,
-        hi,
+}
+
+/// A leaf over `order` (at `start` of the whole order), with the box of its spheres.
+fn leaf(spheres: &[Sphere], order: &[u32], start: usize) -> Node {
+    let mut lo = DVec3::INFINITY;
+    let mut hi = DVec3::NEG_INFINITY;
+    for &i in order {
+        let s = &spheres[i as usize];
+        lo = lo.min(s.center_world - s.radius);
+        hi = hi.max(s.center_world + s.radius);
+    }
+    Node {
+        lo: lo.to_array().map(f32_down),
+        hi: hi.to_array().map(f32_up),
         start: start as u32,
         count: order.len() as u32,
-    };
-    (node, axis)
+    }
 }
 
-/// Puts the median centre along `axis` at `order.len() / 2`, the smaller before it, and
-/// returns that position; ties by index, so the tree is the same on every run.
-fn split(points: &Points, order: &mut [u32], axis: usize) -> usize {
-    let key = &points.axes[axis];
-    let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |a, b| {
-        key[*a as usize].total_cmp(&key[*b as usize]).then(a.cmp(b))
-    });
-    mid
+/// Where a box lies against the view pyramid.
+enum Side {
+    Outside,
+    Inside,
+    Both,
 }
 
 /// The view pyramid from the COP through the window's edges, as four world-space planes
@@ -279,36 +329,59 @@ impl Pyramid {
             .all(|(m, offset)| rel.dot(*m) - offset >= -radius - slack)
     }
 
-    fn meets_box(&self, lo: DVec3, hi: DVec3) -> bool {
+    /// Whether the box (lo, hi) is wholly outside one plane (no sphere in it can meet a ray),
+    /// wholly inside every plane by more than the allowance (every sphere in it passes
+    /// [`Pyramid::meets_sphere`]: a sphere in the box has its centre at least its radius
+    /// inside), or neither.
+    fn box_side(&self, lo: DVec3, hi: DVec3) -> Side {
         let (mid, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
         let rel = mid - self.vrp;
         let slack = self.slack + 1e-9 * (lo.abs().max(hi.abs()).max_element());
-        self.planes
-            .iter()
-            .all(|(m, offset)| rel.dot(*m) + half.dot(m.abs()) - offset >= -slack)
+        let mut inside = true;
+        for (m, offset) in &self.planes {
+            let (centre, reach) = (rel.dot(*m) - offset, half.dot(m.abs()));
+            if centre + reach < -slack {
+                return Side::Outside;
+            }
+            inside &= centre - reach >= slack;
+        }
+        if inside {
+            Side::Inside
+        } else {
+            Side::Both
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::Basis;
     use crate::scene::Sphere;
     use crate::splitmix::SplitMix;
 
-    /// A field of spheres with many equal coordinates (ties broken by index).
+    /// A field of spheres with many equal coordinates (equal Morton codes, ties by index), a
+    /// few much larger ones, and, at `n` > 2, a ground sphere.
     fn scene(n: usize) -> Scene {
         let mut rng = SplitMix(n as u64);
-        let spheres = (0..n)
+        let mut spheres: Vec<Sphere> = (0..n)
             .map(|k| Sphere {
                 center_world: DVec3::new(
-                    (rng.unit() * 1000.0).round(),
-                    if k % 3 == 0 { 0.0 } else { rng.unit() },
-                    rng.unit() * 800.0,
+                    (rng.unit() * 100.0).round() - 50.0,
+                    if k % 3 == 0 { 0.0 } else { rng.unit() * 10.0 },
+                    rng.unit() * 80.0 - 40.0,
                 ),
-                radius: 0.1 + rng.unit(),
+                radius: if k % 97 == 5 { 10.0 } else { 0.05 + rng.unit() },
                 color: DVec3::ONE,
             })
             .collect();
+        if n > 2 {
+            spheres[n / 2] = Sphere {
+                center_world: DVec3::new(0.0, -1e5, 0.0),
+                radius: 1e5,
+                color: DVec3::ONE,
+            };
+        }
         Scene {
             background: DVec3::ZERO,
             ambient: 0.1,
@@ -317,75 +390,30 @@ mod tests {
         }
     }
 
-    /// The hierarchy as built before the parallel build: a node, then its left subtree, then
-    /// its right one, reading each sphere from the scene.
-    fn reference(scene: &Scene, nodes: &mut Vec<Node>, order: &mut [u32], start: usize) {
-        let sphere = |i: u32| &scene.spheres[i as usize];
-        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        let (mut clo, mut chi) = (lo, hi);
-        for &i in order.iter() {
-            let s = sphere(i);
-            lo = lo.min(s.center_world - s.radius);
-            hi = hi.max(s.center_world + s.radius);
-            clo = clo.min(s.center_world);
-            chi = chi.max(s.center_world);
-        }
-        let me = nodes.len();
-        let count = order.len() as u32;
-        nodes.push(Node {
-            lo,
-            hi,
-            start: start as u32,
-            count,
-        });
-        if order.len() <= LEAF {
-            return;
-        }
-        let spread = chi - clo;
-        let axis = if spread.x >= spread.y && spread.x >= spread.z {
-            0
-        } else if spread.y >= spread.z {
-            1
-        } else {
-            2
-        };
-        let mid = order.len() / 2;
-        order.select_nth_unstable_by(mid, |a, b| {
-            let (ca, cb) = (sphere(*a).center_world[axis], sphere(*b).center_world[axis]);
-            ca.total_cmp(&cb).then(a.cmp(b))
-        });
-        let (left, right) = order.split_at_mut(mid);
-        reference(scene, nodes, left, start);
-        let right_node = nodes.len() as u32;
-        reference(scene, nodes, right, start + mid);
-        nodes[me].start = right_node;
-        nodes[me].count = 0;
-    }
-
     #[test]
-    fn the_parallel_build_is_the_serial_one() {
+    fn every_sphere_is_in_one_leaf_inside_its_boxes() {
         for n in [1, 4, 5, 1000, PARALLEL_BUILD - 1, 3 * PARALLEL_BUILD + 7] {
             let scene = scene(n);
             let (nodes, order) = hierarchy(&scene);
-            // The whole tree on one thread, one node after another, from the scene's spheres.
-            let mut serial_order: Vec<u32> = (0..n as u32).collect();
-            let mut serial = Vec::new();
-            reference(&scene, &mut serial, &mut serial_order, 0);
-            assert_eq!(order, serial_order, "{n} spheres");
-            assert_eq!(nodes, serial, "{n} spheres");
             assert_eq!(nodes.len(), node_count(n));
-            // Every sphere in exactly one leaf, inside its box and every ancestor's.
+            // The same tree on one thread.
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap();
+            assert!(pool.install(|| hierarchy(&scene)) == (nodes.clone(), order.clone()));
             let mut seen = vec![0u32; n];
             let mut stack = vec![(0usize, Vec::<usize>::new())];
             while let Some((k, mut path)) = stack.pop() {
                 let node = nodes[k];
                 path.push(k);
                 if node.count > 0 {
+                    assert!(node.count as usize <= LEAF);
                     for &i in &order[node.start as usize..(node.start + node.count) as usize] {
                         seen[i as usize] += 1;
                         let s = &scene.spheres[i as usize];
                         for &a in &path {
-                            let (lo, hi) = (nodes[a].lo, nodes[a].hi);
+                            let (lo, hi) = (nodes[a].lo(), nodes[a].hi());
                             assert!((s.center_world - s.radius).cmpge(lo).all());
                             assert!((s.center_world + s.radius).cmple(hi).all());
                         }
@@ -396,6 +424,62 @@ mod tests {
                 }
             }
             assert!(seen.iter().all(|&c| c == 1), "{n} spheres");
+        }
+    }
+
+    /// The culled list is exactly the spheres that pass the pyramid test one by one, for
+    /// cameras inside, beside and far from seeded fields of spheres (subtrees wholly inside
+    /// the pyramid give theirs untested).
+    #[test]
+    fn culling_keeps_exactly_the_spheres_the_pyramid_meets() {
+        let mut rng = SplitMix(7);
+        let mut inside = 0;
+        for n in [1, 5, 1000, 20_000] {
+            let scene = scene(n);
+            let index = SceneIndex::new(&scene);
+            for c in 0..12 {
+                let mut r = || rng.unit() * 2.0 - 1.0;
+                let far = if c % 3 == 0 { 300.0 } else { 30.0 };
+                let vrp = DVec3::new(r() * far, r() * 20.0 + 5.0, r() * far);
+                let vpn = DVec3::new(r(), r() * 0.5, r());
+                let Ok(basis) = Basis::from_vpn_vuv(vpn, DVec3::Y) else {
+                    continue;
+                };
+                let camera = Camera {
+                    vrp_world: vrp,
+                    basis,
+                    cop_view: DVec3::new(r() * 0.3, r() * 0.3, -1.0 - r().abs()),
+                    window: DVec2::new(1.0 + r().abs(), 0.6 + r().abs()),
+                };
+                let planes = Pyramid::new(&camera);
+                let every: Vec<u32> = (0..n as u32)
+                    .filter(|&k| {
+                        let s = &scene.spheres[k as usize];
+                        planes.meets_sphere(s.center_world, s.radius)
+                    })
+                    .collect();
+                assert_eq!(index.visible(&camera), every, "{n} spheres, camera {c}");
+                inside += index
+                    .nodes
+                    .iter()
+                    .filter(|node| matches!(planes.box_side(node.lo(), node.hi()), Side::Inside))
+                    .count();
+            }
+        }
+        assert!(inside > 100, "{inside} nodes wholly inside");
+    }
+
+    #[test]
+    fn f32_bounds_round_outward() {
+        let mut rng = SplitMix(3);
+        for k in 0..10_000 {
+            let x = (rng.unit() - 0.5) * 10f64.powi(k % 80 - 40);
+            for x in [x, -x, 0.0, 1e300, -1e300, f64::MIN_POSITIVE] {
+                assert!(f32_down(x) as f64 <= x && f32_up(x) as f64 >= x, "{x}");
+                // And by at most one step.
+                assert!(f32_down(x).next_up() as f64 >= x || f32_down(x) == f32::MAX);
+                assert!(f32_up(x).next_down() as f64 <= x || f32_up(x) == f32::MIN);
+            }
         }
     }
 }
