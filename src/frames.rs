@@ -117,6 +117,12 @@ enum Keep {
 }
 
 /// A frame's pixels (if kept) and hash.
+/// The next frame is prepared while this one renders only when this one has fewer spheres in
+/// view than this: above it, the two frames' spheres in view coordinates would be in memory at
+/// once (250 MB more at a million in view), and a frame that large prepares on the whole pool
+/// anyway (at 1 M spheres the same time a frame, 390 MB peak instead of 670).
+pub const PREPARE_AHEAD_MAX: usize = 1 << 18;
+
 type Delivered = (Option<Arc<Vec<u8>>>, FrameHash);
 
 /// [`for_each_frame`], with the pixels handed to `sink` only if `keep` says so.
@@ -166,8 +172,12 @@ fn run(
                     _ => renderer.prepare(&camera, &index, doc.raster),
                 };
                 // The next frame that is not this one again.
+                // Not while a frame with very many spheres in view renders (see
+                // [`PREPARE_AHEAD_MAX`]).
                 let next = match wanted.peek() {
-                    Some(Ok((_, cam))) if *cam != camera => Some(*cam),
+                    Some(Ok((_, cam))) if *cam != camera && this.in_view() < PREPARE_AHEAD_MAX => {
+                        Some(*cam)
+                    }
                     _ => None,
                 };
                 let mut pixels = (keep == Keep::Frames).then(|| buffers.take());

@@ -21,11 +21,13 @@ impl Bins {
 
     /// [`Bins::build_in_order`] on the rayon pool, in bands of rows: each band reads every
     /// item's rectangle and writes only its own rows' cells, so the bins are those built on one
-    /// thread. For large grids (a shadow grid of a million spheres); `order` is a slice.
+    /// thread. For large grids (a shadow grid of a million spheres). `rect_at(i)` is the
+    /// rectangle of item `order[i]` (by position, so that the bands read the rectangles in
+    /// sequence, not at random).
     pub fn build_in_bands(
         dims: (usize, usize),
         order: &[u32],
-        rect: impl Fn(usize) -> Option<CellRect> + Sync,
+        rect_at: impl Fn(usize) -> Option<CellRect> + Sync,
     ) -> Bins {
         use rayon::prelude::*;
         let (width, height) = dims;
@@ -38,7 +40,7 @@ impl Bins {
             .map(|b| {
                 let rows = band_rows(b);
                 let mut counts = vec![0u32; rows.len() * width];
-                for (x0, x1, y0, y1) in order.iter().filter_map(|&k| rect(k as usize)) {
+                for (x0, x1, y0, y1) in (0..order.len()).filter_map(&rect_at) {
                     for y in y0.max(rows.start)..=y1.min(rows.end.wrapping_sub(1)) {
                         let row = (y - rows.start) * width;
                         for c in &mut counts[row + x0..=row + x1] {
@@ -75,8 +77,8 @@ impl Bins {
             let base = band_starts[b] as u32;
             let cells = rows.start * width..rows.end * width;
             let mut fill: Vec<u32> = offsets[cells].iter().map(|&o| o - base).collect();
-            for &k in order {
-                if let Some((x0, x1, y0, y1)) = rect(k as usize) {
+            for (i, &k) in order.iter().enumerate() {
+                if let Some((x0, x1, y0, y1)) = rect_at(i) {
                     for y in y0.max(rows.start)..=y1.min(rows.end.wrapping_sub(1)) {
                         let row = (y - rows.start) * width;
                         for slot in &mut fill[row + x0..=row + x1] {
@@ -137,9 +139,16 @@ impl Bins {
         }
     }
 
-    /// Reorders every cell's items with `sort`, the cells on the rayon pool (each cell by one
-    /// task, so the result does not depend on the thread count).
-    pub fn sort_cells(&mut self, sort: impl Fn(&mut [u32]) + Sync) {
+    /// Reorders every cell's items with `sort`.
+    pub fn sort_cells(&mut self, sort: impl Fn(&mut [u32])) {
+        for k in 0..self.offsets.len() - 1 {
+            sort(&mut self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]);
+        }
+    }
+
+    /// [`Bins::sort_cells`] on the rayon pool, each cell by one task (so the result does not
+    /// depend on the thread count).
+    pub fn par_sort_cells(&mut self, sort: impl Fn(&mut [u32]) + Sync) {
         use rayon::prelude::*;
         let mut cells: Vec<&mut [u32]> = Vec::with_capacity(self.offsets.len());
         let mut rest = &mut self.items[..];
@@ -213,7 +222,8 @@ mod tests {
         assert_eq!(bins.cell(2, 1), [3, 1]);
         assert_eq!(bins.cell(1, 1), [1]);
         // In bands, the same.
-        let banded = Bins::build_in_bands((3, 2), &[3, 1, 2, 0], |k| rects[k]);
+        let order = [3, 1, 2, 0];
+        let banded = Bins::build_in_bands((3, 2), &order, |i| rects[order[i] as usize]);
         assert_eq!((banded.offsets, banded.items), (bins.offsets, bins.items));
     }
 
@@ -237,7 +247,8 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let banded = pool.install(|| Bins::build_in_bands((w, h), &order, |k| rects[k]));
+            let rect_at = |i: usize| rects[order[i] as usize];
+            let banded = pool.install(|| Bins::build_in_bands((w, h), &order, rect_at));
             assert_eq!(banded.offsets, one.offsets);
             assert_eq!(banded.items, one.items);
         }

@@ -145,7 +145,7 @@ impl Renderer {
         let spheres: Vec<ViewSphere> = index
             .visible(camera)
             .into_par_iter()
-            .with_min_len(4096)
+            .with_min_len(tiles::PARALLEL)
             .map(|k| ViewSphere::new(camera, &scene.spheres[k as usize], k))
             .collect();
         crate::phase("visible + view spheres");
@@ -173,10 +173,17 @@ impl Renderer {
             })
             .collect();
         crate::phase("lights");
-        let (bins, columns) = rayon::join(
-            || TileBins::build(&spheres, &table, raster),
-            || ViewColumns::new(&spheres),
-        );
+        let (bins, columns) = if spheres.len() >= tiles::PARALLEL {
+            rayon::join(
+                || TileBins::build(&spheres, &table, raster),
+                || ViewColumns::new(&spheres),
+            )
+        } else {
+            (
+                TileBins::build(&spheres, &table, raster),
+                ViewColumns::new(&spheres),
+            )
+        };
         crate::phase("tiles");
         PreparedFrame {
             isa: self.isa,

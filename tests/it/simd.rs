@@ -8,7 +8,7 @@ use std::path::Path;
 use crate::common::{example, root, EXAMPLES};
 use campath::camera::{Basis, Camera};
 use campath::document::Document;
-use campath::render::{Raster, Renderer, Simd};
+use campath::render::{Raster, Renderer, SceneIndex, Simd};
 use campath::scene::{Light, Scene, Sphere};
 use glam::{DVec2, DVec3};
 
@@ -234,6 +234,75 @@ fn tiles_and_shadow_grid_give_the_oracle_bytes() {
                     "camera {k}, {raster:?}, {name}: {differ} bytes differ"
                 );
             }
+        }
+    }
+}
+
+/// A dense cluster of 20,000 small spheres over a ground sphere, with one shadowing light: the
+/// scale at which a frame prepares on the rayon pool (over 16,384 spheres in view), the shadow
+/// grid widens its cells to the discs (their projections overlap many deep), and shadow rays
+/// move only the blockers they test into view coordinates. Seen from outside (every sphere in
+/// view, the hierarchy's subtrees wholly inside the pyramid) and from inside the cluster (most
+/// culled): every path gives the oracle's bytes.
+#[test]
+fn a_dense_cluster_of_20000_spheres_gives_the_oracle_bytes() {
+    let mut gen = campath::splitmix::SplitMix(20_000);
+    let mut spheres: Vec<Sphere> = (0..20_000)
+        .map(|_| {
+            let mut r = || gen.unit();
+            Sphere {
+                center_world: DVec3::new(r() * 20.0 - 10.0, r() * 6.0, r() * 20.0 - 10.0),
+                radius: 0.05 + r() * 0.15,
+                color: DVec3::new(r(), r(), r()),
+            }
+        })
+        .collect();
+    spheres.push(Sphere {
+        center_world: DVec3::new(0.0, -10_000.0, 0.0),
+        radius: 10_000.0,
+        color: DVec3::splat(0.6),
+    });
+    let scene = Scene {
+        background: DVec3::new(0.1, 0.1, 0.2),
+        ambient: 0.1,
+        lights: vec![Light {
+            direction_world: DVec3::new(-0.6, -1.0, 0.4).normalize(),
+            color: DVec3::splat(0.9),
+            shadows: true,
+        }],
+        spheres,
+    };
+    let raster = Raster {
+        width: 48,
+        height: 32,
+        samples: 1,
+        adaptive: false,
+    };
+    let cameras = [
+        (DVec3::new(-30.0, 12.0, -6.0), DVec3::new(1.0, -0.35, 0.2)),
+        (DVec3::new(0.5, 3.0, 0.5), DVec3::new(0.6, -0.2, 1.0)),
+    ];
+    for (k, (vrp, vpn)) in cameras.into_iter().enumerate() {
+        let camera = Camera {
+            vrp_world: vrp,
+            basis: Basis::from_vpn_vuv(vpn, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.2),
+            window: DVec2::new(1.5, 1.0),
+        };
+        let index = SceneIndex::new(&scene);
+        let in_view = Renderer::new().prepare(&camera, &index, raster).in_view();
+        assert!(
+            (k == 0) == (in_view > 19_000),
+            "camera {k}: {in_view} spheres in view"
+        );
+        let slow = crate::reference::render(&camera, &scene, raster);
+        for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+            let fast = Renderer::with_simd(simd)
+                .unwrap()
+                .render(&camera, &scene, raster);
+            let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
+            let name = simd.name();
+            assert_eq!(differ, 0, "camera {k}, {name}: {differ} bytes differ");
         }
     }
 }

@@ -107,8 +107,10 @@ impl ShadowGrid {
         order.par_sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let order: Vec<u32> = order.iter().map(|&(_, k)| k).collect();
         crate::phase("  grid: sorted");
-        let bins = Bins::build_in_bands(dims, &order, |k| {
-            rects[k].map(|r| (r[0] as usize, r[1] as usize, r[2] as usize, r[3] as usize))
+        // The rectangles in that order, for the bands to read in sequence.
+        let rects: Vec<Option<[u16; 4]>> = order.iter().map(|&k| rects[k as usize]).collect();
+        let bins = Bins::build_in_bands(dims, &order, |i| {
+            rects[i].map(|r| (r[0] as usize, r[1] as usize, r[2] as usize, r[3] as usize))
         });
         crate::phase(&format!("shadow grid {dims:?} items {}", bins.len()));
         ShadowGrid { bins, ..grid }
