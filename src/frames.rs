@@ -136,9 +136,7 @@ fn run(
     let started = Instant::now();
     let base = KeyBase::new(&doc.scene, doc.raster);
     let mut renderer = Renderer::new();
-    crate::phase("key base");
     let index = SceneIndex::new(&doc.scene);
-    crate::phase("index");
     let end = set.range.end;
     let mut wanted = doc
         .cameras()
@@ -206,7 +204,6 @@ fn run(
         sink(frame, &base.key(&camera), pixels.as_ref(), hash)?;
         timing.frames += 1;
         timing.first_frame_at.get_or_insert_with(Instant::now);
-        crate::phase("frame delivered");
         previous = Some((camera, (pixels, hash)));
     }
     timing.wall_secs = started.elapsed().as_secs_f64();

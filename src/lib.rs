@@ -63,32 +63,3 @@ pub mod splitmix;
 pub mod testing;
 
 pub use error::{Error, Result};
-
-/// Temporary profiling: prints the time since the first call and the peak RSS when
-/// CAMPATH_PHASES is set.
-#[doc(hidden)]
-pub fn phase(label: &str) {
-    use std::sync::OnceLock;
-    use std::time::Instant;
-    static START: OnceLock<Instant> = OnceLock::new();
-    static ON: OnceLock<bool> = OnceLock::new();
-    if !*ON.get_or_init(|| std::env::var_os("CAMPATH_PHASES").is_some()) {
-        return;
-    }
-    let t = START.get_or_init(Instant::now).elapsed().as_secs_f64() * 1e3;
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    let field = |name: &str| {
-        status
-            .lines()
-            .find(|l| l.starts_with(name))
-            .and_then(|l| l.split_whitespace().nth(1))
-            .and_then(|v| v.parse::<u64>().ok())
-            .unwrap_or(0)
-            / 1024
-    };
-    eprintln!(
-        "[phase] {t:9.1} ms  rss {:5} MB  hwm {:5} MB  {label}",
-        field("VmRSS:"),
-        field("VmHWM:")
-    );
-}

@@ -10,7 +10,6 @@ use clap::error::ErrorKind;
 use clap::Parser;
 
 fn main() -> ExitCode {
-    campath::phase("start");
     cli::started();
     let parsed = match cli::Cli::try_parse() {
         Ok(parsed) => parsed,

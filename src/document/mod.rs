@@ -61,7 +61,6 @@ impl Document {
     /// Problems are listed in the order of the file's sections ([`FileSpec::order`]; the
     /// checker's order within a section and where it is unknown).
     pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
-        crate::phase("parsed RON");
         let folder = path.parent().unwrap_or(Path::new(""));
         let files: Vec<ReadFile> = spec
             .scene
@@ -77,11 +76,9 @@ impl Document {
                 }
             })
             .collect();
-        crate::phase("read sphere files");
         let mut c = Checker::default();
         let order = spec.order.clone();
         let doc = c.document(path, spec, &files);
-        crate::phase("checked");
         match doc {
             Some(doc) if c.problems.is_empty() => Ok(doc),
             _ => {

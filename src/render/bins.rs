@@ -184,11 +184,6 @@ impl Bins {
         self.items.truncate(write);
     }
 
-    /// Total items.
-    pub fn len(&self) -> usize {
-        self.items.len()
-    }
-
     /// The items of cell (x, y).
     #[inline]
     pub fn cell(&self, x: usize, y: usize) -> &[u32] {

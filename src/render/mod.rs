@@ -141,14 +141,12 @@ impl Renderer {
             _ => Arc::new(RayTable::new(camera.cop_view, camera.window, raster)),
         };
         self.table = Some(Arc::clone(&table));
-        crate::phase("prepare start");
         let spheres: Vec<ViewSphere> = index
             .visible(camera)
             .into_par_iter()
             .with_min_len(tiles::PARALLEL)
             .map(|k| ViewSphere::new(camera, &scene.spheres[k as usize], k))
             .collect();
-        crate::phase("visible + view spheres");
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
         let centers: Option<Arc<[(DVec3, f64)]>> =
@@ -172,7 +170,6 @@ impl Renderer {
                 }
             })
             .collect();
-        crate::phase("lights");
         let (bins, columns) = if spheres.len() >= tiles::PARALLEL {
             rayon::join(
                 || TileBins::build(&spheres, &table, raster),
@@ -184,7 +181,6 @@ impl Renderer {
                 ViewColumns::new(&spheres),
             )
         };
-        crate::phase("tiles");
         PreparedFrame {
             isa: self.isa,
             raster,

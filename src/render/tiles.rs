@@ -281,13 +281,11 @@ impl TileBins {
             .filter_map(|(k, s)| Wide::new(k as u32, s, table, raster))
             .collect();
         drop(everywhere);
-        crate::phase("  tiles: prints + wide");
         let dims = (tiles_x, tiles_y);
         let mut bins = Bins::build(dims, spheres.len(), |k| {
             let [i0, i1, j0, j1] = rects[k].map(|v| v as usize);
             (i0 <= i1).then_some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
         });
-        crate::phase("  tiles: binned");
         // Nearest possible hit first; ties by index, so the order is total and deterministic.
         // Sorted tile by tile (binning in one sorted order scatters its reads of the
         // rectangles over every sphere in view), each sort reading the spheres' `min_dist` as
@@ -298,21 +296,21 @@ impl TileBins {
             .with_min_len(PARALLEL)
             .map(|s| total_key(s.min_dist))
             .collect();
-        // Each cell's keys read once into a list of its own, sorted there, then written back.
-        let sort = |items: &mut [u32]| {
-            let mut keyed: Vec<(u64, u32)> = items.iter().map(|&k| (keys[k as usize], k)).collect();
-            keyed.sort_unstable();
-            for (item, (_, k)) in items.iter_mut().zip(keyed) {
-                *item = k;
-            }
-        };
         if spheres.len() >= PARALLEL {
-            bins.par_sort_cells(sort);
+            // Each cell's keys read once into a list of its own (the keys of many spheres are
+            // far apart in memory), sorted there, then written back.
+            bins.par_sort_cells(|items: &mut [u32]| {
+                let mut keyed: Vec<(u64, u32)> =
+                    items.iter().map(|&k| (keys[k as usize], k)).collect();
+                keyed.sort_unstable();
+                for (item, (_, k)) in items.iter_mut().zip(keyed) {
+                    *item = k;
+                }
+            });
         } else {
-            bins.sort_cells(sort);
+            bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (keys[k as usize], k)));
         }
         drop(keys);
-        crate::phase("  tiles: sorted");
         let key = |k: u32| (spheres[k as usize].min_dist, k);
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {

@@ -52,11 +52,7 @@ impl<'a> SceneIndex<'a> {
     /// hierarchy's sort and large subtrees too): the same index as built on one thread.
     pub fn new(scene: &'a Scene) -> SceneIndex<'a> {
         let ((nodes, order), shadows) = rayon::join(
-            || {
-                let h = hierarchy(scene);
-                crate::phase("hierarchy");
-                h
-            },
+            || hierarchy(scene),
             || {
                 scene
                     .lights
@@ -74,11 +70,6 @@ impl<'a> SceneIndex<'a> {
             order,
             shadows,
         }
-    }
-
-    /// Bytes the hierarchy holds: its nodes and sphere order.
-    pub fn hierarchy_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>() + self.order.len() * 4
     }
 
     /// The spheres that can meet a ray of `camera`, in increasing index order. A subtree whose

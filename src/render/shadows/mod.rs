@@ -50,18 +50,22 @@ impl ShadowGrid {
         let always: Vec<u32> = (0..spheres.len() as u32)
             .filter(|k| spheres[*k as usize].radius > big)
             .collect();
+        // Maxima and minima (exact, so the same in any order), on the pool.
         let extent = spheres
-            .iter()
+            .par_iter()
+            .with_min_len(CHUNK)
             .map(|s| s.center_world.abs().max_element() + s.radius)
-            .fold(0.0, f64::max);
-        let small = || spheres.iter().filter(|s| s.radius <= big);
-        let mut lo = DVec2::splat(f64::INFINITY);
-        let mut hi = DVec2::splat(f64::NEG_INFINITY);
-        for s in small() {
-            lo = lo.min(project(s.center_world) - s.radius);
-            hi = hi.max(project(s.center_world) + s.radius);
-        }
-        let count = small().count();
+            .reduce(|| 0.0, f64::max);
+        let none = || (DVec2::INFINITY, DVec2::NEG_INFINITY, 0usize);
+        let (lo, hi, count) = spheres
+            .par_iter()
+            .with_min_len(CHUNK)
+            .filter(|s| s.radius <= big)
+            .fold(none, |(lo, hi, n), s| {
+                let p = project(s.center_world);
+                (lo.min(p - s.radius), hi.max(p + s.radius), n + 1)
+            })
+            .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2));
         if count == 0 {
             return ShadowGrid {
                 axes,
@@ -86,7 +90,8 @@ impl ShadowGrid {
             extent,
             to_light,
             tops: spheres
-                .iter()
+                .par_iter()
+                .with_min_len(CHUNK)
                 .map(|s| s.center_world.dot(to_light) + s.radius)
                 .collect(),
         };
@@ -94,7 +99,8 @@ impl ShadowGrid {
         // Each disc's cells are found in index order, and kept small (the grid is at most 4096
         // a side), so that binning in the other order reads them, not the spheres, at random.
         let rects: Vec<Option<[u16; 4]>> = spheres
-            .iter()
+            .par_iter()
+            .with_min_len(CHUNK)
             .map(|s| {
                 (s.radius <= big).then(|| {
                     let (x0, x1, y0, y1) = grid.cell_range(project(s.center_world), s.radius);
@@ -102,17 +108,14 @@ impl ShadowGrid {
                 })
             })
             .collect();
-        crate::phase("  grid: rects");
         let mut order: Vec<(f64, u32)> = grid.tops.iter().zip(0..).map(|(&t, k)| (t, k)).collect();
         order.par_sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let order: Vec<u32> = order.iter().map(|&(_, k)| k).collect();
-        crate::phase("  grid: sorted");
         // The rectangles in that order, for the bands to read in sequence.
         let rects: Vec<Option<[u16; 4]>> = order.iter().map(|&k| rects[k as usize]).collect();
         let bins = Bins::build_in_bands(dims, &order, |i| {
             rects[i].map(|r| (r[0] as usize, r[1] as usize, r[2] as usize, r[3] as usize))
         });
-        crate::phase(&format!("shadow grid {dims:?} items {}", bins.len()));
         ShadowGrid { bins, ..grid }
     }
 
@@ -225,7 +228,11 @@ pub(super) type Hints = [u32; HINTED_LIGHTS];
 /// tested for every ray instead of being binned, so they do not inflate the grid; the second is
 /// the median radius.
 fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
-    let mut radii: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
+    let mut radii: Vec<f64> = spheres
+        .par_iter()
+        .with_min_len(CHUNK)
+        .map(|s| s.radius)
+        .collect();
     if radii.is_empty() {
         return (f64::INFINITY, 0.0);
     }
@@ -233,6 +240,9 @@ fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
     let median = *radii.select_nth_unstable_by(mid, f64::total_cmp).1;
     (median * 16.0, median)
 }
+
+/// Spheres a task of the grid's build takes on the rayon pool.
+const CHUNK: usize = 1 << 14;
 
 /// The most cells a disc of the median radius may cover: a grid fine enough for eight cells a
 /// disc over the whole extent would, in a dense cluster whose discs overlap many deep, bin each
