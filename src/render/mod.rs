@@ -15,7 +15,6 @@
 //! Render does no file I/O.
 
 use glam::DVec3;
-use rayon::prelude::*;
 use std::sync::Arc;
 
 use crate::camera::Camera;
@@ -141,12 +140,9 @@ impl Renderer {
             _ => Arc::new(RayTable::new(camera.cop_view, camera.window, raster)),
         };
         self.table = Some(Arc::clone(&table));
-        let spheres: Vec<ViewSphere> = index
-            .visible(camera)
-            .into_par_iter()
-            .with_min_len(tiles::PARALLEL)
-            .map(|k| ViewSphere::new(camera, &scene.spheres[k as usize], k))
-            .collect();
+        let spheres: Vec<ViewSphere> = tiles::each(&index.visible(camera), |&k| {
+            ViewSphere::new(camera, &scene.spheres[k as usize], k)
+        });
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
         let centers: Option<Arc<[(DVec3, f64)]>> =

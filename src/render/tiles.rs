@@ -196,6 +196,16 @@ impl Wide {
     }
 }
 
+/// `f` of each item, in order: on the rayon pool in chunks of [`PARALLEL`] when there are that
+/// many, else on this thread without touching the pool.
+pub fn each<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
+    if items.len() >= PARALLEL {
+        items.par_iter().with_min_len(PARALLEL).map(f).collect()
+    } else {
+        items.iter().map(f).collect()
+    }
+}
+
 /// `x` as a u64 in the order of `f64::total_cmp`: the sign bit flipped for positive values, every
 /// bit for negative ones.
 fn total_key(x: f64) -> u64 {
@@ -260,17 +270,14 @@ impl TileBins {
         // Each sphere's pixel rectangle ([1, 0, 1, 0] when culled, every pixel when without
         // bounds), and which have no bounds.
         let all = [0, raster.width - 1, 0, raster.height - 1];
-        let (rects, everywhere): (Vec<[u32; 4]>, Vec<bool>) = spheres
-            .par_iter()
-            .with_min_len(PARALLEL)
-            .map(|s| match footprint(s, cop, window, raster) {
-                Footprint::Culled => ([1, 0, 1, 0], false),
-                Footprint::Everywhere => (all, true),
-                Footprint::Pixels { i0, i1, j0, j1 } => {
-                    ([i0 as u32, i1 as u32, j0 as u32, j1 as u32], false)
-                }
-            })
-            .unzip();
+        let prints = each(spheres, |s| match footprint(s, cop, window, raster) {
+            Footprint::Culled => ([1, 0, 1, 0], false),
+            Footprint::Everywhere => (all, true),
+            Footprint::Pixels { i0, i1, j0, j1 } => {
+                ([i0 as u32, i1 as u32, j0 as u32, j1 as u32], false)
+            }
+        });
+        let (rects, everywhere): (Vec<[u32; 4]>, Vec<bool>) = prints.into_iter().unzip();
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are sorted: left out where no ray of the tile
         // meets them, and ordered by the nearest hit a ray of the tile can have.
@@ -291,11 +298,7 @@ impl TileBins {
         // rectangles over every sphere in view), each sort reading the spheres' `min_dist` as
         // keys of their own (8 bytes a sphere where a view sphere is 112), ordered as
         // `total_cmp` orders the f64, on the pool when many are in view.
-        let keys: Vec<u64> = spheres
-            .par_iter()
-            .with_min_len(PARALLEL)
-            .map(|s| total_key(s.min_dist))
-            .collect();
+        let keys: Vec<u64> = each(spheres, |s| total_key(s.min_dist));
         if spheres.len() >= PARALLEL {
             // Each cell's keys read once into a list of its own (the keys of many spheres are
             // far apart in memory), sorted there, then written back.
