@@ -1,6 +1,8 @@
 //! The row drivers: a row of pixels cast in packets of [`LANES`] rays — at one sample a
 //! pixel a stretch at a time, at s×s samples in groups of pixels, adaptively corners first —
-//! and the dispatch to the row function compiled for each instruction set.
+//! and the dispatch to the row function compiled for each instruction set. A row ends as 8-bit
+//! sRGB levels ([`RowJob::row`]) or as linear colours ([`RowJob::row_linear`]) for a frame
+//! that averages several renders (motion blur) and quantises once.
 //!
 //! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
 //! a row is taken a stretch at a time and stage by stage: every packet's directions, then every
@@ -56,6 +58,32 @@ fn sample(s: usize, p: usize, k: usize) -> Sample {
     ((p * s + k % s) as u16, (k / s) as u16)
 }
 
+/// What a row's pixels end as: 8-bit sRGB levels (`u8`), or linear colours (`f64`), three to
+/// a pixel either way.
+trait Pixel: Copy {
+    /// Up to [`LANES`] pixels' linear colours (a lane per pixel, an array per channel) into
+    /// `out`, as many pixels as it holds.
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [Self]);
+}
+
+impl Pixel for u8 {
+    #[inline(always)]
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+        job.encode_pixels::<V>(tok, linear, out)
+    }
+}
+
+impl Pixel for f64 {
+    #[inline(always)]
+    fn put<V: Lanes>(_: &RowJob, _: V::Token, linear: &[[f64; LANES]; 3], out: &mut [f64]) {
+        for (p, px) in out.chunks_exact_mut(3).enumerate() {
+            for a in 0..3 {
+                px[a] = linear[a][p];
+            }
+        }
+    }
+}
+
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
 const STRETCH: usize = 32 * LANES;
 
@@ -99,13 +127,40 @@ impl RowJob<'_> {
         }
     }
 
+    /// Renders row `j` into `row` as linear colours (RGB, three to a pixel), with the
+    /// instruction set `isa`: the values that [`RowJob::row`] quantises, the same on every
+    /// path.
+    pub fn row_linear(&self, isa: Isa, j: usize, row: &mut [f64]) {
+        match isa {
+            Isa::Portable => self.row_linear_lanes::<Portable>((), j, row),
+            // SAFETY: `t` proves AVX2.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2(t) => unsafe { self.row_linear_avx2(t, j, row) },
+            // SAFETY: `t` proves AVX-512F.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512(t) => unsafe { self.row_linear_avx512(t, j, row) },
+        }
+    }
+
     /// A row of several samples a pixel, adaptive or not.
     #[inline(always)]
     fn row_several<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
         if self.adaptive {
-            self.row_adaptive::<V>(tok, j, row)
+            self.row_adaptive::<V, u8>(tok, j, row)
         } else {
-            self.row_samples::<V>(tok, j, row)
+            self.row_samples::<V, u8>(tok, j, row)
+        }
+    }
+
+    /// A row of linear colours, at any sampling.
+    #[inline(always)]
+    fn row_linear_lanes<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [f64]) {
+        if self.samples == 1 {
+            self.row_one_linear::<V>(tok, j, row)
+        } else if self.adaptive {
+            self.row_adaptive::<V, f64>(tok, j, row)
+        } else {
+            self.row_samples::<V, f64>(tok, j, row)
         }
     }
 
@@ -137,12 +192,45 @@ impl RowJob<'_> {
         self.row_several::<super::lanes::Zmm>(t, j, row)
     }
 
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn row_linear_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [f64]) {
+        self.row_linear_lanes::<super::lanes::Ymm2>(t, j, row)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn row_linear_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [f64]) {
+        self.row_linear_lanes::<super::lanes::Zmm>(t, j, row)
+    }
+
+    /// Row `j` at one sample a pixel as linear colours: a tile's pixels cast together
+    /// ([`RowJob::cast`]), with the directions, hits and colours of [`RowJob::row_packets`].
+    #[inline(always)]
+    fn row_one_linear<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [f64]) {
+        let list: Vec<Sample> = (0..TILE).map(|p| sample(1, p, 0)).collect();
+        let mut colors = [[0.0; 3]; TILE];
+        let mut stages = Stages::<V>::new(tok);
+        for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
+            let pixels = out.len() / 3;
+            let span = Span {
+                row: j,
+                first: g * TILE,
+                pixels,
+            };
+            self.cast::<V, false>(span, &list[..pixels], &mut stages, &mut colors, &mut []);
+            for (px, c) in out.chunks_exact_mut(3).zip(&colors) {
+                px.copy_from_slice(c);
+            }
+        }
+    }
+
     /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
     /// each sample's colour, summed in sample order and divided by s². The samples of a group of
     /// pixels in one tile (4 pixels up to 8×8, 2 up to 11×11, else 1) are cast together
     /// ([`RowJob::cast`]), stage by stage.
     #[inline(always)]
-    fn row_samples<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+    fn row_samples<V: Lanes, P: Pixel>(&self, tok: V::Token, j: usize, row: &mut [P]) {
         let s = self.samples;
         let s2 = s * s;
         // Four pixels a group, or as many as fit (a group stays inside a tile).
@@ -178,7 +266,7 @@ impl RowJob<'_> {
                     linear[a][p] = sum[a] / s2 as f64;
                 }
             }
-            self.encode_pixels::<V>(tok, &linear, out);
+            P::put::<V>(self, tok, &linear, out);
         }
     }
 
@@ -188,7 +276,7 @@ impl RowJob<'_> {
     /// A tile's pixels go together: all their corners, then the other samples of the pixels
     /// whose corners disagree.
     #[inline(always)]
-    fn row_adaptive<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+    fn row_adaptive<V: Lanes, P: Pixel>(&self, tok: V::Token, j: usize, row: &mut [P]) {
         let s = self.samples;
         let s2 = s * s;
         let corners = [0, s - 1, s * (s - 1), s2 - 1];
@@ -263,7 +351,7 @@ impl RowJob<'_> {
                         lanes[a][l] = c[a];
                     }
                 }
-                self.encode_pixels::<V>(tok, &lanes, out);
+                P::put::<V>(self, tok, &lanes, out);
             }
         }
     }

@@ -1,0 +1,28 @@
+//! Motion blur's rows: the mean, in linear light, of a frame's renders at its time samples,
+//! quantised to 8-bit sRGB once.
+//!
+//! Each row is one task's, and its time samples are added in their order (time order), then
+//! divided by their number: the bytes do not depend on the thread count, and since every
+//! instruction path gives the same linear colours, not on the path either.
+
+use super::drivers::RowJob;
+use super::lanes::Isa;
+
+/// Row `j` of a frame averaged over `jobs` (one per time sample, in time order) into `row`,
+/// RGB8: each time sample's linear colours (its full pixel pattern: s×s samples, adaptive
+/// included), summed in order, divided by their number, then the exact sRGB level of the mean.
+pub fn mean_row(isa: Isa, jobs: &[RowJob], j: usize, row: &mut [u8]) {
+    let mut sum = vec![0.0; row.len()];
+    let mut linear = vec![0.0; row.len()];
+    for job in jobs {
+        job.row_linear(isa, j, &mut linear);
+        for (s, l) in sum.iter_mut().zip(&linear) {
+            *s += l;
+        }
+    }
+    let n = jobs.len() as f64;
+    let encode = jobs[0].encode;
+    for (level, s) in row.iter_mut().zip(&sum) {
+        *level = encode.encode(s / n);
+    }
+}
