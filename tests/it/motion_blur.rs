@@ -241,14 +241,11 @@ fn the_key_changes_with_the_setting() {
                 .collect::<Vec<_>>()
         })
         .collect();
-    for frame in 0..4 {
-        for a in 0..settings.len() {
-            for b in a + 1..settings.len() {
-                assert_ne!(
-                    all[a][frame], all[b][frame],
-                    "frame {frame}: {:?} and {:?}",
-                    settings[a], settings[b]
-                );
+    for (a, keys_a) in all.iter().enumerate() {
+        for (b, keys_b) in all.iter().enumerate().skip(a + 1) {
+            for (frame, (x, y)) in keys_a.iter().zip(keys_b).enumerate() {
+                let (sa, sb) = (settings[a], settings[b]);
+                assert_ne!(x, y, "frame {frame}: {sa:?} and {sb:?}");
             }
         }
     }
