@@ -6,11 +6,12 @@
 //! instruction path gives the same linear colours, not on the path either.
 
 use super::drivers::RowJob;
-use super::lanes::Isa;
+use super::lanes::{Isa, Lanes, Portable, LANES};
 
 /// Row `j` of a frame averaged over `jobs` (one per time sample, in time order) into `row`,
 /// RGB8: each time sample's linear colours (its full pixel pattern: s×s samples, adaptive
-/// included), summed in order, divided by their number, then the exact sRGB level of the mean.
+/// included), summed in order, divided by their number, then the exact sRGB level of the mean
+/// (the encoder's packets on the portable lanes: the same levels as one value at a time).
 pub fn mean_row(isa: Isa, jobs: &[RowJob], j: usize, row: &mut [u8]) {
     let mut sum = vec![0.0; row.len()];
     let mut linear = vec![0.0; row.len()];
@@ -22,7 +23,15 @@ pub fn mean_row(isa: Isa, jobs: &[RowJob], j: usize, row: &mut [u8]) {
     }
     let n = jobs.len() as f64;
     let encode = jobs[0].encode;
-    for (level, s) in row.iter_mut().zip(&sum) {
-        *level = encode.encode(s / n);
+    for (means, out) in sum.chunks(3 * LANES).zip(row.chunks_mut(3 * LANES)) {
+        let mut rgb = [0u8; 3 * LANES];
+        for a in 0..3 {
+            let mut channel = [0.0; LANES];
+            for (c, px) in channel.iter_mut().zip(means.chunks_exact(3)) {
+                *c = px[a] / n;
+            }
+            encode.encode_into(Portable::load((), &channel), &mut rgb, a);
+        }
+        out.copy_from_slice(&rgb[..out.len()]);
     }
 }
