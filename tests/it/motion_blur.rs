@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use crate::common::{campath, stderr, stdout};
 use campath::document::Document;
 use campath::frames::{for_each_frame, keys, FrameSet};
 use campath::lock::Wait;
@@ -289,4 +290,27 @@ fn a_camera_undefined_at_a_time_sample_is_an_error_naming_it() {
     let blurred = Document::from_str(Path::new("z.ron"), &text(blur)).unwrap();
     let err = blurred.check_path().unwrap_err().to_string();
     assert!(err.contains("frame 0 (t = 0.25 s)"), "{err}");
+}
+
+/// `path` reports frame times with motion blur as without: the same CSV, one row a frame.
+#[test]
+fn path_reports_frame_times() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = |image: &str| {
+        MOVING
+            .replace("{fps}", "24.0")
+            .replace("{frames}", "6")
+            .replace("{image}", image)
+    };
+    std::fs::write(tmp.path().join("plain.ron"), text("")).unwrap();
+    let blur = ", motion_blur: (shutter: 1.0, samples: 3)";
+    std::fs::write(tmp.path().join("blur.ron"), text(blur)).unwrap();
+    let csv = |f: &str| {
+        let o = campath(tmp.path(), &["path", f], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    let plain = csv("plain.ron");
+    assert_eq!(plain.lines().count(), 7);
+    assert_eq!(csv("blur.ron"), plain);
 }
