@@ -9,9 +9,10 @@
 //! packet by packet, the same work ran 15–20% slower.
 
 use super::kernels::{Found, Shading};
-use super::lanes::{Isa, Lanes, Portable, LANES};
+use super::lanes::{ForLanes, Lanes, LANES};
 use super::rays::{row_direction, unit, RayTable};
 use super::shadows::{HINTED_LIGHTS, NO_HINT};
+use super::simd::Isa;
 use super::srgb::SrgbEncoder;
 use super::tiles::{TileBins, TILE};
 use crate::raster::MAX_SAMPLES;
@@ -73,29 +74,52 @@ pub struct RowJob<'a> {
     pub adaptive: bool,
 }
 
+/// Row `j` of a job, to be written into `row`.
+struct RowWork<'r, 'a> {
+    job: &'r RowJob<'a>,
+    j: usize,
+    row: &'r mut [u8],
+}
+
+/// A row at one sample a pixel.
+struct OneSample<'r, 'a>(RowWork<'r, 'a>);
+
+/// A row at several samples a pixel.
+struct Several<'r, 'a>(RowWork<'r, 'a>);
+
+impl ForLanes for OneSample<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let RowWork { job, j, row } = self.0;
+        job.row_packets::<V>(tok, j, row)
+    }
+}
+
+impl ForLanes for Several<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let RowWork { job, j, row } = self.0;
+        job.row_several::<V>(tok, j, row)
+    }
+}
+
 // Two packets side by side lie in one tile, and a stretch holds whole pairs.
 const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
 
 impl RowJob<'_> {
     /// Renders row `j` into `row` (RGB8) in packets, with the instruction set `isa`, which
-    /// proves that the CPU runs it.
+    /// proves that the CPU runs it. One sample a pixel and several are each a work of their
+    /// own, compiled on its own, so the single-sample loop keeps its registers and layout.
     pub fn row(&self, isa: Isa, j: usize, row: &mut [u8]) {
-        let one = self.samples == 1;
-        match isa {
-            Isa::Portable if one => self.row_packets::<Portable>((), j, row),
-            Isa::Portable => self.row_several::<Portable>((), j, row),
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) if one => unsafe { self.row_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) => unsafe { self.row_samples_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) if one => unsafe { self.row_avx512(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) => unsafe { self.row_samples_avx512(t, j, row) },
+        let work = RowWork { job: self, j, row };
+        if self.samples == 1 {
+            isa.run(OneSample(work))
+        } else {
+            isa.run(Several(work))
         }
     }
 
@@ -107,34 +131,6 @@ impl RowJob<'_> {
         } else {
             self.row_samples::<V>(tok, j, row)
         }
-    }
-
-    // One function per path and per kind of row: each is compiled on its own, so the
-    // single-sample loop keeps its registers and layout. Each takes the token that proves its
-    // instruction set: `#[target_feature]` makes it unsafe to call without one.
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Zmm>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_samples_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_samples_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Zmm>(t, j, row)
     }
 
     /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:

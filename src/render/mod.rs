@@ -43,10 +43,11 @@ pub use world::SceneIndex;
 
 use drivers::RowJob;
 use kernels::Shading;
-use lanes::{Isa, LANES};
+use lanes::LANES;
 use rays::RayTable;
 use rows::rows_in_order;
 use shadows::FrameShadows;
+use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight, ViewSphere};
 
