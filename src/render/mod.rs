@@ -174,8 +174,7 @@ impl Renderer {
             isa: self.isa,
             raster,
             table,
-            columns: ViewColumns::new(&spheres),
-            spheres,
+            spheres: ViewColumns::new(&spheres),
             lights,
             bins,
             ambient: scene.ambient,
@@ -193,8 +192,7 @@ pub struct PreparedFrame<'a> {
     isa: Isa,
     raster: Raster,
     table: Arc<RayTable>,
-    spheres: Vec<ViewSphere>,
-    columns: ViewColumns,
+    spheres: ViewColumns,
     lights: Vec<ViewLight<'a>>,
     bins: TileBins,
     ambient: f64,
@@ -237,7 +235,6 @@ impl PreparedFrame<'_> {
         let rows = raster.height as usize;
         let ctx = Shading {
             spheres: &self.spheres,
-            columns: &self.columns,
             lights: &self.lights,
             ambient: self.ambient,
             background: self.background,
