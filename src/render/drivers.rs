@@ -11,9 +11,10 @@
 //! packet by packet, the same work ran 15–20% slower.
 
 use super::kernels::{Found, Shading};
-use super::lanes::{Isa, Lanes, Portable, LANES};
+use super::lanes::{ForLanes, Lanes, LANES};
 use super::rays::{row_direction, unit, RayTable};
 use super::shadows::{HINTED_LIGHTS, NO_HINT};
+use super::simd::Isa;
 use super::srgb::SrgbEncoder;
 use super::tiles::{TileBins, TILE};
 use crate::raster::MAX_SAMPLES;
@@ -101,29 +102,75 @@ pub struct RowJob<'a> {
     pub adaptive: bool,
 }
 
+/// Row `j` of a job, to be written into `row`.
+struct RowWork<'r, 'a> {
+    job: &'r RowJob<'a>,
+    j: usize,
+    row: &'r mut [u8],
+}
+
+/// A row at one sample a pixel.
+struct OneSample<'r, 'a>(RowWork<'r, 'a>);
+
+/// A row at several samples a pixel.
+struct Several<'r, 'a>(RowWork<'r, 'a>);
+
+impl ForLanes for OneSample<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let RowWork { job, j, row } = self.0;
+        job.row_packets::<V>(tok, j, row)
+    }
+}
+
+impl ForLanes for Several<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let RowWork { job, j, row } = self.0;
+        job.row_several::<V>(tok, j, row)
+    }
+}
+
+/// A row as linear colours, at any sampling (motion blur's time samples).
+struct Linear<'r, 'a> {
+    job: &'r RowJob<'a>,
+    j: usize,
+    row: &'r mut [f64],
+}
+
+impl ForLanes for Linear<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let Linear { job, j, row } = self;
+        if job.samples == 1 {
+            job.row_one_linear::<V>(tok, j, row)
+        } else if job.adaptive {
+            job.row_adaptive::<V, f64>(tok, j, row)
+        } else {
+            job.row_samples::<V, f64>(tok, j, row)
+        }
+    }
+}
+
 // Two packets side by side lie in one tile, and a stretch holds whole pairs.
 const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
 
 impl RowJob<'_> {
     /// Renders row `j` into `row` (RGB8) in packets, with the instruction set `isa`, which
-    /// proves that the CPU runs it.
+    /// proves that the CPU runs it. One sample a pixel and several are each a work of their
+    /// own, compiled on its own, so the single-sample loop keeps its registers and layout.
     pub fn row(&self, isa: Isa, j: usize, row: &mut [u8]) {
-        let one = self.samples == 1;
-        match isa {
-            Isa::Portable if one => self.row_packets::<Portable>((), j, row),
-            Isa::Portable => self.row_several::<Portable>((), j, row),
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) if one => unsafe { self.row_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) => unsafe { self.row_samples_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) if one => unsafe { self.row_avx512(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) => unsafe { self.row_samples_avx512(t, j, row) },
+        let work = RowWork { job: self, j, row };
+        if self.samples == 1 {
+            isa.run(OneSample(work))
+        } else {
+            isa.run(Several(work))
         }
     }
 
@@ -131,15 +178,7 @@ impl RowJob<'_> {
     /// instruction set `isa`: the values that [`RowJob::row`] quantises, the same on every
     /// path.
     pub fn row_linear(&self, isa: Isa, j: usize, row: &mut [f64]) {
-        match isa {
-            Isa::Portable => self.row_linear_lanes::<Portable>((), j, row),
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) => unsafe { self.row_linear_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) => unsafe { self.row_linear_avx512(t, j, row) },
-        }
+        isa.run(Linear { job: self, j, row })
     }
 
     /// A row of several samples a pixel, adaptive or not.
@@ -150,58 +189,6 @@ impl RowJob<'_> {
         } else {
             self.row_samples::<V, u8>(tok, j, row)
         }
-    }
-
-    /// A row of linear colours, at any sampling.
-    #[inline(always)]
-    fn row_linear_lanes<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [f64]) {
-        if self.samples == 1 {
-            self.row_one_linear::<V>(tok, j, row)
-        } else if self.adaptive {
-            self.row_adaptive::<V, f64>(tok, j, row)
-        } else {
-            self.row_samples::<V, f64>(tok, j, row)
-        }
-    }
-
-    // One function per path and per kind of row: each is compiled on its own, so the
-    // single-sample loop keeps its registers and layout. Each takes the token that proves its
-    // instruction set: `#[target_feature]` makes it unsafe to call without one.
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Zmm>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_samples_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_samples_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Zmm>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_linear_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [f64]) {
-        self.row_linear_lanes::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_linear_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [f64]) {
-        self.row_linear_lanes::<super::lanes::Zmm>(t, j, row)
     }
 
     /// Row `j` at one sample a pixel as linear colours: a tile's pixels cast together

@@ -46,10 +46,11 @@ pub use world::SceneIndex;
 
 use drivers::RowJob;
 use kernels::Shading;
-use lanes::{Isa, LANES};
+use lanes::LANES;
 use rays::RayTable;
 use rows::rows_in_order;
 use shadows::FrameShadows;
+use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight, ViewSphere};
 
@@ -208,8 +209,7 @@ impl Renderer {
         let bins = TileBins::build(&spheres, &table, raster);
         TimeSample {
             table,
-            columns: ViewColumns::new(&spheres),
-            spheres,
+            spheres: ViewColumns::new(&spheres),
             lights,
             bins,
         }
@@ -233,8 +233,7 @@ pub struct PreparedFrame<'a> {
 /// The scene as one camera of a frame sees it, ready for its rays.
 struct TimeSample<'a> {
     table: Arc<RayTable>,
-    spheres: Vec<ViewSphere>,
-    columns: ViewColumns,
+    spheres: ViewColumns,
     lights: Vec<ViewLight<'a>>,
     bins: TileBins,
 }
@@ -289,7 +288,6 @@ impl PreparedFrame<'_> {
             .iter()
             .map(|t| Shading {
                 spheres: &t.spheres,
-                columns: &t.columns,
                 lights: &t.lights,
                 ambient: self.ambient,
                 background: self.background,

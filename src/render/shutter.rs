@@ -6,7 +6,8 @@
 //! instruction path gives the same linear colours, not on the path either.
 
 use super::drivers::RowJob;
-use super::lanes::{Isa, Lanes, Portable, LANES};
+use super::lanes::{Lanes, Portable, LANES};
+use super::simd::Isa;
 
 /// Row `j` of a frame averaged over `jobs` (one per time sample, in time order) into `row`,
 /// RGB8: each time sample's linear colours (its full pixel pattern: s×s samples, adaptive
