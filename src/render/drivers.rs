@@ -1,8 +1,9 @@
 //! The row drivers: a row of pixels cast in packets of [`LANES`] rays — at one sample a
 //! pixel a stretch at a time, at s×s samples in groups of pixels, adaptively corners first —
-//! and the dispatch to the row function compiled for each instruction set. A row ends as 8-bit
-//! sRGB levels ([`RowJob::row`]) or as linear colours ([`RowJob::row_linear`]) for a frame
-//! that averages several renders (motion blur) and quantises once.
+//! each kind of row a [`ForLanes`] work that `Isa::run` (simd.rs) runs compiled for the
+//! instruction set. A row ends as 8-bit sRGB levels ([`RowJob::row`]) or as linear colours
+//! ([`RowJob::row_linear`]) for a frame that averages several renders (motion blur) and
+//! quantises once.
 //!
 //! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
 //! a row is taken a stretch at a time and stage by stage: every packet's directions, then every
@@ -164,7 +165,8 @@ const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2
 impl RowJob<'_> {
     /// Renders row `j` into `row` (RGB8) in packets, with the instruction set `isa`, which
     /// proves that the CPU runs it. One sample a pixel and several are each a work of their
-    /// own, compiled on its own, so the single-sample loop keeps its registers and layout.
+    /// own, so that on the x86 paths each is a function of its own and the single-sample loop
+    /// keeps its registers and layout.
     pub fn row(&self, isa: Isa, j: usize, row: &mut [u8]) {
         let work = RowWork { job: self, j, row };
         if self.samples == 1 {

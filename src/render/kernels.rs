@@ -48,8 +48,9 @@ impl Shading<'_> {
         let mut hit = [0u8; 2];
         let mut index = [V::index(tok, 0); 2];
         let mut best = [V::splat(tok, f64::INFINITY); 2];
+        let s = self.spheres;
         for &k in candidates {
-            let (s, j) = (self.spheres, k as usize);
+            let j = k as usize;
             let min_dist = V::splat(tok, s.min_dist[j]);
             let mut active = [0u8; 2];
             for q in 0..2 {
@@ -65,7 +66,7 @@ impl Shading<'_> {
             if active[0] | active[1] == 0 {
                 continue;
             }
-            let f = splat3::<V>(tok, ViewColumns::vec3(&s.f, j));
+            let f = splat3::<V>(tok, s.f_at(j));
             let (c, radius2, k) = (
                 V::splat(tok, s.c[j]),
                 V::splat(tok, s.radius2[j]),
@@ -184,7 +185,7 @@ impl Shading<'_> {
 /// lane that missed reads sphere 0 (there is one: some lane hit); its results are never used.
 enum SphereLanes<'a, V: Lanes> {
     One(&'a ViewColumns, usize),
-    /// The second sphere's lanes, and the two spheres.
+    /// The second sphere's lanes, and the indices of the two spheres.
     Two(&'a ViewColumns, u8, usize, usize),
     Each(&'a ViewColumns, InBounds<V::Index>),
 }
@@ -205,7 +206,7 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
         } else {
             let own = V::index_blend(hit, V::index(tok, 0), index);
             let len = spheres.len();
-            let own = InBounds::new(own, &V::index_store(own), len).expect("hits index spheres");
+            let own = InBounds::new::<V>(own, len).expect("hits index spheres");
             SphereLanes::Each(spheres, own)
         }
     }

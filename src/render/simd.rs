@@ -1,17 +1,21 @@
 //! The instruction paths a user can choose (`CAMPATH_SIMD`), and which of them this CPU runs:
 //! each path's instruction set comes with its proof ([`Isa`]), made by feature detection.
 
+#[cfg(target_arch = "x86_64")]
+use super::lanes::{same_features, Token};
 use super::lanes::{ForLanes, Portable};
 
-/// The instruction paths beside the portable ones, one line each: the `Simd` variant (with its
-/// documentation), its `CAMPATH_SIMD` name, the targets it exists on, its token and `Lanes` form
-/// in `lanes/`, and the `#[target_feature]` its functions are compiled with. From this list come
-/// `Simd`, `Isa`, the detection and the dispatch (`Isa::run`): adding an instruction set is a
-/// file of `lanes/` and a line here.
+/// The instruction paths beside the portable ones, one line each, slowest first: the `Simd`
+/// variant (with its documentation), its `CAMPATH_SIMD` name, the targets it exists on, its
+/// token and `Lanes` form in `lanes/`, the `#[target_feature]` its functions are compiled with
+/// (the token's `FEATURES`, checked), and the name of those functions (for profiles). From this
+/// list come `Simd`, `Isa`, the detection and the dispatch (`Isa::run`): adding an instruction
+/// set is a file of `lanes/` and a line here (ARCHITECTURE.md).
 macro_rules! instruction_paths {
     ($(
         $(#[doc = $doc:literal])*
-        $variant:ident = $name:literal, cfg($cfg:meta), $token:ident, $form:ident, $feature:literal;
+        $variant:ident = $name:literal, cfg($cfg:meta), $token:ident, $form:ident, $feature:literal,
+        $rows:ident;
     )*) => {
         /// How the renderer casts its rays. Every choice gives the same bytes; they differ in
         /// speed.
@@ -36,7 +40,7 @@ macro_rules! instruction_paths {
 
         impl Simd {
             /// Every path, slowest first.
-            pub const ALL: [Simd; 2 + [$($name),*].len()] =
+            pub const ALL: [Simd; 2 + <[&str]>::len(&[$($name),*])] =
                 [Simd::Scalar, Simd::Baseline, $(Simd::$variant),*];
 
             /// The path's instruction set, with the proof that this CPU runs it; None when it
@@ -46,7 +50,7 @@ macro_rules! instruction_paths {
                     Simd::Scalar | Simd::Baseline => Some(Isa::Portable),
                     $(Simd::$variant => {
                         #[cfg($cfg)]
-                        let isa = super::lanes::$token::detect().map(Isa::$variant);
+                        let isa = <super::lanes::$token as Token>::detect().map(Isa::$variant);
                         #[cfg(not($cfg))]
                         let isa = None;
                         isa
@@ -74,13 +78,19 @@ macro_rules! instruction_paths {
                     Isa::Portable => work.run::<Portable>(()),
                     $(#[cfg($cfg)]
                     Isa::$variant(t) => {
+                        // The features compiled for are the ones the token's detection found.
+                        const _: () = assert!(same_features(
+                            <super::lanes::$token as Token>::FEATURES,
+                            $feature
+                        ));
                         #[target_feature(enable = $feature)]
-                        fn compiled<W: ForLanes>(t: super::lanes::$token, work: W) -> W::Output {
+                        fn $rows<W: ForLanes>(t: super::lanes::$token, work: W) -> W::Output {
                             work.run::<super::lanes::$form>(t)
                         }
-                        // SAFETY: `t` proves that the CPU runs the feature: only detection
-                        // makes a token.
-                        unsafe { compiled(t, work) }
+                        // SAFETY: `t` proves that the CPU runs `$feature`: only detection
+                        // makes a token (`Token`'s contract), and the assertion above ties
+                        // the two lists of features together.
+                        unsafe { $rows(t, work) }
                     })*
                 }
             }
@@ -90,9 +100,9 @@ macro_rules! instruction_paths {
 
 instruction_paths! {
     /// Packets compiled for AVX2.
-    Avx2 = "avx2", cfg(target_arch = "x86_64"), Avx2, Ymm2, "avx2";
+    Avx2 = "avx2", cfg(target_arch = "x86_64"), Avx2, Ymm2, "avx2", rows_avx2;
     /// Packets compiled for AVX-512F.
-    Avx512 = "avx512", cfg(target_arch = "x86_64"), Avx512, Zmm, "avx512f";
+    Avx512 = "avx512", cfg(target_arch = "x86_64"), Avx512, Zmm, "avx512f", rows_avx512;
 }
 
 impl Simd {

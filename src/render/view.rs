@@ -95,10 +95,10 @@ impl ViewColumns {
         self.id.len()
     }
 
-    /// The three fields `xyz` of sphere `k`.
+    /// Sphere `k`'s f (COP − centre).
     #[inline(always)]
-    pub(super) fn vec3(xyz: &[Vec<f64>; 3], k: usize) -> DVec3 {
-        DVec3::new(xyz[0][k], xyz[1][k], xyz[2][k])
+    pub(super) fn f_at(&self, k: usize) -> DVec3 {
+        DVec3::new(self.f[0][k], self.f[1][k], self.f[2][k])
     }
 }
 

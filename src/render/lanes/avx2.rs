@@ -1,16 +1,23 @@
 //! Two AVX2 registers of four f64 lanes each (`Ymm2`), and the token that proves AVX2.
-//! Everything the instruction set needs is in this file and its arm in `simd.rs`.
+//! Everything the instruction set needs is in this file and its line in `simd.rs`.
 
 use std::arch::x86_64::*;
 
-use super::contract::{InBounds, Lanes, LANES};
+use super::contract::sealed::Sealed;
+use super::contract::{InBounds, Lanes, Token, LANES};
 
-/// Proof that this CPU runs AVX2: made only by [`Avx2::detect`].
+/// Proof that this CPU runs AVX2: made only by [`Token::detect`].
 #[derive(Debug, Clone, Copy)]
 pub struct Avx2(());
 
-impl Avx2 {
-    pub fn detect() -> Option<Avx2> {
+impl Sealed for Avx2 {}
+
+// SAFETY: `detect` makes the only Avx2 there is, and only when the CPU runs AVX2.
+unsafe impl Token for Avx2 {
+    const FEATURES: &'static str = "avx2";
+
+    #[inline]
+    fn detect() -> Option<Avx2> {
         std::arch::is_x86_feature_detected!("avx2").then_some(Avx2(()))
     }
 }
@@ -60,6 +67,8 @@ impl Ymm2 {
 
 // In the closures below, `self` (a `Ymm2`) proves AVX2: each is called only by `each`,
 // `both` or `test` on it.
+impl Sealed for Ymm2 {}
+
 impl Lanes for Ymm2 {
     type Token = Avx2;
     type Index = Ymm2Index;

@@ -1,17 +1,29 @@
 //! One AVX-512 register of eight f64 lanes (`Zmm`), and the token that proves AVX-512F.
-//! Everything the instruction set needs is in this file and its arm in `simd.rs`.
+//! Everything the instruction set needs is in this file and its line in `simd.rs`.
 
 use std::arch::x86_64::*;
 
-use super::contract::{InBounds, Lanes, LANES};
+use super::contract::sealed::Sealed;
+use super::contract::{InBounds, Lanes, Token, LANES};
 
-/// Proof that this CPU runs AVX-512F: made only by [`Avx512::detect`].
+/// Proof that this CPU runs AVX-512F: made only by [`Token::detect`].
 #[derive(Debug, Clone, Copy)]
 pub struct Avx512(());
 
-impl Avx512 {
-    pub fn detect() -> Option<Avx512> {
-        std::arch::is_x86_feature_detected!("avx512f").then_some(Avx512(()))
+impl Sealed for Avx512 {}
+
+// SAFETY: `detect` makes the only Avx512 there is, and only when the CPU runs AVX-512F and
+// what `avx512f` implies to the compiler (AVX2, FMA, F16C: a virtual machine may hide one).
+unsafe impl Token for Avx512 {
+    const FEATURES: &'static str = "avx512f";
+
+    #[inline]
+    fn detect() -> Option<Avx512> {
+        (std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("f16c"))
+        .then_some(Avx512(()))
     }
 }
 
@@ -24,12 +36,14 @@ pub struct Zmm(__m512d, Avx512);
 pub struct ZmmIndex(__m512i, Avx512);
 
 impl Zmm {
-    /// `f` of the register, kept with the proof.
+    /// `v` as a value of this form, kept with the proof.
     #[inline(always)]
     fn with(self, v: __m512d) -> Zmm {
         Zmm(v, self.1)
     }
 }
+
+impl Sealed for Zmm {}
 
 impl Lanes for Zmm {
     type Token = Avx512;

@@ -1,5 +1,48 @@
-//! The `Lanes` trait and its contract (the module documentation of `lanes/`), the checked
-//! gather indices, and the work written once for every form.
+//! The `Lanes` trait and the `Token` trait, whose contract the module documentation of
+//! `lanes/` states; the checked gather indices; the work written once for every form.
+
+/// Seals [`Lanes`] and [`Token`]: only the forms in `lanes/` implement them, so no other code
+/// can make a token without detection or give a form a false `index_store`.
+pub(in crate::render::lanes) mod sealed {
+    pub trait Sealed {}
+}
+
+/// The proof that this CPU runs an instruction set: a value exists only where `detect` found
+/// the set.
+///
+/// # Safety
+///
+/// `detect` returns a token only when the CPU runs every feature of `FEATURES` (the names
+/// `#[target_feature(enable = …)]` takes) and every feature those imply, and a token is made
+/// nowhere else. The dispatch (`Isa::run`) compiles its functions with exactly `FEATURES`
+/// (checked at compile time) and calls them on the strength of a token.
+// Only the x86 forms have tokens to prove.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(in crate::render) unsafe trait Token: Copy + sealed::Sealed {
+    /// The features, as `#[target_feature(enable = …)]` names them.
+    const FEATURES: &'static str;
+
+    /// The token, when this CPU runs the features.
+    fn detect() -> Option<Self>;
+}
+
+/// Whether two feature lists are the same text: the dispatch's compile-time check that it
+/// enables what the token's detection found.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(in crate::render) const fn same_features(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
 
 /// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides
 /// the tile side, so a packet never straddles two tiles.
@@ -10,7 +53,7 @@ pub(in crate::render) const LANES: usize = 8;
 /// Every method is safe: a value of `Self` (or of `Self::Index`) exists only where the CPU runs
 /// the instructions its methods use, because the only ways to make one from nothing take a
 /// `Self::Token`, which only feature detection makes (see the module's documentation).
-pub(in crate::render) trait Lanes: Copy {
+pub(in crate::render) trait Lanes: Copy + sealed::Sealed {
     /// The proof that the CPU runs this form's instructions.
     type Token: Copy;
     type Index: Copy;
@@ -74,10 +117,10 @@ pub(in crate::render) struct InBounds<I> {
 }
 
 impl<I: Copy> InBounds<I> {
-    /// `own` (whose lanes are `lanes`), if every lane is below `len`.
+    /// `own`, indices of the form `V`, if every lane is below `len`.
     #[inline(always)]
-    pub(in crate::render) fn new(own: I, lanes: &[u64; LANES], len: usize) -> Option<InBounds<I>> {
-        lanes
+    pub(in crate::render) fn new<V: Lanes<Index = I>>(own: I, len: usize) -> Option<InBounds<I>> {
+        V::index_store(own)
             .iter()
             .all(|&k| k < len as u64)
             .then_some(InBounds { own, len })

@@ -11,12 +11,13 @@
 //! # Safety, by construction
 //!
 //! The x86 forms run instructions that not every x86-64 CPU has. Each holds a token (`Avx2`,
-//! `Avx512`) that only feature detection makes (`Avx2::detect`), and a value of a form can be
-//! made only from its token (`Lanes::splat`, `load`, `index`) or from another value of it, so
-//! holding a `Zmm` proves that the CPU runs AVX-512F, and a `Ymm2` AVX2. That is the whole
-//! contract of the trait's methods: safe to call wherever a value of the type exists. Each
-//! `unsafe` block inside them says which value proves the feature there, and what else it needs
-//! (a load's length, a gather's checked indices).
+//! `Avx512`: [`Token`], an unsafe trait) that only feature detection makes (`Token::detect`),
+//! and a value of a form can be made only from its token (`Lanes::splat`, `load`, `index`) or
+//! from another value of it, so holding a `Zmm` proves that the CPU runs AVX-512F, and a `Ymm2`
+//! AVX2. That is the whole contract of the trait's methods: safe to call wherever a value of the
+//! type exists. Each `unsafe` block inside them says which value proves the feature there, and
+//! what else it needs (a load's length, a gather's indices, checked by [`InBounds`] against the
+//! form's own `index_store`). Both traits are sealed: only the files here implement them.
 //!
 //! Speed, not soundness, asks one more thing: the methods call intrinsics without
 //! `#[target_feature]`, so they must be inlined into the functions compiled for the instruction
@@ -25,10 +26,12 @@
 //! which turns every intrinsic in it into a call: no closure in the packet code calls one, and
 //! `.ci/run` checks that nothing calls an intrinsic out of line.
 //!
-//! Each form is a file: `portable.rs`, `avx2.rs`, `avx512.rs`.
+//! Each form is a file (`portable.rs`, `avx2.rs`, `avx512.rs`), declared below.
 
 mod contract;
 pub(super) use contract::{dot, splat3, ForLanes, InBounds, Lanes, LANES};
+#[cfg(target_arch = "x86_64")]
+pub(super) use contract::{same_features, Token};
 
 mod portable;
 pub(super) use portable::Portable;

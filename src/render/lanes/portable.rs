@@ -4,6 +4,7 @@
 // The lane loops index their arrays by lane, as the compiler vectorises them best.
 #![allow(clippy::needless_range_loop)]
 
+use super::contract::sealed::Sealed;
 use super::contract::{InBounds, Lanes, LANES};
 
 /// Plain arrays, for the baseline path and targets without an x86 form.
@@ -38,6 +39,8 @@ impl Portable {
         m
     }
 }
+
+impl Sealed for Portable {}
 
 impl Lanes for Portable {
     /// Plain arrays run everywhere: nothing to prove.
