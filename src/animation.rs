@@ -8,12 +8,15 @@
 //! | track | TP; VPN = TP − VRP |
 //! | zoom | the COP's n (along VPN) |
 //! | distort | the COP's (u, v) (orthogonal to VPN) |
+//!
+//! With motion blur a frame also has a camera per time sample ([`Animation::exposure`]).
 
 use glam::{DVec2, DVec3};
 
 use crate::camera::{Basis, Camera, CameraError};
 use crate::keyframes::{DirectionTrack, PathTrack, Track};
 use crate::mode::Mode;
+use crate::raster::MotionBlur;
 
 /// Where the base camera points, when no track sets it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,6 +54,36 @@ pub struct Animation {
     pub zoom: Option<Track<f64>>,
     /// Animates the COP's (u, v).
     pub distort: Option<Track<DVec2>>,
+}
+
+/// A frame's cameras: its own, at the frame's time, and with motion blur one per time sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Exposure {
+    /// The frame's camera, at t = k / fps.
+    pub camera: Camera,
+    /// The camera at each time sample, in time order; empty without motion blur.
+    pub times: Vec<Camera>,
+}
+
+impl Exposure {
+    /// A frame without motion blur: its camera alone.
+    pub fn still(camera: Camera) -> Exposure {
+        Exposure {
+            camera,
+            times: Vec::new(),
+        }
+    }
+
+    /// The cameras whose renders the frame averages: the frame's camera alone without motion
+    /// blur, or where every time sample's camera equals it (the camera does not move while the
+    /// shutter is open: the frame is rendered once, as without blur); else every time sample's.
+    pub fn renders(&self) -> &[Camera] {
+        if self.times.iter().all(|c| *c == self.camera) {
+            std::slice::from_ref(&self.camera)
+        } else {
+            &self.times
+        }
+    }
 }
 
 /// The camera could not be formed at a frame.
@@ -113,6 +146,39 @@ impl Animation {
             cop_view: cop,
             window: self.window,
         })
+    }
+
+    /// Frame `frame`'s exposure under `blur`, given its camera: the camera at every time sample
+    /// ([`MotionBlur::time`]). The up vector continues outwards from the frame's camera as it
+    /// does from frame to frame: the time samples after the frame's time each from the one
+    /// before it, starting with the frame's camera, and those before it each from the one after
+    /// it. A time sample at the frame's own time (the middle one when N is odd) is the frame's
+    /// camera.
+    pub fn exposure(
+        &self,
+        frame: u64,
+        camera: Camera,
+        blur: MotionBlur,
+    ) -> Result<Exposure, FrameError> {
+        let n = blur.samples;
+        let mut times = vec![camera; n as usize];
+        let at = |j: u32, previous: &Camera| {
+            let time = blur.time(frame, j, self.fps);
+            let camera = self.camera_at(time, Some(previous.basis.v));
+            camera.map_err(|cause| FrameError { frame, time, cause })
+        };
+        // Forwards from the frame's time, then backwards from it.
+        let mut previous = camera;
+        for j in (0..n).filter(|&j| blur.offset(j) > 0.0) {
+            previous = at(j, &previous)?;
+            times[j as usize] = previous;
+        }
+        let mut previous = camera;
+        for j in (0..n).rev().filter(|&j| blur.offset(j) < 0.0) {
+            previous = at(j, &previous)?;
+            times[j as usize] = previous;
+        }
+        Ok(Exposure { camera, times })
     }
 
     /// Every frame's camera, in order. The basis of each frame follows the one before it, so the

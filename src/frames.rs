@@ -5,6 +5,7 @@ use std::ops::Range;
 use std::sync::Arc;
 use std::time::Instant;
 
+use crate::animation::Exposure;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
@@ -86,16 +87,24 @@ pub fn median(xs: &[f64]) -> f64 {
 /// frame whose camera is undefined.
 pub fn keys(doc: &Document) -> impl Iterator<Item = Result<(u64, FrameKey)>> + '_ {
     let base = KeyBase::new(&doc.scene, doc.raster);
-    doc.cameras()
-        .map(move |item| item.map(|(frame, camera)| (frame, base.key(&camera))))
+    doc.exposures()
+        .map(move |item| item.map(|(frame, exposure)| (frame, key(doc, &base, &exposure))))
+}
+
+/// A frame's key: its camera, and with motion blur the setting and every time sample's camera.
+fn key(doc: &Document, base: &KeyBase, exposure: &Exposure) -> FrameKey {
+    match doc.motion_blur {
+        None => base.key(&exposure.camera),
+        Some(blur) => base.key_blurred(&exposure.camera, blur, &exposure.times),
+    }
 }
 
 /// Renders the frames of `set` in order and calls `sink` with each frame's key, RGB8 pixels
 /// and hash ([`crate::output::frame_hash`], computed row by row as the rows are rendered);
 /// frames for which `done` says true are passed over without rendering (`done` is asked ahead:
 /// before a rendered frame reaches `sink`, about the frames up to the next one to render, so it
-/// must not depend on what `sink` did). A frame whose camera equals the previous rendered
-/// frame's is not rendered again.
+/// must not depend on what `sink` did). A frame whose cameras (with motion blur, the time
+/// samples' cameras) equal the previous rendered frame's is not rendered again.
 pub fn for_each_frame(
     doc: &Document,
     set: &FrameSet,
@@ -139,24 +148,26 @@ fn run(
     let index = SceneIndex::new(&doc.scene);
     let end = set.range.end;
     let mut wanted = doc
-        .cameras()
+        .exposures()
         .take_while(|item| item.as_ref().map_or(true, |(frame, _)| *frame < end))
         .filter(|item| {
             item.as_ref()
                 .map_or(true, |&(frame, _)| set.contains(frame) && !done(frame))
         })
         .peekable();
-    // The last frame delivered, sent again while the camera stays the same.
-    let mut previous: Option<(Camera, Delivered)> = None;
+    // The last frame delivered, sent again while the cameras stay the same.
+    let mut previous: Option<(Vec<Camera>, Delivered)> = None;
     // The next frame to render, prepared while the one before it rendered.
-    let mut prepared: Option<(Camera, PreparedFrame)> = None;
+    let mut prepared: Option<(Vec<Camera>, PreparedFrame)> = None;
     let mut buffers = FrameBuffers::default();
     let mut ring = Vec::new();
     let mut timing = Timing::default();
     while let Some(item) = wanted.next() {
-        let (frame, camera) = item?;
+        let (frame, exposure) = item?;
+        // The cameras whose renders make the frame: one, or one per time sample.
+        let cameras = exposure.renders();
         let (pixels, hash) = match previous.take() {
-            Some((cam, delivered)) if cam == camera => {
+            Some((cams, delivered)) if cams == cameras => {
                 timing.held += 1;
                 delivered
             }
@@ -166,15 +177,17 @@ fn run(
                 drop(stale);
                 let t = Instant::now();
                 let this = match prepared.take() {
-                    Some((cam, p)) if cam == camera => p,
-                    _ => renderer.prepare(&camera, &index, doc.raster),
+                    Some((cams, p)) if cams == cameras => p,
+                    _ => renderer.prepare_times(cameras, &index, doc.raster),
                 };
                 // The next frame that is not this one again.
                 // Not while a frame with very many spheres in view renders (see
                 // [`PREPARE_AHEAD_MAX`]).
                 let next = match wanted.peek() {
-                    Some(Ok((_, cam))) if *cam != camera && this.in_view() < PREPARE_AHEAD_MAX => {
-                        Some(*cam)
+                    Some(Ok((_, e)))
+                        if e.renders() != cameras && this.in_view() < PREPARE_AHEAD_MAX =>
+                    {
+                        Some(e.renders().to_vec())
                     }
                     _ => None,
                 };
@@ -189,7 +202,12 @@ fn run(
                         }
                         None => this.render_through(&mut ring, &mut in_order),
                     },
-                    || next.map(|cam| (cam, renderer.prepare(&cam, &index, doc.raster))),
+                    || {
+                        next.map(|cams| {
+                            let p = renderer.prepare_times(&cams, &index, doc.raster);
+                            (cams, p)
+                        })
+                    },
                 );
                 prepared = ahead;
                 let hash = hasher.finish();
@@ -201,10 +219,10 @@ fn run(
                 (pixels, hash)
             }
         };
-        sink(frame, &base.key(&camera), pixels.as_ref(), hash)?;
+        sink(frame, &key(doc, &base, &exposure), pixels.as_ref(), hash)?;
         timing.frames += 1;
         timing.first_frame_at.get_or_insert_with(Instant::now);
-        previous = Some((camera, (pixels, hash)));
+        previous = Some((cameras.to_vec(), (pixels, hash)));
     }
     timing.wall_secs = started.elapsed().as_secs_f64();
     Ok(timing)
@@ -318,10 +336,16 @@ pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, FrameHash)
     Ok(out)
 }
 
-/// Frame `frame`'s RGB8 pixels, row-major, top row first.
+/// Frame `frame`'s RGB8 pixels, row-major, top row first (with motion blur, the mean of its
+/// time samples' renders).
 pub fn render_frame(doc: &Document, frame: u64) -> Result<Vec<u8>> {
-    let camera = doc.camera(frame)?;
-    Ok(Renderer::new().render(&camera, &doc.scene, doc.raster))
+    let exposure = doc.exposure(frame)?;
+    let index = SceneIndex::new(&doc.scene);
+    let mut pixels = Vec::new();
+    Renderer::new()
+        .prepare_times(exposure.renders(), &index, doc.raster)
+        .render_into(&mut pixels, &mut |_| {});
+    Ok(pixels)
 }
 
 /// A frame whose fresh render does not hash as expected.

@@ -2,7 +2,9 @@
 //!
 //! One frame is rendered at every setting that trades accuracy for time (samples per pixel side
 //! 1, 2, 3, 4, 8, and adaptive sampling at 2, 4 and 8) and compared with a reference at 16×16
-//! samples. Errors are per channel, in 8-bit levels and in linear light.
+//! samples. Errors are per channel, in 8-bit levels and in linear light. Motion blur's time
+//! samples (1, 2, 4, 8, 16) are rows of the same table and plot, on a frame where the camera
+//! moves during the shutter, against [`REFERENCE_TIME_SAMPLES`] time samples.
 
 use std::path::Path;
 use std::time::Instant;
@@ -13,11 +15,18 @@ use super::table::Table;
 use campath::camera::Camera;
 use campath::document::Document;
 use campath::frames::median;
+use campath::raster::{MotionBlur, MAX_TIME_SAMPLES};
 use campath::render::{srgb_decode, Raster, Renderer, SceneIndex, Simd};
 use campath::scene::Scene;
 
 /// Samples per side of the reference.
 pub const REFERENCE_SAMPLES: u32 = 16;
+
+/// Time samples of the motion-blur reference.
+pub const REFERENCE_TIME_SAMPLES: u32 = MAX_TIME_SAMPLES;
+
+/// The shutter of the motion rows when the file has no motion blur.
+pub const DEFAULT_SHUTTER: f64 = 0.5;
 
 /// A setting that trades accuracy for time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -28,6 +37,9 @@ pub enum Setting {
     Adaptive(u32),
     /// One sample per pixel on an instruction path: the same bytes, another time.
     Path(Simd),
+    /// Motion blur with N time samples, one sample a pixel each, against
+    /// [`REFERENCE_TIME_SAMPLES`] of them.
+    Motion(u32),
 }
 
 impl Setting {
@@ -37,6 +49,7 @@ impl Setting {
             Setting::Samples(s) => format!("samples {s}"),
             Setting::Adaptive(s) => format!("samples {s}, adaptive"),
             Setting::Path(simd) => format!("samples 1, f64, {} path", simd.name()),
+            Setting::Motion(n) => format!("time samples {n}"),
         }
     }
 
@@ -46,6 +59,7 @@ impl Setting {
             Setting::Samples(s) => format!("s={s}"),
             Setting::Adaptive(s) => format!("s={s}, adaptive"),
             Setting::Path(simd) => simd.name().to_string(),
+            Setting::Motion(n) => format!("N={n}"),
         }
     }
 }
@@ -72,17 +86,98 @@ fn timed(
     simd: Simd,
     runs: usize,
 ) -> (f64, Vec<u8>) {
+    timed_times(std::slice::from_ref(camera), scene, raster, simd, runs)
+}
+
+/// [`timed`] for a frame averaged over `cameras` (motion blur's time samples), each run
+/// preparing every time sample and rendering the frame.
+fn timed_times(
+    cameras: &[Camera],
+    scene: &Scene,
+    raster: Raster,
+    simd: Simd,
+    runs: usize,
+) -> (f64, Vec<u8>) {
     let mut r = Renderer::with_simd(simd).unwrap_or_default();
     // Indexed once, as a render of many frames does.
     let index = SceneIndex::new(scene);
-    let mut pixels = r.render_indexed(camera, &index, raster);
+    let mut pixels = Vec::new();
+    let mut render = |pixels: &mut Vec<u8>| {
+        r.prepare_times(cameras, &index, raster)
+            .render_into(pixels, &mut |_| {})
+    };
+    render(&mut pixels);
     let mut secs = Vec::with_capacity(runs);
     for _ in 0..runs {
         let t = Instant::now();
-        pixels = r.render_indexed(camera, &index, raster);
+        render(&mut pixels);
         secs.push(t.elapsed().as_secs_f64());
     }
     (median(&secs), pixels)
+}
+
+/// The motion rows' frame: `frame` if the camera moves during its shutter (at the reference's
+/// time samples), else the nearest frame that does (the earlier of two as near), or None when
+/// the camera never moves.
+fn moving_frame(doc: &Document, frame: u64, blur: MotionBlur) -> Result<Option<u64>> {
+    let mut moving = Vec::new();
+    for item in doc.cameras() {
+        let (k, camera) = item.map_err(CliError::from)?;
+        let exposure = doc.animation.exposure(k, camera, blur).map_err(|e| {
+            CliError::Usage(format!("frame {}, t = {} s: {}", e.frame, e.time, e.cause))
+        })?;
+        if exposure.renders().len() > 1 {
+            moving.push(k);
+        }
+    }
+    Ok(moving.into_iter().min_by_key(|k| (k.abs_diff(frame), *k)))
+}
+
+/// Motion blur's time samples on frame `frame` (see [`moving_frame`]) of `doc`, one sample a
+/// pixel, against [`REFERENCE_TIME_SAMPLES`]: the frame measured, its shutter and the rows; None
+/// when the camera never moves.
+pub fn motion_report(
+    doc: &Document,
+    frame: u64,
+    runs: usize,
+) -> Result<Option<(u64, f64, Vec<Measured>)>> {
+    let shutter = doc.motion_blur.map_or(DEFAULT_SHUTTER, |b| b.shutter);
+    let blur = |samples| MotionBlur { shutter, samples };
+    let Some(frame) = moving_frame(doc, frame, blur(REFERENCE_TIME_SAMPLES))? else {
+        return Ok(None);
+    };
+    let camera = doc.camera(frame).map_err(CliError::from)?;
+    let cameras = |n: u32| -> Result<Vec<Camera>> {
+        let exposure = doc.animation.exposure(frame, camera, blur(n));
+        let exposure = exposure.map_err(|e| {
+            CliError::Usage(format!("frame {}, t = {} s: {}", e.frame, e.time, e.cause))
+        })?;
+        Ok(exposure.renders().to_vec())
+    };
+    let raster = Raster {
+        samples: 1,
+        adaptive: false,
+        ..doc.raster
+    };
+    let simd = Simd::detect();
+    let reference = cameras(REFERENCE_TIME_SAMPLES)?;
+    let (_, reference) = timed_times(&reference, &doc.scene, raster, simd, 0);
+    let mut rows = Vec::new();
+    for n in [1, 2, 4, 8, 16] {
+        let (secs, pixels) = timed_times(&cameras(n)?, &doc.scene, raster, simd, runs);
+        let (rmse_levels, max_levels, rmse_linear, max_linear, changed) =
+            compare(&pixels, &reference);
+        rows.push(Measured {
+            setting: Setting::Motion(n),
+            secs,
+            rmse_levels,
+            max_levels,
+            rmse_linear,
+            max_linear,
+            changed,
+        });
+    }
+    Ok(Some((frame, shutter, rows)))
 }
 
 /// Errors of `got` against `reference`, both RGB8 sRGB.
@@ -243,7 +338,7 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
         let draw_err = draw_error(path);
         let mut chart = ChartBuilder::on(&root)
             .caption(
-                "Error against run time (reference: 16×16 samples per pixel)",
+                "Error against run time (references: 16×16 samples per pixel; 64 time samples)",
                 ("sans-serif", 22),
             )
             .margin(20)
@@ -280,9 +375,14 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .map(point)
             .collect();
         paths.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let motion: Vec<_> = rows
+            .iter()
+            .filter(|r| matches!(r.setting, Setting::Motion(_)))
+            .map(point)
+            .collect();
         // The lines' segments in pixels, for placing the labels off them.
         let mut segments: Vec<((i32, i32), (i32, i32))> = Vec::new();
-        for series in [&plain, &adaptive, &paths] {
+        for series in [&plain, &adaptive, &paths, &motion] {
             for pair in series.windows(2) {
                 segments.push((chart.backend_coord(&pair[0]), chart.backend_coord(&pair[1])));
             }
@@ -291,6 +391,11 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             (plain, BLUE, "full s×s grid"),
             (adaptive, RED, "adaptive (corners first)"),
             (paths, GREEN, "1 sample, each instruction path"),
+            (
+                motion,
+                MAGENTA,
+                "N time samples (reference: 64; motion blur)",
+            ),
         ] {
             chart
                 .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
@@ -544,10 +649,25 @@ pub fn run(
     // Measuring takes a while: find out first that the plot can be written.
     super::args::check_writable(plot_path)?;
     let frame = frame.unwrap_or(doc.animation.frames / 2);
-    let rows = renderer_report(&doc, frame, runs)?;
+    let mut rows = renderer_report(&doc, frame, runs)?;
+    let motion = motion_report(&doc, frame, runs)?;
+    if let Some((_, _, m)) = &motion {
+        rows.extend(m.iter().cloned());
+    }
     let stdout = campath::Error::stdout;
     writeln!(out, "Renderer, frame {frame} of {}:\n", file.display()).map_err(stdout)?;
     write!(out, "{}", renderer_table(&rows)).map_err(stdout)?;
+    match &motion {
+        Some((moving, shutter, _)) => writeln!(
+            out,
+            "\nTime samples: frame {moving}, shutter {shutter}, one sample a pixel, against {REFERENCE_TIME_SAMPLES} time samples (the other rows: against {REFERENCE_SAMPLES}×{REFERENCE_SAMPLES} samples)."
+        ),
+        None => writeln!(
+            out,
+            "\nTime samples: none, the camera does not move during any frame's shutter."
+        ),
+    }
+    .map_err(stdout)?;
     plot(&rows, plot_path)?;
     writeln!(out, "\nplot: {}", plot_path.display()).map_err(stdout)?;
     if let Some(path) = path_report(&doc) {

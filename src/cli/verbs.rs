@@ -422,6 +422,14 @@ pub fn check(file: &Path, strict: bool, out: &mut dyn Write) -> Result<bool> {
     for f in &doc.sphere_files {
         writeln!(out, "  {}: {} sphere(s)", f.name, f.spheres).map_err(Error::stdout)?;
     }
+    if let Some(blur) = doc.motion_blur {
+        writeln!(
+            out,
+            "  motion blur: shutter open {} of each frame interval, {} time sample(s) a frame",
+            blur.shutter, blur.samples
+        )
+        .map_err(Error::stdout)?;
+    }
     let warnings = campath::motion::warnings(&doc)?;
     for w in &warnings {
         writeln!(out, "warning: {w}").map_err(Error::stdout)?;

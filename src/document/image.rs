@@ -2,7 +2,7 @@
 
 use super::Checker;
 use crate::format;
-use crate::raster::{Raster, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
+use crate::raster::{MotionBlur, Raster, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE, MAX_TIME_SAMPLES};
 
 impl Checker {
     pub(super) fn raster(&mut self, image: &format::ImageSpec) -> Option<Raster> {
@@ -47,6 +47,41 @@ impl Checker {
             height,
             samples,
             adaptive: image.adaptive.unwrap_or(false),
+        })
+    }
+
+    /// `image.motion_blur`, None when the file has none (or it is bad: then a problem names
+    /// the field).
+    pub(super) fn motion_blur(&mut self, image: &format::ImageSpec) -> Option<MotionBlur> {
+        let spec = image.motion_blur.as_ref()?;
+        let shutter = self.finite("image.motion_blur.shutter", spec.shutter);
+        let shutter = shutter.and_then(|s| {
+            if s > 0.0 && s <= 1.0 {
+                Some(s)
+            } else {
+                self.problem(
+                    "image.motion_blur.shutter",
+                    format!("the fraction of the frame interval the shutter is open must lie in (0, 1], got {s}"),
+                );
+                None
+            }
+        });
+        let samples = match u32::try_from(spec.samples) {
+            Ok(n) if (1..=MAX_TIME_SAMPLES).contains(&n) => Some(n),
+            _ => {
+                self.problem(
+                    "image.motion_blur.samples",
+                    format!(
+                        "time samples per frame must lie in 1..={MAX_TIME_SAMPLES}, got {}",
+                        spec.samples
+                    ),
+                );
+                None
+            }
+        };
+        Some(MotionBlur {
+            shutter: shutter?,
+            samples: samples?,
         })
     }
 }

@@ -10,11 +10,11 @@ use glam::{DVec2, DVec3};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use crate::animation::{Animation, Pointing};
+use crate::animation::{Animation, Exposure, Pointing};
 use crate::camera::{Camera, CameraError};
 use crate::error::{Error, Problem, Problems, Result};
 use crate::format::{self, FileSpec, Pair, Triple};
-use crate::raster::Raster;
+use crate::raster::{MotionBlur, Raster};
 use crate::scene::Scene;
 
 /// Largest frame count.
@@ -27,6 +27,8 @@ pub struct Document {
     pub path: PathBuf,
     /// Image size and sampling.
     pub raster: Raster,
+    /// Shutter motion blur (`image.motion_blur`), if any.
+    pub motion_blur: Option<MotionBlur>,
     /// The camera and its tracks, with the frame count and rate.
     pub animation: Animation,
     /// The spheres and lights.
@@ -114,6 +116,38 @@ impl Document {
         })
     }
 
+    /// Every frame's [`Exposure`], in order: its camera and, with motion blur, the camera at
+    /// each of its time samples; or the first frame or time sample where the camera is
+    /// undefined (reported at its own time).
+    pub fn exposures(&self) -> impl Iterator<Item = Result<(u64, Exposure)>> + '_ {
+        self.cameras().map(move |item| {
+            let (frame, camera) = item?;
+            let Some(blur) = self.motion_blur else {
+                return Ok((frame, Exposure::still(camera)));
+            };
+            match self.animation.exposure(frame, camera, blur) {
+                Ok(exposure) => Ok((frame, exposure)),
+                Err(e) => Err(Error::Frame {
+                    path: self.path.clone(),
+                    frame: e.frame,
+                    time: e.time,
+                    message: e.cause.to_string(),
+                }),
+            }
+        })
+    }
+
+    /// Frame `frame`'s exposure (see [`Document::exposures`]), in O(frame).
+    pub fn exposure(&self, frame: u64) -> Result<Exposure> {
+        match self.exposures().nth(frame as usize) {
+            Some(e) => e.map(|(_, exposure)| exposure),
+            None => Err(Error::Usage(format!(
+                "frame {frame}: the animation has frames 0..{}",
+                self.animation.frames
+            ))),
+        }
+    }
+
     /// Frame `frame`'s camera. The cameras are evaluated in order from frame 0 (the up vector
     /// near the VUV pole continues from the previous frame), so this costs O(frame).
     pub fn camera(&self, frame: u64) -> Result<Camera> {
@@ -127,8 +161,9 @@ impl Document {
     }
 
     /// Evaluates the whole path, reporting the first frame whose camera is undefined.
+    /// With motion blur, every time sample's camera too.
     pub fn check_path(&self) -> Result<()> {
-        self.cameras().try_for_each(|r| r.map(drop))
+        self.exposures().try_for_each(|r| r.map(drop))
     }
 }
 
@@ -226,11 +261,13 @@ impl Checker {
 
     fn document(&mut self, path: &Path, spec: FileSpec, files: &[ReadFile]) -> Option<Document> {
         let raster = self.raster(&spec.image);
+        let motion_blur = self.motion_blur(&spec.image);
         let scene = self.scene(&spec.scene, files);
         let animation = self.animation(&spec, raster.as_ref());
         let doc = Document {
             path: path.to_path_buf(),
             raster: raster?,
+            motion_blur,
             animation: animation?,
             scene: scene?,
             sphere_files: files

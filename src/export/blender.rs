@@ -9,6 +9,12 @@
 //! `.chan` nor glTF can carry, becomes Blender's lens shift, in units of the window width:
 //! shift = −offset / w. A window whose aspect differs from the image's becomes the pixel aspect.
 //! Scene frame f is campath's frame f − 1, as in `.chan`.
+//!
+//! Motion blur becomes Blender's: `render.use_motion_blur`, `render.motion_blur_shutter` (in
+//! frames, as campath's shutter) and the shutter centred on the frame (`motion_blur_position`
+//! on the render settings, or on Cycles' and EEVEE's before Blender 4.2), and EEVEE's own
+//! switch, shutter and time steps where it has them. Blender moves the camera linearly between
+//! the keys of consecutive frames, so its sub-frame camera follows the chord of campath's path.
 
 use std::fmt::Write as _;
 
@@ -93,6 +99,8 @@ PIXEL_ASPECT = {pixel_aspect:?}
 SENSOR_MM = {sensor:?}
 BACKGROUND = ({bg_r:?}, {bg_g:?}, {bg_b:?})
 AMBIENT = {ambient:?}
+# shutter (the fraction of the frame interval it is open, centred on the frame), time samples; or None
+MOTION_BLUR = {motion_blur}
 # frame, COP (x, y, z), rotation quaternion (w, x, y, z) taking -Z to the VPN, lens mm, shift x, shift y
 FRAMES = [
 {frames}]
@@ -117,6 +125,19 @@ def build():
     scene.render.fps = max(1, round(FPS))
     scene.render.fps_base = scene.render.fps / FPS
     scene.frame_start, scene.frame_end = 1, len(FRAMES)
+    if MOTION_BLUR is not None:
+        shutter, steps = MOTION_BLUR
+        scene.render.use_motion_blur = True
+        scene.render.motion_blur_shutter = shutter
+        eevee = getattr(scene, "eevee", None)
+        for settings in (scene.render, getattr(scene, "cycles", None), eevee):
+            if settings is not None and hasattr(settings, "motion_blur_position"):
+                settings.motion_blur_position = "CENTER"
+        if eevee is not None and hasattr(eevee, "use_motion_blur"):
+            eevee.use_motion_blur = True
+            eevee.motion_blur_shutter = shutter
+        if eevee is not None and hasattr(eevee, "motion_blur_steps"):
+            eevee.motion_blur_steps = steps
 
     data = bpy.data.cameras.new("campath")
     data.sensor_fit = "HORIZONTAL"
@@ -183,5 +204,9 @@ build()
         bg_g = bg.y,
         bg_b = bg.z,
         ambient = doc.scene.ambient,
+        motion_blur = match doc.motion_blur {
+            Some(b) => format!("({:?}, {})", b.shutter, b.samples),
+            None => "None".to_string(),
+        },
     ))
 }

@@ -13,6 +13,9 @@
 //!   width w, so that aperture / focal length = window / d in both directions. The off-axis COP
 //!   (distort) is the aperture offset: the window's centre seen from the COP lies at
 //!   (−COP_u, −COP_v), so the offsets are −COP_u · FILM_WIDTH / w and −COP_v · FILM_WIDTH / w.
+//!   Motion blur is the camera's `shutter:open` and `shutter:close`, in time codes relative to
+//!   the frame: −S/2 and S/2 for the shutter S centred on the frame (left out without blur:
+//!   USD's default 0, 0 is no blur).
 //! - **Image.** A `UsdRender.Settings` prim carries the image size; a window whose aspect differs
 //!   from the image's becomes its pixel aspect.
 //! - **Scene.** Each sphere is a `UsdGeom.Sphere` with its radius and colour
@@ -206,7 +209,7 @@ def Xform "{root}" (
         float horizontalAperture = {ha:?}
         float verticalAperture = {va:?}
         token projection = "perspective"
-"#,
+{shutter}"#,
         version = env!("CARGO_PKG_VERSION"),
         source = quoted(&doc.path.display().to_string()),
         width = r.width,
@@ -218,6 +221,14 @@ def Xform "{root}" (
         far = f32s(far),
         ha = f32s(first.horizontal_aperture),
         va = f32s(first.vertical_aperture),
+        shutter = match doc.motion_blur {
+            Some(b) => format!(
+                "        double shutter:close = {:?}\n        double shutter:open = {:?}\n",
+                b.shutter / 2.0,
+                -b.shutter / 2.0
+            ),
+            None => String::new(),
+        },
     );
     let samples = |s: &mut String, decl: &str, value: &dyn Fn(usize) -> String| {
         let _ = writeln!(s, "        {decl}.timeSamples = {{");

@@ -57,6 +57,18 @@ pub struct ImageSpec {
     pub samples: Option<i64>,
     /// With s ≥ 2, trace the grid's corners first (default false).
     pub adaptive: Option<bool>,
+    /// Shutter motion blur (default none).
+    pub motion_blur: Option<MotionBlurSpec>,
+}
+
+/// The file's `image.motion_blur`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, rename = "motion_blur")]
+pub struct MotionBlurSpec {
+    /// The fraction of the frame interval the shutter is open; the checker wants (0, 1].
+    pub shutter: f64,
+    /// Time samples per frame, any whole number; the checker wants 1 to 64.
+    pub samples: i64,
 }
 
 /// The file's `camera`; see docs/format.md for each field.

@@ -1,6 +1,9 @@
 //! The row drivers: a row of pixels cast in packets of [`LANES`] rays — at one sample a
 //! pixel a stretch at a time, at s×s samples in groups of pixels, adaptively corners first —
-//! and the dispatch to the row function compiled for each instruction set.
+//! each kind of row a [`ForLanes`] work that `Isa::run` (simd.rs) runs compiled for the
+//! instruction set. A row ends as 8-bit sRGB levels ([`RowJob::row`]) or as linear colours
+//! ([`RowJob::row_linear`]) for a frame that averages several renders (motion blur) and
+//! quantises once.
 //!
 //! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
 //! a row is taken a stretch at a time and stage by stage: every packet's directions, then every
@@ -9,9 +12,10 @@
 //! packet by packet, the same work ran 15–20% slower.
 
 use super::kernels::{Found, Shading};
-use super::lanes::{Isa, Lanes, Portable, LANES};
+use super::lanes::{ForLanes, Lanes, LANES};
 use super::rays::{row_direction, unit, RayTable};
 use super::shadows::{HINTED_LIGHTS, NO_HINT};
+use super::simd::Isa;
 use super::srgb::SrgbEncoder;
 use super::tiles::{TileBins, TILE};
 use crate::raster::MAX_SAMPLES;
@@ -56,6 +60,32 @@ fn sample(s: usize, p: usize, k: usize) -> Sample {
     ((p * s + k % s) as u16, (k / s) as u16)
 }
 
+/// What a row's pixels end as: 8-bit sRGB levels (`u8`), or linear colours (`f64`), three to
+/// a pixel either way.
+trait Pixel: Copy {
+    /// Up to [`LANES`] pixels' linear colours (a lane per pixel, an array per channel) into
+    /// `out`, as many pixels as it holds.
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [Self]);
+}
+
+impl Pixel for u8 {
+    #[inline(always)]
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+        job.encode_pixels::<V>(tok, linear, out)
+    }
+}
+
+impl Pixel for f64 {
+    #[inline(always)]
+    fn put<V: Lanes>(_: &RowJob, _: V::Token, linear: &[[f64; LANES]; 3], out: &mut [f64]) {
+        for (p, px) in out.chunks_exact_mut(3).enumerate() {
+            for a in 0..3 {
+                px[a] = linear[a][p];
+            }
+        }
+    }
+}
+
 /// Pixels of a row whose directions are computed together; a multiple of [`LANES`].
 const STRETCH: usize = 32 * LANES;
 
@@ -73,68 +103,115 @@ pub struct RowJob<'a> {
     pub adaptive: bool,
 }
 
+/// Row `j` of a job, to be written into `row`.
+struct RowWork<'r, 'a> {
+    job: &'r RowJob<'a>,
+    j: usize,
+    row: &'r mut [u8],
+}
+
+/// A row at one sample a pixel.
+struct OneSample<'r, 'a>(RowWork<'r, 'a>);
+
+/// A row at several samples a pixel.
+struct Several<'r, 'a>(RowWork<'r, 'a>);
+
+impl ForLanes for OneSample<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let RowWork { job, j, row } = self.0;
+        job.row_packets::<V>(tok, j, row)
+    }
+}
+
+impl ForLanes for Several<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let RowWork { job, j, row } = self.0;
+        job.row_several::<V>(tok, j, row)
+    }
+}
+
+/// A row as linear colours, at any sampling (motion blur's time samples).
+struct Linear<'r, 'a> {
+    job: &'r RowJob<'a>,
+    j: usize,
+    row: &'r mut [f64],
+}
+
+impl ForLanes for Linear<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let Linear { job, j, row } = self;
+        if job.samples == 1 {
+            job.row_one_linear::<V>(tok, j, row)
+        } else if job.adaptive {
+            job.row_adaptive::<V, f64>(tok, j, row)
+        } else {
+            job.row_samples::<V, f64>(tok, j, row)
+        }
+    }
+}
+
 // Two packets side by side lie in one tile, and a stretch holds whole pairs.
 const _: () = assert!(TILE.is_multiple_of(2 * LANES) && STRETCH.is_multiple_of(2 * LANES));
 
 impl RowJob<'_> {
     /// Renders row `j` into `row` (RGB8) in packets, with the instruction set `isa`, which
-    /// proves that the CPU runs it.
+    /// proves that the CPU runs it. One sample a pixel and several are each a work of their
+    /// own, so that on the x86 paths each is a function of its own and the single-sample loop
+    /// keeps its registers and layout.
     pub fn row(&self, isa: Isa, j: usize, row: &mut [u8]) {
-        let one = self.samples == 1;
-        match isa {
-            Isa::Portable if one => self.row_packets::<Portable>((), j, row),
-            Isa::Portable => self.row_several::<Portable>((), j, row),
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) if one => unsafe { self.row_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX2.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2(t) => unsafe { self.row_samples_avx2(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) if one => unsafe { self.row_avx512(t, j, row) },
-            // SAFETY: `t` proves AVX-512F.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512(t) => unsafe { self.row_samples_avx512(t, j, row) },
+        let work = RowWork { job: self, j, row };
+        if self.samples == 1 {
+            isa.run(OneSample(work))
+        } else {
+            isa.run(Several(work))
         }
+    }
+
+    /// Renders row `j` into `row` as linear colours (RGB, three to a pixel), with the
+    /// instruction set `isa`: the values that [`RowJob::row`] quantises, the same on every
+    /// path.
+    pub fn row_linear(&self, isa: Isa, j: usize, row: &mut [f64]) {
+        isa.run(Linear { job: self, j, row })
     }
 
     /// A row of several samples a pixel, adaptive or not.
     #[inline(always)]
     fn row_several<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
         if self.adaptive {
-            self.row_adaptive::<V>(tok, j, row)
+            self.row_adaptive::<V, u8>(tok, j, row)
         } else {
-            self.row_samples::<V>(tok, j, row)
+            self.row_samples::<V, u8>(tok, j, row)
         }
     }
 
-    // One function per path and per kind of row: each is compiled on its own, so the
-    // single-sample loop keeps its registers and layout. Each takes the token that proves its
-    // instruction set: `#[target_feature]` makes it unsafe to call without one.
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
-        self.row_packets::<super::lanes::Zmm>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_samples_avx2(&self, t: super::lanes::Avx2, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Ymm2>(t, j, row)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn row_samples_avx512(&self, t: super::lanes::Avx512, j: usize, row: &mut [u8]) {
-        self.row_several::<super::lanes::Zmm>(t, j, row)
+    /// Row `j` at one sample a pixel as linear colours: a tile's pixels cast together
+    /// ([`RowJob::cast`]), with the directions, hits and colours of [`RowJob::row_packets`].
+    #[inline(always)]
+    fn row_one_linear<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [f64]) {
+        let list: Vec<Sample> = (0..TILE).map(|p| sample(1, p, 0)).collect();
+        let mut colors = [[0.0; 3]; TILE];
+        let mut stages = Stages::<V>::new(tok);
+        for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
+            let pixels = out.len() / 3;
+            let span = Span {
+                row: j,
+                first: g * TILE,
+                pixels,
+            };
+            self.cast::<V, false>(span, &list[..pixels], &mut stages, &mut colors, &mut []);
+            for (px, c) in out.chunks_exact_mut(3).zip(&colors) {
+                px.copy_from_slice(c);
+            }
+        }
     }
 
     /// Row `j` with s×s samples a pixel (s = `self.samples` ≥ 2), as the one-ray code does it:
@@ -142,7 +219,7 @@ impl RowJob<'_> {
     /// pixels in one tile (4 pixels up to 8×8, 2 up to 11×11, else 1) are cast together
     /// ([`RowJob::cast`]), stage by stage.
     #[inline(always)]
-    fn row_samples<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+    fn row_samples<V: Lanes, P: Pixel>(&self, tok: V::Token, j: usize, row: &mut [P]) {
         let s = self.samples;
         let s2 = s * s;
         // Four pixels a group, or as many as fit (a group stays inside a tile).
@@ -178,7 +255,7 @@ impl RowJob<'_> {
                     linear[a][p] = sum[a] / s2 as f64;
                 }
             }
-            self.encode_pixels::<V>(tok, &linear, out);
+            P::put::<V>(self, tok, &linear, out);
         }
     }
 
@@ -188,7 +265,7 @@ impl RowJob<'_> {
     /// A tile's pixels go together: all their corners, then the other samples of the pixels
     /// whose corners disagree.
     #[inline(always)]
-    fn row_adaptive<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
+    fn row_adaptive<V: Lanes, P: Pixel>(&self, tok: V::Token, j: usize, row: &mut [P]) {
         let s = self.samples;
         let s2 = s * s;
         let corners = [0, s - 1, s * (s - 1), s2 - 1];
@@ -263,7 +340,7 @@ impl RowJob<'_> {
                         lanes[a][l] = c[a];
                     }
                 }
-                self.encode_pixels::<V>(tok, &lanes, out);
+                P::put::<V>(self, tok, &lanes, out);
             }
         }
     }

@@ -13,12 +13,11 @@ use glam::DVec3;
 
 use super::lanes::{dot, splat3, InBounds, Lanes, LANES};
 use super::shadows::{Hints, NO_HINT};
-use super::view::{ViewColumns, ViewLight, ViewSphere};
+use super::view::{ViewColumns, ViewLight};
 
 /// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
 pub(super) struct Shading<'a> {
-    pub(super) spheres: &'a [ViewSphere],
-    pub(super) columns: &'a ViewColumns,
+    pub(super) spheres: &'a ViewColumns,
     pub(super) lights: &'a [ViewLight<'a>],
     pub(super) ambient: f64,
     pub(super) background: DVec3,
@@ -49,9 +48,10 @@ impl Shading<'_> {
         let mut hit = [0u8; 2];
         let mut index = [V::index(tok, 0); 2];
         let mut best = [V::splat(tok, f64::INFINITY); 2];
+        let s = self.spheres;
         for &k in candidates {
-            let s = &self.spheres[k as usize];
-            let min_dist = V::splat(tok, s.min_dist);
+            let j = k as usize;
+            let min_dist = V::splat(tok, s.min_dist[j]);
             let mut active = [0u8; 2];
             for q in 0..2 {
                 if live[q] && covers(k, q) {
@@ -66,10 +66,10 @@ impl Shading<'_> {
             if active[0] | active[1] == 0 {
                 continue;
             }
-            let f = splat3::<V>(tok, s.f);
+            let f = splat3::<V>(tok, s.f_at(j));
             let (c, radius2, k) = (
-                V::splat(tok, s.c),
-                V::splat(tok, s.radius2),
+                V::splat(tok, s.c[j]),
+                V::splat(tok, s.radius2[j]),
                 V::index(tok, k as u64),
             );
             for q in 0..2 {
@@ -122,12 +122,12 @@ impl Shading<'_> {
         let tok = t.token();
         let mut lights = [0u32; LANES];
         let (zero, one) = (V::splat(tok, 0.0), V::splat(tok, 1.0));
-        let fields = SphereLanes::<V>::new(tok, self.spheres, self.columns, hit, index);
+        let fields = SphereLanes::<V>::new(tok, self.spheres, hit, index);
         let mut light = [V::splat(tok, self.ambient); 3];
         if !self.lights.is_empty() {
-            let f = fields.vec3(tok, |c| &c.f, |s| s.f);
-            let c = fields.vec3(tok, |c| &c.center, |s| s.center);
-            let r = fields.field(tok, |c| &c.radius, |s| s.radius);
+            let f = fields.vec3(tok, |c| &c.f);
+            let c = fields.vec3(tok, |c| &c.center);
+            let r = fields.field(tok, |c| &c.radius);
             // The hit relative to the centre, rel = f + d·t, has length r: normal = rel / r,
             // point = centre + rel.
             let rel = [
@@ -160,7 +160,7 @@ impl Shading<'_> {
                 }
             }
         }
-        let color = fields.vec3(tok, |c| &c.color, |s| s.color);
+        let color = fields.vec3(tok, |c| &c.color);
         let background = self.background.to_array();
         let flat = self.lights.is_empty();
         let mut out = [zero; 3];
@@ -184,67 +184,52 @@ impl Shading<'_> {
 /// lane (gathers from the fields' slices, which cost far more than two reads and a blend). A
 /// lane that missed reads sphere 0 (there is one: some lane hit); its results are never used.
 enum SphereLanes<'a, V: Lanes> {
-    One(&'a ViewSphere),
-    /// The second sphere's lanes, and the two spheres.
-    Two(u8, &'a ViewSphere, &'a ViewSphere),
+    One(&'a ViewColumns, usize),
+    /// The second sphere's lanes, and the indices of the two spheres.
+    Two(&'a ViewColumns, u8, usize, usize),
     Each(&'a ViewColumns, InBounds<V::Index>),
 }
 
 impl<'a, V: Lanes> SphereLanes<'a, V> {
     #[inline(always)]
-    fn new(
-        tok: V::Token,
-        spheres: &'a [ViewSphere],
-        columns: &'a ViewColumns,
-        hit: u8,
-        index: V::Index,
-    ) -> SphereLanes<'a, V> {
+    fn new(tok: V::Token, spheres: &'a ViewColumns, hit: u8, index: V::Index) -> Self {
         let lanes = V::index_store(index);
         let k = lanes[hit.trailing_zeros() as usize];
         let rest = hit & !V::index_eq(index, V::index(tok, k));
         if rest == 0 {
-            return SphereLanes::One(&spheres[k as usize]);
+            return SphereLanes::One(spheres, k as usize);
         }
         let k2 = lanes[rest.trailing_zeros() as usize];
         let second = V::index_eq(index, V::index(tok, k2));
         if rest & !second == 0 {
-            SphereLanes::Two(second, &spheres[k as usize], &spheres[k2 as usize])
+            SphereLanes::Two(spheres, second, k as usize, k2 as usize)
         } else {
             let own = V::index_blend(hit, V::index(tok, 0), index);
-            let len = columns.id.len();
-            let own = InBounds::new(own, &V::index_store(own), len).expect("hits index spheres");
-            SphereLanes::Each(columns, own)
+            let len = spheres.len();
+            let own = InBounds::new::<V>(own, len).expect("hits index spheres");
+            SphereLanes::Each(spheres, own)
         }
     }
 
-    /// A field of each lane's sphere: `column` of the slices, `one` of a sphere.
+    /// A field of each lane's sphere: `column` of the slices.
     #[inline(always)]
-    fn field(
-        &self,
-        tok: V::Token,
-        column: impl Fn(&ViewColumns) -> &[f64],
-        one: impl Fn(&ViewSphere) -> f64,
-    ) -> V {
+    fn field(&self, tok: V::Token, column: impl Fn(&ViewColumns) -> &[f64]) -> V {
         match *self {
-            SphereLanes::One(s) => V::splat(tok, one(s)),
-            SphereLanes::Two(second, a, b) => {
-                V::blend(second, V::splat(tok, one(a)), V::splat(tok, one(b)))
+            SphereLanes::One(s, k) => V::splat(tok, column(s)[k]),
+            SphereLanes::Two(s, second, a, b) => {
+                let c = column(s);
+                V::blend(second, V::splat(tok, c[a]), V::splat(tok, c[b]))
             }
-            SphereLanes::Each(columns, own) => V::gather(column(columns), own),
+            SphereLanes::Each(s, own) => V::gather(column(s), own),
         }
     }
 
     #[inline(always)]
-    fn vec3(
-        &self,
-        tok: V::Token,
-        column: impl Fn(&ViewColumns) -> &[Vec<f64>; 3],
-        one: impl Fn(&ViewSphere) -> glam::DVec3,
-    ) -> [V; 3] {
+    fn vec3(&self, tok: V::Token, column: impl Fn(&ViewColumns) -> &[Vec<f64>; 3]) -> [V; 3] {
         [
-            self.field(tok, |c| &column(c)[0], |s| one(s).x),
-            self.field(tok, |c| &column(c)[1], |s| one(s).y),
-            self.field(tok, |c| &column(c)[2], |s| one(s).z),
+            self.field(tok, |c| &column(c)[0]),
+            self.field(tok, |c| &column(c)[1]),
+            self.field(tok, |c| &column(c)[2]),
         ]
     }
 
@@ -252,13 +237,11 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
     #[inline(always)]
     fn ids(&self, tok: V::Token) -> V::Index {
         match *self {
-            SphereLanes::One(s) => V::index(tok, s.id as u64),
-            SphereLanes::Two(second, a, b) => V::index_blend(
-                second,
-                V::index(tok, a.id as u64),
-                V::index(tok, b.id as u64),
-            ),
-            SphereLanes::Each(columns, own) => V::gather_index(&columns.id, own),
+            SphereLanes::One(s, k) => V::index(tok, s.id[k]),
+            SphereLanes::Two(s, second, a, b) => {
+                V::index_blend(second, V::index(tok, s.id[a]), V::index(tok, s.id[b]))
+            }
+            SphereLanes::Each(s, own) => V::gather_index(&s.id, own),
         }
     }
 }
@@ -266,6 +249,7 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
 #[cfg(test)]
 mod tests {
     use super::super::lanes::Portable;
+    use super::super::view::ViewSphere;
     use super::*;
 
     /// The packets' nearest hit of one sphere (centre `center`, radius `r`, view coordinates)
@@ -274,8 +258,7 @@ mod tests {
         let sphere = ViewSphere::in_view(center, r, DVec3::ZERO, DVec3::ONE, 0);
         let columns = ViewColumns::new(&[sphere]);
         let shading = Shading {
-            spheres: &[sphere],
-            columns: &columns,
+            spheres: &columns,
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,

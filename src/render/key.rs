@@ -12,7 +12,7 @@ use glam::{DVec2, DVec3};
 use sha2::{Digest, Sha256};
 
 use crate::camera::{Basis, Camera};
-use crate::raster::Raster;
+use crate::raster::{MotionBlur, Raster};
 use crate::scene::{Light, Scene, Sphere};
 
 /// The renderer's version. Bump it with every change that changes any frame's pixels (the golden
@@ -94,16 +94,26 @@ impl KeyBase {
     /// The key of a frame seen through `camera`.
     pub fn key(&self, camera: &Camera) -> FrameKey {
         let mut h = Feed(self.0.clone());
-        let Camera {
-            vrp_world,
-            basis: Basis { u, v, n },
-            cop_view,
-            window,
-        } = *camera;
-        for p in [vrp_world, u, v, n, cop_view] {
-            h.vec3(p);
+        h.camera(camera);
+        FrameKey(format!("{:x}", h.0.finalize()))
+    }
+
+    /// The key of a frame with motion blur `blur`, seen through `camera` at the frame's time
+    /// and through `times` at its time samples: [`KeyBase::key`]'s bytes, then the tag
+    /// `motion blur`, the shutter, the number of time samples and every time sample's camera.
+    /// It differs from the key without blur (and from any other setting's) even where the
+    /// camera stands still and the pixels are the same.
+    pub fn key_blurred(&self, camera: &Camera, blur: MotionBlur, times: &[Camera]) -> FrameKey {
+        let mut h = Feed(self.0.clone());
+        h.camera(camera);
+        h.bytes(b"motion blur");
+        let MotionBlur { shutter, samples } = blur;
+        h.f64(shutter);
+        h.u64(u64::from(samples));
+        h.u64(times.len() as u64);
+        for c in times {
+            h.camera(c);
         }
-        h.vec2(window);
         FrameKey(format!("{:x}", h.0.finalize()))
     }
 }
@@ -130,6 +140,18 @@ impl Feed {
         self.f64(v.x);
         self.f64(v.y);
         self.f64(v.z);
+    }
+    fn camera(&mut self, camera: &Camera) {
+        let Camera {
+            vrp_world,
+            basis: Basis { u, v, n },
+            cop_view,
+            window,
+        } = *camera;
+        for p in [vrp_world, u, v, n, cop_view] {
+            self.vec3(p);
+        }
+        self.vec2(window);
     }
 }
 
@@ -225,5 +247,46 @@ mod tests {
         let mut c = camera();
         c.basis.u.y = -0.0;
         assert_ne!(KeyBase::new(&scene(), RASTER).key(&c), base);
+    }
+
+    /// Motion blur: the key without blur, then the tag, the setting and the time samples'
+    /// cameras, written out by hand; each part of the setting changes it.
+    #[test]
+    fn the_blurred_key_covers_the_setting_and_the_time_samples() {
+        let base = KeyBase::new(&scene(), RASTER);
+        let (cam, blur) = (
+            camera(),
+            MotionBlur {
+                shutter: 0.5,
+                samples: 2,
+            },
+        );
+        let mut moved = camera();
+        moved.vrp_world.x = 0.25;
+        let times = [cam, moved];
+        let mut plain = Feed(base.0.clone());
+        plain.camera(&cam);
+        let mut bytes = Feed(plain.0.clone());
+        bytes.bytes(b"motion blur");
+        bytes.f64(0.5);
+        bytes.u64(2);
+        bytes.u64(2);
+        bytes.camera(&cam);
+        bytes.camera(&moved);
+        let want = format!("{:x}", bytes.0.finalize());
+        let key = base.key_blurred(&cam, blur, &times);
+        assert_eq!(key.0, want);
+        assert_ne!(key, base.key(&cam));
+        let other = |b: MotionBlur, t: &[Camera]| base.key_blurred(&cam, b, t);
+        let wider = MotionBlur {
+            shutter: 0.75,
+            ..blur
+        };
+        assert_ne!(other(wider, &times), key);
+        let more = MotionBlur { samples: 3, ..blur };
+        assert_ne!(other(more, &[cam, cam, moved]), key);
+        assert_ne!(other(blur, &[cam, cam]), key);
+        // Still: the setting alone still changes the key.
+        assert_ne!(other(blur, &[cam, cam]), base.key(&cam));
     }
 }

@@ -10,7 +10,9 @@
 //! sRGB levels) is written once, in packets of `lanes`; the plain one-ray-at-a-time oracle they
 //! are compared with, pixel for pixel, lives in the tests (tests/it/reference.rs). This file is
 //! the orchestration: a frame prepared (spheres and lights into view coordinates, shadow work,
-//! tiles), then its rows handed to the row drivers (`drivers.rs`) on the rayon pool.
+//! tiles), then its rows handed to the row drivers (`drivers.rs`) on the rayon pool. A frame
+//! with motion blur is prepared once per time sample, and each of its rows is the mean of those
+//! renders' rows in linear light (`shutter.rs`).
 //!
 //! Render does no file I/O.
 
@@ -31,6 +33,7 @@ mod oracle;
 mod rays;
 mod rows;
 mod shadows;
+mod shutter;
 mod simd;
 mod srgb;
 mod tiles;
@@ -43,10 +46,11 @@ pub use world::SceneIndex;
 
 use drivers::RowJob;
 use kernels::Shading;
-use lanes::{Isa, LANES};
+use lanes::LANES;
 use rays::RayTable;
 use rows::rows_in_order;
 use shadows::FrameShadows;
+use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight, ViewSphere};
 
@@ -134,6 +138,40 @@ impl Renderer {
         index: &'a SceneIndex,
         raster: Raster,
     ) -> PreparedFrame<'a> {
+        self.prepare_times(std::slice::from_ref(camera), index, raster)
+    }
+
+    /// A frame that is the mean of its renders through `cameras` (motion blur: one camera per
+    /// time sample, in time order), each prepared as [`Renderer::prepare`] does; with one
+    /// camera, exactly that frame. Its rows average the time samples' linear colours in the
+    /// order of `cameras` and quantise the mean once. Panics without a camera.
+    pub fn prepare_times<'a>(
+        &mut self,
+        cameras: &[Camera],
+        index: &'a SceneIndex,
+        raster: Raster,
+    ) -> PreparedFrame<'a> {
+        assert!(!cameras.is_empty(), "a frame has at least one camera");
+        let times = cameras
+            .iter()
+            .map(|camera| self.prepare_time(camera, index, raster))
+            .collect();
+        PreparedFrame {
+            isa: self.isa,
+            raster,
+            times,
+            ambient: index.scene.ambient,
+            background: index.scene.background,
+        }
+    }
+
+    /// One camera's part of a frame: see [`Renderer::prepare`].
+    fn prepare_time<'a>(
+        &mut self,
+        camera: &Camera,
+        index: &'a SceneIndex,
+        raster: Raster,
+    ) -> TimeSample<'a> {
         let scene = index.scene;
         let table = match &self.table {
             Some(t) if t.fits(camera.cop_view, camera.window, raster) => Arc::clone(t),
@@ -166,7 +204,7 @@ impl Renderer {
                 }
             })
             .collect();
-        let (bins, columns) = if spheres.len() >= tiles::PARALLEL {
+        let (bins, spheres) = if spheres.len() >= tiles::PARALLEL {
             rayon::join(
                 || TileBins::build(&spheres, &table, raster),
                 || ViewColumns::new(&spheres),
@@ -177,16 +215,11 @@ impl Renderer {
                 ViewColumns::new(&spheres),
             )
         };
-        PreparedFrame {
-            isa: self.isa,
-            raster,
+        TimeSample {
             table,
-            columns,
             spheres,
             lights,
             bins,
-            ambient: scene.ambient,
-            background: scene.background,
         }
     }
 }
@@ -195,24 +228,39 @@ impl Renderer {
 /// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide).
 pub const RING_ROWS: usize = 64;
 
-/// A frame made ready for its rays by [`Renderer::prepare`].
+/// A frame made ready for its rays by [`Renderer::prepare`] or [`Renderer::prepare_times`].
 pub struct PreparedFrame<'a> {
     isa: Isa,
     raster: Raster,
-    table: Arc<RayTable>,
-    spheres: Vec<ViewSphere>,
-    columns: ViewColumns,
-    lights: Vec<ViewLight<'a>>,
-    bins: TileBins,
+    /// The scene seen by each camera of the frame: one, or one per time sample.
+    times: Vec<TimeSample<'a>>,
     ambient: f64,
     background: DVec3,
 }
 
+/// The scene as one camera of a frame sees it, ready for its rays.
+struct TimeSample<'a> {
+    table: Arc<RayTable>,
+    spheres: ViewColumns,
+    lights: Vec<ViewLight<'a>>,
+    bins: TileBins,
+}
+
 impl PreparedFrame<'_> {
     /// How many spheres the frame has inside its view pyramid (the rest were culled by the
-    /// scene's hierarchy without being moved into view coordinates).
+    /// scene's hierarchy without being moved into view coordinates); with several time
+    /// samples, the most any of them has.
     pub fn in_view(&self) -> usize {
-        self.spheres.len()
+        self.times
+            .iter()
+            .map(|t| t.spheres.len())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// How many renders the frame averages: 1, or its time samples.
+    pub fn renders(&self) -> usize {
+        self.times.len()
     }
 
     /// Renders the frame into `pixels` (see [`Renderer::render_indexed_into`]), each row by one
@@ -240,33 +288,51 @@ impl PreparedFrame<'_> {
 
     /// Every row, into `buffer` (the frame, or a ring of whole rows).
     fn render_rows(&self, buffer: &mut [u8], in_order: &mut (dyn FnMut(&[u8]) + Send)) {
-        let (raster, table, bins) = (self.raster, &*self.table, &self.bins);
+        let raster = self.raster;
         let rows = raster.height as usize;
-        let ctx = Shading {
-            spheres: &self.spheres,
-            columns: &self.columns,
-            lights: &self.lights,
-            ambient: self.ambient,
-            background: self.background,
-        };
-        let adaptive = raster.adaptive && raster.samples >= 2;
         let width = raster.width as usize;
+        let contexts: Vec<Shading> = self
+            .times
+            .iter()
+            .map(|t| Shading {
+                spheres: &t.spheres,
+                lights: &t.lights,
+                ambient: self.ambient,
+                background: self.background,
+            })
+            .collect();
+        let jobs: Vec<RowJob> = self
+            .times
+            .iter()
+            .zip(&contexts)
+            .map(|(t, ctx)| self.job(ctx, t))
+            .collect();
+        let isa = self.isa;
+        if let [job] = &jobs[..] {
+            let render = |j, row: &mut [u8]| job.row(isa, j, row);
+            rows_in_order(buffer, width * 3, rows, render, in_order);
+        } else {
+            let render = |j, row: &mut [u8]| shutter::mean_row(isa, &jobs, j, row);
+            rows_in_order(buffer, width * 3, rows, render, in_order);
+        }
+    }
+
+    /// What the row drivers need of one time sample.
+    fn job<'b>(&'b self, ctx: &'b Shading<'b>, time: &'b TimeSample) -> RowJob<'b> {
+        let raster = self.raster;
         let encode = srgb_encoder();
-        let job = RowJob {
-            ctx: &ctx,
-            table,
-            bins,
+        RowJob {
+            ctx,
+            table: &time.table,
+            bins: &time.bins,
             encode,
             background: [self.background.to_array().map(|c| encode.encode(c)); LANES]
                 .concat()
                 .try_into()
                 .expect("LANES pixels"),
             samples: raster.samples as usize,
-            adaptive,
-        };
-        let isa = self.isa;
-        let render = |j, row: &mut [u8]| job.row(isa, j, row);
-        rows_in_order(buffer, width * 3, rows, render, in_order);
+            adaptive: raster.adaptive && raster.samples >= 2,
+        }
     }
 }
 

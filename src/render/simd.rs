@@ -1,42 +1,114 @@
 //! The instruction paths a user can choose (`CAMPATH_SIMD`), and which of them this CPU runs:
 //! each path's instruction set comes with its proof ([`Isa`]), made by feature detection.
 
-use super::lanes::Isa;
+#[cfg(target_arch = "x86_64")]
+use super::lanes::{same_features, Token};
+use super::lanes::{ForLanes, Portable};
 
-/// How the renderer casts its rays. Every choice gives the same bytes; they differ in speed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Simd {
-    /// The packet code on plain arrays of lanes (`Portable`), the form every target runs;
-    /// on x86-64 the same code as `Baseline`.
-    Scalar,
-    /// Packets with the target's baseline vectors (SSE2 on x86-64).
-    Baseline,
+/// The instruction paths beside the portable ones, one line each, slowest first: the `Simd`
+/// variant (with its documentation), its `CAMPATH_SIMD` name, the targets it exists on, its
+/// token and `Lanes` form in `lanes/`, the `#[target_feature]` its functions are compiled with
+/// (the token's `FEATURES`, checked), and the name of those functions (for profiles). From this
+/// list come `Simd`, `Isa`, the detection and the dispatch (`Isa::run`): adding an instruction
+/// set is a file of `lanes/` and a line here (ARCHITECTURE.md).
+macro_rules! instruction_paths {
+    ($(
+        $(#[doc = $doc:literal])*
+        $variant:ident = $name:literal, cfg($cfg:meta), $token:ident, $form:ident, $feature:literal,
+        $rows:ident;
+    )*) => {
+        /// How the renderer casts its rays. Every choice gives the same bytes; they differ in
+        /// speed.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum Simd {
+            /// The packet code on plain arrays of lanes (`Portable`), the form every target
+            /// runs; on x86-64 the same code as `Baseline`.
+            Scalar,
+            /// Packets with the target's baseline vectors (SSE2 on x86-64).
+            Baseline,
+            $($(#[doc = $doc])* $variant,)*
+        }
+
+        /// An instruction set this CPU was found to run, with its proof (a token only detection
+        /// makes): the argument of the renderer's dispatch.
+        #[derive(Debug, Clone, Copy)]
+        pub(super) enum Isa {
+            /// Plain arrays: every CPU.
+            Portable,
+            $(#[cfg($cfg)] $variant(super::lanes::$token),)*
+        }
+
+        impl Simd {
+            /// Every path, slowest first.
+            pub const ALL: [Simd; 2 + <[&str]>::len(&[$($name),*])] =
+                [Simd::Scalar, Simd::Baseline, $(Simd::$variant),*];
+
+            /// The path's instruction set, with the proof that this CPU runs it; None when it
+            /// does not.
+            pub(super) fn isa(self) -> Option<Isa> {
+                match self {
+                    Simd::Scalar | Simd::Baseline => Some(Isa::Portable),
+                    $(Simd::$variant => {
+                        #[cfg($cfg)]
+                        let isa = <super::lanes::$token as Token>::detect().map(Isa::$variant);
+                        #[cfg(not($cfg))]
+                        let isa = None;
+                        isa
+                    })*
+                }
+            }
+
+            /// The path's name, as `CAMPATH_SIMD` takes it.
+            pub fn name(self) -> &'static str {
+                match self {
+                    Simd::Scalar => "scalar",
+                    Simd::Baseline if cfg!(target_arch = "x86_64") => "sse2",
+                    Simd::Baseline => "baseline",
+                    $(Simd::$variant => $name,)*
+                }
+            }
+        }
+
+        impl Isa {
+            /// `work` on this instruction set's form of lanes, compiled for the set: the
+            /// renderer's one dispatch.
+            #[inline(always)]
+            pub(super) fn run<W: ForLanes>(self, work: W) -> W::Output {
+                match self {
+                    Isa::Portable => work.run::<Portable>(()),
+                    $(#[cfg($cfg)]
+                    Isa::$variant(t) => {
+                        // The features compiled for are the ones the token's detection found.
+                        const _: () = assert!(same_features(
+                            <super::lanes::$token as Token>::FEATURES,
+                            $feature
+                        ));
+                        #[target_feature(enable = $feature)]
+                        fn $rows<W: ForLanes>(t: super::lanes::$token, work: W) -> W::Output {
+                            work.run::<super::lanes::$form>(t)
+                        }
+                        // SAFETY: `t` proves that the CPU runs `$feature`: only detection
+                        // makes a token (`Token`'s contract), and the assertion above ties
+                        // the two lists of features together.
+                        unsafe { $rows(t, work) }
+                    })*
+                }
+            }
+        }
+    };
+}
+
+instruction_paths! {
     /// Packets compiled for AVX2.
-    Avx2,
+    Avx2 = "avx2", cfg(target_arch = "x86_64"), Avx2, Ymm2, "avx2", rows_avx2;
     /// Packets compiled for AVX-512F.
-    Avx512,
+    Avx512 = "avx512", cfg(target_arch = "x86_64"), Avx512, Zmm, "avx512f", rows_avx512;
 }
 
 impl Simd {
-    /// Every path, slowest first.
-    pub const ALL: [Simd; 4] = [Simd::Scalar, Simd::Baseline, Simd::Avx2, Simd::Avx512];
-
     /// Whether this CPU can run the path.
     pub fn supported(self) -> bool {
         self.isa().is_some()
-    }
-
-    /// The path's instruction set, with the proof that this CPU runs it; None when it does not.
-    pub(super) fn isa(self) -> Option<Isa> {
-        match self {
-            Simd::Scalar | Simd::Baseline => Some(Isa::Portable),
-            #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => super::lanes::Avx2::detect().map(Isa::Avx2),
-            #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => super::lanes::Avx512::detect().map(Isa::Avx512),
-            #[cfg(not(target_arch = "x86_64"))]
-            Simd::Avx2 | Simd::Avx512 => None,
-        }
     }
 
     /// The fastest path this CPU runs.
@@ -69,17 +141,6 @@ impl Simd {
                 Err(format!("this CPU cannot run the {} path", s.name()))
             }
         }))
-    }
-
-    /// The path's name, as `CAMPATH_SIMD` takes it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Simd::Scalar => "scalar",
-            Simd::Baseline if cfg!(target_arch = "x86_64") => "sse2",
-            Simd::Baseline => "baseline",
-            Simd::Avx2 => "avx2",
-            Simd::Avx512 => "avx512",
-        }
     }
 }
 

@@ -443,7 +443,7 @@ mod tests {
                     .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
                     .collect();
                 let columns = ViewColumns::new(&view);
-                let shading = unlit(&view, &columns);
+                let shading = unlit(&columns);
                 for samples in [1, 3] {
                     let raster = Raster {
                         width: 96,
@@ -519,10 +519,9 @@ mod tests {
     }
 
     /// The primary-ray search over `spheres`, with no lights.
-    fn unlit<'a>(spheres: &'a [ViewSphere], columns: &'a ViewColumns) -> Shading<'a> {
+    fn unlit(spheres: &ViewColumns) -> Shading<'_> {
         Shading {
             spheres,
-            columns,
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,
@@ -579,7 +578,7 @@ mod tests {
                     );
                     let bins = TileBins::build(&view, &table, raster);
                     let columns = ViewColumns::new(&view);
-                    let shading = unlit(&view, &columns);
+                    let shading = unlit(&columns);
                     let t = root(f, sphere.c, sphere.radius2, d);
                     assert!(t.is_some(), "the ray meets the sphere");
                     let found = nearest(&shading, &bins, (i, j), d);

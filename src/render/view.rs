@@ -6,7 +6,8 @@ use super::shadows::FrameShadows;
 use crate::camera::Camera;
 use crate::scene::Sphere;
 
-/// A sphere in view coordinates, with the terms every primary ray shares.
+/// A sphere in view coordinates, with the terms every primary ray shares: made one at a time
+/// (for the tiles' bounds), kept per field in [`ViewColumns`].
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ViewSphere {
     pub(super) center: DVec3,
@@ -54,10 +55,17 @@ impl ViewSphere {
     }
 }
 
-/// The fields of the frame's view spheres that a packet whose lanes hit several spheres reads
-/// lane by lane (`Lanes::gather`): one slice per field, in the order of the spheres.
+/// The frame's spheres in view coordinates, one slice per field, in the order of the spheres:
+/// the hit search reads a candidate's terms by its index, and a packet whose lanes hit several
+/// spheres gathers their fields lane by lane (`Lanes::gather`).
 pub(super) struct ViewColumns {
+    /// No primary ray meets the sphere nearer than this: |f| − r.
+    pub(super) min_dist: Vec<f64>,
+    /// COP − centre.
     pub(super) f: [Vec<f64>; 3],
+    /// |f|² − r².
+    pub(super) c: Vec<f64>,
+    pub(super) radius2: Vec<f64>,
     pub(super) center: [Vec<f64>; 3],
     pub(super) radius: Vec<f64>,
     pub(super) color: [Vec<f64>; 3],
@@ -71,12 +79,26 @@ impl ViewColumns {
         let xyz =
             |f: &dyn Fn(&ViewSphere) -> DVec3| [0, 1, 2].map(|a| column(&|s: &ViewSphere| f(s)[a]));
         ViewColumns {
+            min_dist: column(&|s| s.min_dist),
             f: xyz(&|s| s.f),
+            c: column(&|s| s.c),
+            radius2: column(&|s| s.radius2),
             center: xyz(&|s| s.center),
             radius: column(&|s| s.radius),
             color: xyz(&|s| s.color),
             id: spheres.iter().map(|s| s.id as u64).collect(),
         }
+    }
+
+    /// How many spheres.
+    pub(super) fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    /// Sphere `k`'s f (COP − centre).
+    #[inline(always)]
+    pub(super) fn f_at(&self, k: usize) -> DVec3 {
+        DVec3::new(self.f[0][k], self.f[1][k], self.f[2][k])
     }
 }
 

@@ -1,7 +1,8 @@
 //! Blender, for real: the script of `campath path --format blender`, run headless, gives a
 //! camera that projects test points where campath's does (to 0.01 px at every frame, distort
 //! included), and the glTF of `--format gltf`, imported by Blender's own importer, puts the camera
-//! where campath puts it (to 1e-5).
+//! where campath puts it (to 1e-5). The script's scene has campath's motion blur: on with the
+//! shutter and centred on the frame where the file has it, off where not.
 
 use std::process::Command;
 
@@ -25,6 +26,9 @@ for job in jobs:
     exec(compile(open(job["script"]).read(), job["script"], "exec"), {"__name__": "__main__"})
     scene = bpy.context.scene
     camera = scene.camera
+    positions = [s.motion_blur_position for s in (scene.render, getattr(scene, "cycles", None), getattr(scene, "eevee", None))
+                 if s is not None and hasattr(s, "motion_blur_position")]
+    blur = {"use": scene.render.use_motion_blur, "shutter": scene.render.motion_blur_shutter, "positions": positions}
     projections = []
     for frame in range(scene.frame_start, scene.frame_end + 1):
         scene.frame_set(frame)
@@ -38,7 +42,7 @@ for job in jobs:
         scene.frame_set(frame)
         m = camera.matrix_world
         poses.append([[m[r][c] for c in range(4)] for r in range(3)])
-    json.dump({"projections": projections, "poses": poses}, open(job["out"], "w"))
+    json.dump({"projections": projections, "poses": poses, "blur": blur}, open(job["out"], "w"))
 "#;
 
 #[test]
@@ -133,6 +137,19 @@ fn blender_sees_what_campath_renders() {
             &std::fs::read_to_string(tmp.path().join(format!("{name}.json"))).unwrap(),
         )
         .unwrap();
+        let blur = &result["blur"];
+        match doc.motion_blur {
+            Some(b) => {
+                assert_eq!(blur["use"], true, "{name}: {blur}");
+                let shutter = blur["shutter"].as_f64().unwrap();
+                assert!((shutter - b.shutter).abs() < 1e-6, "{name}: {blur}");
+                let positions = blur["positions"].as_array().unwrap();
+                assert!(!positions.is_empty(), "{name}: {blur}");
+                assert!(positions.iter().all(|p| p == "CENTER"), "{name}: {blur}");
+                eprintln!("blender {name}: motion blur {blur}");
+            }
+            None => assert_eq!(blur["use"], false, "{name}: {blur}"),
+        }
         let (w, h) = (doc.raster.width as f64, doc.raster.height as f64);
         let mut worst = (0.0f64, 0.0f64);
         let mut compared = 0;

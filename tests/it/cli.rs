@@ -461,6 +461,13 @@ fn report_prints_both_tables_and_writes_the_plot() {
         line.split('|').nth(3).unwrap().trim().parse().unwrap()
     };
     assert!(rmse("samples 8") < rmse("samples 1"));
+    // Motion blur's time samples, against 64 of them on a frame where the camera moves: more
+    // time samples, less error; and one time sample is the frame without blur.
+    for n in [1, 2, 4, 8, 16] {
+        let row = format!("| time samples {n} |");
+        assert!(text.contains(&row), "{row} missing from:\n{text}");
+    }
+    assert!(text.contains("Time samples: frame "), "{text}");
     // The instruction paths are rows too, each with samples 1's error exactly (same bytes).
     assert_eq!(rmse("samples 1, f64, scalar path"), rmse("samples 1"));
     let baseline = format!(
@@ -470,6 +477,29 @@ fn report_prints_both_tables_and_writes_the_plot() {
     assert_eq!(rmse(&baseline), rmse("samples 1"));
     let plot = image::open(tmp.path().join("plot.png")).unwrap();
     assert_eq!((plot.width(), plot.height()), (900, 600));
+    // SMALL's camera looks at its one sphere, whose picture hardly changes as it moves; a
+    // camera that slides past it blurs it.
+    let sliding = SMALL
+        .replace("tp: (0.0, 0.0, 0.0)", "vpn: (0.0, -0.1, 1.0)")
+        .replace("width: 32, height: 18", "width: 64, height: 36");
+    let f = write(tmp.path(), "sliding.ron", &sliding);
+    let o = campath(
+        tmp.path(),
+        &["report", &f, "--runs", "1", "--plot", "sliding.png"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let rmse = |label: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {label} |")))
+            .unwrap();
+        line.split('|').nth(3).unwrap().trim().parse().unwrap()
+    };
+    assert!(rmse("time samples 16") < rmse("time samples 4"), "{text}");
+    assert!(rmse("time samples 4") < rmse("time samples 1"), "{text}");
+    assert!(rmse("time samples 1") > 1.0, "{text}");
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 use campath::document::Document;
 
 /// The examples in animations/, by file stem.
-pub const EXAMPLES: [&str; 7] = [
+pub const EXAMPLES: [&str; 8] = [
     "observer",
     "look_around",
     "track",
@@ -15,6 +15,7 @@ pub const EXAMPLES: [&str; 7] = [
     "distort",
     "flythrough",
     "dolly_zoom",
+    "motion_blur",
 ];
 
 /// The repository root.

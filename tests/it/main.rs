@@ -14,6 +14,7 @@ mod golden;
 mod incremental;
 mod lock;
 mod modes;
+mod motion_blur;
 mod povray;
 mod production;
 mod reference;

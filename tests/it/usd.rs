@@ -204,6 +204,7 @@ for job in jobs:
     cameras = [p for p in stage.Traverse() if p.IsA(UsdGeom.Camera)]
     result["cameras"] = len(cameras)
     camera = UsdGeom.Camera(cameras[0])
+    result["shutter"] = [camera.GetShutterOpenAttr().Get(), camera.GetShutterCloseAttr().Get()]
     result["samples"] = {a.GetName(): len(a.GetTimeSamples()) for a in cameras[0].GetAttributes() if a.GetNumTimeSamples() > 0}
     projections, lenses = [], []
     for k in range(int(start), int(end) + 1):
@@ -280,6 +281,12 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
             "{name}"
         );
         assert_eq!(r["cameras"], 1, "{name}");
+        // The shutter, in time codes about the frame's: centred, S wide; USD's 0, 0 without.
+        let shutter = match doc.motion_blur {
+            Some(b) => [-b.shutter / 2.0, b.shutter / 2.0],
+            None => [0.0, 0.0],
+        };
+        assert_eq!(r["shutter"], serde_json::json!(shutter), "{name}");
         for attr in [
             "xformOp:translate",
             "xformOp:orient",

@@ -1,0 +1,272 @@
+//! Two AVX2 registers of four f64 lanes each (`Ymm2`), and the token that proves AVX2.
+//! Everything the instruction set needs is in this file and its line in `simd.rs`.
+
+use std::arch::x86_64::*;
+
+use super::contract::sealed::Sealed;
+use super::contract::{InBounds, Lanes, Token, LANES};
+
+/// Proof that this CPU runs AVX2: made only by [`Token::detect`].
+#[derive(Debug, Clone, Copy)]
+pub struct Avx2(());
+
+impl Sealed for Avx2 {}
+
+// SAFETY: `detect` makes the only Avx2 there is, and only when the CPU runs AVX2.
+unsafe impl Token for Avx2 {
+    const FEATURES: &'static str = "avx2";
+
+    #[inline]
+    fn detect() -> Option<Avx2> {
+        std::arch::is_x86_feature_detected!("avx2").then_some(Avx2(()))
+    }
+}
+
+/// Two AVX2 registers (lanes 0–3 and 4–7), with the proof that the CPU runs AVX2.
+#[derive(Clone, Copy)]
+pub struct Ymm2([__m256d; 2], Avx2);
+
+/// Eight 64-bit indices in two AVX2 registers, with the same proof.
+#[derive(Clone, Copy)]
+pub struct Ymm2Index([__m256i; 2], Avx2);
+
+impl Avx2 {
+    /// The 4-lane vector mask of bits 0–3 of `m`.
+    #[inline(always)]
+    fn unpack(self, m: u8) -> __m256d {
+        // SAFETY: `self` proves AVX2.
+        unsafe {
+            let bits = _mm256_setr_epi64x(1, 2, 4, 8);
+            let set = _mm256_and_si256(_mm256_set1_epi64x(m as i64), bits);
+            _mm256_castsi256_pd(_mm256_cmpeq_epi64(set, bits))
+        }
+    }
+}
+
+impl Ymm2 {
+    #[inline(always)]
+    fn each(self, f: impl Fn(__m256d) -> __m256d) -> Ymm2 {
+        Ymm2([f(self.0[0]), f(self.0[1])], self.1)
+    }
+
+    #[inline(always)]
+    fn both(self, b: Ymm2, f: impl Fn(__m256d, __m256d) -> __m256d) -> Ymm2 {
+        Ymm2([f(self.0[0], b.0[0]), f(self.0[1], b.0[1])], self.1)
+    }
+
+    #[inline(always)]
+    fn test(self, b: Ymm2, f: impl Fn(__m256d, __m256d) -> __m256d) -> u8 {
+        // SAFETY: `self` proves AVX2.
+        unsafe {
+            let lo = _mm256_movemask_pd(f(self.0[0], b.0[0]));
+            let hi = _mm256_movemask_pd(f(self.0[1], b.0[1]));
+            (lo | hi << 4) as u8
+        }
+    }
+}
+
+// In the closures below, `self` (a `Ymm2`) proves AVX2: each is called only by `each`,
+// `both` or `test` on it.
+impl Sealed for Ymm2 {}
+
+impl Lanes for Ymm2 {
+    type Token = Avx2;
+    type Index = Ymm2Index;
+
+    #[inline(always)]
+    fn token(self) -> Avx2 {
+        self.1
+    }
+    #[inline(always)]
+    fn splat(t: Avx2, x: f64) -> Self {
+        // SAFETY: `t` proves AVX2.
+        Ymm2([unsafe { _mm256_set1_pd(x) }; 2], t)
+    }
+    #[inline(always)]
+    fn load(t: Avx2, x: &[f64; LANES]) -> Self {
+        // SAFETY: `t` proves AVX2; `x` holds the eight f64 read.
+        let v = unsafe {
+            [
+                _mm256_loadu_pd(x.as_ptr()),
+                _mm256_loadu_pd(x.as_ptr().add(4)),
+            ]
+        };
+        Ymm2(v, t)
+    }
+    #[inline(always)]
+    fn store(self) -> [f64; LANES] {
+        let mut out = [0.0; LANES];
+        // SAFETY: `self` proves AVX2; `out` holds the eight f64 written.
+        unsafe {
+            _mm256_storeu_pd(out.as_mut_ptr(), self.0[0]);
+            _mm256_storeu_pd(out.as_mut_ptr().add(4), self.0[1]);
+        }
+        out
+    }
+    #[inline(always)]
+    fn add(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.both(b, |x, y| unsafe { _mm256_add_pd(x, y) })
+    }
+    #[inline(always)]
+    fn sub(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.both(b, |x, y| unsafe { _mm256_sub_pd(x, y) })
+    }
+    #[inline(always)]
+    fn mul(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.both(b, |x, y| unsafe { _mm256_mul_pd(x, y) })
+    }
+    #[inline(always)]
+    fn div(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.both(b, |x, y| unsafe { _mm256_div_pd(x, y) })
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.each(|x| unsafe { _mm256_sqrt_pd(x) })
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.each(|x| unsafe { _mm256_xor_pd(x, _mm256_set1_pd(-0.0)) })
+    }
+    #[inline(always)]
+    fn copysign(self, s: Self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.both(s, |x, y| unsafe {
+            let sign = _mm256_set1_pd(-0.0);
+            _mm256_or_pd(_mm256_andnot_pd(sign, x), _mm256_and_pd(sign, y))
+        })
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.each(|x| unsafe { _mm256_andnot_pd(_mm256_set1_pd(-0.0), x) })
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        // vminpd gives its second operand when either is NaN.
+        // SAFETY: `self` proves AVX2.
+        self.both(b, |x, y| unsafe {
+            let y_nan = _mm256_cmp_pd::<_CMP_UNORD_Q>(y, y);
+            _mm256_blendv_pd(_mm256_min_pd(x, y), x, y_nan)
+        })
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX2.
+        self.both(b, |x, y| unsafe {
+            let y_nan = _mm256_cmp_pd::<_CMP_UNORD_Q>(y, y);
+            _mm256_blendv_pd(_mm256_max_pd(x, y), x, y_nan)
+        })
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX2.
+        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(x, y) })
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX2.
+        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_LE_OQ>(x, y) })
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX2.
+        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_GT_OQ>(x, y) })
+    }
+    #[inline(always)]
+    fn ge(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX2.
+        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_GE_OQ>(x, y) })
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX2.
+        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_EQ_OQ>(x, y) })
+    }
+    #[inline(always)]
+    fn blend(m: u8, a: Self, b: Self) -> Self {
+        let t = a.1;
+        // SAFETY: `a` proves AVX2.
+        let v = unsafe {
+            [
+                _mm256_blendv_pd(a.0[0], b.0[0], t.unpack(m)),
+                _mm256_blendv_pd(a.0[1], b.0[1], t.unpack(m >> 4)),
+            ]
+        };
+        Ymm2(v, t)
+    }
+    #[inline(always)]
+    fn to_i32(self, max: i32) -> [i32; LANES] {
+        let mut out = [0; LANES];
+        // SAFETY: `self` proves AVX2; `out` holds the eight i32 written, four at a time.
+        unsafe {
+            for h in 0..2 {
+                // NaN converts to i32::MIN, which the max lifts to 0, as `as` does.
+                let i = _mm256_cvttpd_epi32(self.0[h]);
+                let i = _mm_min_epi32(_mm_max_epi32(i, _mm_setzero_si128()), _mm_set1_epi32(max));
+                _mm_storeu_si128(out.as_mut_ptr().add(4 * h).cast(), i);
+            }
+        }
+        out
+    }
+
+    #[inline(always)]
+    fn index(t: Avx2, k: u64) -> Ymm2Index {
+        // SAFETY: `t` proves AVX2.
+        Ymm2Index([unsafe { _mm256_set1_epi64x(k as i64) }; 2], t)
+    }
+    #[inline(always)]
+    fn index_blend(m: u8, a: Ymm2Index, b: Ymm2Index) -> Ymm2Index {
+        let t = a.1;
+        let pick = |h: usize, m: u8| {
+            // SAFETY: `a` proves AVX2.
+            unsafe {
+                let (a, b) = (_mm256_castsi256_pd(a.0[h]), _mm256_castsi256_pd(b.0[h]));
+                _mm256_castpd_si256(_mm256_blendv_pd(a, b, t.unpack(m)))
+            }
+        };
+        Ymm2Index([pick(0, m), pick(1, m >> 4)], t)
+    }
+    #[inline(always)]
+    fn index_eq(a: Ymm2Index, b: Ymm2Index) -> u8 {
+        let half = |h: usize| {
+            // SAFETY: `a` proves AVX2.
+            unsafe { _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(a.0[h], b.0[h]))) }
+        };
+        (half(0) | half(1) << 4) as u8
+    }
+    #[inline(always)]
+    fn index_store(a: Ymm2Index) -> [u64; LANES] {
+        let mut out = [0; LANES];
+        // SAFETY: `a` proves AVX2; `out` holds the eight u64 written, four at a time.
+        unsafe {
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), a.0[0]);
+            _mm256_storeu_si256(out.as_mut_ptr().add(4).cast(), a.0[1]);
+        }
+        out
+    }
+    #[inline(always)]
+    fn gather(field: &[f64], own: InBounds<Ymm2Index>) -> Self {
+        let own = own.within(field);
+        let half = |h: usize| {
+            // SAFETY: `own` proves AVX2, and every lane of it indexes `field` (checked by
+            // `InBounds`, the length by `within`); the scale 8 makes an index an f64's.
+            unsafe { _mm256_i64gather_pd::<8>(field.as_ptr(), own.0[h]) }
+        };
+        Ymm2([half(0), half(1)], own.1)
+    }
+    #[inline(always)]
+    fn gather_index(field: &[u64], own: InBounds<Ymm2Index>) -> Ymm2Index {
+        let own = own.within(field);
+        let half = |h: usize| {
+            // SAFETY: as `gather`: AVX2 by `own`, indices checked, the scale a u64's.
+            unsafe { _mm256_i64gather_epi64::<8>(field.as_ptr().cast(), own.0[h]) }
+        };
+        Ymm2Index([half(0), half(1)], own.1)
+    }
+}

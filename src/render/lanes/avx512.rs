@@ -1,0 +1,228 @@
+//! One AVX-512 register of eight f64 lanes (`Zmm`), and the token that proves AVX-512F.
+//! Everything the instruction set needs is in this file and its line in `simd.rs`.
+
+use std::arch::x86_64::*;
+
+use super::contract::sealed::Sealed;
+use super::contract::{InBounds, Lanes, Token, LANES};
+
+/// Proof that this CPU runs AVX-512F: made only by [`Token::detect`].
+#[derive(Debug, Clone, Copy)]
+pub struct Avx512(());
+
+impl Sealed for Avx512 {}
+
+// SAFETY: `detect` makes the only Avx512 there is, and only when the CPU runs AVX-512F and
+// what `avx512f` implies to the compiler (AVX2, FMA, F16C: a virtual machine may hide one).
+unsafe impl Token for Avx512 {
+    const FEATURES: &'static str = "avx512f";
+
+    #[inline]
+    fn detect() -> Option<Avx512> {
+        (std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("f16c"))
+        .then_some(Avx512(()))
+    }
+}
+
+/// One AVX-512 register, with the proof that the CPU runs AVX-512F.
+#[derive(Clone, Copy)]
+pub struct Zmm(__m512d, Avx512);
+
+/// Eight 64-bit indices in one AVX-512 register, with the same proof.
+#[derive(Clone, Copy)]
+pub struct ZmmIndex(__m512i, Avx512);
+
+impl Zmm {
+    /// `v` as a value of this form, kept with the proof.
+    #[inline(always)]
+    fn with(self, v: __m512d) -> Zmm {
+        Zmm(v, self.1)
+    }
+}
+
+impl Sealed for Zmm {}
+
+impl Lanes for Zmm {
+    type Token = Avx512;
+    type Index = ZmmIndex;
+
+    #[inline(always)]
+    fn token(self) -> Avx512 {
+        self.1
+    }
+    #[inline(always)]
+    fn splat(t: Avx512, x: f64) -> Self {
+        // SAFETY: `t` proves AVX-512F.
+        Zmm(unsafe { _mm512_set1_pd(x) }, t)
+    }
+    #[inline(always)]
+    fn load(t: Avx512, x: &[f64; LANES]) -> Self {
+        // SAFETY: `t` proves AVX-512F; `x` holds the eight f64 read.
+        Zmm(unsafe { _mm512_loadu_pd(x.as_ptr()) }, t)
+    }
+    #[inline(always)]
+    fn store(self) -> [f64; LANES] {
+        let mut out = [0.0; LANES];
+        // SAFETY: `self` proves AVX-512F; `out` holds the eight f64 written.
+        unsafe { _mm512_storeu_pd(out.as_mut_ptr(), self.0) };
+        out
+    }
+    #[inline(always)]
+    fn add(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe { _mm512_add_pd(self.0, b.0) })
+    }
+    #[inline(always)]
+    fn sub(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe { _mm512_sub_pd(self.0, b.0) })
+    }
+    #[inline(always)]
+    fn mul(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe { _mm512_mul_pd(self.0, b.0) })
+    }
+    #[inline(always)]
+    fn div(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe { _mm512_div_pd(self.0, b.0) })
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe { _mm512_sqrt_pd(self.0) })
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe {
+            let sign = _mm512_set1_epi64(i64::MIN);
+            _mm512_castsi512_pd(_mm512_xor_epi64(_mm512_castpd_si512(self.0), sign))
+        })
+    }
+    #[inline(always)]
+    fn copysign(self, s: Self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe {
+            let sign = _mm512_set1_epi64(i64::MIN);
+            let (a, b) = (_mm512_castpd_si512(self.0), _mm512_castpd_si512(s.0));
+            _mm512_castsi512_pd(_mm512_or_epi64(
+                _mm512_andnot_epi64(sign, a),
+                _mm512_and_epi64(sign, b),
+            ))
+        })
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe { _mm512_abs_pd(self.0) })
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        // vminpd gives its second operand when either is NaN.
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe {
+            let m = _mm512_min_pd(self.0, b.0);
+            let b_nan = _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(b.0, b.0);
+            _mm512_mask_blend_pd(b_nan, m, self.0)
+        })
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        // SAFETY: `self` proves AVX-512F.
+        self.with(unsafe {
+            let m = _mm512_max_pd(self.0, b.0);
+            let b_nan = _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(b.0, b.0);
+            _mm512_mask_blend_pd(b_nan, m, self.0)
+        })
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX-512F.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, b.0) }
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX-512F.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, b.0) }
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX-512F.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, b.0) }
+    }
+    #[inline(always)]
+    fn ge(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX-512F.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_GE_OQ>(self.0, b.0) }
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> u8 {
+        // SAFETY: `self` proves AVX-512F.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, b.0) }
+    }
+    #[inline(always)]
+    fn blend(m: u8, a: Self, b: Self) -> Self {
+        // SAFETY: `a` proves AVX-512F.
+        a.with(unsafe { _mm512_mask_blend_pd(m, a.0, b.0) })
+    }
+    #[inline(always)]
+    fn to_i32(self, max: i32) -> [i32; LANES] {
+        let mut out = [0; LANES];
+        // SAFETY: `self` proves AVX-512F (and with it AVX2); `out` holds the eight i32
+        // written.
+        unsafe {
+            // NaN converts to i32::MIN, which the max lifts to 0, as `as` does.
+            let i = _mm512_cvttpd_epi32(self.0);
+            let i = _mm256_min_epi32(
+                _mm256_max_epi32(i, _mm256_setzero_si256()),
+                _mm256_set1_epi32(max),
+            );
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), i);
+        }
+        out
+    }
+
+    #[inline(always)]
+    fn index(t: Avx512, k: u64) -> ZmmIndex {
+        // SAFETY: `t` proves AVX-512F.
+        ZmmIndex(unsafe { _mm512_set1_epi64(k as i64) }, t)
+    }
+    #[inline(always)]
+    fn index_blend(m: u8, a: ZmmIndex, b: ZmmIndex) -> ZmmIndex {
+        // SAFETY: `a` proves AVX-512F.
+        ZmmIndex(unsafe { _mm512_mask_blend_epi64(m, a.0, b.0) }, a.1)
+    }
+    #[inline(always)]
+    fn index_eq(a: ZmmIndex, b: ZmmIndex) -> u8 {
+        // SAFETY: `a` proves AVX-512F.
+        unsafe { _mm512_cmpeq_epi64_mask(a.0, b.0) }
+    }
+    #[inline(always)]
+    fn index_store(a: ZmmIndex) -> [u64; LANES] {
+        let mut out = [0; LANES];
+        // SAFETY: `a` proves AVX-512F; `out` holds the eight u64 written.
+        unsafe { _mm512_storeu_si512(out.as_mut_ptr().cast(), a.0) };
+        out
+    }
+    #[inline(always)]
+    fn gather(field: &[f64], own: InBounds<ZmmIndex>) -> Self {
+        let own = own.within(field);
+        // SAFETY: `own` proves AVX-512F, and every lane of it indexes `field` (checked by
+        // `InBounds`, the length by `within`); the scale 8 makes an index an f64's.
+        Zmm(
+            unsafe { _mm512_i64gather_pd::<8>(own.0, field.as_ptr()) },
+            own.1,
+        )
+    }
+    #[inline(always)]
+    fn gather_index(field: &[u64], own: InBounds<ZmmIndex>) -> ZmmIndex {
+        let own = own.within(field);
+        // SAFETY: as `gather`: AVX-512F by `own`, indices checked, the scale a u64's.
+        let v = unsafe { _mm512_i64gather_epi64::<8>(own.0, field.as_ptr().cast()) };
+        ZmmIndex(v, own.1)
+    }
+}
