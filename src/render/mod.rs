@@ -178,9 +178,16 @@ impl Renderer {
             _ => Arc::new(RayTable::new(camera.cop_view, camera.window, raster)),
         };
         self.table = Some(Arc::clone(&table));
-        let spheres: Vec<ViewSphere> = tiles::each(&index.visible(camera), |&k| {
-            ViewSphere::new(camera, &scene.spheres[k as usize], k)
-        });
+        // Moved into view coordinates a chunk at a time, straight into their columns: no
+        // second copy of every sphere in view.
+        let visible = index.visible(camera);
+        let mut spheres = ViewColumns::with_capacity(visible.len());
+        for chunk in visible.chunks(VIEW_CHUNK) {
+            spheres.extend(&tiles::each(chunk, |&k| {
+                ViewSphere::new(camera, &scene.spheres[k as usize], k)
+            }));
+        }
+        drop(visible);
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
         let centers: Option<Arc<[(DVec3, f64)]>> =
@@ -204,17 +211,7 @@ impl Renderer {
                 }
             })
             .collect();
-        let (bins, spheres) = if spheres.len() >= tiles::PARALLEL {
-            rayon::join(
-                || TileBins::build(&spheres, &table, raster),
-                || ViewColumns::new(&spheres),
-            )
-        } else {
-            (
-                TileBins::build(&spheres, &table, raster),
-                ViewColumns::new(&spheres),
-            )
-        };
+        let bins = TileBins::build(&spheres, &table, raster);
         TimeSample {
             table,
             spheres,
@@ -223,6 +220,9 @@ impl Renderer {
         }
     }
 }
+
+/// Spheres moved into view coordinates together before they are stored per field: a few MB.
+const VIEW_CHUNK: usize = 1 << 16;
 
 /// Rows in the ring of [`PreparedFrame::render_through`]: enough that rendering seldom waits
 /// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide).

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::bins::Bins;
 use super::rays::RayTable;
-use super::view::ViewSphere;
+use super::view::{ViewColumns, ViewSphere};
 use crate::raster::Raster;
 
 /// Tile side in pixels.
@@ -206,6 +206,19 @@ pub fn each<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) ->
     }
 }
 
+/// `f` of each index below `n`, in order, as [`each`].
+fn each_index<U: Send>(n: usize, f: impl Fn(usize) -> U + Sync + Send) -> Vec<U> {
+    if n >= PARALLEL {
+        (0..n)
+            .into_par_iter()
+            .with_min_len(PARALLEL)
+            .map(f)
+            .collect()
+    } else {
+        (0..n).map(f).collect()
+    }
+}
+
 /// `x` as a u64 in the order of `f64::total_cmp`: the sign bit flipped for positive values, every
 /// bit for negative ones.
 fn total_key(x: f64) -> u64 {
@@ -263,29 +276,29 @@ pub struct TileBins {
 }
 
 impl TileBins {
-    pub fn build(spheres: &[ViewSphere], table: &RayTable, raster: Raster) -> TileBins {
+    pub fn build(spheres: &ViewColumns, table: &RayTable, raster: Raster) -> TileBins {
         let (cop, window) = (table.cop_view, table.window);
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
         // Each sphere's pixel rectangle ([1, 0, 1, 0] when culled, every pixel when without
         // bounds), and which have no bounds.
         let all = [0, raster.width - 1, 0, raster.height - 1];
-        let prints = each(spheres, |s| match footprint(s, cop, window, raster) {
-            Footprint::Culled => ([1, 0, 1, 0], false),
-            Footprint::Everywhere => (all, true),
-            Footprint::Pixels { i0, i1, j0, j1 } => {
-                ([i0 as u32, i1 as u32, j0 as u32, j1 as u32], false)
+        let prints = each_index(spheres.len(), |k| {
+            match footprint(&spheres.sphere(k), cop, window, raster) {
+                Footprint::Culled => ([1, 0, 1, 0], false),
+                Footprint::Everywhere => (all, true),
+                Footprint::Pixels { i0, i1, j0, j1 } => {
+                    ([i0 as u32, i1 as u32, j0 as u32, j1 as u32], false)
+                }
             }
         });
         let (rects, everywhere): (Vec<[u32; 4]>, Vec<bool>) = prints.into_iter().unzip();
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are sorted: left out where no ray of the tile
         // meets them, and ordered by the nearest hit a ray of the tile can have.
-        let wide: Vec<Wide> = spheres
-            .iter()
-            .enumerate()
-            .filter(|&(k, _)| everywhere[k])
-            .filter_map(|(k, s)| Wide::new(k as u32, s, table, raster))
+        let wide: Vec<Wide> = (0..spheres.len())
+            .filter(|&k| everywhere[k])
+            .filter_map(|k| Wide::new(k as u32, &spheres.sphere(k), table, raster))
             .collect();
         drop(everywhere);
         let dims = (tiles_x, tiles_y);
@@ -298,7 +311,7 @@ impl TileBins {
         // rectangles over every sphere in view), each sort reading the spheres' `min_dist` as
         // keys of their own (8 bytes a sphere where a view sphere is 112), ordered as
         // `total_cmp` orders the f64, on the pool when many are in view.
-        let keys: Vec<u64> = each(spheres, |s| total_key(s.min_dist));
+        let keys: Vec<u64> = each(&spheres.min_dist, |&d| total_key(d));
         if spheres.len() >= PARALLEL {
             // Each cell's keys read once into a list of its own (the keys of many spheres are
             // far apart in memory), sorted there, then written back.
@@ -314,7 +327,7 @@ impl TileBins {
             bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (keys[k as usize], k)));
         }
         drop(keys);
-        let key = |k: u32| (spheres[k as usize].min_dist, k);
+        let key = |k: u32| (spheres.min_dist[k as usize], k);
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {
             let mut keyed: Vec<(f64, u32)> = Vec::with_capacity(wide.len());
@@ -373,7 +386,6 @@ impl TileBins {
 mod tests {
     use super::super::kernels::Shading;
     use super::super::oracle::{nearest, root};
-    use super::super::view::ViewColumns;
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
@@ -452,7 +464,7 @@ mod tests {
                         adaptive: false,
                     };
                     let table = RayTable::new(cop, camera.window, raster);
-                    let bins = TileBins::build(&view, &table, raster);
+                    let bins = TileBins::build(&columns, &table, raster);
                     let wide = Wide::new(ground, &view[ground as usize], &table, raster);
                     let g = &view[ground as usize];
                     // Per tile, the ground's bound and its nearest hit by a sample.
@@ -576,8 +588,8 @@ mod tests {
                         footprint(&sphere, cop, window, raster),
                         Footprint::Everywhere
                     );
-                    let bins = TileBins::build(&view, &table, raster);
                     let columns = ViewColumns::new(&view);
+                    let bins = TileBins::build(&columns, &table, raster);
                     let shading = unlit(&columns);
                     let t = root(f, sphere.c, sphere.radius2, d);
                     assert!(t.is_some(), "the ray meets the sphere");

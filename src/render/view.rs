@@ -6,8 +6,8 @@ use super::shadows::FrameShadows;
 use crate::camera::Camera;
 use crate::scene::Sphere;
 
-/// A sphere in view coordinates, with the terms every primary ray shares: made one at a time
-/// (for the tiles' bounds), kept per field in [`ViewColumns`].
+/// A sphere in view coordinates, with the terms every primary ray shares: made one at a time,
+/// kept per field in [`ViewColumns`].
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ViewSphere {
     pub(super) center: DVec3,
@@ -74,19 +74,57 @@ pub(super) struct ViewColumns {
 }
 
 impl ViewColumns {
+    /// `spheres`, one slice per field.
+    #[cfg(test)]
     pub(super) fn new(spheres: &[ViewSphere]) -> ViewColumns {
-        let column = |f: &dyn Fn(&ViewSphere) -> f64| spheres.iter().map(f).collect::<Vec<_>>();
-        let xyz =
-            |f: &dyn Fn(&ViewSphere) -> DVec3| [0, 1, 2].map(|a| column(&|s: &ViewSphere| f(s)[a]));
+        let mut columns = ViewColumns::with_capacity(spheres.len());
+        columns.extend(spheres);
+        columns
+    }
+
+    /// No spheres yet, room for `n`.
+    pub(super) fn with_capacity(n: usize) -> ViewColumns {
+        let column = || Vec::with_capacity(n);
         ViewColumns {
-            min_dist: column(&|s| s.min_dist),
-            f: xyz(&|s| s.f),
-            c: column(&|s| s.c),
-            radius2: column(&|s| s.radius2),
-            center: xyz(&|s| s.center),
-            radius: column(&|s| s.radius),
-            color: xyz(&|s| s.color),
-            id: spheres.iter().map(|s| s.id as u64).collect(),
+            min_dist: column(),
+            f: [column(), column(), column()],
+            c: column(),
+            radius2: column(),
+            center: [column(), column(), column()],
+            radius: column(),
+            color: [column(), column(), column()],
+            id: Vec::with_capacity(n),
+        }
+    }
+
+    /// `spheres` after the ones held.
+    pub(super) fn extend(&mut self, spheres: &[ViewSphere]) {
+        for s in spheres {
+            self.min_dist.push(s.min_dist);
+            self.c.push(s.c);
+            self.radius2.push(s.radius2);
+            self.radius.push(s.radius);
+            for a in 0..3 {
+                self.f[a].push(s.f[a]);
+                self.center[a].push(s.center[a]);
+                self.color[a].push(s.color[a]);
+            }
+            self.id.push(s.id as u64);
+        }
+    }
+
+    /// Sphere `k`, whole.
+    pub(super) fn sphere(&self, k: usize) -> ViewSphere {
+        let xyz = |c: &[Vec<f64>; 3]| DVec3::new(c[0][k], c[1][k], c[2][k]);
+        ViewSphere {
+            center: xyz(&self.center),
+            radius: self.radius[k],
+            radius2: self.radius2[k],
+            f: xyz(&self.f),
+            c: self.c[k],
+            min_dist: self.min_dist[k],
+            color: xyz(&self.color),
+            id: self.id[k] as u32,
         }
     }
 
