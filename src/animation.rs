@@ -78,7 +78,7 @@ impl Exposure {
     /// blur, or where every time sample's camera equals it (the camera does not move while the
     /// shutter is open: the frame is rendered once, as without blur); else every time sample's.
     pub fn renders(&self) -> &[Camera] {
-        if self.times.iter().all(|c| *c == self.camera) {
+        if self.times.iter().all(|c| c.same_bits(&self.camera)) {
             std::slice::from_ref(&self.camera)
         } else {
             &self.times

@@ -128,6 +128,23 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// Whether `other` is this camera bit for bit: what decides that a frame's pixels are
+    /// another's (−0.0 and +0.0 differ here, as in the frame key, where `==` takes them alike).
+    pub fn same_bits(&self, other: &Camera) -> bool {
+        let b = self.basis;
+        let o = other.basis;
+        let mine = [self.vrp_world, b.u, b.v, b.n, self.cop_view];
+        let theirs = [other.vrp_world, o.u, o.v, o.n, other.cop_view];
+        let bits3 = |v: &DVec3| v.to_array().map(f64::to_bits);
+        mine.iter().map(bits3).eq(theirs.iter().map(bits3))
+            && self.window.to_array().map(f64::to_bits) == other.window.to_array().map(f64::to_bits)
+    }
+
+    /// Whether two lists of cameras are the same bit for bit ([`Camera::same_bits`]).
+    pub fn all_same_bits(a: &[Camera], b: &[Camera]) -> bool {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.same_bits(y))
+    }
+
     /// The notes' world-to-view matrix M = [[R, 0], [−qR, 1]] with R = (uᵀ vᵀ nᵀ) and q = VRP.
     ///
     /// The notes multiply row vectors on the left (p·M); glam multiplies column vectors on the
@@ -199,6 +216,21 @@ mod tests {
             cop_view: DVec3::new(0.0, 0.0, -1.0),
             window: DVec2::new(1.0, 1.0),
         }
+    }
+
+    #[test]
+    fn same_bits_tells_a_negative_zero_from_a_positive_one() {
+        let a = camera(DVec3::ZERO, DVec3::Z, DVec3::Y);
+        assert!(a.same_bits(&a.clone()));
+        assert!(Camera::all_same_bits(&[a], &[a]));
+        assert!(!Camera::all_same_bits(&[a], &[a, a]));
+        let mut b = a;
+        b.vrp_world.x = -0.0;
+        assert_eq!(a, b, "== takes the two zeros alike");
+        assert!(!a.same_bits(&b));
+        let mut c = a;
+        c.window.y = f64::from_bits(1.0f64.to_bits() + 1);
+        assert!(!a.same_bits(&c));
     }
 
     /// Row-vector product p·M with the notes' matrix written out by hand.

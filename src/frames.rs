@@ -127,7 +127,7 @@ enum Keep {
 
 /// A frame's pixels (if kept) and hash.
 /// The next frame is prepared while this one renders only when this one has fewer spheres in
-/// view than this: above it, the two frames' spheres in view coordinates would be in memory at
+/// view than this, over all its time samples: above it, the two frames' spheres in view coordinates would be in memory at
 /// once (250 MB more at a million in view), and a frame that large prepares on the whole pool
 /// anyway (at 1 M spheres the same time a frame, 390 MB peak instead of 670).
 pub const PREPARE_AHEAD_MAX: usize = 1 << 18;
@@ -167,7 +167,7 @@ fn run(
         // The cameras whose renders make the frame: one, or one per time sample.
         let cameras = exposure.renders();
         let (pixels, hash) = match previous.take() {
-            Some((cams, delivered)) if cams == cameras => {
+            Some((cams, delivered)) if Camera::all_same_bits(&cams, cameras) => {
                 timing.held += 1;
                 delivered
             }
@@ -177,7 +177,7 @@ fn run(
                 drop(stale);
                 let t = Instant::now();
                 let this = match prepared.take() {
-                    Some((cams, p)) if cams == cameras => p,
+                    Some((cams, p)) if Camera::all_same_bits(&cams, cameras) => p,
                     _ => renderer.prepare_times(cameras, &index, doc.raster),
                 };
                 // The next frame that is not this one again.
@@ -185,7 +185,8 @@ fn run(
                 // [`PREPARE_AHEAD_MAX`]).
                 let next = match wanted.peek() {
                     Some(Ok((_, e)))
-                        if e.renders() != cameras && this.in_view() < PREPARE_AHEAD_MAX =>
+                        if !Camera::all_same_bits(e.renders(), cameras)
+                            && this.view_spheres() < PREPARE_AHEAD_MAX =>
                     {
                         Some(e.renders().to_vec())
                     }

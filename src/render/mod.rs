@@ -258,6 +258,12 @@ impl PreparedFrame<'_> {
             .unwrap_or(0)
     }
 
+    /// How many view spheres the frame holds, over all its time samples: what its view data's
+    /// memory grows with.
+    pub fn view_spheres(&self) -> usize {
+        self.times.iter().map(|t| t.spheres.len()).sum()
+    }
+
     /// How many renders the frame averages: 1, or its time samples.
     pub fn renders(&self) -> usize {
         self.times.len()
