@@ -165,23 +165,13 @@ pub fn motion_report(
     let mut rows = Vec::new();
     for n in [1, 2, 4, 8, 16] {
         let (secs, pixels) = timed_times(&cameras(n)?, &doc.scene, raster, simd, runs);
-        let (rmse_levels, max_levels, rmse_linear, max_linear, changed) =
-            compare(&pixels, &reference);
-        rows.push(Measured {
-            setting: Setting::Motion(n),
-            secs,
-            rmse_levels,
-            max_levels,
-            rmse_linear,
-            max_linear,
-            changed,
-        });
+        rows.push(measure(Setting::Motion(n), secs, &pixels, &reference));
     }
     Ok(Some((frame, shutter, rows)))
 }
 
-/// Errors of `got` against `reference`, both RGB8 sRGB.
-pub fn compare(got: &[u8], reference: &[u8]) -> (f64, f64, f64, f64, f64) {
+/// `setting`'s row: `secs` a frame, and the errors of `got` against `reference`, both RGB8 sRGB.
+pub fn measure(setting: Setting, secs: f64, got: &[u8], reference: &[u8]) -> Measured {
     let linear: Vec<f64> = (0..=255).map(|l| srgb_decode(l as f64 / 255.0)).collect();
     let (mut sq, mut max, mut sq_lin, mut max_lin) = (0.0, 0.0f64, 0.0, 0.0f64);
     for (a, b) in got.iter().zip(reference) {
@@ -199,7 +189,15 @@ pub fn compare(got: &[u8], reference: &[u8]) -> (f64, f64, f64, f64, f64) {
         .filter(|(a, b)| a != b)
         .count() as f64
         / (n / 3.0);
-    ((sq / n).sqrt(), max, (sq_lin / n).sqrt(), max_lin, changed)
+    Measured {
+        setting,
+        secs,
+        rmse_levels: (sq / n).sqrt(),
+        max_levels: max,
+        rmse_linear: (sq_lin / n).sqrt(),
+        max_linear: max_lin,
+        changed,
+    }
 }
 
 /// Measures every setting on frame `frame` of `doc`.
@@ -253,17 +251,7 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
     let mut out = Vec::new();
     for (setting, raster, simd) in settings {
         let (secs, pixels) = timed(&camera, &doc.scene, raster, simd, runs);
-        let (rmse_levels, max_levels, rmse_linear, max_linear, changed) =
-            compare(&pixels, &reference);
-        out.push(Measured {
-            setting,
-            secs,
-            rmse_levels,
-            max_levels,
-            rmse_linear,
-            max_linear,
-            changed,
-        });
+        out.push(measure(setting, secs, &pixels, &reference));
     }
     Ok(out)
 }

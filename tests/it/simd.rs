@@ -141,27 +141,55 @@ fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
     }
 }
 
-#[test]
-/// A field of 300 spheres over a ground sphere, under two shadowing lights, seen from outside,
-/// from inside (the COP off the axis) and from just above the ground: the tiles and the shadow
-/// grid change no byte of the oracle's, at one sample, 2×2 and 3×3.
-fn tiles_and_shadow_grid_give_the_oracle_bytes() {
-    let mut gen = campath::splitmix::SplitMix(7);
-    let mut spheres: Vec<Sphere> = (0..300)
+/// `n` spheres seeded by `seed` in the box `lo`..`lo + size`, radii `r0`..`r0 + dr`, over a
+/// ground sphere of radius `ground` touching y = 0.
+fn field(
+    seed: u64,
+    n: usize,
+    lo: DVec3,
+    size: DVec3,
+    (r0, dr): (f64, f64),
+    ground: f64,
+) -> Vec<Sphere> {
+    let mut gen = campath::splitmix::SplitMix(seed);
+    let mut spheres: Vec<Sphere> = (0..n)
         .map(|_| {
             let mut r = || gen.unit();
             Sphere {
-                center_world: DVec3::new(r() * 40.0 - 20.0, r() * 6.0, r() * 40.0 - 20.0),
-                radius: 0.2 + r() * 1.5,
+                center_world: lo + DVec3::new(r() * size.x, r() * size.y, r() * size.z),
+                radius: r0 + r() * dr,
                 color: DVec3::new(r(), r(), r()),
             }
         })
         .collect();
     spheres.push(Sphere {
-        center_world: DVec3::new(0.0, -1000.0, 0.0),
-        radius: 1000.0,
+        center_world: DVec3::new(0.0, -ground, 0.0),
+        radius: ground,
         color: DVec3::splat(0.6),
     });
+    spheres
+}
+
+/// Every path this CPU runs renders `camera`'s frame of `scene` with the oracle's bytes.
+fn every_path_gives_the_oracle_bytes(camera: &Camera, scene: &Scene, raster: Raster, what: &str) {
+    let slow = crate::reference::render(camera, scene, raster);
+    for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+        let fast = Renderer::with_simd(simd)
+            .unwrap()
+            .render(camera, scene, raster);
+        let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
+        let name = simd.name();
+        assert_eq!(differ, 0, "{what}, {name}: {differ} bytes differ");
+    }
+}
+
+#[test]
+/// A field of 300 spheres over a ground sphere, under two shadowing lights, seen from outside,
+/// from inside (the COP off the axis) and from just above the ground: the tiles and the shadow
+/// grid change no byte of the oracle's, at one sample, 2×2 and 3×3.
+fn tiles_and_shadow_grid_give_the_oracle_bytes() {
+    let (lo, size) = (DVec3::new(-20.0, 0.0, -20.0), DVec3::new(40.0, 6.0, 40.0));
+    let spheres = field(7, 300, lo, size, (0.2, 1.5), 1000.0);
     let scene = Scene {
         background: DVec3::new(0.1, 0.1, 0.2),
         ambient: 0.1,
@@ -222,18 +250,8 @@ fn tiles_and_shadow_grid_give_the_oracle_bytes() {
             window: DVec2::new(1.5, 1.0),
         };
         for raster in [raster, one, three] {
-            let slow = crate::reference::render(&camera, &scene, raster);
-            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
-                let fast = Renderer::with_simd(simd)
-                    .unwrap()
-                    .render(&camera, &scene, raster);
-                let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
-                let name = simd.name();
-                assert_eq!(
-                    differ, 0,
-                    "camera {k}, {raster:?}, {name}: {differ} bytes differ"
-                );
-            }
+            let what = format!("camera {k}, {raster:?}");
+            every_path_gives_the_oracle_bytes(&camera, &scene, raster, &what);
         }
     }
 }
@@ -246,22 +264,8 @@ fn tiles_and_shadow_grid_give_the_oracle_bytes() {
 /// culled): every path gives the oracle's bytes.
 #[test]
 fn a_dense_cluster_of_20000_spheres_gives_the_oracle_bytes() {
-    let mut gen = campath::splitmix::SplitMix(20_000);
-    let mut spheres: Vec<Sphere> = (0..20_000)
-        .map(|_| {
-            let mut r = || gen.unit();
-            Sphere {
-                center_world: DVec3::new(r() * 20.0 - 10.0, r() * 6.0, r() * 20.0 - 10.0),
-                radius: 0.05 + r() * 0.15,
-                color: DVec3::new(r(), r(), r()),
-            }
-        })
-        .collect();
-    spheres.push(Sphere {
-        center_world: DVec3::new(0.0, -10_000.0, 0.0),
-        radius: 10_000.0,
-        color: DVec3::splat(0.6),
-    });
+    let (lo, size) = (DVec3::new(-10.0, 0.0, -10.0), DVec3::new(20.0, 6.0, 20.0));
+    let spheres = field(20_000, 20_000, lo, size, (0.05, 0.15), 10_000.0);
     let scene = Scene {
         background: DVec3::new(0.1, 0.1, 0.2),
         ambient: 0.1,
@@ -295,14 +299,6 @@ fn a_dense_cluster_of_20000_spheres_gives_the_oracle_bytes() {
             (k == 0) == (in_view > 19_000),
             "camera {k}: {in_view} spheres in view"
         );
-        let slow = crate::reference::render(&camera, &scene, raster);
-        for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
-            let fast = Renderer::with_simd(simd)
-                .unwrap()
-                .render(&camera, &scene, raster);
-            let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
-            let name = simd.name();
-            assert_eq!(differ, 0, "camera {k}, {name}: {differ} bytes differ");
-        }
+        every_path_gives_the_oracle_bytes(&camera, &scene, raster, &format!("camera {k}"));
     }
 }
