@@ -306,43 +306,46 @@ impl TileBins {
             let [i0, i1, j0, j1] = rects[k].map(|v| v as usize);
             (i0 <= i1).then_some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
         });
-        // Nearest possible hit first; ties by index, so the order is total and deterministic.
+        // Nearest possible hit first; ties by the spheres' scene indices, so the order is
+        // total, deterministic and the same whatever order the columns hold the spheres in.
         // Sorted tile by tile (binning in one sorted order scatters its reads of the
         // rectangles over every sphere in view), each sort reading the spheres' `min_dist` as
         // keys of their own (8 bytes a sphere where a view sphere is 112), ordered as
         // `total_cmp` orders the f64, on the pool when many are in view.
         let keys: Vec<u64> = each(&spheres.min_dist, |&d| total_key(d));
+        let id = |k: u32| spheres.id[k as usize] as u32;
         if spheres.len() >= PARALLEL {
             // Each cell's keys read once into a list of its own (the keys of many spheres are
             // far apart in memory), sorted there, then written back.
             bins.par_sort_cells(|items: &mut [u32]| {
-                let mut keyed: Vec<(u64, u32)> =
-                    items.iter().map(|&k| (keys[k as usize], k)).collect();
+                let mut keyed: Vec<(u64, u32, u32)> = items
+                    .iter()
+                    .map(|&k| (keys[k as usize], id(k), k))
+                    .collect();
                 keyed.sort_unstable();
-                for (item, (_, k)) in items.iter_mut().zip(keyed) {
+                for (item, (_, _, k)) in items.iter_mut().zip(keyed) {
                     *item = k;
                 }
             });
         } else {
-            bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (keys[k as usize], k)));
+            bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (keys[k as usize], id(k))));
         }
         drop(keys);
-        let key = |k: u32| (spheres.min_dist[k as usize], k);
+        let key = |k: u32| (spheres.min_dist[k as usize], id(k));
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {
-            let mut keyed: Vec<(f64, u32)> = Vec::with_capacity(wide.len());
+            let mut keyed: Vec<(f64, u32, u32)> = Vec::with_capacity(wide.len());
             // They were binned into every tile; each tile's list is merged anew from its other
             // spheres and the wide ones that its rays can meet, by their bounds there.
             let is_wide = |k: u32| wide.iter().any(|w| w.index == k);
             bins.edit_cells(|(tx, ty), items| {
                 keyed.clear();
                 let mut cone = None;
-                keyed.extend(
-                    wide.iter().filter_map(|w| {
-                        Some((w.nearest(tx, ty, &mut cone, table, raster)?, w.index))
-                    }),
-                );
-                keyed.sort_unstable_by(|&a, &b| before(a, b));
+                keyed.extend(wide.iter().filter_map(|w| {
+                    let bound = w.nearest(tx, ty, &mut cone, table, raster)?;
+                    Some((bound, id(w.index), w.index))
+                }));
+                keyed.sort_unstable_by(|&a, &b| before((a.0, a.1), (b.0, b.1)));
                 // The others, in their order, to the front; then each wide sphere the tile
                 // keeps into its place among them (the slots the wide ones held make room).
                 let mut n = 0;
@@ -355,10 +358,10 @@ impl TileBins {
                 // A wide sphere already put back counts at its min_dist here, below its bound
                 // for the tile but not below an earlier one in `keyed`, so the order searched
                 // stays sorted.
-                for &w in &keyed {
-                    let at = items[..n].partition_point(|&k| before(key(k), w).is_lt());
+                for &(bound, w_id, w) in &keyed {
+                    let at = items[..n].partition_point(|&k| before(key(k), (bound, w_id)).is_lt());
                     items.copy_within(at..n, at + 1);
-                    items[at] = w.1;
+                    items[at] = w;
                     n += 1;
                 }
                 n

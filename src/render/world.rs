@@ -72,18 +72,17 @@ impl<'a> SceneIndex<'a> {
         }
     }
 
-    /// The spheres that can meet a ray of `camera`, in increasing index order. A subtree whose
-    /// box lies wholly inside the pyramid gives all its spheres untested (each would pass); the
-    /// spheres found are marked in a bitset read in index order, so no sort.
+    /// The spheres that can meet a ray of `camera`, in the hierarchy's order (along its Morton
+    /// curve): spheres near each other on screen are near each other in the frame's columns,
+    /// which the rays read at random otherwise. A subtree whose box lies wholly inside the
+    /// pyramid gives all its spheres untested (each would pass).
     pub fn visible(&self, camera: &Camera) -> Vec<u32> {
         let planes = Pyramid::new(camera);
-        let n = self.scene.spheres.len();
-        let mut marks = vec![0u64; n.div_ceil(64)];
+        let mut out = Vec::new();
         let mut stack = Vec::with_capacity(64);
         if !self.nodes.is_empty() {
             stack.push((0usize, false));
         }
-        let mut count = 0;
         while let Some((k, inside)) = stack.pop() {
             let node = &self.nodes[k];
             let inside = inside || {
@@ -96,24 +95,18 @@ impl<'a> SceneIndex<'a> {
             };
             if node.count > 0 {
                 let items = &self.order[node.start as usize..(node.start + node.count) as usize];
-                for &i in items {
-                    let s = &self.scene.spheres[i as usize];
-                    if inside || planes.meets_sphere(s.center_world, s.radius) {
-                        marks[i as usize / 64] |= 1 << (i % 64);
-                        count += 1;
-                    }
+                if inside {
+                    out.extend_from_slice(items);
+                } else {
+                    out.extend(items.iter().filter(|&&i| {
+                        let s = &self.scene.spheres[i as usize];
+                        planes.meets_sphere(s.center_world, s.radius)
+                    }));
                 }
             } else {
+                // The left child (next in the order) popped first.
                 stack.push((node.start as usize, inside));
                 stack.push((k + 1, inside));
-            }
-        }
-        let mut out = Vec::with_capacity(count);
-        for (w, &bits) in marks.iter().enumerate() {
-            let mut bits = bits;
-            while bits != 0 {
-                out.push((w * 64) as u32 + bits.trailing_zeros());
-                bits &= bits - 1;
             }
         }
         out
@@ -449,7 +442,18 @@ mod tests {
                         planes.meets_sphere(s.center_world, s.radius)
                     })
                     .collect();
-                assert_eq!(index.visible(&camera), every, "{n} spheres, camera {c}");
+                let got = index.visible(&camera);
+                let mut sorted = got.clone();
+                sorted.sort_unstable();
+                assert_eq!(sorted, every, "{n} spheres, camera {c}");
+                // In the hierarchy's order, each once.
+                let mut at = vec![0; n];
+                for (p, &k) in index.order.iter().enumerate() {
+                    at[k as usize] = p;
+                }
+                assert!(got
+                    .windows(2)
+                    .all(|w| at[w[0] as usize] < at[w[1] as usize]));
                 inside += index
                     .nodes
                     .iter()
