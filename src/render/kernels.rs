@@ -14,10 +14,13 @@ use glam::DVec3;
 use super::lanes::{dot, splat3, InBounds, Lanes, LANES};
 use super::shadows::{Hints, NO_HINT};
 use super::view::{ViewColumns, ViewLight};
+use crate::scene::Sphere;
 
 /// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
 pub(super) struct Shading<'a> {
     pub(super) spheres: &'a ViewColumns,
+    /// The scene's spheres, by the columns' `id`: a hit sphere's colour.
+    pub(super) scene: &'a [Sphere],
     pub(super) lights: &'a [ViewLight<'a>],
     pub(super) ambient: f64,
     pub(super) background: DVec3,
@@ -69,7 +72,7 @@ impl Shading<'_> {
             let f = splat3::<V>(tok, s.f_at(j));
             let (c, radius2, k) = (
                 V::splat(tok, s.c[j]),
-                V::splat(tok, s.radius2[j]),
+                V::splat(tok, s.radius[j] * s.radius[j]),
                 V::index(tok, k as u64),
             );
             for q in 0..2 {
@@ -160,7 +163,7 @@ impl Shading<'_> {
                 }
             }
         }
-        let color = fields.vec3(tok, |c| &c.color);
+        let color = fields.of_scene(tok, self.scene, |s| s.color);
         let background = self.background.to_array();
         let flat = self.lights.is_empty();
         let mut out = [zero; 3];
@@ -233,6 +236,40 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
         ]
     }
 
+    /// A vector of each lane's sphere that the columns do not keep: `of` its sphere in the
+    /// scene.
+    #[inline(always)]
+    fn of_scene(&self, tok: V::Token, scene: &[Sphere], of: impl Fn(&Sphere) -> DVec3) -> [V; 3] {
+        match *self {
+            SphereLanes::One(s, k) => splat3(tok, of(&scene[s.id[k] as usize])),
+            SphereLanes::Two(s, second, a, b) => {
+                // No closures here: one would be compiled without the row's target features,
+                // and the vector operations in it called out of line.
+                let (a, b) = (of(&scene[s.id[a] as usize]), of(&scene[s.id[b] as usize]));
+                [
+                    V::blend(second, V::splat(tok, a.x), V::splat(tok, b.x)),
+                    V::blend(second, V::splat(tok, a.y), V::splat(tok, b.y)),
+                    V::blend(second, V::splat(tok, a.z), V::splat(tok, b.z)),
+                ]
+            }
+            SphereLanes::Each(s, own) => {
+                let ids = V::index_store(V::gather_index(&s.id, own));
+                let mut lanes = [[0.0; LANES]; 3];
+                for (l, &id) in ids.iter().enumerate() {
+                    let v = of(&scene[id as usize]);
+                    for i in 0..3 {
+                        lanes[i][l] = v[i];
+                    }
+                }
+                [
+                    V::load(tok, &lanes[0]),
+                    V::load(tok, &lanes[1]),
+                    V::load(tok, &lanes[2]),
+                ]
+            }
+        }
+    }
+
     /// The spheres' scene indices.
     #[inline(always)]
     fn ids(&self, tok: V::Token) -> V::Index {
@@ -255,10 +292,11 @@ mod tests {
     /// The packets' nearest hit of one sphere (centre `center`, radius `r`, view coordinates)
     /// by the ray from the origin along unit `d`, in every lane.
     fn hit(center: DVec3, r: f64, d: DVec3) -> Option<f64> {
-        let sphere = ViewSphere::in_view(center, r, DVec3::ZERO, DVec3::ONE, 0);
+        let sphere = ViewSphere::in_view(center, r, DVec3::ZERO, 0);
         let columns = ViewColumns::new(&[sphere]);
         let shading = Shading {
             spheres: &columns,
+            scene: &[],
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,

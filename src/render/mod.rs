@@ -213,6 +213,7 @@ impl Renderer {
             .collect();
         let bins = TileBins::build(&spheres, &table, raster);
         TimeSample {
+            scene,
             table,
             spheres,
             lights,
@@ -240,6 +241,7 @@ pub struct PreparedFrame<'a> {
 
 /// The scene as one camera of a frame sees it, ready for its rays.
 struct TimeSample<'a> {
+    scene: &'a Scene,
     table: Arc<RayTable>,
     spheres: ViewColumns,
     lights: Vec<ViewLight<'a>>,
@@ -302,6 +304,7 @@ impl PreparedFrame<'_> {
             .iter()
             .map(|t| Shading {
                 spheres: &t.spheres,
+                scene: &t.scene.spheres,
                 lights: &t.lights,
                 ambient: self.ambient,
                 background: self.background,

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::bins::Bins;
 use super::rays::RayTable;
-use super::view::{ViewColumns, ViewSphere};
+use super::view::{Reach, ViewColumns};
 use crate::raster::Raster;
 
 /// Tile side in pixels.
@@ -43,7 +43,7 @@ fn tangent_slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
 
 /// The exact bounds of a sphere's projection through the COP onto the view plane, widened by a
 /// pixel so that rounding never drops a covered sample.
-fn footprint(s: &ViewSphere, cop: DVec3, window: DVec2, raster: Raster) -> Footprint {
+fn footprint(s: &Reach, cop: DVec3, window: DVec2, raster: Raster) -> Footprint {
     let p = -s.f; // centre relative to the COP
     if p.z <= -s.radius {
         return Footprint::Culled;
@@ -97,7 +97,7 @@ struct Wide {
 }
 
 impl Wide {
-    fn new(index: u32, s: &ViewSphere, table: &RayTable, raster: Raster) -> Option<Wide> {
+    fn new(index: u32, s: &Reach, table: &RayTable, raster: Raster) -> Option<Wide> {
         let p = -s.f;
         let (d, r, dz) = (p.length(), s.radius, table.dz);
         if !(d > r && d.is_finite() && dz > 0.0) {
@@ -284,7 +284,7 @@ impl TileBins {
         // bounds), and which have no bounds.
         let all = [0, raster.width - 1, 0, raster.height - 1];
         let prints = each_index(spheres.len(), |k| {
-            match footprint(&spheres.sphere(k), cop, window, raster) {
+            match footprint(&spheres.reach(k), cop, window, raster) {
                 Footprint::Culled => ([1, 0, 1, 0], false),
                 Footprint::Everywhere => (all, true),
                 Footprint::Pixels { i0, i1, j0, j1 } => {
@@ -298,7 +298,7 @@ impl TileBins {
         // meets them, and ordered by the nearest hit a ray of the tile can have.
         let wide: Vec<Wide> = (0..spheres.len())
             .filter(|&k| everywhere[k])
-            .filter_map(|k| Wide::new(k as u32, &spheres.sphere(k), table, raster))
+            .filter_map(|k| Wide::new(k as u32, &spheres.reach(k), table, raster))
             .collect();
         drop(everywhere);
         let dims = (tiles_x, tiles_y);
@@ -389,6 +389,7 @@ impl TileBins {
 mod tests {
     use super::super::kernels::Shading;
     use super::super::oracle::{nearest, root};
+    use super::super::view::ViewSphere;
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
@@ -468,7 +469,7 @@ mod tests {
                     };
                     let table = RayTable::new(cop, camera.window, raster);
                     let bins = TileBins::build(&columns, &table, raster);
-                    let wide = Wide::new(ground, &view[ground as usize], &table, raster);
+                    let wide = Wide::new(ground, &view[ground as usize].reach(), &table, raster);
                     let g = &view[ground as usize];
                     // Per tile, the ground's bound and its nearest hit by a sample.
                     let mut bound = vec![(None, f64::INFINITY); 6 * 5];
@@ -486,7 +487,7 @@ mod tests {
                                 };
                             }
                             for d in (0..s2).map(|k| table.direction(i, j, k)) {
-                                if let Some(t) = root(g.f, g.c, g.radius2, d) {
+                                if let Some(t) = root(g.f, g.c, g.radius * g.radius, d) {
                                     tile.1 = tile.1.min(t);
                                 }
                             }
@@ -499,7 +500,7 @@ mod tests {
                             for d in (0..s2).map(|k| table.direction(i, j, k)) {
                                 let mut every: Option<(usize, f64)> = None;
                                 for (k, s) in view.iter().enumerate() {
-                                    let t = root(s.f, s.c, s.radius2, d);
+                                    let t = root(s.f, s.c, s.radius * s.radius, d);
                                     if let Some(t) = t.filter(|&t| every.is_none_or(|b| t < b.1)) {
                                         every = Some((k, t));
                                     }
@@ -537,6 +538,7 @@ mod tests {
     fn unlit(spheres: &ViewColumns) -> Shading<'_> {
         Shading {
             spheres,
+            scene: &[],
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,
@@ -545,7 +547,7 @@ mod tests {
 
     /// A sphere given in view coordinates, as `ViewSphere::new` makes it.
     fn in_view(center: DVec3, r: f64, cop: DVec3) -> ViewSphere {
-        ViewSphere::in_view(center, r, cop, DVec3::ONE, 0)
+        ViewSphere::in_view(center, r, cop, 0)
     }
 
     /// A sphere without screen bounds that a ray at a tile's edge or corner barely enters
@@ -588,13 +590,13 @@ mod tests {
                     let f = sphere.f;
                     let view = [sphere];
                     assert_eq!(
-                        footprint(&sphere, cop, window, raster),
+                        footprint(&sphere.reach(), cop, window, raster),
                         Footprint::Everywhere
                     );
                     let columns = ViewColumns::new(&view);
                     let bins = TileBins::build(&columns, &table, raster);
                     let shading = unlit(&columns);
-                    let t = root(f, sphere.c, sphere.radius2, d);
+                    let t = root(f, sphere.c, sphere.radius * sphere.radius, d);
                     assert!(t.is_some(), "the ray meets the sphere");
                     let found = nearest(&shading, &bins, (i, j), d);
                     assert_eq!(
@@ -651,7 +653,7 @@ mod tests {
                                     continue;
                                 };
                                 hits += 1;
-                                let wide = Wide::new(0, &sphere, &table, raster).unwrap();
+                                let wide = Wide::new(0, &sphere.reach(), &table, raster).unwrap();
                                 let near = wide.nearest(tx, ty, &mut None, &table, raster);
                                 let near =
                                     near.expect("a tile whose ray meets the sphere keeps it");

@@ -12,14 +12,12 @@ use crate::scene::Sphere;
 pub(super) struct ViewSphere {
     pub(super) center: DVec3,
     pub(super) radius: f64,
-    pub(super) radius2: f64,
     /// COP − centre.
     pub(super) f: DVec3,
     /// |f|² − r².
     pub(super) c: f64,
     /// |f| − r: no primary ray meets the sphere nearer than this.
     pub(super) min_dist: f64,
-    pub(super) color: DVec3,
     /// The sphere's index in the scene.
     pub(super) id: u32,
 }
@@ -29,35 +27,48 @@ impl ViewSphere {
     /// scene far from the origin keeps its precision.
     pub(super) fn new(camera: &Camera, sphere: &Sphere, id: u32) -> ViewSphere {
         let center = camera.point_to_view(sphere.center_world);
-        ViewSphere::in_view(center, sphere.radius, camera.cop_view, sphere.color, id)
+        ViewSphere::in_view(center, sphere.radius, camera.cop_view, id)
     }
 
     /// A sphere of centre `center` (view coordinates) seen from `cop_view`.
-    pub(super) fn in_view(
-        center: DVec3,
-        radius: f64,
-        cop_view: DVec3,
-        color: DVec3,
-        id: u32,
-    ) -> ViewSphere {
+    pub(super) fn in_view(center: DVec3, radius: f64, cop_view: DVec3, id: u32) -> ViewSphere {
         let f = cop_view - center;
-        let radius2 = radius * radius;
         ViewSphere {
             center,
             radius,
-            radius2,
             f,
-            c: f.length_squared() - radius2,
+            c: f.length_squared() - radius * radius,
             min_dist: f.length() - radius,
-            color,
             id,
+        }
+    }
+
+    /// What the tiles read of it.
+    #[cfg(test)]
+    pub(super) fn reach(&self) -> Reach {
+        Reach {
+            f: self.f,
+            radius: self.radius,
+            min_dist: self.min_dist,
         }
     }
 }
 
+/// What the screen tiles read of a view sphere: where it lies from the COP, and its size.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Reach {
+    /// COP − centre.
+    pub(super) f: DVec3,
+    pub(super) radius: f64,
+    /// |f| − r.
+    pub(super) min_dist: f64,
+}
+
 /// The frame's spheres in view coordinates, one slice per field, in the order of the spheres:
 /// the hit search reads a candidate's terms by its index, and a packet whose lanes hit several
-/// spheres gathers their fields lane by lane (`Lanes::gather`).
+/// spheres gathers their fields lane by lane (`Lanes::gather`). Only what the search, the
+/// tiles and the shading read, 80 bytes a sphere: r² is the radius squared where it is needed,
+/// and a hit sphere's colour comes from the scene by its index.
 pub(super) struct ViewColumns {
     /// No primary ray meets the sphere nearer than this: |f| − r.
     pub(super) min_dist: Vec<f64>,
@@ -65,10 +76,10 @@ pub(super) struct ViewColumns {
     pub(super) f: [Vec<f64>; 3],
     /// |f|² − r².
     pub(super) c: Vec<f64>,
-    pub(super) radius2: Vec<f64>,
-    pub(super) center: [Vec<f64>; 3],
     pub(super) radius: Vec<f64>,
-    pub(super) color: [Vec<f64>; 3],
+    /// The centre, moved into view coordinates: what the shading's hit points are made from
+    /// (moving it again for each packet it shades would cost fly1000 a tenth of its time).
+    pub(super) center: [Vec<f64>; 3],
     /// The spheres' indices in the scene.
     pub(super) id: Vec<u64>,
 }
@@ -89,10 +100,8 @@ impl ViewColumns {
             min_dist: column(),
             f: [column(), column(), column()],
             c: column(),
-            radius2: column(),
-            center: [column(), column(), column()],
             radius: column(),
-            color: [column(), column(), column()],
+            center: [column(), column(), column()],
             id: Vec::with_capacity(n),
         }
     }
@@ -102,29 +111,21 @@ impl ViewColumns {
         for s in spheres {
             self.min_dist.push(s.min_dist);
             self.c.push(s.c);
-            self.radius2.push(s.radius2);
             self.radius.push(s.radius);
             for a in 0..3 {
                 self.f[a].push(s.f[a]);
                 self.center[a].push(s.center[a]);
-                self.color[a].push(s.color[a]);
             }
             self.id.push(s.id as u64);
         }
     }
 
-    /// Sphere `k`, whole.
-    pub(super) fn sphere(&self, k: usize) -> ViewSphere {
-        let xyz = |c: &[Vec<f64>; 3]| DVec3::new(c[0][k], c[1][k], c[2][k]);
-        ViewSphere {
-            center: xyz(&self.center),
+    /// What the tiles read of sphere `k`.
+    pub(super) fn reach(&self, k: usize) -> Reach {
+        Reach {
+            f: self.f_at(k),
             radius: self.radius[k],
-            radius2: self.radius2[k],
-            f: xyz(&self.f),
-            c: self.c[k],
             min_dist: self.min_dist[k],
-            color: xyz(&self.color),
-            id: self.id[k] as u32,
         }
     }
 
