@@ -151,7 +151,7 @@ fn walk<V: Lanes>(
     for y in y0..=y1 {
         for x in x0..=x1 {
             for &k in sh.cell(x, y) {
-                let reach = lanes & !blocked & V::splat(tok, tops[k as usize]).ge(low);
+                let reach = lanes & !blocked & V::splat(tok, tops[k as usize] as f64).ge(low);
                 if reach == 0 {
                     break;
                 }
@@ -235,9 +235,28 @@ fn cell_range(key: u64) -> CellRect {
 #[cfg(test)]
 mod tests {
     use super::super::super::lanes::Portable;
-    use super::super::tests::cluster;
-    use super::super::view_center;
+    use super::super::tests::{cluster, seeded_cluster};
+    use super::super::{view_center, ShadowGrid};
     use super::*;
+    use crate::camera::{Basis, Camera};
+    use crate::scene::Sphere;
+    use glam::{DVec2, DVec3};
+
+    /// Up to eight (view point, own sphere) pairs as a packet: the points, their spheres and
+    /// the lanes in use (the last pair repeated in the rest).
+    fn packet(lanes: &[(DVec3, u32)]) -> ([Portable; 3], [u64; LANES], u8) {
+        let mut xyz = [[0.0; LANES]; 3];
+        let mut own = [0u64; LANES];
+        for l in 0..LANES {
+            let (point, o) = lanes[l.min(lanes.len() - 1)];
+            for a in 0..3 {
+                xyz[a][l] = point[a];
+            }
+            own[l] = o as u64;
+        }
+        let need = (0xffu16 >> (LANES - lanes.len())) as u8;
+        (xyz.map(|a| Portable::load((), &a)), own, need)
+    }
 
     /// A shadow packet's answer per lane is the one-ray answer of testing every sphere: eight
     /// points at a time from spheres next to each other in the list, so that a packet's lanes
@@ -263,17 +282,7 @@ mod tests {
                 let mut hint = NO_HINT;
                 let mut hinted = [0; 3];
                 for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {
-                    let mut xyz = [[0.0; LANES]; 3];
-                    let mut own = [0u64; LANES];
-                    for l in 0..LANES {
-                        let (point, o) = lanes[l.min(lanes.len() - 1)];
-                        for a in 0..3 {
-                            xyz[a][l] = point[a];
-                        }
-                        own[l] = o as u64;
-                    }
-                    let point = xyz.map(|a| Portable::load((), &a));
-                    let need = (0xffu16 >> (LANES - lanes.len())) as u8;
+                    let (point, own, need) = packet(lanes);
                     let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
                     let before = hint;
                     let with_hint = frame.occluded::<Portable>(&point, own, need, &mut hint);
@@ -297,5 +306,71 @@ mod tests {
                 assert!(hinted.iter().all(|&n| n > 0), "{hinted:?}");
             }
         }
+    }
+
+    /// Over seeded clusters from sparse to discs many deep (cells of many spheres whose tops
+    /// lie close together), every lane of a packet through the grid, its hint carried along,
+    /// answers as testing every sphere does.
+    #[test]
+    fn shadow_packets_match_every_sphere_over_seeded_clusters() {
+        for (seed, n) in [(3, 150), (5, 700), (7, 1500)] {
+            let c = seeded_cluster(seed, n, 4);
+            for light in &c.lights {
+                let frame =
+                    FrameShadows::new(&light.grid, &c.camera, &c.spheres, None, light.to_light);
+                let mut hint = NO_HINT;
+                let mut shadowed = 0;
+                for (p, lanes) in c.points.chunks(LANES).enumerate() {
+                    let (point, own, need) = packet(lanes);
+                    let got = frame.occluded::<Portable>(&point, own, need, &mut hint);
+                    for (l, &lane) in lanes.iter().enumerate() {
+                        let every = c.any_blocker(light.to_light, lane);
+                        assert_eq!(
+                            got >> l & 1 == 1,
+                            every,
+                            "seed {seed}, packet {p}, lane {l}"
+                        );
+                        shadowed += every as usize;
+                    }
+                }
+                // Both answers occur.
+                assert!(shadowed > 0 && shadowed < c.points.len(), "{shadowed}");
+            }
+        }
+    }
+
+    /// A point just below a sphere's top, inside it, is in its shadow, though the top rounded
+    /// to the nearest f32 would lie below the point (by more than the query's allowance): the
+    /// grid's tops are rounded up.
+    #[test]
+    fn a_top_rounded_to_f32_still_shadows_the_point_below_it() {
+        let to_light = DVec3::Y;
+        // A top 0.45 of an f32 step (2^-14 near 1000) above an f32.
+        let top = 1000.25 + 0.45 * (1.0 / 16384.0);
+        let blocker = Sphere {
+            center_world: DVec3::new(0.3, 1000.0, 0.2),
+            radius: top - 1000.0,
+            color: DVec3::ONE,
+        };
+        let point_world = DVec3::new(0.3, top - 1e-6, 0.2);
+        assert!((top as f32 as f64) < point_world.y - 1e-5);
+        let own = Sphere {
+            center_world: point_world - DVec3::Y * 0.05,
+            radius: 0.05,
+            color: DVec3::ONE,
+        };
+        let spheres = [blocker, own];
+        let camera = Camera {
+            vrp_world: DVec3::new(0.0, 1000.0, -5.0),
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.2),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let grid = ShadowGrid::build(&spheres, to_light);
+        let to_light_view = camera.basis.to_view(to_light);
+        let frame = FrameShadows::new(&grid, &camera, &spheres, None, to_light_view);
+        let (point, own, need) = packet(&[(camera.point_to_view(point_world), 1)]);
+        let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
+        assert_eq!(got, need);
     }
 }
