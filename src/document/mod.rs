@@ -63,24 +63,9 @@ impl Document {
     /// Problems are listed in the order of the file's sections ([`FileSpec::order`]; the
     /// checker's order within a section and where it is unknown).
     pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
-        let folder = path.parent().unwrap_or(Path::new(""));
-        let files: Vec<ReadFile> = spec
-            .scene
-            .sphere_files
-            .iter()
-            .map(|name| {
-                let path = folder.join(name);
-                let spheres = format::sphere_files::read(&path);
-                ReadFile {
-                    name: name.clone(),
-                    path,
-                    spheres,
-                }
-            })
-            .collect();
         let mut c = Checker::default();
         let order = spec.order.clone();
-        let doc = c.document(path, spec, &files);
+        let doc = c.document(path, spec);
         match doc {
             Some(doc) if c.problems.is_empty() => Ok(doc),
             _ => {
@@ -165,13 +150,6 @@ impl Document {
     pub fn check_path(&self) -> Result<()> {
         self.exposures().try_for_each(|r| r.map(drop))
     }
-}
-
-/// A sphere file as read, before its spheres are checked.
-struct ReadFile {
-    name: String,
-    path: PathBuf,
-    spheres: std::result::Result<format::sphere_files::Spheres, format::sphere_files::FileProblem>,
 }
 
 #[derive(Default)]
@@ -259,10 +237,11 @@ impl Checker {
         }
     }
 
-    fn document(&mut self, path: &Path, spec: FileSpec, files: &[ReadFile]) -> Option<Document> {
+    fn document(&mut self, path: &Path, spec: FileSpec) -> Option<Document> {
         let raster = self.raster(&spec.image);
         let motion_blur = self.motion_blur(&spec.image);
-        let scene = self.scene(&spec.scene, files);
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let (scene, sphere_files) = self.scene(&spec.scene, folder);
         let animation = self.animation(&spec, raster.as_ref());
         let doc = Document {
             path: path.to_path_buf(),
@@ -270,14 +249,7 @@ impl Checker {
             motion_blur,
             animation: animation?,
             scene: scene?,
-            sphere_files: files
-                .iter()
-                .map(|f| SphereFile {
-                    name: f.name.clone(),
-                    path: f.path.clone(),
-                    spheres: f.spheres.as_ref().map_or(0, |s| s.spheres.len()),
-                })
-                .collect(),
+            sphere_files,
         };
         // A static camera must be well formed at its first frame; animated ones are checked
         // frame by frame when evaluated.

@@ -1,15 +1,31 @@
 //! The file's `scene` section: background, ambient term, lights and spheres.
+//!
+//! Spheres are checked on the rayon pool as they are read, straight into the scene's vector
+//! (a sphere file's are never held as [`SphereSpec`]s first); a sphere that fails is noted, and
+//! its problems are named afterwards, in file order, as the checker names any field's.
 
 use glam::DVec3;
+use rayon::prelude::*;
 use std::fmt;
+use std::path::Path;
+use std::sync::{Mutex, PoisonError};
 
-use super::{Checker, ReadFile};
-use crate::format::sphere_files::Spheres;
+use super::{Checker, SphereFile};
+use crate::format::sphere_files::{self, Listing};
 use crate::format::{self, LightSpec, SphereSpec};
 use crate::scene::{Light, Scene, Sphere};
 
+/// The fewest inline spheres a pool task checks.
+const TASK_SPHERES: usize = 4096;
+
 impl Checker {
-    pub(super) fn scene(&mut self, spec: &format::SceneSpec, files: &[ReadFile]) -> Option<Scene> {
+    /// The scene, and the sphere files it names (read relative to `folder`) with how many
+    /// spheres each gave.
+    pub(super) fn scene(
+        &mut self,
+        spec: &format::SceneSpec,
+        folder: &Path,
+    ) -> (Option<Scene>, Vec<SphereFile>) {
         let background = match spec.background {
             Some(b) => self.color("scene.background", b),
             None => Some(DVec3::ZERO),
@@ -18,33 +34,52 @@ impl Checker {
         let lights: Vec<Light> = (spec.lights.iter().enumerate())
             .filter_map(|(i, l)| self.light(&format!("scene.lights[{i}]"), l))
             .collect();
-        let mut spheres: Vec<Sphere> = (spec.spheres.iter().enumerate())
-            .filter_map(|(i, s)| self.sphere(Origin::Inline, i, s))
-            .collect();
-        for (k, file) in files.iter().enumerate() {
-            match &file.spheres {
-                Ok(read) => {
-                    let origin = Origin::File(&file.name, read);
-                    spheres.extend(
-                        (read.spheres.iter().enumerate())
-                            .filter_map(|(i, s)| self.sphere(origin, i, s)),
-                    );
+        let mut spheres = Vec::with_capacity(spec.spheres.len());
+        let refused = Refused::default();
+        spheres.par_extend(
+            (spec
+                .spheres
+                .par_iter()
+                .with_min_len(TASK_SPHERES)
+                .enumerate())
+            .map(|(i, s)| refused.check(i, s)),
+        );
+        refused.name(self, Origin::Inline, &mut spheres);
+        let mut files = Vec::with_capacity(spec.sphere_files.len());
+        for (k, name) in spec.sphere_files.iter().enumerate() {
+            let path = folder.join(name);
+            let refused = Refused::default();
+            let start = spheres.len();
+            let read = sphere_files::read(&path, &mut spheres, |i, s| refused.check(i, s));
+            match &read {
+                Ok(listing) => {
+                    let origin = Origin::File(name, listing);
+                    refused.name(self, origin, &mut spheres[start..]);
                 }
                 Err(e) => {
                     let at = e.at.map_or(String::new(), |at| format!(": {at}"));
                     self.problem(
-                        format!("scene.sphere_files[{k}] ({}{at})", file.name),
+                        format!("scene.sphere_files[{k}] ({name}{at})"),
                         e.message.clone(),
                     );
                 }
             }
+            files.push(SphereFile {
+                name: name.clone(),
+                path,
+                spheres: read.map_or(0, |listing| listing.count),
+            });
         }
-        Some(Scene {
-            background: background?,
-            ambient: ambient?,
-            lights,
-            spheres,
-        })
+        let scene = match (background, ambient) {
+            (Some(background), Some(ambient)) => Some(Scene {
+                background,
+                ambient,
+                lights,
+                spheres,
+            }),
+            _ => None,
+        };
+        (scene, files)
     }
 
     /// ≥ 0; without lights, ambient alone lights the scene, so the default is flat colours.
@@ -102,12 +137,65 @@ impl Checker {
     }
 }
 
+/// The spheres that failed their check, noted from the pool's tasks as they were checked.
+#[derive(Default)]
+struct Refused(Mutex<Vec<(usize, SphereSpec)>>);
+
+impl Refused {
+    /// Sphere `s` (number `index`) checked; or, when it fails, noted here, and a stand-in in
+    /// its place until [`Checker::sphere`] names its problems.
+    fn check(&self, index: usize, s: &SphereSpec) -> Sphere {
+        if let Some(sphere) = passing(s) {
+            return sphere;
+        }
+        let mut refused = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        refused.push((index, s.clone()));
+        Sphere {
+            center_world: DVec3::ZERO,
+            radius: 1.0,
+            color: DVec3::ONE,
+        }
+    }
+
+    /// Names the refused spheres' problems, by index; `spheres[i]` is sphere `i`'s place.
+    /// A sphere the checker passes after all takes its place, so the scene never depends on
+    /// [`passing`] agreeing with the checker, only the speed does.
+    fn name(self, checker: &mut Checker, origin: Origin, spheres: &mut [Sphere]) {
+        let mut refused = self.0.into_inner().unwrap_or_else(PoisonError::into_inner);
+        refused.sort_unstable_by_key(|(i, _)| *i);
+        for (i, s) in refused {
+            if let Some(sphere) = checker.sphere(origin, i, &s) {
+                spheres[i] = sphere;
+            }
+        }
+    }
+}
+
+/// Sphere `s` when it passes every test of [`Checker::sphere`] (without naming anything, for
+/// the pool's tasks): finite centre, finite radius > 0, colour in [0, 1] or white.
+#[inline]
+fn passing(s: &SphereSpec) -> Option<Sphere> {
+    let center = DVec3::from(s.center);
+    let color = s.color.map_or(DVec3::ONE, DVec3::from);
+    let good = center.is_finite()
+        && s.radius.is_finite()
+        && s.radius > 0.0
+        && color.cmpge(DVec3::ZERO).all()
+        && color.cmple(DVec3::ONE).all();
+    good.then_some(Sphere {
+        center_world: center,
+        radius: s.radius,
+        color,
+    })
+}
+
 /// Where a sphere was written: inline, or in a sphere file.
 #[derive(Clone, Copy)]
 enum Origin<'a> {
     Inline,
-    /// The file's name as the keyframe file gives it, and its spheres (for their locations).
-    File(&'a str, &'a Spheres),
+    /// The file's name as the keyframe file gives it, and its listing (for its spheres'
+    /// locations).
+    File(&'a str, &'a Listing),
 }
 
 /// Field `field` of sphere `index` (`scene.spheres[3].radius`, or `cloud.ply: vertex 3:
@@ -124,11 +212,11 @@ impl fmt::Display for SphereField<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.origin {
             Origin::Inline => write!(f, "scene.spheres[{}].{}", self.index, self.field),
-            Origin::File(name, spheres) => {
+            Origin::File(name, listing) => {
                 write!(
                     f,
                     "{name}: {}: {}",
-                    spheres.location(self.index),
+                    listing.location(self.index),
                     self.field
                 )
             }
@@ -165,5 +253,42 @@ mod tests {
                 "scene.spheres[12].color"
             ]
         );
+    }
+
+    /// The pool's quick test passes a sphere exactly when the checker does, to the same
+    /// sphere: every mix of edge values in each field.
+    #[test]
+    fn passing_agrees_with_the_checker() {
+        let edges = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            1.0 + f64::EPSILON,
+            f64::MIN_POSITIVE / 2.0,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let mut seen = [0; 2];
+        for &a in &edges {
+            for &b in &edges {
+                for color in [None, Some((a, 0.5, b)), Some((1.0, b, a))] {
+                    let s = SphereSpec {
+                        center: (a, 1.0, b),
+                        radius: b,
+                        color,
+                    };
+                    let mut checker = Checker::default();
+                    let checked = checker.sphere(Origin::Inline, 0, &s);
+                    assert_eq!(passing(&s), checked, "{s:?}");
+                    assert_eq!(checked.is_some(), checker.problems.is_empty(), "{s:?}");
+                    seen[usize::from(checked.is_some())] += 1;
+                }
+            }
+        }
+        assert!(seen[0] > 0 && seen[1] > 0, "{seen:?}");
     }
 }

@@ -9,11 +9,25 @@
 //!
 //! Numbers are read exactly: a `double` in PLY, or a number in CSV (through `f64::from_str`, as
 //! RON reads its floats), gives the same bits as the same number in RON. Nothing is checked here
-//! beyond the form; [`crate::document`] checks the values as it checks inline spheres.
+//! beyond the form: each sphere is handed, with its index, to the caller's `make` as it is read
+//! ([`crate::document`] checks it there), so a file's spheres are never held twice. A binary
+//! PLY's body passes through a buffer of [`BLOCK_BYTES`], each block's vertices parsed on the
+//! rayon pool straight into the caller's vector, in file order.
 
+use std::fs::File;
+use std::io::{self, BufRead, BufReader, Read};
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use super::{SphereSpec, Triple};
+
+/// The most bytes of a binary PLY body read at a time (whole vertices, at least one): a
+/// million spheres' 56 MB pass through 4 MiB, and the body is never held whole.
+pub const BLOCK_BYTES: usize = 4 << 20;
+
+/// The fewest vertices a pool task parses: a small file stays one task.
+const TASK_VERTICES: usize = 4096;
 
 /// Where in a sphere file a sphere or a problem is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,21 +70,25 @@ impl FileProblem {
             message: message.into(),
         }
     }
+
+    fn io(e: io::Error) -> FileProblem {
+        FileProblem::whole(format!("cannot read: {e}"))
+    }
 }
 
-/// A sphere file's spheres, unchecked, in file order.
+/// What a sphere file gave: how many spheres, and where each is.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Spheres {
-    /// The spheres, unchecked, in file order.
-    pub spheres: Vec<SphereSpec>,
+pub struct Listing {
+    /// How many spheres the file gave.
+    pub count: usize,
     /// Each sphere's line, for a text file whose lines are not one a sphere (CSV with blank
-    /// lines); empty when sphere `i` is at [`Spheres::location`]'s default.
+    /// lines); empty when sphere `i` is at [`Listing::location`]'s default.
     lines: Vec<u32>,
     /// The line of the first sphere in a text file, or None for PLY vertices.
     first_line: Option<usize>,
 }
 
-impl Spheres {
+impl Listing {
     /// Where sphere `i` is in its file.
     pub fn location(&self, i: usize) -> Location {
         match (self.first_line, self.lines.get(i)) {
@@ -81,23 +99,47 @@ impl Spheres {
     }
 }
 
-/// Reads a sphere file, by its extension: `.ply` or `.csv`.
-pub fn read(path: &Path) -> Result<Spheres, FileProblem> {
+/// Reads a sphere file, by its extension (`.ply` or `.csv`), appending `make(i, sphere)` to
+/// `out` for each sphere `i` in file order; `make` runs on the rayon pool for a binary PLY.
+/// On a problem `out` is left as it was.
+pub fn read<T: Send>(
+    path: &Path,
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T + Sync,
+) -> Result<Listing, FileProblem> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    let bytes = std::fs::read(path).map_err(|e| FileProblem::whole(format!("cannot read: {e}")))?;
-    match ext.as_deref() {
-        Some("ply") => ply(&bytes),
-        Some("csv") => csv(&bytes),
-        _ => Err(FileProblem::whole(
-            "a sphere file is .ply or .csv (by its extension)",
-        )),
+    let mut file = File::open(path).map_err(FileProblem::io)?;
+    let len = file.metadata().map_err(FileProblem::io)?.len();
+    let start = out.len();
+    let listing = match ext.as_deref() {
+        Some("ply") => ply_from(BufReader::new(file), len, out, &make),
+        Some("csv") => {
+            let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+            file.read_to_end(&mut bytes).map_err(FileProblem::io)?;
+            csv(&bytes, out, &make)
+        }
+        _ => {
+            // A folder, or a file that cannot be read, is named as such whatever its name.
+            file.read(&mut [0]).map_err(FileProblem::io)?;
+            Err(FileProblem::whole(
+                "a sphere file is .ply or .csv (by its extension)",
+            ))
+        }
+    };
+    if listing.is_err() {
+        out.truncate(start);
     }
+    listing
 }
 
-/// The CSV form.
-pub fn csv(bytes: &[u8]) -> Result<Spheres, FileProblem> {
+/// The CSV form, appending `make(i, sphere)` to `out` for each sphere.
+pub fn csv<T>(
+    bytes: &[u8],
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T,
+) -> Result<Listing, FileProblem> {
     let text = std::str::from_utf8(bytes).map_err(|e| {
         let line = bytes[..e.valid_up_to()]
             .iter()
@@ -129,9 +171,9 @@ pub fn csv(bytes: &[u8]) -> Result<Spheres, FileProblem> {
             ))
         }
     };
-    let mut out = Spheres {
+    let mut listing = Listing {
         first_line: Some(header.0 + 1),
-        ..Spheres::default()
+        ..Listing::default()
     };
     let mut gaps = false;
     for (n, line) in lines {
@@ -160,18 +202,20 @@ pub fn csv(bytes: &[u8]) -> Result<Spheres, FileProblem> {
         let triple = |k: usize| -> Result<Triple, FileProblem> {
             Ok((number(k)?, number(k + 1)?, number(k + 2)?))
         };
-        out.spheres.push(SphereSpec {
+        let sphere = SphereSpec {
             center: triple(0)?,
             radius: number(3)?,
             color: if colours { Some(triple(4)?) } else { None },
-        });
-        out.lines.push(n as u32);
+        };
+        out.push(make(listing.count, &sphere));
+        listing.count += 1;
+        listing.lines.push(n as u32);
     }
     if !gaps {
         // Every sphere on the line after the one before: the lines need not be kept.
-        out.lines = Vec::new();
+        listing.lines = Vec::new();
     }
-    Ok(out)
+    Ok(listing)
 }
 
 /// A PLY property's scalar type.
@@ -212,6 +256,7 @@ impl Scalar {
     }
 
     /// The value of little-endian `b` (exactly `size` bytes), widened exactly to f64.
+    #[inline(always)]
     fn le(self, b: &[u8]) -> f64 {
         match self {
             Scalar::I8 => f64::from(b[0] as i8),
@@ -240,21 +285,42 @@ struct Element {
     properties: Vec<Property>,
 }
 
-/// The PLY form.
-pub fn ply(bytes: &[u8]) -> Result<Spheres, FileProblem> {
+/// The PLY form, appending `make(i, sphere)` to `out` for each vertex (on the rayon pool when
+/// the body is binary).
+pub fn ply<T: Send>(
+    bytes: &[u8],
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T + Sync,
+) -> Result<Listing, FileProblem> {
+    ply_from(bytes, bytes.len() as u64, out, &make)
+}
+
+/// The PLY form read from `file`, at most `len` bytes long (a bound on the vertices to make
+/// room for, whatever the header claims).
+fn ply_from<T: Send>(
+    mut file: impl BufRead + Send,
+    len: u64,
+    out: &mut Vec<T>,
+    make: &(impl Fn(usize, &SphereSpec) -> T + Sync),
+) -> Result<Listing, FileProblem> {
     // The header is ASCII lines up to `end_header`.
-    let mut pos = 0;
     let mut line_no = 0;
-    let mut next_line = |pos: &mut usize| -> Option<(usize, String)> {
-        let rest = bytes.get(*pos..)?;
-        let end = rest.iter().position(|b| *b == b'\n')?;
-        *pos += end + 1;
+    let mut raw = Vec::new();
+    let mut next_line = |file: &mut dyn BufRead| -> Result<Option<(usize, String)>, FileProblem> {
+        raw.clear();
+        file.read_until(b'\n', &mut raw).map_err(FileProblem::io)?;
+        if raw.pop() != Some(b'\n') {
+            return Ok(None);
+        }
         line_no += 1;
-        let line = String::from_utf8_lossy(&rest[..end]);
-        Some((line_no, line.trim_end_matches('\r').trim().to_string()))
+        let line = String::from_utf8_lossy(&raw);
+        Ok(Some((
+            line_no,
+            line.trim_end_matches('\r').trim().to_string(),
+        )))
     };
     let bad = |n: usize, m: String| FileProblem::at(Location::Line(n), m);
-    match next_line(&mut pos) {
+    match next_line(&mut file)? {
         Some((_, l)) if l == "ply" => {}
         _ => {
             return Err(FileProblem::whole(
@@ -265,7 +331,7 @@ pub fn ply(bytes: &[u8]) -> Result<Spheres, FileProblem> {
     let mut binary = None;
     let mut elements: Vec<Element> = Vec::new();
     loop {
-        let Some((n, line)) = next_line(&mut pos) else {
+        let Some((n, line)) = next_line(&mut file)? else {
             return Err(FileProblem::whole("the header has no `end_header`"));
         };
         let words: Vec<&str> = line.split_whitespace().collect();
@@ -312,18 +378,39 @@ pub fn ply(bytes: &[u8]) -> Result<Spheres, FileProblem> {
         .position(|e| e.name == "vertex")
         .ok_or_else(|| FileProblem::whole("the header has no `element vertex`"))?;
     let columns = Columns::of(&elements[vertex])?;
-    let body = &bytes[pos..];
+    let v = &elements[vertex];
     if binary {
-        binary_vertices(body, &elements, vertex, &columns)
+        skip_elements(&mut file, &elements[..vertex])?;
+        match fixed_offsets(v) {
+            Some(offsets) => {
+                let stride = offsets.last().map_or(0, |(o, t)| o + t.size());
+                // Room for the vertices the file can hold, not for whatever the header claims.
+                let room = usize::try_from(len / stride as u64).unwrap_or(usize::MAX);
+                out.reserve(v.count.min(room));
+                let at = columns.fields.map(|k| offsets[k]);
+                fixed_vertices(&mut file, v.count, stride, out, |i, vertex| {
+                    let mut fields = [0.0; 7];
+                    for (f, (o, t)) in fields.iter_mut().zip(at) {
+                        *f = t.le(&vertex[o..o + t.size()]);
+                    }
+                    make(i, &columns.sphere(fields))
+                })
+            }
+            None => listed_vertices(&mut file, v, &columns, out, make),
+        }
     } else {
-        ascii_vertices(body, line_no + 1, &elements, vertex, &columns)
+        let mut body = Vec::new();
+        file.read_to_end(&mut body).map_err(FileProblem::io)?;
+        ascii_vertices(&body, line_no + 1, &elements, vertex, &columns, out, make)
     }
 }
 
 /// Which scalar of a vertex holds each sphere field, and whether colours are bytes.
 struct Columns {
-    xyz_radius: [usize; 4],
-    rgb: Option<[usize; 3]>,
+    /// The properties holding x, y, z, radius, red, green and blue (without colours, the last
+    /// three are x's, read and not used).
+    fields: [usize; 7],
+    colours: bool,
     rgb_bytes: bool,
 }
 
@@ -371,102 +458,220 @@ impl Columns {
             }
             None => false,
         };
+        let [x, y, z, radius] = xyz_radius;
+        let [red, green, blue] = rgb.unwrap_or([x; 3]);
         Ok(Columns {
-            xyz_radius,
-            rgb,
+            fields: [x, y, z, radius, red, green, blue],
+            colours: rgb.is_some(),
             rgb_bytes,
         })
     }
 
-    fn sphere(&self, values: &[f64]) -> SphereSpec {
-        let [x, y, z, r] = self.xyz_radius.map(|k| values[k]);
+    /// A vertex's fields, in the order of [`Columns::fields`], from its properties' values.
+    fn fields(&self, values: &[f64]) -> [f64; 7] {
+        self.fields.map(|k| values[k])
+    }
+
+    /// The sphere of a vertex's fields, in the order of [`Columns::fields`].
+    #[inline(always)]
+    fn sphere(&self, [x, y, z, radius, red, green, blue]: [f64; 7]) -> SphereSpec {
         // A byte's level k is k / 255, as the same colour written in RON.
-        let c = |k: usize| {
-            if self.rgb_bytes {
-                values[k] / 255.0
-            } else {
-                values[k]
-            }
-        };
+        let level = |v: f64| if self.rgb_bytes { v / 255.0 } else { v };
         SphereSpec {
             center: (x, y, z),
-            radius: r,
-            color: self.rgb.map(|[r, g, b]| (c(r), c(g), c(b))),
+            radius,
+            color: self
+                .colours
+                .then(|| (level(red), level(green), level(blue))),
         }
     }
 }
 
-fn binary_vertices(
-    body: &[u8],
-    elements: &[Element],
-    vertex: usize,
-    columns: &Columns,
-) -> Result<Spheres, FileProblem> {
-    let mut pos = 0;
-    let take = |pos: &mut usize, n: usize| -> Option<&[u8]> {
-        let b = body.get(*pos..*pos + n)?;
-        *pos += n;
-        Some(b)
-    };
-    // Elements before the vertices are read past, lists included.
-    for e in &elements[..vertex] {
-        for i in 0..e.count {
+/// Each vertex property's byte offset and type, when all are scalars: a vertex is then a
+/// fixed number of bytes, and the body can be cut anywhere between vertices.
+fn fixed_offsets(v: &Element) -> Option<Vec<(usize, Scalar)>> {
+    let mut at = 0;
+    v.properties
+        .iter()
+        .map(|p| match p {
+            Property::Scalar(t, _) => {
+                at += t.size();
+                Some((at - t.size(), *t))
+            }
+            Property::List(..) => None,
+        })
+        .collect()
+}
+
+/// Reads past the elements before the vertices, lists included.
+fn skip_elements(body: &mut impl BufRead, elements: &[Element]) -> Result<(), FileProblem> {
+    for e in elements {
+        let cut = |i: u64| {
+            FileProblem::whole(format!(
+                "truncated: the body ends inside element {} {i} (before the vertices)",
+                e.name
+            ))
+        };
+        if let Some(offsets) = fixed_offsets(e) {
+            // All at once: the element's records are all the same size.
+            let size = offsets.last().map_or(0, |(o, t)| o + t.size()) as u64;
+            let want = size.saturating_mul(e.count as u64);
+            let got = skip(body, want)?;
+            if got < want {
+                return Err(cut(got / size));
+            }
+            continue;
+        }
+        for i in 0..e.count as u64 {
             for p in &e.properties {
-                let cut = || {
-                    FileProblem::whole(format!(
-                        "truncated: the body ends inside element {} {i} (before the vertices)",
-                        e.name
-                    ))
-                };
-                match p {
-                    Property::Scalar(t, _) => {
-                        take(&mut pos, t.size()).ok_or_else(cut)?;
-                    }
+                let (count, item) = match p {
+                    Property::Scalar(t, _) => (1.0, *t),
                     Property::List(c, t) => {
-                        let n = c.le(take(&mut pos, c.size()).ok_or_else(cut)?);
-                        take(&mut pos, n as usize * t.size()).ok_or_else(cut)?;
+                        let mut n = [0; 8];
+                        let n = &mut n[..c.size()];
+                        exact(body, n)?.ok_or_else(|| cut(i))?;
+                        (c.le(n), *t)
                     }
+                };
+                let want = (count as u64).saturating_mul(item.size() as u64);
+                if skip(body, want)? < want {
+                    return Err(cut(i));
                 }
             }
         }
     }
-    let v = &elements[vertex];
-    let mut out = Spheres::default();
-    out.spheres.reserve(v.count.min(body.len()));
+    Ok(())
+}
+
+/// Reads past `n` bytes, or to the end: how many were there.
+fn skip(body: &mut impl BufRead, n: u64) -> Result<u64, FileProblem> {
+    io::copy(&mut body.take(n), &mut io::sink()).map_err(FileProblem::io)
+}
+
+/// Fills `buf`, or returns None at the end of the body.
+fn exact(body: &mut impl Read, buf: &mut [u8]) -> Result<Option<()>, FileProblem> {
+    match body.read_exact(buf) {
+        Ok(()) => Ok(Some(())),
+        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Ok(None),
+        Err(e) => Err(FileProblem::io(e)),
+    }
+}
+
+/// Fills as much of `buf` as the body holds: how many bytes that is.
+fn fill(body: &mut impl Read, buf: &mut [u8]) -> Result<usize, FileProblem> {
+    let mut got = 0;
+    while got < buf.len() {
+        match body.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(FileProblem::io(e)),
+        }
+    }
+    Ok(got)
+}
+
+/// The truncation of vertex `i` of `count`.
+fn truncated(i: usize, count: usize) -> FileProblem {
+    FileProblem::at(
+        Location::Vertex(i),
+        format!("truncated: the body ends inside vertex {i} of the header's {count}"),
+    )
+}
+
+/// `count` vertices of `stride` bytes each, a block at a time, each block's vertices turned by
+/// `vertex(i, bytes)` on the rayon pool straight into `out`, in order, while the next block is
+/// read beside them (reading is a third of the work, and on one thread).
+fn fixed_vertices<T: Send>(
+    body: &mut (impl Read + Send),
+    count: usize,
+    stride: usize,
+    out: &mut Vec<T>,
+    vertex: impl Fn(usize, &[u8]) -> T + Sync,
+) -> Result<Listing, FileProblem> {
+    let per_block = (BLOCK_BYTES / stride).max(1);
+    let blocks = count.div_ceil(per_block);
+    // Block b's bytes, as the header counts them.
+    let want = |b: usize| per_block.min(count - b * per_block) * stride;
+    let mut this = vec![0; per_block.min(count) * stride];
+    let mut next = this.clone();
+    let mut got = match blocks {
+        0 => 0,
+        _ => fill(body, &mut this[..want(0)])?,
+    };
+    for b in 0..blocks {
+        let first = b * per_block;
+        let whole = &this[..got - got % stride];
+        let (read, ()) = rayon::join(
+            || match b + 1 < blocks {
+                true => fill(body, &mut next[..want(b + 1)]),
+                false => Ok(0),
+            },
+            || {
+                out.par_extend(
+                    (whole.par_chunks_exact(stride).with_min_len(TASK_VERTICES))
+                        .enumerate()
+                        .map(|(k, v)| vertex(first + k, v)),
+                )
+            },
+        );
+        if got < want(b) {
+            return Err(truncated(first + got / stride, count));
+        }
+        got = read?;
+        std::mem::swap(&mut this, &mut next);
+    }
+    Ok(Listing {
+        count,
+        ..Listing::default()
+    })
+}
+
+/// Vertices with lists among their properties, one at a time.
+fn listed_vertices<T>(
+    body: &mut impl BufRead,
+    v: &Element,
+    columns: &Columns,
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T,
+) -> Result<Listing, FileProblem> {
     let mut values = vec![0.0; v.properties.len()];
+    let mut bytes = [0; 8];
     for i in 0..v.count {
         for (k, p) in v.properties.iter().enumerate() {
-            let cut = || {
-                FileProblem::at(
-                    Location::Vertex(i),
-                    format!(
-                        "truncated: the body ends inside vertex {i} of the header's {}",
-                        v.count
-                    ),
-                )
+            let mut scalar = |t: Scalar| -> Result<f64, FileProblem> {
+                let b = &mut bytes[..t.size()];
+                exact(body, b)?.ok_or_else(|| truncated(i, v.count))?;
+                Ok(t.le(b))
             };
             match p {
-                Property::Scalar(t, _) => {
-                    values[k] = t.le(take(&mut pos, t.size()).ok_or_else(cut)?)
-                }
+                Property::Scalar(t, _) => values[k] = scalar(*t)?,
                 Property::List(c, t) => {
-                    let n = c.le(take(&mut pos, c.size()).ok_or_else(cut)?);
-                    take(&mut pos, n as usize * t.size()).ok_or_else(cut)?;
+                    let n = scalar(*c)?;
+                    let want = (n as u64).saturating_mul(t.size() as u64);
+                    if skip(body, want)? < want {
+                        return Err(truncated(i, v.count));
+                    }
                 }
             }
         }
-        out.spheres.push(columns.sphere(&values));
+        out.push(make(i, &columns.sphere(columns.fields(&values))));
     }
-    Ok(out)
+    Ok(Listing {
+        count: v.count,
+        ..Listing::default()
+    })
 }
 
-fn ascii_vertices(
+fn ascii_vertices<T>(
     body: &[u8],
     first_line: usize,
     elements: &[Element],
     vertex: usize,
     columns: &Columns,
-) -> Result<Spheres, FileProblem> {
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T,
+) -> Result<Listing, FileProblem> {
     let text = std::str::from_utf8(body).map_err(|_| FileProblem::whole("the body is not text"))?;
     let mut lines = text
         .lines()
@@ -484,7 +689,6 @@ fn ascii_vertices(
         }
     }
     let v = &elements[vertex];
-    let mut out = Spheres::default();
     let mut values = vec![0.0; v.properties.len()];
     for i in 0..v.count {
         let Some((n, line)) = lines.next() else {
@@ -528,14 +732,30 @@ fn ascii_vertices(
                 format!("vertex {i}: more values than the header's properties"),
             ));
         }
-        out.spheres.push(columns.sphere(&values));
+        out.push(make(i, &columns.sphere(columns.fields(&values))));
     }
-    Ok(out)
+    Ok(Listing {
+        count: v.count,
+        ..Listing::default()
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A file's spheres as read, and its listing.
+    type Read = Result<(Vec<SphereSpec>, Listing), FileProblem>;
+
+    fn csv(bytes: &[u8]) -> Read {
+        let mut out = Vec::new();
+        super::csv(bytes, &mut out, |_, s| s.clone()).map(|l| (out, l))
+    }
+
+    fn ply(bytes: &[u8]) -> Read {
+        let mut out = Vec::new();
+        super::ply(bytes, &mut out, |_, s| s.clone()).map(|l| (out, l))
+    }
 
     fn sphere(c: Triple, r: f64, color: Option<Triple>) -> SphereSpec {
         SphereSpec {
@@ -547,21 +767,18 @@ mod tests {
 
     #[test]
     fn csv_with_and_without_colours() {
-        let s = csv(b"x,y,z,radius\n1,2,3,0.5\n\n-1e3, .5, 7., 2\n").unwrap();
+        let (s, listing) = csv(b"x,y,z,radius\n1,2,3,0.5\n\n-1e3, .5, 7., 2\n").unwrap();
         assert_eq!(
-            s.spheres,
+            s,
             [
                 sphere((1.0, 2.0, 3.0), 0.5, None),
                 sphere((-1000.0, 0.5, 7.0), 2.0, None)
             ]
         );
-        assert_eq!(s.location(1), Location::Line(4));
-        let s = csv(b"x, y, z, radius, r, g, b\r\n0,0,0,1,0.25,0.5,1\r\n").unwrap();
-        assert_eq!(
-            s.spheres,
-            [sphere((0.0, 0.0, 0.0), 1.0, Some((0.25, 0.5, 1.0)))]
-        );
-        assert_eq!(s.location(0), Location::Line(2));
+        assert_eq!(listing.location(1), Location::Line(4));
+        let (s, listing) = csv(b"x, y, z, radius, r, g, b\r\n0,0,0,1,0.25,0.5,1\r\n").unwrap();
+        assert_eq!(s, [sphere((0.0, 0.0, 0.0), 1.0, Some((0.25, 0.5, 1.0)))]);
+        assert_eq!(listing.location(0), Location::Line(2));
         for (bad, at) in [
             (&b"x,y,radius\n"[..], Some(Location::Line(1))),
             (b"x,y,z,radius\n1,2,3\n", Some(Location::Line(2))),
@@ -615,8 +832,8 @@ mod tests {
             sphere((1.5, -2.0, 3.25), 0.5, Some((1.0, 128.0 / 255.0, 0.0))),
             sphere((0.0, 0.0, 0.1), 1.0, Some((0.0, 0.0, 0.0))),
         ];
-        assert_eq!(ply(&ascii).unwrap().spheres, want);
-        assert_eq!(ply(&bin).unwrap().spheres, want);
+        assert_eq!(ply(&ascii).unwrap().0, want);
+        assert_eq!(ply(&bin).unwrap().0, want);
         // Truncated: the last byte gone.
         bin.pop();
         let e = ply(&bin).unwrap_err();
@@ -644,5 +861,71 @@ mod tests {
             .message
             .contains("binary_big_endian"));
         assert!(ply(b"PLY\n").is_err());
+    }
+
+    /// A binary body of several blocks: every vertex handed over once, with its own index, in
+    /// file order; a body that ends early names the vertex it ends in, past the first block.
+    #[test]
+    fn binary_blocks_keep_file_order_and_name_the_cut_vertex() {
+        let props = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
+        let n = 2 * BLOCK_BYTES / 16 + 5;
+        let mut bin = header("binary_little_endian", props, n);
+        let value = |i: usize, k: usize| (i * 4 + k) as f32;
+        for i in 0..n {
+            for k in 0..4 {
+                bin.extend(value(i, k).to_le_bytes());
+            }
+        }
+        let mut out = Vec::new();
+        let listing = super::ply(&bin, &mut out, |i, s| (i, s.clone())).unwrap();
+        assert_eq!((listing.count, out.len()), (n, n));
+        for (k, (i, s)) in out.iter().enumerate() {
+            let v = |j| f64::from(value(k, j));
+            assert_eq!((*i, s), (k, &sphere((v(0), v(1), v(2)), v(3), None)));
+        }
+        // Cut inside vertex n - 4, in the third block.
+        bin.truncate(bin.len() - 3 * 16 - 1);
+        let e = ply(&bin).unwrap_err();
+        assert_eq!(e.at, Some(Location::Vertex(n - 4)), "{e:?}");
+        assert_eq!(
+            e.message,
+            format!(
+                "truncated: the body ends inside vertex {} of the header's {n}",
+                n - 4
+            )
+        );
+    }
+
+    /// Elements before the vertices are read past, whole records or list by list; a body that
+    /// ends inside them names the element.
+    #[test]
+    fn binary_elements_before_the_vertices_are_read_past() {
+        let text = "ply\nformat binary_little_endian 1.0\nelement camera 2\nproperty double t\nproperty uchar k\nelement face 2\nproperty list uchar ushort idx\nproperty char f\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\nproperty double radius\nend_header\n";
+        let mut bin = text.as_bytes().to_vec();
+        for (t, k) in [(0.5f64, 1u8), (1.5, 2)] {
+            bin.extend(t.to_le_bytes());
+            bin.push(k);
+        }
+        for list in [&[1u16, 2, 3][..], &[]] {
+            bin.push(list.len() as u8);
+            for v in list {
+                bin.extend(v.to_le_bytes());
+            }
+            bin.push(7);
+        }
+        for v in [1.0f64, 2.0, 3.0, 0.25] {
+            bin.extend(v.to_le_bytes());
+        }
+        assert_eq!(ply(&bin).unwrap().0, [sphere((1.0, 2.0, 3.0), 0.25, None)]);
+        let camera_end = text.len() + 2 * 9;
+        for (cut, want) in [
+            (text.len() + 9 + 4, "element camera 1 "),
+            (camera_end + 1 + 2, "element face 0 "),
+            (camera_end + 1 + 6 + 1 + 1, "element face 1 "),
+        ] {
+            let e = ply(&bin[..cut]).unwrap_err();
+            assert!(e.message.contains(want), "{cut}: {e:?}");
+            assert_eq!(e.at, None);
+        }
     }
 }

@@ -157,3 +157,50 @@ fn editing_a_sphere_file_renders_its_frames_again() {
         .collect();
     assert_eq!(listed, hash(t, "s.ron"));
 }
+
+/// A binary body of several blocks, read on the pool: its bad vertices are named, each once,
+/// in file order, however the blocks fall; a body that also ends early names only the cut.
+#[test]
+fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    // Three blocks of vertices of 4 doubles and 3 bytes.
+    let n = 2 * campath::format::sphere_files::BLOCK_BYTES / 35 + 1000;
+    let mut all = spheres(n);
+    all[7].1 = 0.0;
+    all[n / 2].0[0] = f64::NAN;
+    all[n - 2].1 = -0.5;
+    write_files(t, &all);
+    std::fs::write(t.join("b.ron"), shot("", &["clouds/b.ply"])).unwrap();
+    let o = campath(t, &["check", "b.ron"], &[]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    let named: Vec<&str> = err.lines().filter(|l| l.contains(": vertex ")).collect();
+    assert_eq!(named.len(), 3, "{err}");
+    for (line, want) in named.iter().zip([
+        "clouds/b.ply: vertex 7: radius: must be greater than 0, got 0".to_string(),
+        format!(
+            "clouds/b.ply: vertex {}: center: must be finite numbers, got (NaN, ",
+            n / 2
+        ),
+        format!(
+            "clouds/b.ply: vertex {}: radius: must be greater than 0, got -0.5",
+            n - 2
+        ),
+    ]) {
+        assert!(line.trim_start().starts_with(&want), "{want:?} in:\n{err}");
+    }
+    // Cut inside the last vertex: the file's form is named, not its spheres.
+    let bytes = std::fs::read(t.join("clouds/b.ply")).unwrap();
+    std::fs::write(t.join("clouds/b.ply"), &bytes[..bytes.len() - 1]).unwrap();
+    let o = campath(t, &["check", "b.ron"], &[]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    let want = format!(
+        "scene.sphere_files[0] (clouds/b.ply: vertex {}): truncated: the body ends inside vertex {} of the header's {n}",
+        n - 1,
+        n - 1
+    );
+    assert!(err.contains(&want), "{want:?} in:\n{err}");
+    assert!(!err.contains(": vertex 7:"), "{err}");
+}
