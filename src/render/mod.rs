@@ -52,7 +52,7 @@ use rows::rows_in_order;
 use shadows::FrameShadows;
 use simd::Isa;
 use tiles::TileBins;
-use view::{ViewColumns, ViewLight, ViewSphere};
+use view::{ViewColumns, ViewLight};
 
 /// Renders frames, keeping the ray table between frames.
 pub struct Renderer {
@@ -178,15 +178,9 @@ impl Renderer {
             _ => Arc::new(RayTable::new(camera.cop_view, camera.window, raster)),
         };
         self.table = Some(Arc::clone(&table));
-        // Moved into view coordinates a chunk at a time, straight into their columns: no
-        // second copy of every sphere in view.
+        // Moved into view coordinates straight into their columns.
         let visible = index.visible(camera);
-        let mut spheres = ViewColumns::with_capacity(visible.len());
-        for chunk in visible.chunks(VIEW_CHUNK) {
-            spheres.extend(&tiles::each(chunk, |&k| {
-                ViewSphere::new(camera, &scene.spheres[k as usize], k)
-            }));
-        }
+        let spheres = ViewColumns::of(camera, &scene.spheres, &visible);
         drop(visible);
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
@@ -221,9 +215,6 @@ impl Renderer {
         }
     }
 }
-
-/// Spheres moved into view coordinates together before they are stored per field: a few MB.
-const VIEW_CHUNK: usize = 1 << 16;
 
 /// Rows in the ring of [`PreparedFrame::render_through`]: enough that rendering seldom waits
 /// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide).

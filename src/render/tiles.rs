@@ -9,16 +9,12 @@ use rayon::prelude::*;
 
 use super::bins::Bins;
 use super::rays::RayTable;
+pub use super::view::PARALLEL;
 use super::view::{Reach, ViewColumns};
 use crate::raster::Raster;
 
 /// Tile side in pixels.
 pub const TILE: usize = 16;
-
-/// Frames with at least this many spheres in view prepare them on the rayon pool (in chunks of
-/// this many); smaller ones on the thread preparing the frame, where waking the pool costs more
-/// than it saves (6% of fly1000's CPU time).
-pub const PARALLEL: usize = 1 << 14;
 
 /// Pixel rectangle (inclusive) a sphere's projection may cover.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -281,26 +277,22 @@ impl TileBins {
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
         // Each sphere's pixel rectangle ([1, 0, 1, 0] when culled, every pixel when without
-        // bounds), and which have no bounds.
+        // bounds).
         let all = [0, raster.width - 1, 0, raster.height - 1];
-        let prints = each_index(spheres.len(), |k| {
-            match footprint(&spheres.reach(k), cop, window, raster) {
-                Footprint::Culled => ([1, 0, 1, 0], false),
-                Footprint::Everywhere => (all, true),
-                Footprint::Pixels { i0, i1, j0, j1 } => {
-                    ([i0 as u32, i1 as u32, j0 as u32, j1 as u32], false)
-                }
-            }
+        let print = |k: usize| footprint(&spheres.reach(k), cop, window, raster);
+        let rects: Vec<[u32; 4]> = each_index(spheres.len(), |k| match print(k) {
+            Footprint::Culled => [1, 0, 1, 0],
+            Footprint::Everywhere => all,
+            Footprint::Pixels { i0, i1, j0, j1 } => [i0 as u32, i1 as u32, j0 as u32, j1 as u32],
         });
-        let (rects, everywhere): (Vec<[u32; 4]>, Vec<bool>) = prints.into_iter().unzip();
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are sorted: left out where no ray of the tile
-        // meets them, and ordered by the nearest hit a ray of the tile can have.
+        // meets them, and ordered by the nearest hit a ray of the tile can have. Only a sphere
+        // over every pixel can be one (its footprint is found again: a few spheres).
         let wide: Vec<Wide> = (0..spheres.len())
-            .filter(|&k| everywhere[k])
+            .filter(|&k| rects[k] == all && print(k) == Footprint::Everywhere)
             .filter_map(|k| Wide::new(k as u32, &spheres.reach(k), table, raster))
             .collect();
-        drop(everywhere);
         let dims = (tiles_x, tiles_y);
         let mut bins = Bins::build(dims, spheres.len(), |k| {
             let [i0, i1, j0, j1] = rects[k].map(|v| v as usize);
