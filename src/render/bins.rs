@@ -139,6 +139,74 @@ impl Bins {
         }
     }
 
+    /// [`Bins::build`] on the rayon pool, `chunk` items a task: each task counts its items'
+    /// cells, and fills its own slots of every cell (after the slots of the tasks before it),
+    /// so the bins are those built on one thread. For many items over a small grid (a frame's
+    /// screen tiles); `rect` is called twice per item, so it must be pure.
+    pub fn build_in_chunks(
+        dims: (usize, usize),
+        n: usize,
+        chunk: usize,
+        rect: impl Fn(usize) -> Option<CellRect> + Sync,
+    ) -> Bins {
+        use rayon::prelude::*;
+        use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+        let width = dims.0;
+        let cells = dims.0 * dims.1;
+        let chunk = chunk.max(1);
+        let range = |c: usize| c * chunk..((c + 1) * chunk).min(n);
+        let counts: Vec<Vec<u32>> = (0..n.div_ceil(chunk))
+            .into_par_iter()
+            .map(|c| {
+                let mut counts = vec![0u32; cells];
+                for (x0, x1, y0, y1) in range(c).filter_map(&rect) {
+                    for y in y0..=y1 {
+                        for k in &mut counts[y * width + x0..=y * width + x1] {
+                            *k += 1;
+                        }
+                    }
+                }
+                counts
+            })
+            .collect();
+        // Per cell, the tasks' slots in task order; each task's count turned into its first
+        // slot in the cell.
+        let mut starts = counts;
+        let mut offsets = Vec::with_capacity(cells + 1);
+        let mut total = 0u32;
+        for cell in 0..cells {
+            offsets.push(total);
+            for task in starts.iter_mut() {
+                let count = task[cell];
+                task[cell] = total;
+                total += count;
+            }
+        }
+        offsets.push(total);
+        // Every slot is written by exactly one task: relaxed stores, read after the join.
+        let items: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+        starts
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(c, mut fill)| {
+                for k in range(c) {
+                    if let Some((x0, x1, y0, y1)) = rect(k) {
+                        for y in y0..=y1 {
+                            for slot in &mut fill[y * width + x0..=y * width + x1] {
+                                items[*slot as usize].store(k as u32, Relaxed);
+                                *slot += 1;
+                            }
+                        }
+                    }
+                }
+            });
+        Bins {
+            width,
+            offsets,
+            items: items.into_iter().map(AtomicU32::into_inner).collect(),
+        }
+    }
+
     /// Reorders every cell's items with `sort`.
     pub fn sort_cells(&mut self, sort: impl Fn(&mut [u32])) {
         for k in 0..self.offsets.len() - 1 {
@@ -247,6 +315,43 @@ mod tests {
             assert_eq!(banded.offsets, one.offsets);
             assert_eq!(banded.items, one.items);
         }
+    }
+
+    /// Built a chunk of items a task on pools of 1 to 3 threads (chunks of one item to all of
+    /// them), a seeded grid's bins are those built in one pass.
+    #[test]
+    fn bins_built_in_chunks_are_the_same() {
+        let mut rng = crate::splitmix::SplitMix(6);
+        let (w, h) = (29, 17);
+        let rects: Vec<Option<CellRect>> = (0..2000)
+            .map(|k| {
+                let mut r = |n: usize| (rng.unit() * n as f64) as usize;
+                let (x0, y0) = (r(w), r(h));
+                (k % 5 != 0).then(|| (x0, (x0 + r(4)).min(w - 1), y0, (y0 + r(3)).min(h - 1)))
+            })
+            .collect();
+        let one = Bins::build((w, h), rects.len(), |k| rects[k]);
+        for threads in 1..=3 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for chunk in [1, 7, 333, 2000, 5000] {
+                let chunked = pool
+                    .install(|| Bins::build_in_chunks((w, h), rects.len(), chunk, |k| rects[k]));
+                assert_eq!(
+                    chunked.offsets, one.offsets,
+                    "{threads} threads, chunks of {chunk}"
+                );
+                assert_eq!(
+                    chunked.items, one.items,
+                    "{threads} threads, chunks of {chunk}"
+                );
+            }
+        }
+        let empty = Bins::build_in_chunks((w, h), 0, 8, |k| rects[k]);
+        assert_eq!(empty.items.len(), 0);
+        assert_eq!(empty.offsets, vec![0; w * h + 1]);
     }
 
     #[test]

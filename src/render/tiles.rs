@@ -64,12 +64,14 @@ fn footprint(s: &Reach, cop: DVec3, window: DVec2, raster: Raster) -> Footprint 
             Footprint::Culled
         };
     }
+    // Clamped to [0, n − 1] first, then truncated: the floor of the value (the same as
+    // flooring first, without a call to floor for each of the four).
     let clamp = |v: f64, n: f64| v.max(0.0).min(n - 1.0) as usize;
     Footprint::Pixels {
-        i0: clamp(x0.floor(), w),
-        i1: clamp(x1.floor(), w),
-        j0: clamp(y0.floor(), h),
-        j1: clamp(y1.floor(), h),
+        i0: clamp(x0, w),
+        i1: clamp(x1, w),
+        j0: clamp(y0, h),
+        j1: clamp(y1, h),
     }
 }
 
@@ -294,10 +296,17 @@ impl TileBins {
             .filter_map(|k| Wide::new(k as u32, &spheres.reach(k), table, raster))
             .collect();
         let dims = (tiles_x, tiles_y);
-        let mut bins = Bins::build(dims, spheres.len(), |k| {
+        let cells = |k: usize| {
             let [i0, i1, j0, j1] = rects[k].map(|v| v as usize);
             (i0 <= i1).then_some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
-        });
+        };
+        let mut bins = if spheres.len() >= PARALLEL {
+            // A task per quarter of the spheres or per PARALLEL, whichever is more.
+            let chunk = spheres.len().div_ceil(4).max(PARALLEL);
+            Bins::build_in_chunks(dims, spheres.len(), chunk, cells)
+        } else {
+            Bins::build(dims, spheres.len(), cells)
+        };
         // Nearest possible hit first; ties by the spheres' scene indices, so the order is
         // total, deterministic and the same whatever order the columns hold the spheres in.
         // Sorted tile by tile (binning in one sorted order scatters its reads of the
