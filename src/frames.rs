@@ -125,13 +125,14 @@ enum Keep {
     Hashes,
 }
 
-/// A frame's pixels (if kept) and hash.
 /// The next frame is prepared while this one renders only when this one has fewer spheres in
-/// view than this, over all its time samples: above it, the two frames' spheres in view coordinates would be in memory at
-/// once (250 MB more at a million in view), and a frame that large prepares on the whole pool
-/// anyway (at 1 M spheres the same time a frame, 390 MB peak instead of 670).
+/// view than this, over all its time samples: above it, the two frames' spheres in view
+/// coordinates would be in memory at once (about 100 MB more at a million in view), and a frame
+/// that large prepares on the whole pool anyway (at 1 M spheres the same time a frame, 390 MB
+/// peak instead of 670 when view spheres took 128 bytes).
 pub const PREPARE_AHEAD_MAX: usize = 1 << 18;
 
+/// A frame's pixels (if kept) and hash.
 type Delivered = (Option<Arc<Vec<u8>>>, FrameHash);
 
 /// [`for_each_frame`], with the pixels handed to `sink` only if `keep` says so.
