@@ -272,13 +272,22 @@ fn field_order(text: &str) -> Vec<String> {
                 }
             }
             '/' if chars.peek().map(|p| p.1) == Some('*') => {
+                // Block comments nest, as RON reads them.
                 chars.next();
-                let mut prev = ' ';
+                let (mut level, mut prev) = (1, ' ');
                 for (_, c) in chars.by_ref() {
-                    if prev == '*' && c == '/' {
+                    match (prev, c) {
+                        ('*', '/') => level -= 1,
+                        ('/', '*') => level += 1,
+                        _ => {
+                            prev = c;
+                            continue;
+                        }
+                    }
+                    if level == 0 {
                         break;
                     }
-                    prev = c;
+                    prev = ' ';
                 }
             }
             '(' | '[' | '{' => depth += 1,
@@ -379,7 +388,8 @@ pub fn read(path: &Path) -> Result<FileSpec> {
     // Giving a large text's pages back takes a while (0.1 s at a million spheres' 169 MB):
     // on a thread of its own, beside the work that follows.
     if bytes.len() >= DROP_ASIDE_BYTES {
-        std::thread::spawn(move || drop(bytes));
+        // Where no thread can be made, it is let go of here.
+        let _ = std::thread::Builder::new().spawn(move || drop(bytes));
     }
     spec
 }
@@ -404,8 +414,13 @@ fn read_bytes(path: &Path) -> std::io::Result<Vec<u8>> {
                 || file.read_exact_at(a, 0),
                 || file.read_exact_at(b, (len / 2) as u64),
             );
-            ra?;
-            rb?;
+            match ra.and(rb) {
+                // Shorter than it was a moment ago (an editor writing it): read it whole.
+                Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                    return std::fs::read(path);
+                }
+                r => r?,
+            }
             // Whatever was written past the length it had a moment ago.
             file.seek(SeekFrom::Start(len as u64))?;
             file.read_to_end(&mut bytes)?;
@@ -438,6 +453,26 @@ fn utf8<'a>(path: &Path, bytes: &'a [u8]) -> Result<&'a str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Names in comments, nested ones too, are no fields; the outer fields and their
+    /// structs' fields are, in the text's order.
+    #[test]
+    fn field_order_skips_nested_comments() {
+        let text =
+            "/* /* (frames: 1) */ (fps: 2) */ (camera: (vpn: (0, 0, 1), /* a: */ tp: (0, 0, 0)),\n\
+                    // image: (width: 1)\n scene: (spheres: [(center: (0, 0, 0))]), frames: 3)";
+        assert_eq!(
+            field_order(text),
+            [
+                "camera",
+                "camera.vpn",
+                "camera.tp",
+                "scene",
+                "scene.spheres",
+                "frames"
+            ]
+        );
+    }
 
     /// A long file read in halves gives the bytes `std::fs::read` gives: an odd length, so
     /// the halves differ, and no byte twice or lost at the cut.

@@ -163,7 +163,7 @@ impl Shading<'_> {
                 }
             }
         }
-        let color = fields.of_scene(tok, self.scene, |s| s.color);
+        let color = fields.colors(tok, self.scene);
         let background = self.background.to_array();
         let flat = self.lights.is_empty();
         let mut out = [zero; 3];
@@ -236,16 +236,14 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
         ]
     }
 
-    /// A vector of each lane's sphere that the columns do not keep: `of` its sphere in the
-    /// scene.
+    /// Each lane's sphere's colour, which the columns do not keep: read from the scene by the
+    /// sphere's index.
     #[inline(always)]
-    fn of_scene(&self, tok: V::Token, scene: &[Sphere], of: impl Fn(&Sphere) -> DVec3) -> [V; 3] {
+    fn colors(&self, tok: V::Token, scene: &[Sphere]) -> [V; 3] {
         match *self {
-            SphereLanes::One(s, k) => splat3(tok, of(&scene[s.id[k] as usize])),
+            SphereLanes::One(s, k) => splat3(tok, scene[s.id[k] as usize].color),
             SphereLanes::Two(s, second, a, b) => {
-                // No closures here: one would be compiled without the row's target features,
-                // and the vector operations in it called out of line.
-                let (a, b) = (of(&scene[s.id[a] as usize]), of(&scene[s.id[b] as usize]));
+                let (a, b) = (scene[s.id[a] as usize].color, scene[s.id[b] as usize].color);
                 [
                     V::blend(second, V::splat(tok, a.x), V::splat(tok, b.x)),
                     V::blend(second, V::splat(tok, a.y), V::splat(tok, b.y)),
@@ -256,10 +254,8 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
                 let ids = V::index_store(V::gather_index(&s.id, own));
                 let mut lanes = [[0.0; LANES]; 3];
                 for (l, &id) in ids.iter().enumerate() {
-                    let v = of(&scene[id as usize]);
-                    for i in 0..3 {
-                        lanes[i][l] = v[i];
-                    }
+                    let color = scene[id as usize].color;
+                    (lanes[0][l], lanes[1][l], lanes[2][l]) = (color.x, color.y, color.z);
                 }
                 [
                     V::load(tok, &lanes[0]),

@@ -311,7 +311,7 @@ impl TileBins {
         // total, deterministic and the same whatever order the columns hold the spheres in.
         // Sorted tile by tile (binning in one sorted order scatters its reads of the
         // rectangles over every sphere in view), each sort reading the spheres' `min_dist` as
-        // keys of their own (8 bytes a sphere where a view sphere is 112), ordered as
+        // keys of their own (8 bytes a sphere where a view sphere is 80), ordered as
         // `total_cmp` orders the f64, on the pool when many are in view.
         let keys: Vec<u64> = each(&spheres.min_dist, |&d| total_key(d));
         let id = |k: u32| spheres.id[k as usize] as u32;
@@ -394,6 +394,68 @@ mod tests {
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
+
+    /// A tile's list, read as scene indices, does not depend on the order the columns hold the
+    /// spheres in: spheres of equal nearest possible hit (copies of one sphere, and a ground)
+    /// keep their scene order whichever way the frame lists them, on one thread and on the pool.
+    #[test]
+    fn tile_lists_follow_the_scene_order_whatever_the_columns_order() {
+        let mut gen = crate::splitmix::SplitMix(12);
+        let mut spheres: Vec<Sphere> = Vec::new();
+        for _ in 0..(PARALLEL / 4 + 50) {
+            let mut r = || gen.unit();
+            let s = Sphere {
+                center_world: DVec3::new(r() * 40.0 - 20.0, r() * 5.0, r() * 40.0),
+                radius: 0.2 + r(),
+                color: DVec3::ONE,
+            };
+            // Each sphere four times over: ties in every list it is in.
+            spheres.extend([s; 4]);
+        }
+        spheres.push(Sphere {
+            center_world: DVec3::new(0.0, -1e3, 0.0),
+            radius: 1e3,
+            color: DVec3::ONE,
+        });
+        let camera = Camera {
+            vrp_world: DVec3::new(0.0, 3.0, -25.0),
+            basis: Basis::from_vpn_vuv(DVec3::new(0.0, -0.1, 1.0), DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.0),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let raster = Raster {
+            width: 160,
+            height: 90,
+            samples: 1,
+            adaptive: false,
+        };
+        let table = RayTable::new(camera.cop_view, camera.window, raster);
+        let n = spheres.len() as u32;
+        assert!(n as usize >= PARALLEL, "the pool's sorts are taken");
+        let ids = |order: &[u32]| {
+            let view: Vec<ViewSphere> = order
+                .iter()
+                .map(|&k| ViewSphere::new(&camera, &spheres[k as usize], k))
+                .collect();
+            let columns = ViewColumns::new(&view);
+            let bins = TileBins::build(&columns, &table, raster);
+            let mut lists = Vec::new();
+            for j in (0..90).step_by(TILE) {
+                for i in (0..160).step_by(TILE) {
+                    let list = bins.at(i, j).iter().map(|&k| columns.id[k as usize]);
+                    lists.push(list.collect::<Vec<_>>());
+                }
+            }
+            lists
+        };
+        let forward: Vec<u32> = (0..n).collect();
+        let backward: Vec<u32> = (0..n).rev().collect();
+        let shuffled: Vec<u32> = (0..n).map(|k| (k * 7919) % n).collect();
+        let expected = ids(&forward);
+        assert!(expected.iter().any(|l| l.len() > 8), "lists with ties");
+        assert_eq!(ids(&backward), expected);
+        assert_eq!(ids(&shuffled), expected);
+    }
 
     /// Every sample's nearest hit through its tile's list is the nearest of every sphere, with
     /// a ground sphere (radius 10³ and 10⁵) placed tile by tile: left out of tiles above its
