@@ -122,14 +122,19 @@ impl Document {
         })
     }
 
+    /// The error for a frame the animation does not have.
+    fn no_frame(&self, frame: u64) -> Error {
+        Error::Usage(format!(
+            "frame {frame}: the animation has frames 0..{}",
+            self.animation.frames
+        ))
+    }
+
     /// Frame `frame`'s exposure (see [`Document::exposures`]), in O(frame).
     pub fn exposure(&self, frame: u64) -> Result<Exposure> {
         match self.exposures().nth(frame as usize) {
             Some(e) => e.map(|(_, exposure)| exposure),
-            None => Err(Error::Usage(format!(
-                "frame {frame}: the animation has frames 0..{}",
-                self.animation.frames
-            ))),
+            None => Err(self.no_frame(frame)),
         }
     }
 
@@ -138,10 +143,7 @@ impl Document {
     pub fn camera(&self, frame: u64) -> Result<Camera> {
         match self.cameras().nth(frame as usize) {
             Some(c) => c.map(|(_, camera)| camera),
-            None => Err(Error::Usage(format!(
-                "frame {frame}: the animation has frames 0..{}",
-                self.animation.frames
-            ))),
+            None => Err(self.no_frame(frame)),
         }
     }
 

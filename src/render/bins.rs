@@ -290,19 +290,34 @@ mod tests {
         assert_eq!((banded.offsets, banded.items), (bins.offsets, bins.items));
     }
 
+    /// `n` seeded rectangles on a `dims` grid, up to `span` cells beyond their first in x and
+    /// y; every `none`-th item has none.
+    fn seeded_rects(
+        seed: u64,
+        (w, h): (usize, usize),
+        n: usize,
+        none: usize,
+        span: (usize, usize),
+    ) -> Vec<Option<CellRect>> {
+        let mut rng = crate::splitmix::SplitMix(seed);
+        (0..n)
+            .map(|k| {
+                let mut r = |n: usize| (rng.unit() * n as f64) as usize;
+                let (x0, y0) = (r(w), r(h));
+                (k % none != 0).then(|| {
+                    let x1 = (x0 + r(span.0)).min(w - 1);
+                    (x0, x1, y0, (y0 + r(span.1)).min(h - 1))
+                })
+            })
+            .collect()
+    }
+
     /// Built in bands of rows on pools of 1 to 3 threads (bands of one row to all rows), a
     /// seeded grid's bins are those built in one pass.
     #[test]
     fn bins_built_in_bands_are_the_same() {
-        let mut rng = crate::splitmix::SplitMix(5);
         let (w, h) = (37, 23);
-        let rects: Vec<Option<CellRect>> = (0..3000)
-            .map(|k| {
-                let mut r = |n: usize| (rng.unit() * n as f64) as usize;
-                let (x0, y0) = (r(w), r(h));
-                (k % 7 != 0).then(|| (x0, (x0 + r(4)).min(w - 1), y0, (y0 + r(5)).min(h - 1)))
-            })
-            .collect();
+        let rects = seeded_rects(5, (w, h), 3000, 7, (4, 5));
         let order: Vec<u32> = (0..3000u32).map(|k| (k * 1013) % 3000).collect();
         let one = Bins::build_in_order((w, h), order.iter().map(|&k| k as usize), |k| rects[k]);
         for threads in 1..=3 {
@@ -321,15 +336,8 @@ mod tests {
     /// them), a seeded grid's bins are those built in one pass.
     #[test]
     fn bins_built_in_chunks_are_the_same() {
-        let mut rng = crate::splitmix::SplitMix(6);
         let (w, h) = (29, 17);
-        let rects: Vec<Option<CellRect>> = (0..2000)
-            .map(|k| {
-                let mut r = |n: usize| (rng.unit() * n as f64) as usize;
-                let (x0, y0) = (r(w), r(h));
-                (k % 5 != 0).then(|| (x0, (x0 + r(4)).min(w - 1), y0, (y0 + r(3)).min(h - 1)))
-            })
-            .collect();
+        let rects = seeded_rects(6, (w, h), 2000, 5, (4, 3));
         let one = Bins::build((w, h), rects.len(), |k| rects[k]);
         for threads in 1..=3 {
             let pool = rayon::ThreadPoolBuilder::new()

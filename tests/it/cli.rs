@@ -432,6 +432,15 @@ fn held_frames_are_reused_and_compression_keeps_the_pixels() {
     assert_eq!(alone.trim(), format!("3 {}", lines[3]));
 }
 
+/// The RMSE (levels) of `report`'s row `label` in its output `text`.
+fn rmse_of(text: &str, label: &str) -> f64 {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with(&format!("| {label} |")))
+        .unwrap();
+    line.split('|').nth(3).unwrap().trim().parse().unwrap()
+}
+
 #[test]
 fn report_prints_both_tables_and_writes_the_plot() {
     let tmp = tempfile::tempdir().unwrap();
@@ -453,13 +462,7 @@ fn report_prints_both_tables_and_writes_the_plot() {
         assert!(text.contains(row), "{row} missing from:\n{text}");
     }
     // Samples 8 is closer to the 16×16 reference than samples 1.
-    let rmse = |label: &str| -> f64 {
-        let line = text
-            .lines()
-            .find(|l| l.starts_with(&format!("| {label} |")))
-            .unwrap();
-        line.split('|').nth(3).unwrap().trim().parse().unwrap()
-    };
+    let rmse = |label: &str| rmse_of(&text, label);
     assert!(rmse("samples 8") < rmse("samples 1"));
     // Motion blur's time samples, against 64 of them on a frame where the camera moves: more
     // time samples, less error; and one time sample is the frame without blur.
@@ -490,13 +493,7 @@ fn report_prints_both_tables_and_writes_the_plot() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
-    let rmse = |label: &str| -> f64 {
-        let line = text
-            .lines()
-            .find(|l| l.starts_with(&format!("| {label} |")))
-            .unwrap();
-        line.split('|').nth(3).unwrap().trim().parse().unwrap()
-    };
+    let rmse = |label: &str| rmse_of(&text, label);
     assert!(rmse("time samples 16") < rmse("time samples 4"), "{text}");
     assert!(rmse("time samples 4") < rmse("time samples 1"), "{text}");
     assert!(rmse("time samples 1") > 1.0, "{text}");
