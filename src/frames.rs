@@ -218,6 +218,7 @@ fn run(
                 let hash = hasher.finish();
                 timing.render_secs.push(t.elapsed().as_secs_f64());
                 timing.max_in_view = timing.max_in_view.max(this.in_view());
+                renderer.recycle(this);
                 if let Some(p) = &pixels {
                     buffers.keep(p);
                 }

@@ -54,12 +54,14 @@ use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight};
 
-/// Renders frames, keeping the ray table between frames.
+/// Renders frames, keeping the ray table between frames, and the view columns of frames
+/// handed back ([`Renderer::recycle`]) for the next to write over.
 pub struct Renderer {
     table: Option<Arc<RayTable>>,
     simd: Simd,
     /// `simd`'s instruction set, with the proof that this CPU runs it.
     isa: Isa,
+    spare: Vec<ViewColumns>,
 }
 
 impl Default for Renderer {
@@ -76,6 +78,7 @@ impl Renderer {
             table: None,
             simd,
             isa: simd.isa().expect("Simd::detect picks a path this CPU runs"),
+            spare: Vec::new(),
         }
     }
 
@@ -86,6 +89,7 @@ impl Renderer {
             table: None,
             simd,
             isa: simd.isa()?,
+            spare: Vec::new(),
         })
     }
 
@@ -125,8 +129,16 @@ impl Renderer {
         pixels: &mut Vec<u8>,
         in_order: &mut (dyn FnMut(&[u8]) + Send),
     ) {
-        self.prepare(camera, index, raster)
-            .render_into(pixels, in_order);
+        let frame = self.prepare(camera, index, raster);
+        frame.render_into(pixels, in_order);
+        self.recycle(frame);
+    }
+
+    /// Takes back a rendered frame's view columns, for the frames prepared after it to write
+    /// over instead of asking the system for fresh memory.
+    pub fn recycle(&mut self, frame: PreparedFrame) {
+        self.spare
+            .extend(frame.times.into_iter().map(|t| t.spheres));
     }
 
     /// Everything frame `camera` needs before its rays: the spheres in view moved into view
@@ -180,7 +192,7 @@ impl Renderer {
         self.table = Some(Arc::clone(&table));
         // Moved into view coordinates straight into their columns.
         let visible = index.visible(camera);
-        let spheres = ViewColumns::of(camera, &scene.spheres, &visible);
+        let spheres = ViewColumns::of(camera, &scene.spheres, &visible, self.spare.pop());
         drop(visible);
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
@@ -345,6 +357,50 @@ mod tests {
 
     /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
     /// of the wrong size), every path and kind of sampling gives the fresh frame.
+    #[test]
+    fn frames_written_over_recycled_columns_are_the_frames_rendered_fresh() {
+        let spheres = (0..60)
+            .map(|k| Sphere {
+                center_world: DVec3::new((k % 10) as f64 - 4.5, (k / 10) as f64 * 0.8, 0.0),
+                radius: 0.3 + 0.01 * k as f64,
+                color: DVec3::new(0.2 + 0.01 * k as f64, 0.5, 0.9 - 0.01 * k as f64),
+            })
+            .collect();
+        let scene = Scene {
+            background: DVec3::new(0.2, 0.3, 0.5),
+            ambient: 0.1,
+            lights: vec![Light {
+                direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
+                color: DVec3::splat(0.8),
+                shadows: true,
+            }],
+            spheres,
+        };
+        // From afar (every sphere in view), close up (a few), and afar again.
+        let at = |z: f64| Camera {
+            vrp_world: DVec3::new(0.3, 2.0, z),
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.5),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let cameras = [at(-14.0), at(-1.5), at(-1.0), at(-16.0), at(-1.5)];
+        let raster = Raster {
+            width: 96,
+            height: 54,
+            samples: 1,
+            adaptive: false,
+        };
+        let index = SceneIndex::new(&scene);
+        let in_view: Vec<usize> = cameras.iter().map(|c| index.visible(c).len()).collect();
+        assert!(in_view[0] == 60 && in_view[1] < 20, "{in_view:?}");
+        let mut reused = Renderer::new();
+        for camera in &cameras {
+            let fresh = Renderer::new().render_indexed(camera, &index, raster);
+            assert!(reused.render_indexed(camera, &index, raster) == fresh);
+            assert_eq!(reused.spare.len(), 1);
+        }
+    }
+
     #[test]
     fn a_reused_buffer_is_overwritten_everywhere() {
         let scene = Scene {

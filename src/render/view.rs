@@ -116,16 +116,32 @@ impl ViewColumns {
     /// The spheres `ids` of `spheres`, as `camera` sees them, in the order of `ids`. Each
     /// column is written in place, a chunk at a time on the pool when there are many: no
     /// second copy of the spheres, and the columns' fresh pages faulted in by every core.
-    pub(super) fn of(camera: &Camera, spheres: &[Sphere], ids: &[u32]) -> ViewColumns {
+    /// `spare`, an earlier frame's columns, is written over when it has room: its pages are
+    /// already the process's (at a million spheres, 80 MB a frame the kernel need not fault
+    /// in and clear again).
+    pub(super) fn of(
+        camera: &Camera,
+        spheres: &[Sphere],
+        ids: &[u32],
+        spare: Option<ViewColumns>,
+    ) -> ViewColumns {
         let n = ids.len();
-        let column = || vec![0.0; n];
-        let mut columns = ViewColumns {
-            min_dist: column(),
-            f: [column(), column(), column()],
-            c: column(),
-            radius: column(),
-            center: [column(), column(), column()],
-            id: vec![0; n],
+        let mut columns = match spare {
+            Some(mut columns) if columns.id.capacity() >= n => {
+                columns.set_len(n);
+                columns
+            }
+            _ => {
+                let column = || vec![0.0; n];
+                ViewColumns {
+                    min_dist: column(),
+                    f: [column(), column(), column()],
+                    c: column(),
+                    radius: column(),
+                    center: [column(), column(), column()],
+                    id: vec![0; n],
+                }
+            }
         };
         let ViewColumns {
             min_dist,
@@ -182,6 +198,23 @@ impl ViewColumns {
         columns
     }
 
+    /// Every column `n` long, in the room it has: the values kept are written over by
+    /// [`ViewColumns::of`], any added are zeros.
+    fn set_len(&mut self, n: usize) {
+        let ViewColumns {
+            min_dist,
+            f: [f0, f1, f2],
+            c,
+            radius,
+            center: [x0, x1, x2],
+            id,
+        } = self;
+        for column in [min_dist, f0, f1, f2, c, radius, x0, x1, x2] {
+            column.resize(n, 0.0);
+        }
+        id.resize(n, 0);
+    }
+
     /// `spheres` after the ones held.
     #[cfg(test)]
     pub(super) fn extend(&mut self, spheres: &[ViewSphere]) {
@@ -218,12 +251,13 @@ impl ViewColumns {
     }
 }
 
-/// How far ahead [`ViewColumns::of`] asks for the spheres it will read.
-const PREFETCH_AHEAD: usize = 16;
+/// How far ahead [`ViewColumns::of`] (and the hierarchy's leaves) ask for the spheres they
+/// will read.
+pub(super) const PREFETCH_AHEAD: usize = 16;
 
 /// Asks the CPU to bring `x` into the caches: a hint, which changes no value.
 #[inline(always)]
-fn prefetch<T>(x: &T) {
+pub(super) fn prefetch<T>(x: &T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: a prefetch only hints at an address (here a valid reference) and never faults;
     // it needs SSE, which every x86-64 CPU has.

@@ -10,6 +10,7 @@
 use glam::{DVec2, DVec3};
 
 use super::shadows::ShadowGrid;
+use super::view::{prefetch, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::scene::{Scene, Sphere};
 
@@ -197,7 +198,7 @@ fn hierarchy(scene: &Scene) -> (Vec<Node>, Vec<u32>) {
         count: 0,
     };
     let mut nodes = vec![empty; node_count(order.len())];
-    build(spheres, &mut nodes, 0, &order, 0);
+    build(spheres, &mut nodes, 0, &order, &order, 0);
     (nodes, order)
 }
 
@@ -210,11 +211,27 @@ fn node_count(n: usize) -> usize {
     }
 }
 
-/// Builds the subtree of `order` (at `start..` of the whole order) into `nodes`, which has
-/// exactly its [`node_count`] entries and begins at index `base` of the whole tree; large
-/// subtrees build their halves in parallel.
-fn build(spheres: &[Sphere], nodes: &mut [Node], base: usize, order: &[u32], start: usize) {
+/// Builds the subtree of `order` (at `start..` of `whole`, the whole order) into `nodes`,
+/// which has exactly its [`node_count`] entries and begins at index `base` of the whole tree;
+/// large subtrees build their halves in parallel.
+fn build(
+    spheres: &[Sphere],
+    nodes: &mut [Node],
+    base: usize,
+    whole: &[u32],
+    order: &[u32],
+    start: usize,
+) {
     if order.len() <= LEAF {
+        // Leaves are made left to right, each reading its spheres from all over the scene: the
+        // ones a few leaves on are asked for now, so that their reads overlap this leaf's.
+        let ahead = start + PREFETCH_AHEAD;
+        for &k in whole
+            .get(ahead..(ahead + order.len()).min(whole.len()))
+            .unwrap_or(&[])
+        {
+            prefetch(&spheres[k as usize]);
+        }
         nodes[0] = leaf(spheres, order, start);
         return;
     }
@@ -225,12 +242,12 @@ fn build(spheres: &[Sphere], nodes: &mut [Node], base: usize, order: &[u32], sta
     let right_base = base + 1 + left_nodes.len();
     if order.len() >= PARALLEL_BUILD {
         rayon::join(
-            || build(spheres, left_nodes, base + 1, left, start),
-            || build(spheres, right_nodes, right_base, right, start + mid),
+            || build(spheres, left_nodes, base + 1, whole, left, start),
+            || build(spheres, right_nodes, right_base, whole, right, start + mid),
         );
     } else {
-        build(spheres, left_nodes, base + 1, left, start);
-        build(spheres, right_nodes, right_base, right, start + mid);
+        build(spheres, left_nodes, base + 1, whole, left, start);
+        build(spheres, right_nodes, right_base, whole, right, start + mid);
     }
     let (a, b) = (&left_nodes[0], &right_nodes[0]);
     me[0] = Node {
