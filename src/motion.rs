@@ -20,6 +20,7 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
 use crate::manifest::list_frames;
+use crate::scene::Sphere;
 
 /// A change this many times the shot's median change is a jump (with the floors below).
 pub const JUMP_FACTOR: f64 = 8.0;
@@ -196,17 +197,13 @@ fn jumps(
 }
 
 fn inside_spheres(out: &mut Vec<Warning>, doc: &Document, cameras: &[Camera]) {
-    let spheres = &doc.scene.spheres;
-    let mut inside: Vec<(usize, usize)> = Vec::new(); // (frame, sphere)
-    for (k, cam) in cameras.iter().enumerate() {
-        let eye = cam.cop_world();
-        if let Some(i) = spheres
-            .iter()
-            .position(|s| (eye - s.center_world).length_squared() < s.radius * s.radius)
-        {
-            inside.push((k, i));
-        }
-    }
+    let eyes: Vec<DVec3> = cameras.iter().map(Camera::cop_world).collect();
+    // (frame, sphere)
+    let inside: Vec<(usize, usize)> = first_sphere_around(&doc.scene.spheres, &eyes)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(k, sphere)| Some((k, sphere?)))
+        .collect();
     let frames: Vec<usize> = inside.iter().map(|(k, _)| *k).collect();
     for run in runs(&frames) {
         let sphere = inside.iter().find(|(k, _)| *k == run[0]).expect("listed").1;
@@ -219,6 +216,48 @@ fn inside_spheres(out: &mut Vec<Warning>, doc: &Document, cameras: &[Camera]) {
             ),
         });
     }
+}
+
+/// Whether `eye` lies inside sphere `s`.
+fn is_inside(eye: DVec3, s: &Sphere) -> bool {
+    (eye - s.center_world).length_squared() < s.radius * s.radius
+}
+
+/// For each eye, the first sphere it lies inside ([`is_inside`]), if any. Each sphere tests only
+/// the eyes in its slab along x (widened by far more than the rounding of its bounds, so no eye
+/// inside is left out): a long shot through a million spheres costs about a search per
+/// sphere, not a test per sphere and frame. Chunks of spheres on the pool each keep their
+/// first sphere per eye, and the least index wins, whatever the thread count.
+fn first_sphere_around(spheres: &[Sphere], eyes: &[DVec3]) -> Vec<Option<usize>> {
+    use rayon::prelude::*;
+    let mut by_x: Vec<(f64, usize)> = eyes.iter().map(|e| e.x).zip(0..).collect();
+    by_x.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let none = || vec![None; eyes.len()];
+    spheres
+        .par_iter()
+        .enumerate()
+        .with_min_len(1 << 12)
+        .fold(none, |mut first, (i, s)| {
+            let (x, r) = (s.center_world.x, s.radius);
+            let slack = 1e-9 * (x.abs() + r);
+            let lo = by_x.partition_point(|e| e.0 < x - r - slack);
+            let hi = by_x.partition_point(|e| e.0 <= x + r + slack);
+            for &(_, k) in &by_x[lo..hi.max(lo)] {
+                if first[k].is_none() && is_inside(eyes[k], s) {
+                    first[k] = Some(i);
+                }
+            }
+            first
+        })
+        .reduce(none, |a, b| {
+            a.into_iter()
+                .zip(b)
+                .map(|(a, b)| match (a, b) {
+                    (Some(a), Some(b)) => Some(a.min(b)),
+                    (a, b) => a.or(b),
+                })
+                .collect()
+        })
 }
 
 fn near_target(out: &mut Vec<Warning>, doc: &Document) {
@@ -258,5 +297,62 @@ fn near_target(out: &mut Vec<Warning>, doc: &Document) {
                 limit / NEAR_TARGET
             ),
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::splitmix::SplitMix;
+
+    /// The first sphere around each eye, found by testing every sphere against every eye.
+    fn every_pair(spheres: &[Sphere], eyes: &[DVec3]) -> Vec<Option<usize>> {
+        eyes.iter()
+            .map(|&eye| spheres.iter().position(|s| is_inside(eye, s)))
+            .collect()
+    }
+
+    /// Seeded overlapping spheres (a ground among them) and eyes inside, outside and exactly
+    /// on spheres' surfaces, on their slabs' edges, sharing an x, and not a number: the
+    /// search by slabs finds what testing every pair finds.
+    #[test]
+    fn the_first_sphere_around_each_eye_is_the_one_every_pair_finds() {
+        let mut rng = SplitMix(0x1ce);
+        let mut v = |scale: f64| (rng.unit() - 0.5) * scale;
+        let mut spheres: Vec<Sphere> = (0..3000)
+            .map(|_| Sphere {
+                center_world: DVec3::new(v(20.0), v(6.0), v(20.0)),
+                radius: 0.05 + v(1.0).abs(),
+                color: DVec3::ONE,
+            })
+            .collect();
+        spheres.insert(
+            700,
+            Sphere {
+                center_world: DVec3::new(0.0, -1e5, 0.0),
+                radius: 1e5,
+                color: DVec3::ONE,
+            },
+        );
+        let mut eyes: Vec<DVec3> = (0..400)
+            .map(|k| DVec3::new(v(22.0), v(8.0), if k % 7 == 0 { 1.5 } else { v(22.0) }))
+            .collect();
+        for s in spheres.iter().step_by(97) {
+            let c = s.center_world;
+            eyes.extend([
+                c + DVec3::X * s.radius,
+                c - DVec3::X * s.radius,
+                c + DVec3::Y * s.radius,
+                c + DVec3::X * s.radius.next_down(),
+                c,
+            ]);
+        }
+        eyes.push(DVec3::NAN);
+        let expected = every_pair(&spheres, &eyes);
+        assert!(expected.iter().filter(|k| k.is_some()).count() > 100);
+        assert!(expected.contains(&Some(700)));
+        assert_eq!(first_sphere_around(&spheres, &eyes), expected);
+        assert_eq!(first_sphere_around(&[], &eyes), vec![None; eyes.len()]);
+        assert!(first_sphere_around(&spheres, &[]).is_empty());
     }
 }
