@@ -112,16 +112,23 @@ pub fn for_each_frame(
     mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
     run(doc, set, done, Keep::Frames, |frame, key, pixels, hash| {
-        sink(frame, key, pixels.expect("frames kept"), hash)
+        sink(
+            frame,
+            key.expect("keys made"),
+            pixels.expect("frames kept"),
+            hash,
+        )
     })
 }
 
-/// What a run keeps of a frame's pixels.
+/// What a run keeps of a frame.
 #[derive(Clone, Copy, PartialEq)]
 enum Keep {
-    /// The whole frame, for the sink.
+    /// The whole frame and its key, for a sink that writes them.
     Frames,
-    /// Only the rows being rendered and hashed (a ring of [`crate::render::RING_ROWS`]).
+    /// Only its hash: the rows being rendered and hashed (a ring of
+    /// [`crate::render::RING_ROWS`]), and no key (hashing every sphere for it costs 40 ms of
+    /// CPU at a million).
     Hashes,
 }
 
@@ -135,20 +142,26 @@ pub const PREPARE_AHEAD_MAX: usize = 1 << 18;
 /// A frame's pixels (if kept) and hash.
 type Delivered = (Option<Arc<Vec<u8>>>, FrameHash);
 
-/// [`for_each_frame`], with the pixels handed to `sink` only if `keep` says so.
+/// [`for_each_frame`], with the pixels and the key handed to `sink` only if `keep` says so.
 fn run(
     doc: &Document,
     set: &FrameSet,
     mut done: impl FnMut(u64) -> bool,
     keep: Keep,
-    mut sink: impl FnMut(u64, &FrameKey, Option<&Arc<Vec<u8>>>, FrameHash) -> Result<()>,
+    mut sink: impl FnMut(u64, Option<&FrameKey>, Option<&Arc<Vec<u8>>>, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
     let started = Instant::now();
     // The key hashes every sphere while the index is built (38 ms of 0.2 s at a million).
-    let (base, index) = rayon::join(
-        || KeyBase::new(&doc.scene, doc.raster),
-        || SceneIndex::new(&doc.scene),
-    );
+    let (base, index) = match keep {
+        Keep::Frames => {
+            let (base, index) = rayon::join(
+                || KeyBase::new(&doc.scene, doc.raster),
+                || SceneIndex::new(&doc.scene),
+            );
+            (Some(base), index)
+        }
+        Keep::Hashes => (None, SceneIndex::new(&doc.scene)),
+    };
     let mut renderer = Renderer::new();
     let end = set.range.end;
     let mut wanted = doc
@@ -225,7 +238,8 @@ fn run(
                 (pixels, hash)
             }
         };
-        sink(frame, &key(doc, &base, &exposure), pixels.as_ref(), hash)?;
+        let key = base.as_ref().map(|base| key(doc, base, &exposure));
+        sink(frame, key.as_ref(), pixels.as_ref(), hash)?;
         timing.frames += 1;
         timing.first_frame_at.get_or_insert_with(Instant::now);
         previous = Some((cameras.to_vec(), (pixels, hash)));
