@@ -194,16 +194,6 @@ impl Wide {
     }
 }
 
-/// `f` of each item, in order: on the rayon pool in chunks of [`PARALLEL`] when there are that
-/// many, else on this thread without touching the pool.
-pub fn each<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
-    if items.len() >= PARALLEL {
-        items.par_iter().with_min_len(PARALLEL).map(f).collect()
-    } else {
-        items.iter().map(f).collect()
-    }
-}
-
 /// `f` of each index below `n`, in order, as [`each`].
 fn each_index<U: Send>(n: usize, f: impl Fn(usize) -> U + Sync + Send) -> Vec<U> {
     if n >= PARALLEL {
@@ -310,28 +300,25 @@ impl TileBins {
         // Nearest possible hit first; ties by the spheres' scene indices, so the order is
         // total, deterministic and the same whatever order the columns hold the spheres in.
         // Sorted tile by tile (binning in one sorted order scatters its reads of the
-        // rectangles over every sphere in view), each sort reading the spheres' `min_dist` as
-        // keys of their own (8 bytes a sphere where a view sphere is 80), ordered as
-        // `total_cmp` orders the f64, on the pool when many are in view.
-        let keys: Vec<u64> = each(&spheres.min_dist, |&d| total_key(d));
+        // rectangles over every sphere in view), each sort keyed by the `min_dist` column
+        // (8 bytes a sphere), ordered as `total_cmp` orders the f64, on the pool when many are
+        // in view.
+        let key_of = |k: u32| total_key(spheres.min_dist[k as usize]);
         let id = |k: u32| spheres.id[k as usize] as u32;
         if spheres.len() >= PARALLEL {
             // Each cell's keys read once into a list of its own (the keys of many spheres are
             // far apart in memory), sorted there, then written back.
             bins.par_sort_cells(|items: &mut [u32]| {
-                let mut keyed: Vec<(u64, u32, u32)> = items
-                    .iter()
-                    .map(|&k| (keys[k as usize], id(k), k))
-                    .collect();
+                let mut keyed: Vec<(u64, u32, u32)> =
+                    items.iter().map(|&k| (key_of(k), id(k), k)).collect();
                 keyed.sort_unstable();
                 for (item, (_, _, k)) in items.iter_mut().zip(keyed) {
                     *item = k;
                 }
             });
         } else {
-            bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (keys[k as usize], id(k))));
+            bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (key_of(k), id(k))));
         }
-        drop(keys);
         let key = |k: u32| (spheres.min_dist[k as usize], id(k));
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {

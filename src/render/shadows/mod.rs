@@ -256,13 +256,12 @@ pub(super) type Hints = [u32; HINTED_LIGHTS];
 
 /// Spheres larger than the first of these (16 × the median radius, like a ground sphere) are
 /// tested for every ray instead of being binned, so they do not inflate the grid; the second is
-/// the median radius.
+/// the median radius, of every sphere up to [`MEDIAN_SAMPLE`] of them, else of that many evenly
+/// spaced in the scene's order (both only size the grid: every sphere is tested or binned
+/// whatever they are, so the answers do not depend on them).
 fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
-    let mut radii: Vec<f64> = spheres
-        .par_iter()
-        .with_min_len(CHUNK)
-        .map(|s| s.radius)
-        .collect();
+    let step = spheres.len().div_ceil(MEDIAN_SAMPLE).max(1);
+    let mut radii: Vec<f64> = spheres.iter().step_by(step).map(|s| s.radius).collect();
     if radii.is_empty() {
         return (f64::INFINITY, 0.0);
     }
@@ -270,6 +269,9 @@ fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
     let median = *radii.select_nth_unstable_by(mid, f64::total_cmp).1;
     (median * 16.0, median)
 }
+
+/// The most radii [`big_radius`] takes the median of.
+const MEDIAN_SAMPLE: usize = 1 << 16;
 
 /// Spheres a task of the grid's build takes on the rayon pool.
 const CHUNK: usize = 1 << 14;
