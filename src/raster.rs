@@ -11,9 +11,10 @@ pub const MAX_SAMPLES: u32 = 16;
 /// Output size and sampling.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Raster {
-    /// Pixels, ≥ 1.
+    /// Pixels, 1 ..= [`MAX_SIDE`] (the renderer keeps pixel columns and rows in 16 bits, and
+    /// panics on a side above 65,536).
     pub width: u32,
-    /// Pixels, ≥ 1.
+    /// Pixels, 1 ..= [`MAX_SIDE`], as `width`.
     pub height: u32,
     /// Samples per pixel side: an s×s grid at fixed positions, averaged.
     pub samples: u32,

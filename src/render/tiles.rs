@@ -259,8 +259,9 @@ impl TileCone {
 /// Per-tile sphere lists, nearest possible hit first, and each sphere's pixel rectangle.
 pub struct TileBins {
     bins: Bins,
-    /// Per sphere, the inclusive pixel rectangle (i0, i1, j0, j1) its projection may cover.
-    rects: Vec<[u32; 4]>,
+    /// Per sphere, the inclusive pixel rectangle (i0, i1, j0, j1) its projection may cover
+    /// (a side is at most `MAX_SIDE`, 16,384 pixels: 8 bytes a sphere).
+    rects: Vec<[u16; 4]>,
 }
 
 impl TileBins {
@@ -270,12 +271,14 @@ impl TileBins {
         let tiles_y = (raster.height as usize).div_ceil(TILE);
         // Each sphere's pixel rectangle ([1, 0, 1, 0] when culled, every pixel when without
         // bounds).
-        let all = [0, raster.width - 1, 0, raster.height - 1];
+        let side = |n: u32| u16::try_from(n - 1).expect("a raster side of at most 65,536 pixels");
+        let all = [0, side(raster.width), 0, side(raster.height)];
         let print = |k: usize| footprint(&spheres.reach(k), cop, window, raster);
-        let rects: Vec<[u32; 4]> = each_index(spheres.len(), |k| match print(k) {
+        // Each below its side, so each fits.
+        let rects: Vec<[u16; 4]> = each_index(spheres.len(), |k| match print(k) {
             Footprint::Culled => [1, 0, 1, 0],
             Footprint::Everywhere => all,
-            Footprint::Pixels { i0, i1, j0, j1 } => [i0 as u32, i1 as u32, j0 as u32, j1 as u32],
+            Footprint::Pixels { i0, i1, j0, j1 } => [i0, i1, j0, j1].map(|v| v as u16),
         });
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are sorted: left out where no ray of the tile
@@ -367,7 +370,7 @@ impl TileBins {
     /// Whether sphere k's projection may cover a pixel of row j in columns i0..=i1.
     #[inline(always)]
     pub fn covers(&self, k: u32, i0: usize, i1: usize, j: usize) -> bool {
-        let [x0, x1, y0, y1] = self.rects[k as usize];
+        let [x0, x1, y0, y1] = self.rects[k as usize].map(u32::from);
         let (i0, i1, j) = (i0 as u32, i1 as u32, j as u32);
         i1 >= x0 && i0 <= x1 && j >= y0 && j <= y1
     }
