@@ -79,7 +79,9 @@ impl<'a> SceneIndex<'a> {
     /// pyramid gives all its spheres untested (each would pass).
     pub fn visible(&self, camera: &Camera) -> Vec<u32> {
         let planes = Pyramid::new(camera);
-        let mut out = Vec::new();
+        // Room for every sphere: no chain of copies as it grows (room not written to costs no
+        // memory).
+        let mut out = Vec::with_capacity(self.order.len());
         let mut stack = Vec::with_capacity(64);
         if !self.nodes.is_empty() {
             stack.push((0usize, false));

@@ -104,13 +104,17 @@ impl ShadowGrid {
         // and kept small (the grid is at most 4096 a side), so that binning in the sorted
         // order reads them in sequence, not the spheres at random, and the sort compares
         // integers.
+        // A sphere tested for every ray gets the largest key, and is cut off after the sort:
+        // the keys are made in place, with no filtered copy.
         let mut keys: Vec<u128> = spheres
             .par_iter()
             .zip(&grid.tops)
             .enumerate()
             .with_min_len(CHUNK)
-            .filter(|(_, (s, _))| s.radius <= big)
             .map(|(k, (s, &top))| {
+                if s.radius > big {
+                    return u128::MAX;
+                }
                 let (x0, x1, y0, y1) = grid.cell_range(project(s.center_world), s.radius);
                 let cells = [x0, x1, y0, y1]
                     .iter()
@@ -119,6 +123,7 @@ impl ShadowGrid {
             })
             .collect();
         keys.par_sort_unstable();
+        keys.truncate(count);
         let order: Vec<u32> = keys.iter().map(|&key| (key >> 64) as u32).collect();
         let bins = Bins::build_in_bands(dims, &order, |i| {
             let field = |shift: u32| (keys[i] >> shift) as u16 as usize;
