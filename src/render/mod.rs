@@ -217,7 +217,7 @@ impl Renderer {
                 }
             })
             .collect();
-        let bins = TileBins::build(&spheres, &table, raster);
+        let bins = TileBins::build(self.isa, &spheres, &table, raster);
         TimeSample {
             scene,
             table,

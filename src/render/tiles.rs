@@ -8,7 +8,9 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::bins::Bins;
+use super::lanes::{ForLanes, Lanes, LANES};
 use super::rays::RayTable;
+use super::simd::Isa;
 pub use super::view::PARALLEL;
 use super::view::{Reach, ViewColumns};
 use crate::raster::Raster;
@@ -17,6 +19,7 @@ use crate::raster::Raster;
 pub const TILE: usize = 16;
 
 /// Pixel rectangle (inclusive) a sphere's projection may cover.
+#[cfg(test)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Footprint {
     Culled,
@@ -31,6 +34,7 @@ enum Footprint {
 
 /// Slopes a = x/z of the two lines through the origin tangent to the circle (x, z, r), for
 /// z > r: the roots of a²(z² − r²) − 2a·x·z + x² − r² = 0.
+#[cfg(test)]
 fn tangent_slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
     let root = r * (x * x + z * z - r * r).sqrt();
     let den = z * z - r * r;
@@ -38,7 +42,9 @@ fn tangent_slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
 }
 
 /// The exact bounds of a sphere's projection through the COP onto the view plane, widened by a
-/// pixel so that rounding never drops a covered sample.
+/// pixel so that rounding never drops a covered sample: one sphere at a time, the oracle of
+/// [`Footprints`], which does the same operations eight spheres at a time.
+#[cfg(test)]
 fn footprint(s: &Reach, cop: DVec3, window: DVec2, raster: Raster) -> Footprint {
     let p = -s.f; // centre relative to the COP
     if p.z <= -s.radius {
@@ -72,6 +78,121 @@ fn footprint(s: &Reach, cop: DVec3, window: DVec2, raster: Raster) -> Footprint 
         i1: clamp(x1, w),
         j0: clamp(y0, h),
         j1: clamp(y1, h),
+    }
+}
+
+/// The spheres' pixel rectangles, eight at a time: for sphere k, the inclusive rectangle
+/// `[i0, i1, j0, j1]` its projection may cover, `[1, 0, 1, 0]` when it is culled (wholly behind
+/// the COP, or off screen), every pixel when it has no bounds (the COP's plane cuts it, or the
+/// window is degenerate). Each lane does the operations of the one-sphere form in the tests,
+/// in its order, so every instruction path gives its bits. No closures: each step is inlined
+/// into the instruction set's function.
+struct Footprints<'a> {
+    spheres: &'a ViewColumns,
+    /// The index of the first sphere of `rects`.
+    first: usize,
+    rects: &'a mut [[u16; 4]],
+    /// The spheres without bounds, in order.
+    unbounded: &'a mut Vec<u32>,
+    cop: DVec3,
+    window: DVec2,
+    raster: Raster,
+}
+
+/// Lanes `at..at + LANES` of `column`, the last of `n` repeated past it.
+#[inline(always)]
+fn lanes_at<V: Lanes>(tok: V::Token, column: &[f64], at: usize, n: usize) -> V {
+    let mut x = [0.0; LANES];
+    for (l, x) in x.iter_mut().enumerate() {
+        *x = column[at + l.min(n - 1)];
+    }
+    V::load(tok, &x)
+}
+
+/// The slopes a = x/z of the two lines through the origin tangent to the circles (x, z, r),
+/// lane by lane, for z > r: the roots of a²(z² − r²) − 2a·x·z + x² − r² = 0.
+#[inline(always)]
+fn tangent_slopes_lanes<V: Lanes>(x: V, z: V, r: V) -> (V, V) {
+    let root = r.mul(x.mul(x).add(z.mul(z)).sub(r.mul(r)).sqrt());
+    let den = z.mul(z).sub(r.mul(r));
+    (x.mul(z).sub(root).div(den), x.mul(z).add(root).div(den))
+}
+
+/// `(v.max(0.0).min(n − 1.0)) as u16` per lane: the floor of v clamped to a side of n pixels.
+#[inline(always)]
+fn clamp_lanes<V: Lanes>(tok: V::Token, v: V, n: u32) -> [i32; LANES] {
+    v.max(V::splat(tok, 0.0))
+        .min(V::splat(tok, n as f64 - 1.0))
+        .to_i32(n as i32 - 1)
+}
+
+impl ForLanes for Footprints<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let Footprints {
+            spheres,
+            first,
+            rects,
+            unbounded,
+            cop,
+            window,
+            raster,
+        } = self;
+        let (w, h) = (raster.width as f64, raster.height as f64);
+        let all = [0, (raster.width - 1) as u16, 0, (raster.height - 1) as u16];
+        let (zero, one) = (V::splat(tok, 0.0), V::splat(tok, 1.0));
+        let (d, cop_x, cop_y) = (
+            V::splat(tok, -cop.z),
+            V::splat(tok, cop.x),
+            V::splat(tok, cop.y),
+        );
+        let (half_x, wide) = (V::splat(tok, window.x * 0.5), V::splat(tok, window.x));
+        let (half_y, high) = (V::splat(tok, window.y * 0.5), V::splat(tok, window.y));
+        let (ws, hs) = (V::splat(tok, w), V::splat(tok, h));
+        for (c, out) in rects.chunks_mut(LANES).enumerate() {
+            let (at, n) = (first + c * LANES, out.len());
+            // The centre relative to the COP: −f.
+            let px = lanes_at::<V>(tok, &spheres.f[0], at, n).neg();
+            let py = lanes_at::<V>(tok, &spheres.f[1], at, n).neg();
+            let pz = lanes_at::<V>(tok, &spheres.f[2], at, n).neg();
+            let r = lanes_at::<V>(tok, &spheres.radius, at, n);
+            let culled = pz.le(r.neg());
+            let cut = !culled & pz.le(r);
+            let (ax0, ax1) = tangent_slopes_lanes(px, pz, r);
+            let (ay0, ay1) = tangent_slopes_lanes(py, pz, r);
+            // Window x → pixel column, window y → pixel row (rows grow downwards).
+            let x0 = cop_x.add(d.mul(ax0)).add(half_x).div(wide).mul(ws).sub(one);
+            let x1 = cop_x.add(d.mul(ax1)).add(half_x).div(wide).mul(ws).add(one);
+            let y0 = half_y.sub(cop_y.add(d.mul(ay1))).div(high).mul(hs).sub(one);
+            let y1 = half_y.sub(cop_y.add(d.mul(ay0))).div(high).mul(hs).add(one);
+            let on_screen = x1.ge(zero) & y1.ge(zero) & x0.lt(ws) & y0.lt(hs);
+            // Off screen, or NaN from a degenerate window (which has no bounds).
+            let nan = !x0.eq(x0) | !y0.eq(y0);
+            let unbound = cut | (!culled & !cut & !on_screen & nan);
+            let bounded = !culled & !cut & on_screen;
+            // Clamped first, then truncated: the floor of the value.
+            let (i0, i1) = (
+                clamp_lanes(tok, x0, raster.width),
+                clamp_lanes(tok, x1, raster.width),
+            );
+            let (j0, j1) = (
+                clamp_lanes(tok, y0, raster.height),
+                clamp_lanes(tok, y1, raster.height),
+            );
+            for (l, rect) in out.iter_mut().enumerate() {
+                *rect = if bounded >> l & 1 == 1 {
+                    // Each in 0 ..= its side − 1, so each fits.
+                    [i0[l] as u16, i1[l] as u16, j0[l] as u16, j1[l] as u16]
+                } else if unbound >> l & 1 == 1 {
+                    unbounded.push((at + l) as u32);
+                    all
+                } else {
+                    [1, 0, 1, 0]
+                };
+            }
+        }
     }
 }
 
@@ -194,19 +315,6 @@ impl Wide {
     }
 }
 
-/// `f` of each index below `n`, in order, as [`each`].
-fn each_index<U: Send>(n: usize, f: impl Fn(usize) -> U + Sync + Send) -> Vec<U> {
-    if n >= PARALLEL {
-        (0..n)
-            .into_par_iter()
-            .with_min_len(PARALLEL)
-            .map(f)
-            .collect()
-    } else {
-        (0..n).map(f).collect()
-    }
-}
-
 /// `x` as a u64 in the order of `f64::total_cmp`: the sign bit flipped for positive values, every
 /// bit for negative ones.
 fn total_key(x: f64) -> u64 {
@@ -265,28 +373,46 @@ pub struct TileBins {
 }
 
 impl TileBins {
-    pub fn build(spheres: &ViewColumns, table: &RayTable, raster: Raster) -> TileBins {
+    pub fn build(isa: Isa, spheres: &ViewColumns, table: &RayTable, raster: Raster) -> TileBins {
         let (cop, window) = (table.cop_view, table.window);
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
-        // Each sphere's pixel rectangle ([1, 0, 1, 0] when culled, every pixel when without
-        // bounds).
-        let side = |n: u32| u16::try_from(n - 1).expect("a raster side of at most 65,536 pixels");
-        let all = [0, side(raster.width), 0, side(raster.height)];
-        let print = |k: usize| footprint(&spheres.reach(k), cop, window, raster);
-        // Each below its side, so each fits.
-        let rects: Vec<[u16; 4]> = each_index(spheres.len(), |k| match print(k) {
-            Footprint::Culled => [1, 0, 1, 0],
-            Footprint::Everywhere => all,
-            Footprint::Pixels { i0, i1, j0, j1 } => [i0, i1, j0, j1].map(|v| v as u16),
-        });
+        assert!(
+            raster.width.max(raster.height) <= 1 << 16,
+            "a raster side of at most 65,536 pixels"
+        );
+        // Each sphere's pixel rectangle, eight at a time, and the spheres without bounds.
+        let n = spheres.len();
+        let mut rects = vec![[0u16; 4]; n];
+        let prints = |first: usize, rects: &mut [[u16; 4]]| {
+            let mut unbounded = Vec::new();
+            isa.run(Footprints {
+                spheres,
+                first,
+                rects,
+                unbounded: &mut unbounded,
+                cop,
+                window,
+                raster,
+            });
+            unbounded
+        };
+        let unbounded: Vec<u32> = if n >= PARALLEL {
+            let parts: Vec<Vec<u32>> = rects
+                .par_chunks_mut(PARALLEL)
+                .enumerate()
+                .map(|(c, rects)| prints(c * PARALLEL, rects))
+                .collect();
+            parts.concat()
+        } else {
+            prints(0, &mut rects)
+        };
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are sorted: left out where no ray of the tile
-        // meets them, and ordered by the nearest hit a ray of the tile can have. Only a sphere
-        // over every pixel can be one (its footprint is found again: a few spheres).
-        let wide: Vec<Wide> = (0..spheres.len())
-            .filter(|&k| rects[k] == all && print(k) == Footprint::Everywhere)
-            .filter_map(|k| Wide::new(k as u32, &spheres.reach(k), table, raster))
+        // meets them, and ordered by the nearest hit a ray of the tile can have.
+        let wide: Vec<Wide> = unbounded
+            .into_iter()
+            .filter_map(|k| Wide::new(k, &spheres.reach(k as usize), table, raster))
             .collect();
         let dims = (tiles_x, tiles_y);
         let cells = |k: usize| {
@@ -380,10 +506,110 @@ impl TileBins {
 mod tests {
     use super::super::kernels::Shading;
     use super::super::oracle::{nearest, root};
+    use super::super::simd::Simd;
     use super::super::view::ViewSphere;
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
+
+    /// The footprints eight at a time, on every instruction path this CPU runs, are the
+    /// one-sphere oracle's: seeded spheres in view, in front, behind, cut by the COP's plane,
+    /// off screen on every side, huge and tiny, not a number, and degenerate windows; chunks
+    /// that end inside a packet.
+    #[test]
+    fn footprints_in_packets_are_the_oracles_on_every_path() {
+        use crate::splitmix::SplitMix;
+        let mut rng = SplitMix(0xf007);
+        let mut v = |scale: f64| (rng.unit() - 0.5) * scale;
+        let cop = DVec3::new(0.1, -0.05, -1.5);
+        let mut spheres: Vec<ViewSphere> = (0..20_000)
+            .map(|k| {
+                let r = match k % 4 {
+                    0 => 1e-3 + v(0.1).abs(),
+                    1 => v(4.0).abs(),
+                    2 => 50.0 + v(100.0).abs(),
+                    _ => 1e-9,
+                };
+                // Half of them in view, small.
+                let (center, r) = if k % 2 == 0 {
+                    let z = 2.0 + v(100.0).abs();
+                    (DVec3::new(v(1.2) * z, v(0.7) * z, z), r.min(0.05 * z))
+                } else {
+                    (DVec3::new(v(40.0), v(30.0), v(60.0)), r)
+                };
+                ViewSphere::in_view(center, r, cop, k)
+            })
+            .collect();
+        let odd = [
+            (DVec3::new(0.0, 0.0, -1.5), 0.5),
+            (DVec3::new(0.0, -1e5, 10.0), 1e5 - 1.0),
+            (DVec3::new(f64::NAN, 0.0, 5.0), 1.0),
+            (DVec3::new(0.0, f64::NAN, 5.0), 1.0),
+            (DVec3::new(0.8, 0.45, 0.0), 0.01),
+            (DVec3::new(1e300, 0.0, 1.0), 1.0),
+        ];
+        for (k, (center, r)) in odd.into_iter().enumerate() {
+            spheres.push(ViewSphere::in_view(center, r, cop, 20_000 + k as u32));
+        }
+        let columns = ViewColumns::new(&spheres);
+        let raster = Raster {
+            width: 97,
+            height: 61,
+            samples: 1,
+            adaptive: false,
+        };
+        let windows = [
+            DVec2::new(1.6, 0.9),
+            DVec2::new(0.0, 0.9),
+            DVec2::new(1.6, 0.0),
+        ];
+        for window in windows {
+            let expected: Vec<([u16; 4], bool)> = spheres
+                .iter()
+                .map(|s| match footprint(&s.reach(), cop, window, raster) {
+                    Footprint::Culled => ([1, 0, 1, 0], false),
+                    Footprint::Everywhere => ([0, 96, 0, 60], true),
+                    Footprint::Pixels { i0, i1, j0, j1 } => {
+                        ([i0 as u16, i1 as u16, j0 as u16, j1 as u16], false)
+                    }
+                })
+                .collect();
+            let unbound = expected.iter().filter(|e| e.1).count();
+            let culled = expected.iter().filter(|e| e.0 == [1, 0, 1, 0]).count();
+            let bounded = expected.len() - unbound - culled;
+            assert!(unbound > 3, "spheres without bounds");
+            if window.x * window.y > 0.0 {
+                assert!(
+                    bounded > 1000 && culled > 1000,
+                    "{bounded} bounded, {culled} culled"
+                );
+            }
+            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                for chunk in [spheres.len(), 13, 8] {
+                    let mut rects = vec![[7u16; 4]; spheres.len()];
+                    let mut unbounded = Vec::new();
+                    for (c, part) in rects.chunks_mut(chunk).enumerate() {
+                        simd.isa().unwrap().run(Footprints {
+                            spheres: &columns,
+                            first: c * chunk,
+                            rects: part,
+                            unbounded: &mut unbounded,
+                            cop,
+                            window,
+                            raster,
+                        });
+                    }
+                    let got: Vec<([u16; 4], bool)> = rects
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &r)| (r, unbounded.contains(&(k as u32))))
+                        .collect();
+                    assert!(got == expected, "{} in chunks of {chunk}", simd.name());
+                    assert!(unbounded.is_sorted());
+                }
+            }
+        }
+    }
 
     /// A tile's list, read as scene indices, does not depend on the order the columns hold the
     /// spheres in: spheres of equal nearest possible hit (copies of one sphere, and a ground)
@@ -428,7 +654,7 @@ mod tests {
                 .map(|&k| ViewSphere::new(&camera, &spheres[k as usize], k))
                 .collect();
             let columns = ViewColumns::new(&view);
-            let bins = TileBins::build(&columns, &table, raster);
+            let bins = TileBins::build(Isa::Portable, &columns, &table, raster);
             let mut lists = Vec::new();
             for j in (0..90).step_by(TILE) {
                 for i in (0..160).step_by(TILE) {
@@ -521,7 +747,7 @@ mod tests {
                         adaptive: false,
                     };
                     let table = RayTable::new(cop, camera.window, raster);
-                    let bins = TileBins::build(&columns, &table, raster);
+                    let bins = TileBins::build(Isa::Portable, &columns, &table, raster);
                     let wide = Wide::new(ground, &view[ground as usize].reach(), &table, raster);
                     let g = &view[ground as usize];
                     // Per tile, the ground's bound and its nearest hit by a sample.
@@ -647,7 +873,7 @@ mod tests {
                         Footprint::Everywhere
                     );
                     let columns = ViewColumns::new(&view);
-                    let bins = TileBins::build(&columns, &table, raster);
+                    let bins = TileBins::build(Isa::Portable, &columns, &table, raster);
                     let shading = unlit(&columns);
                     let t = root(f, sphere.c, sphere.radius * sphere.radius, d);
                     assert!(t.is_some(), "the ray meets the sphere");
