@@ -357,6 +357,20 @@ mod tests {
 
     /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
     /// of the wrong size), every path and kind of sampling gives the fresh frame.
+    /// `spheres` under one shadowed light.
+    fn lit(spheres: Vec<Sphere>) -> Scene {
+        Scene {
+            background: DVec3::new(0.2, 0.3, 0.5),
+            ambient: 0.1,
+            lights: vec![Light {
+                direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
+                color: DVec3::splat(0.8),
+                shadows: true,
+            }],
+            spheres,
+        }
+    }
+
     #[test]
     fn frames_written_over_recycled_columns_are_the_frames_rendered_fresh() {
         let spheres = (0..60)
@@ -366,16 +380,7 @@ mod tests {
                 color: DVec3::new(0.2 + 0.01 * k as f64, 0.5, 0.9 - 0.01 * k as f64),
             })
             .collect();
-        let scene = Scene {
-            background: DVec3::new(0.2, 0.3, 0.5),
-            ambient: 0.1,
-            lights: vec![Light {
-                direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
-                color: DVec3::splat(0.8),
-                shadows: true,
-            }],
-            spheres,
-        };
+        let scene = lit(spheres);
         // From afar (every sphere in view), close up (a few), and afar again.
         let at = |z: f64| Camera {
             vrp_world: DVec3::new(0.3, 2.0, z),
@@ -403,20 +408,11 @@ mod tests {
 
     #[test]
     fn a_reused_buffer_is_overwritten_everywhere() {
-        let scene = Scene {
-            background: DVec3::new(0.2, 0.3, 0.5),
-            ambient: 0.1,
-            lights: vec![Light {
-                direction_world: DVec3::new(-1.0, -2.0, 1.0).normalize(),
-                color: DVec3::splat(0.8),
-                shadows: true,
-            }],
-            spheres: vec![Sphere {
-                center_world: DVec3::ZERO,
-                radius: 1.0,
-                color: DVec3::new(0.9, 0.4, 0.1),
-            }],
-        };
+        let scene = lit(vec![Sphere {
+            center_world: DVec3::ZERO,
+            radius: 1.0,
+            color: DVec3::new(0.9, 0.4, 0.1),
+        }]);
         let camera = Camera {
             vrp_world: DVec3::new(0.0, 0.5, -4.0),
             basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),

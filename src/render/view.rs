@@ -143,14 +143,7 @@ impl ViewColumns {
                 }
             }
         };
-        let ViewColumns {
-            min_dist,
-            f: [f0, f1, f2],
-            c,
-            radius,
-            center: [x0, x1, x2],
-            id,
-        } = &mut columns;
+        let ([min_dist, f0, f1, f2, c, radius, x0, x1, x2], id) = columns.columns_mut();
         let fill = |ids: &[u32], out: Chunk| {
             let (min_dist, f0, f1, f2, c, radius, x0, x1, x2, id) = out;
             for (i, &k) in ids.iter().enumerate() {
@@ -198,9 +191,9 @@ impl ViewColumns {
         columns
     }
 
-    /// Every column `n` long, in the room it has: the values kept are written over by
-    /// [`ViewColumns::of`], any added are zeros.
-    fn set_len(&mut self, n: usize) {
+    /// The nine f64 columns in the order of the fields (the centre after the radius), and the
+    /// ids.
+    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 9], &mut Vec<u64>) {
         let ViewColumns {
             min_dist,
             f: [f0, f1, f2],
@@ -209,7 +202,14 @@ impl ViewColumns {
             center: [x0, x1, x2],
             id,
         } = self;
-        for column in [min_dist, f0, f1, f2, c, radius, x0, x1, x2] {
+        ([min_dist, f0, f1, f2, c, radius, x0, x1, x2], id)
+    }
+
+    /// Every column `n` long, in the room it has: the values kept are written over by
+    /// [`ViewColumns::of`], any added are zeros.
+    fn set_len(&mut self, n: usize) {
+        let (floats, id) = self.columns_mut();
+        for column in floats {
             column.resize(n, 0.0);
         }
         id.resize(n, 0);
