@@ -94,22 +94,22 @@ impl ViewColumns {
     /// `spheres`, one slice per field.
     #[cfg(test)]
     pub(super) fn new(spheres: &[ViewSphere]) -> ViewColumns {
-        let mut columns = ViewColumns::with_capacity(spheres.len());
+        let mut columns = ViewColumns::zeroed(0);
         columns.extend(spheres);
         columns
     }
 
-    /// No spheres yet, room for `n`.
-    #[cfg(test)]
-    pub(super) fn with_capacity(n: usize) -> ViewColumns {
-        let column = || Vec::with_capacity(n);
+    /// `n` spheres of zeros, in fresh memory the kernel hands over zeroed (untouched until
+    /// written).
+    fn zeroed(n: usize) -> ViewColumns {
+        let column = || vec![0.0; n];
         ViewColumns {
             min_dist: column(),
             f: [column(), column(), column()],
             c: column(),
             radius: column(),
             center: [column(), column(), column()],
-            id: Vec::with_capacity(n),
+            id: vec![0; n],
         }
     }
 
@@ -131,17 +131,7 @@ impl ViewColumns {
                 columns.set_len(n);
                 columns
             }
-            _ => {
-                let column = || vec![0.0; n];
-                ViewColumns {
-                    min_dist: column(),
-                    f: [column(), column(), column()],
-                    c: column(),
-                    radius: column(),
-                    center: [column(), column(), column()],
-                    id: vec![0; n],
-                }
-            }
+            _ => ViewColumns::zeroed(n),
         };
         let ([min_dist, f0, f1, f2, c, radius, x0, x1, x2], id) = columns.columns_mut();
         let fill = |ids: &[u32], out: Chunk| {
