@@ -38,14 +38,7 @@ pub fn parse(text: &str, piece_bytes: usize) -> Option<FileSpec> {
             for (g, group) in bounds.chunks(GROUP).enumerate() {
                 let parsed = group
                     .par_iter()
-                    .map(|&(a, b)| {
-                        // The plain forms without RON; anything else through RON, as a list
-                        // (the newline ends a line comment that the piece may end in).
-                        quick::spheres(&text[a..b]).or_else(|| {
-                            let piece = format!("[{}\n]", &text[a..b]);
-                            options().from_str::<Vec<SphereSpec>>(&piece).ok()
-                        })
-                    })
+                    .map(|&(a, b)| piece(&text[a..b]))
                     .collect::<Option<Vec<_>>>()?;
                 if g == 0 {
                     // Room for the whole list at the first group's spheres a byte, and a
@@ -76,6 +69,153 @@ pub fn parse(text: &str, piece_bytes: usize) -> Option<FileSpec> {
 /// Pieces parsed together before they are appended.
 const GROUP: usize = 64;
 
+/// The bytes a file is read in by [`read`].
+pub const BLOCK_BYTES: usize = 4 << 20;
+
+/// The fewest spheres a pool task appends.
+const PIECE_SPHERES: usize = 4096;
+
+/// The most bytes [`read`] takes in looking for the list before it gives up.
+const HEAD_BYTES: usize = 1 << 20;
+
+/// What [`parse`] gives for the text of `file` (`len` bytes long, as far as is known), read a
+/// block of `block_bytes` at a time and never held whole: each block's pieces are parsed on
+/// the pool while the next block is read and scanned. None for a text [`parse`] gives None
+/// for, or one that is not UTF-8: then the caller reads the file whole.
+pub fn read(
+    file: &mut (impl std::io::Read + Send),
+    len: u64,
+    piece_bytes: usize,
+    block_bytes: usize,
+) -> Option<FileSpec> {
+    use std::io::Read;
+    let mut more = |into: &mut Vec<u8>| file.by_ref().take(block_bytes as u64).read_to_end(into);
+    // The text up to the list's `[` (as `parse` sees it: after a byte-order mark).
+    let mut head = Vec::new();
+    let (open, bom, end) = loop {
+        let n = more(&mut head).ok()?;
+        // The file ends where a read falls short.
+        let end = n < block_bytes;
+        let bom = if head.starts_with(b"\xef\xbb\xbf") {
+            3
+        } else {
+            0
+        };
+        if let Some(open) = find_open(&head[bom..]) {
+            break (open, bom, end);
+        }
+        if end || head.len() > HEAD_BYTES {
+            return None;
+        }
+    };
+    let mut scan = Scan::new(open, piece_bytes);
+    // `a` holds the text from byte `base` on: the first piece not yet parsed, and what has
+    // been read past it; `b` takes the next block after the piece that it cuts through.
+    let mut a = head.split_off(bom + open + 1);
+    let (mut base, mut start) = (open + 1, open + 1);
+    let mut scanned = scan.feed(&a, base, end);
+    let mut b = Vec::new();
+    let mut spheres: Vec<SphereSpec> = Vec::new();
+    let mut pieces = 0;
+    let close = loop {
+        let mut bounds: Vec<(usize, usize)> = Vec::with_capacity(scan.cuts.len() + 1);
+        for &cut in &scan.cuts {
+            bounds.push((start - base, cut - base));
+            start = cut;
+        }
+        pieces += scan.cuts.len();
+        scan.cuts.clear();
+        let close = match scanned {
+            Scanned::Bail => return None,
+            Scanned::Closed(close) => {
+                bounds.push((start - base, close - base));
+                Some(close)
+            }
+            Scanned::More => None,
+        };
+        // This block's pieces on the pool; beside them, the next block read after the piece
+        // that runs on into it, and scanned.
+        let parse_pieces = || {
+            bounds
+                .par_iter()
+                .map(|&(from, to)| piece(std::str::from_utf8(&a[from..to]).ok()?))
+                .collect::<Option<Vec<_>>>()
+        };
+        let read_on = || {
+            b.clear();
+            b.extend_from_slice(&a[start - base..]);
+            let end = more(&mut b).ok()? < block_bytes;
+            Some(scan.feed(&b, start, end))
+        };
+        let (next, parsed) = match close {
+            Some(_) => (None, parse_pieces()),
+            None => rayon::join(read_on, parse_pieces),
+        };
+        let parsed = parsed?;
+        if spheres.capacity() == 0 {
+            // Room for the whole list at this block's spheres a byte, and a sixteenth more,
+            // as `parse` makes.
+            let n: usize = parsed.iter().map(Vec::len).sum();
+            let read = (start - open).max(1) as f64;
+            let about = (n as f64 * len as f64 / read) as usize;
+            spheres.reserve(about + about / 16);
+        }
+        // Appended on the pool: the list's fresh pages are faulted in by every core (64 MB
+        // at a million spheres, 2 µs a page here).
+        let firsts: Vec<usize> = parsed
+            .iter()
+            .scan(0, |n, p| {
+                let first = *n;
+                *n += p.len();
+                Some(first)
+            })
+            .collect();
+        let total = firsts
+            .last()
+            .map_or(0, |&f| f + parsed[parsed.len() - 1].len());
+        spheres.par_extend(
+            (0..total)
+                .into_par_iter()
+                .with_min_len(PIECE_SPHERES)
+                .map(|i| {
+                    let p = firsts.partition_point(|&first| first <= i) - 1;
+                    parsed[p][i - firsts[p]].clone()
+                }),
+        );
+        if let Some(close) = close {
+            break close;
+        }
+        scanned = next?;
+        std::mem::swap(&mut a, &mut b);
+        base = start;
+    };
+    if pieces < 2 {
+        return None;
+    }
+    // The text without the list's elements, as `parse` gives RON.
+    let mut rest = head;
+    rest.drain(..bom);
+    rest.extend_from_slice(&a[close - base..]);
+    file.read_to_end(&mut rest).ok()?;
+    let rest = String::from_utf8(rest).ok()?;
+    let mut spec = options().from_str::<FileSpec>(&rest).ok()?;
+    if !spec.scene.spheres.is_empty() {
+        return None;
+    }
+    spec.scene.spheres = spheres;
+    spec.order = super::field_order(&rest);
+    Some(spec)
+}
+
+/// A piece of the list: in the plain forms without RON; anything else through RON, as a list
+/// (the newline ends a line comment that the piece may end in).
+fn piece(text: &str) -> Option<Vec<SphereSpec>> {
+    quick::spheres(text).or_else(|| {
+        let piece = format!("[{text}\n]");
+        options().from_str::<Vec<SphereSpec>>(&piece).ok()
+    })
+}
+
 /// Where the list's brackets are, and the byte after each comma it is cut at.
 #[derive(Debug, PartialEq)]
 struct List {
@@ -89,16 +229,68 @@ struct List {
 /// are followed up to the list; in it, a comment (or any string) gives `None`.
 fn find_list(s: &[u8], piece_bytes: usize) -> Option<List> {
     let open = find_open(s)?;
-    // A million spheres are 169 MB of list: it is read 64 bytes at a time (compares that
-    // vectorize), and byte by byte only near a cut or a `]` and where something is odd.
-    let mut depth = 0i64;
-    let mut odd = 0u8;
-    let mut cuts = Vec::new();
-    let mut next = open + 1 + piece_bytes;
-    let mut i = open + 1;
-    while i < s.len() {
-        if let Some(block) = s.get(i..i + BLOCK) {
-            if i + BLOCK <= next {
+    let mut scan = Scan::new(open, piece_bytes);
+    match scan.feed(s, 0, true) {
+        Scanned::Closed(close) => Some(List {
+            open,
+            close,
+            cuts: scan.cuts,
+        }),
+        Scanned::More | Scanned::Bail => None,
+    }
+}
+
+/// The scan of a list from its `[` on, fed the text in order (whole, or a block at a time as
+/// a file is read): its depth of brackets, whether anything odd was met, and the cuts.
+struct Scan {
+    depth: i64,
+    odd: u8,
+    /// No cut before this byte.
+    next: usize,
+    /// The next byte to read.
+    at: usize,
+    piece_bytes: usize,
+    /// The cuts found (and not yet taken).
+    cuts: Vec<usize>,
+}
+
+/// Where a [`Scan`] stands after the bytes it was fed.
+enum Scanned {
+    /// The list goes on past them.
+    More,
+    /// The list's `]` is at this byte.
+    Closed(usize),
+    /// Not a list the pieces can follow.
+    Bail,
+}
+
+impl Scan {
+    fn new(open: usize, piece_bytes: usize) -> Scan {
+        Scan {
+            depth: 0,
+            odd: 0,
+            next: open + 1 + piece_bytes,
+            at: open + 1,
+            piece_bytes,
+            cuts: Vec::new(),
+        }
+    }
+
+    /// Reads on through `s`, the text's bytes from byte `base` up to as far as it is known;
+    /// `end` when the text ends there. The list is read in blocks of [`BLOCK`] from its `[`
+    /// (compares that vectorize; a million spheres are 169 MB of list), and byte by byte only
+    /// near a cut or a `]` and where something is odd; a block is read only once it is
+    /// whole or the text has ended, so the cuts are the same however the text is fed.
+    fn feed(&mut self, s: &[u8], base: usize, end: bool) -> Scanned {
+        let len = base + s.len();
+        while self.at < len {
+            let i = self.at;
+            let whole = i + BLOCK <= len;
+            if !whole && !end {
+                return Scanned::More;
+            }
+            let block = &s[i - base..(i + BLOCK).min(len) - base];
+            if whole && i + BLOCK <= self.next {
                 let (opens, closes, stop) = block.iter().fold((0u8, 0u8, 0u8), |(o, c, x), &b| {
                     let open = (b == b'(') | (b == b'[') | (b == b'{');
                     let close = (b == b')') | (b == b'}');
@@ -106,32 +298,33 @@ fn find_list(s: &[u8], piece_bytes: usize) -> Option<List> {
                     (o + u8::from(open), c + u8::from(close), x | u8::from(stop))
                 });
                 if stop == 0 {
-                    depth += i64::from(opens) - i64::from(closes);
-                    i += BLOCK;
+                    self.depth += i64::from(opens) - i64::from(closes);
+                    self.at += BLOCK;
                     continue;
                 }
             }
-        }
-        let end = (i + BLOCK).min(s.len());
-        for (k, &c) in s[i..end].iter().enumerate() {
-            let class = CLASS[c as usize];
-            depth += i64::from(class & OPENS) - i64::from((class & CLOSES) >> 1);
-            odd |= class & ODD;
-            if depth < 0 {
-                return (odd == 0 && c == b']').then_some(List {
-                    open,
-                    close: i + k,
-                    cuts,
-                });
+            for (k, &c) in block.iter().enumerate() {
+                let class = CLASS[c as usize];
+                self.depth += i64::from(class & OPENS) - i64::from((class & CLOSES) >> 1);
+                self.odd |= class & ODD;
+                if self.depth < 0 {
+                    return match self.odd == 0 && c == b']' {
+                        true => Scanned::Closed(i + k),
+                        false => Scanned::Bail,
+                    };
+                }
+                if (class & COMMA != 0) & (self.depth == 0) & (i + k >= self.next) {
+                    self.cuts.push(i + k + 1);
+                    self.next = i + k + 1 + self.piece_bytes;
+                }
             }
-            if (class & COMMA != 0) & (depth == 0) & (i + k >= next) {
-                cuts.push(i + k + 1);
-                next = i + k + 1 + piece_bytes;
-            }
+            self.at = i + block.len();
         }
-        i = end;
+        match end {
+            true => Scanned::Bail,
+            false => Scanned::More,
+        }
     }
-    None
 }
 
 /// The bytes the list's scan reads at once when nothing in them needs a closer look.
@@ -355,11 +548,81 @@ mod tests {
         }
     }
 
+    /// The text fed `chunk` bytes at a time however much is asked for: reads that fall short
+    /// before the end, as a pipe's do.
+    struct Trickle<'a> {
+        bytes: &'a [u8],
+        chunk: usize,
+    }
+
+    impl std::io::Read for Trickle<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = self.chunk.min(buf.len()).min(self.bytes.len());
+            buf[..n].copy_from_slice(&self.bytes[..n]);
+            self.bytes = &self.bytes[n..];
+            Ok(n)
+        }
+    }
+
+    /// Read a block at a time, from a file and through short reads, with and without a
+    /// byte-order mark: what `parse` gives for the whole text, field by field.
+    fn read_as_parse(text: &str, piece_bytes: usize, blocks: &[usize]) -> bool {
+        let expected = parse(text, piece_bytes).map(|spec| format!("{spec:?}"));
+        let with_bom = format!("\u{feff}{text}");
+        [text, &with_bom].iter().all(|t| {
+            let bytes = t.as_bytes();
+            let len = bytes.len() as u64;
+            blocks.iter().all(|&block| {
+                let mut file = std::io::Cursor::new(bytes);
+                let mut short = Trickle { bytes, chunk: 3 };
+                let got = [
+                    read(&mut file, len, piece_bytes, block),
+                    read(&mut short, len, piece_bytes, block),
+                ];
+                got.iter()
+                    .all(|g| g.as_ref().map(|spec| format!("{spec:?}")) == expected)
+            })
+        })
+    }
+
+    #[test]
+    fn a_file_read_in_blocks_gives_what_the_whole_text_gives() {
+        for n in [0, 1, 2, 3, 10, 57] {
+            for trailing_comma in [false, true] {
+                let text = file(n, trailing_comma);
+                for piece_bytes in [1, 2, 5, 40, 300, 100_000] {
+                    let blocks = [1, 7, 64, 65, 1000, 1 << 20];
+                    assert!(
+                        read_as_parse(&text, piece_bytes, &blocks),
+                        "n {n}, {piece_bytes}"
+                    );
+                }
+            }
+        }
+        // Split, so read in blocks.
+        let text = file(57, false);
+        let len = text.len() as u64;
+        assert!(read(&mut text.as_bytes(), len, 40, 64).is_some());
+        // Bytes that are not UTF-8 before, in and after the list: read whole.
+        for (at, what) in [
+            ("frames: 4", "fr\u{e9}"),
+            ("radius: 2e-3", "\u{e9}"),
+            ("ambient", "\u{e9}"),
+        ] {
+            let edited = text.replacen(at, what, 1);
+            let mut bytes = edited.into_bytes();
+            let e9 = bytes.windows(2).position(|w| w == [0xc3, 0xa9]).unwrap();
+            bytes.remove(e9);
+            assert!(std::str::from_utf8(&bytes).is_err());
+            assert!(read(&mut bytes.as_slice(), len, 40, 64).is_none(), "{at}");
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig { cases: 2000, rng_seed: proptest::test_runner::RngSeed::Fixed(0x91EC), failure_persistence: None, ..ProptestConfig::default() })]
 
         /// Any small edit of a file: when the pieces parse, RON parses the whole file to the
-        /// same thing.
+        /// same thing; read in blocks (of 1 to 101 bytes), the file gives what the pieces give.
         #[test]
         fn an_edited_file_splits_only_into_what_ron_reads(
             at in 0.0..1.0f64,
@@ -378,6 +641,7 @@ mod tests {
                 prop_assert!(expected.is_some(), "split, but RON rejects it");
                 prop_assert!(same(&spec, &expected.unwrap()));
             }
+            prop_assert!(read_as_parse(&edited, piece_bytes, &[piece_bytes * 3 % 101 + 1]));
         }
     }
 }
