@@ -8,6 +8,9 @@
 //! (strings, characters, attributes, raw identifiers, an unclosed comment or bracket) or any
 //! piece RON rejects gives `None`, and the caller parses the whole text, so every error is
 //! reported exactly as before, at its line and column.
+//!
+//! A long file is read a block at a time ([`read`]), its pieces parsed as the blocks arrive,
+//! so that its text is never held whole; the scan ([`Scan`]) is the same either way.
 
 use rayon::prelude::*;
 
@@ -68,9 +71,6 @@ pub fn parse(text: &str, piece_bytes: usize) -> Option<FileSpec> {
 
 /// Pieces parsed together before they are appended.
 const GROUP: usize = 64;
-
-/// The bytes a file is read in by [`read`].
-pub const BLOCK_BYTES: usize = 4 << 20;
 
 /// The fewest spheres a pool task appends.
 const PIECE_SPHERES: usize = 4096;

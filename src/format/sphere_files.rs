@@ -23,7 +23,8 @@ use rayon::prelude::*;
 use super::{SphereSpec, Triple};
 
 /// The most bytes of a binary PLY body read at a time (whole vertices, at least one): a
-/// million spheres' 56 MB pass through 4 MiB, and the body is never held whole.
+/// million spheres' 56 MB pass through 4 MiB, and the body is never held whole. A long
+/// keyframe file is read in blocks of this size too (`pieces::read`).
 pub const BLOCK_BYTES: usize = 4 << 20;
 
 /// The fewest vertices a pool task parses: a small file stays one task.
