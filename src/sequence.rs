@@ -319,7 +319,11 @@ pub fn render(
                 hash,
                 key: Some(key.clone()),
             };
-            writeln!(file, "{entry}").map_err(Error::write(&manifest_path))?;
+            // The whole line in one write: `writeln!` would write it piece by piece, and a
+            // run killed between two pieces would leave a torn line behind.
+            let line = format!("{entry}\n");
+            file.write_all(line.as_bytes())
+                .map_err(Error::write(&manifest_path))?;
             progress(Event::Written(frame));
             Ok(())
         },
