@@ -38,34 +38,61 @@ pub fn parse(text: &str, piece_bytes: usize) -> Option<FileSpec> {
             // A group of pieces at a time, appended in order: the spheres are held once, as
             // by RON alone, and not once more in pieces.
             let mut spheres = Vec::new();
-            for (g, group) in bounds.chunks(GROUP).enumerate() {
+            for group in bounds.chunks(GROUP) {
                 let parsed = group
                     .par_iter()
                     .map(|&(a, b)| piece(&text[a..b]))
                     .collect::<Option<Vec<_>>>()?;
-                if g == 0 {
-                    // Room for the whole list at the first group's spheres a byte, and a
-                    // sixteenth more: no chain of ever larger copies (at a million spheres,
-                    // 64 MB copied and twice its pages faulted in). A list that holds more grows
-                    // as usual; room not written to costs no memory.
-                    let n: usize = parsed.iter().map(Vec::len).sum();
-                    let read = group[group.len() - 1].1 - group[0].0;
-                    let all = list.close - list.open;
-                    let about = (n as f64 * all as f64 / read.max(1) as f64) as usize;
-                    spheres.reserve(about + about / 16);
-                }
-                parsed.into_iter().for_each(|piece| spheres.extend(piece));
+                let read = group[group.len() - 1].1 - list.open;
+                append(&mut spheres, parsed, read, list.close - list.open);
             }
             Some(spheres)
         },
     );
-    let mut spec = spec?;
+    finish(spec?, spheres?, &rest)
+}
+
+/// Appends the spheres of `parsed` (pieces in order) to `spheres`, on the pool: the list's
+/// fresh pages are faulted in by every core (64 MB at a million spheres, 2 µs a page here).
+/// The first time, with room for the whole list (`all` bytes, of which the pieces so far are
+/// `read`) at their spheres a byte and a sixteenth more: no chain of ever larger copies. A
+/// list that holds more grows as usual; room not written to costs no memory.
+fn append(spheres: &mut Vec<SphereSpec>, parsed: Vec<Vec<SphereSpec>>, read: usize, all: usize) {
+    let firsts: Vec<usize> = parsed
+        .iter()
+        .scan(0, |n, p| {
+            let first = *n;
+            *n += p.len();
+            Some(first)
+        })
+        .collect();
+    let total = firsts
+        .last()
+        .map_or(0, |&f| f + parsed[parsed.len() - 1].len());
+    if spheres.capacity() == 0 {
+        let about = (total as f64 * all as f64 / read.max(1) as f64) as usize;
+        spheres.reserve(about + about / 16);
+    }
+    spheres.par_extend(
+        (0..total)
+            .into_par_iter()
+            .with_min_len(PIECE_SPHERES)
+            .map(|i| {
+                let p = firsts.partition_point(|&first| first <= i) - 1;
+                parsed[p][i - firsts[p]].clone()
+            }),
+    );
+}
+
+/// The file from its text without the list's elements (`rest`, parsed to `spec`) and the
+/// list's spheres, as RON would give the whole text; None when `rest` has spheres of its own.
+fn finish(mut spec: FileSpec, spheres: Vec<SphereSpec>, rest: &str) -> Option<FileSpec> {
     if !spec.scene.spheres.is_empty() {
         return None;
     }
-    spec.scene.spheres = spheres?;
+    spec.scene.spheres = spheres;
     // The list's elements are deeper than the fields named in the order.
-    spec.order = super::field_order(&rest);
+    spec.order = super::field_order(rest);
     Some(spec)
 }
 
@@ -151,37 +178,7 @@ pub fn read(
             Some(_) => (None, parse_pieces()),
             None => rayon::join(read_on, parse_pieces),
         };
-        let parsed = parsed?;
-        if spheres.capacity() == 0 {
-            // Room for the whole list at this block's spheres a byte, and a sixteenth more,
-            // as `parse` makes.
-            let n: usize = parsed.iter().map(Vec::len).sum();
-            let read = (start - open).max(1) as f64;
-            let about = (n as f64 * len as f64 / read) as usize;
-            spheres.reserve(about + about / 16);
-        }
-        // Appended on the pool: the list's fresh pages are faulted in by every core (64 MB
-        // at a million spheres, 2 µs a page here).
-        let firsts: Vec<usize> = parsed
-            .iter()
-            .scan(0, |n, p| {
-                let first = *n;
-                *n += p.len();
-                Some(first)
-            })
-            .collect();
-        let total = firsts
-            .last()
-            .map_or(0, |&f| f + parsed[parsed.len() - 1].len());
-        spheres.par_extend(
-            (0..total)
-                .into_par_iter()
-                .with_min_len(PIECE_SPHERES)
-                .map(|i| {
-                    let p = firsts.partition_point(|&first| first <= i) - 1;
-                    parsed[p][i - firsts[p]].clone()
-                }),
-        );
+        append(&mut spheres, parsed?, start - open, len as usize);
         if let Some(close) = close {
             break close;
         }
@@ -198,13 +195,7 @@ pub fn read(
     rest.extend_from_slice(&a[close - base..]);
     file.read_to_end(&mut rest).ok()?;
     let rest = String::from_utf8(rest).ok()?;
-    let mut spec = options().from_str::<FileSpec>(&rest).ok()?;
-    if !spec.scene.spheres.is_empty() {
-        return None;
-    }
-    spec.scene.spheres = spheres;
-    spec.order = super::field_order(&rest);
-    Some(spec)
+    finish(options().from_str::<FileSpec>(&rest).ok()?, spheres, &rest)
 }
 
 /// A piece of the list: in the plain forms without RON; anything else through RON, as a list
