@@ -139,27 +139,28 @@ impl Bins {
         }
     }
 
-    /// [`Bins::build`] on the rayon pool, `chunk` items a task: each task counts its items'
-    /// cells, and fills its own slots of every cell (after the slots of the tasks before it),
-    /// so the bins are those built on one thread. For many items over a small grid (a frame's
-    /// screen tiles); `rect` is called twice per item, so it must be pure.
+    /// [`Bins::build_in_order`] on the rayon pool, `chunk` items of `order` a task: each task
+    /// counts its items' cells, and fills its own slots of every cell (after the slots of the
+    /// tasks before it), so the bins are those built on one thread. For many items over a
+    /// small grid (a frame's screen tiles). `rect_at(i)` is the rectangle of item `order[i]`
+    /// (by position, read in sequence), called twice per item, so it must be pure.
     pub fn build_in_chunks(
         dims: (usize, usize),
-        n: usize,
+        order: &[u32],
         chunk: usize,
-        rect: impl Fn(usize) -> Option<CellRect> + Sync,
+        rect_at: impl Fn(usize) -> Option<CellRect> + Sync,
     ) -> Bins {
         use rayon::prelude::*;
         use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
         let width = dims.0;
         let cells = dims.0 * dims.1;
-        let chunk = chunk.max(1);
+        let (n, chunk) = (order.len(), chunk.max(1));
         let range = |c: usize| c * chunk..((c + 1) * chunk).min(n);
         let counts: Vec<Vec<u32>> = (0..n.div_ceil(chunk))
             .into_par_iter()
             .map(|c| {
                 let mut counts = vec![0u32; cells];
-                for (x0, x1, y0, y1) in range(c).filter_map(&rect) {
+                for (x0, x1, y0, y1) in range(c).filter_map(&rect_at) {
                     for y in y0..=y1 {
                         for k in &mut counts[y * width + x0..=y * width + x1] {
                             *k += 1;
@@ -189,11 +190,11 @@ impl Bins {
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut fill)| {
-                for k in range(c) {
-                    if let Some((x0, x1, y0, y1)) = rect(k) {
+                for i in range(c) {
+                    if let Some((x0, x1, y0, y1)) = rect_at(i) {
                         for y in y0..=y1 {
                             for slot in &mut fill[y * width + x0..=y * width + x1] {
-                                items[*slot as usize].store(k as u32, Relaxed);
+                                items[*slot as usize].store(order[i], Relaxed);
                                 *slot += 1;
                             }
                         }
@@ -205,27 +206,6 @@ impl Bins {
             offsets,
             items: items.into_iter().map(AtomicU32::into_inner).collect(),
         }
-    }
-
-    /// Reorders every cell's items with `sort`.
-    pub fn sort_cells(&mut self, sort: impl Fn(&mut [u32])) {
-        for k in 0..self.offsets.len() - 1 {
-            sort(&mut self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]);
-        }
-    }
-
-    /// [`Bins::sort_cells`] on the rayon pool, each cell by one task (so the result does not
-    /// depend on the thread count).
-    pub fn par_sort_cells(&mut self, sort: impl Fn(&mut [u32]) + Sync) {
-        use rayon::prelude::*;
-        let mut cells: Vec<&mut [u32]> = Vec::with_capacity(self.offsets.len());
-        let mut rest = &mut self.items[..];
-        for w in self.offsets.windows(2) {
-            let (cell, after) = rest.split_at_mut((w[1] - w[0]) as usize);
-            cells.push(cell);
-            rest = after;
-        }
-        cells.into_par_iter().with_min_len(64).for_each(&sort);
     }
 
     /// Rewrites every cell's items in place with `edit`, given the cell (x, y) and its items:
@@ -333,20 +313,22 @@ mod tests {
     }
 
     /// Built a chunk of items a task on pools of 1 to 3 threads (chunks of one item to all of
-    /// them), a seeded grid's bins are those built in one pass.
+    /// them), a seeded grid's bins are those built in one pass, in the same order.
     #[test]
     fn bins_built_in_chunks_are_the_same() {
         let (w, h) = (29, 17);
         let rects = seeded_rects(6, (w, h), 2000, 5, (4, 3));
-        let one = Bins::build((w, h), rects.len(), |k| rects[k]);
+        let order: Vec<u32> = (0..2000u32).map(|k| (k * 1013) % 2000).collect();
+        let one = Bins::build_in_order((w, h), order.iter().map(|&k| k as usize), |k| rects[k]);
+        let rect_at = |i: usize| rects[order[i] as usize];
         for threads in 1..=3 {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
             for chunk in [1, 7, 333, 2000, 5000] {
-                let chunked = pool
-                    .install(|| Bins::build_in_chunks((w, h), rects.len(), chunk, |k| rects[k]));
+                let chunked =
+                    pool.install(|| Bins::build_in_chunks((w, h), &order, chunk, rect_at));
                 assert_eq!(
                     chunked.offsets, one.offsets,
                     "{threads} threads, chunks of {chunk}"
@@ -357,7 +339,7 @@ mod tests {
                 );
             }
         }
-        let empty = Bins::build_in_chunks((w, h), 0, 8, |k| rects[k]);
+        let empty = Bins::build_in_chunks((w, h), &[], 8, rect_at);
         assert_eq!(empty.items.len(), 0);
         assert_eq!(empty.offsets, vec![0; w * h + 1]);
     }

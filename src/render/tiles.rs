@@ -326,6 +326,24 @@ fn total_key(x: f64) -> u64 {
     }
 }
 
+/// The spheres in view (indices of the columns) in the order every tile searches them: nearest
+/// possible hit first (`min_dist`, ordered as `total_cmp` orders the f64), ties by the spheres'
+/// scene indices, so the order is total, deterministic and the same whatever order the columns
+/// hold the spheres in. One radix sort on the keys (each pass skipped where every key has the
+/// same digit), then each run of equal keys (rare) by scene index.
+fn search_order(spheres: &ViewColumns) -> Vec<u32> {
+    let mut keyed: Vec<(u64, u32)> = (0..spheres.len())
+        .map(|k| (total_key(spheres.min_dist[k]), k as u32))
+        .collect();
+    radsort::sort_by_key(&mut keyed, |&(key, _)| key);
+    for run in keyed.chunk_by_mut(|a, b| a.0 == b.0) {
+        if run.len() > 1 {
+            run.sort_unstable_by_key(|&(_, k)| spheres.id[k as usize]);
+        }
+    }
+    keyed.into_iter().map(|(_, k)| k).collect()
+}
+
 /// The first and last of the ray table's sample positions (in `xs` or `ys`) in tile column or
 /// row `t` of an image side of `n` pixels.
 fn samples(t: usize, n: u32, raster: Raster) -> (usize, usize) {
@@ -381,7 +399,8 @@ impl TileBins {
             raster.width.max(raster.height) <= 1 << 16,
             "a raster side of at most 65,536 pixels"
         );
-        // Each sphere's pixel rectangle, eight at a time, and the spheres without bounds.
+        // Each sphere's pixel rectangle, eight at a time, and the spheres without bounds; beside
+        // them, the order every tile searches its spheres in.
         let n = spheres.len();
         let mut rects = vec![[0u16; 4]; n];
         let prints = |first: usize, rects: &mut [[u16; 4]]| {
@@ -397,57 +416,46 @@ impl TileBins {
             });
             unbounded
         };
-        let unbounded: Vec<u32> = if n >= PARALLEL {
-            let parts: Vec<Vec<u32>> = rects
-                .par_chunks_mut(PARALLEL)
-                .enumerate()
-                .map(|(c, rects)| prints(c * PARALLEL, rects))
-                .collect();
-            parts.concat()
+        let (unbounded, order): (Vec<u32>, Vec<u32>) = if n >= PARALLEL {
+            rayon::join(
+                || {
+                    let parts: Vec<Vec<u32>> = rects
+                        .par_chunks_mut(PARALLEL)
+                        .enumerate()
+                        .map(|(c, rects)| prints(c * PARALLEL, rects))
+                        .collect();
+                    parts.concat()
+                },
+                || search_order(spheres),
+            )
         } else {
-            prints(0, &mut rects)
+            (prints(0, &mut rects), search_order(spheres))
         };
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
-        // placed tile by tile, once the others are sorted: left out where no ray of the tile
+        // placed tile by tile, once the others are binned: left out where no ray of the tile
         // meets them, and ordered by the nearest hit a ray of the tile can have.
         let wide: Vec<Wide> = unbounded
             .into_iter()
             .filter_map(|k| Wide::new(k, &spheres.reach(k as usize), table, raster))
             .collect();
         let dims = (tiles_x, tiles_y);
-        let cells = |k: usize| {
-            let [i0, i1, j0, j1] = rects[k].map(|v| v as usize);
+        let cells = |rect: [u16; 4]| {
+            let [i0, i1, j0, j1] = rect.map(|v| v as usize);
             (i0 <= i1).then_some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
         };
-        let mut bins = if spheres.len() >= PARALLEL {
-            // A task per quarter of the spheres or per PARALLEL, whichever is more.
-            let chunk = spheres.len().div_ceil(4).max(PARALLEL);
-            Bins::build_in_chunks(dims, spheres.len(), chunk, cells)
+        // Binned in the search order, every tile lists its spheres in it: no tile sorts.
+        let mut bins = if n >= PARALLEL {
+            // The rectangles in that order first, so that the two passes of the binning read
+            // them in sequence; a task per quarter of the spheres or per PARALLEL, whichever
+            // is more.
+            let sorted: Vec<[u16; 4]> = order.par_iter().map(|&k| rects[k as usize]).collect();
+            let chunk = n.div_ceil(4).max(PARALLEL);
+            Bins::build_in_chunks(dims, &order, chunk, |i| cells(sorted[i]))
         } else {
-            Bins::build(dims, spheres.len(), cells)
+            Bins::build_in_order(dims, order.iter().map(|&k| k as usize), |k| cells(rects[k]))
         };
-        // Nearest possible hit first; ties by the spheres' scene indices, so the order is
-        // total, deterministic and the same whatever order the columns hold the spheres in.
-        // Sorted tile by tile (binning in one sorted order scatters its reads of the
-        // rectangles over every sphere in view), each sort keyed by the `min_dist` column
-        // (8 bytes a sphere), ordered as `total_cmp` orders the f64, on the pool when many are
-        // in view.
-        let key_of = |k: u32| total_key(spheres.min_dist[k as usize]);
+        drop(order);
         let id = |k: u32| spheres.id[k as usize] as u32;
-        if spheres.len() >= PARALLEL {
-            // Each cell's keys read once into a list of its own (the keys of many spheres are
-            // far apart in memory), sorted there, then written back.
-            bins.par_sort_cells(|items: &mut [u32]| {
-                let mut keyed: Vec<(u64, u32, u32)> =
-                    items.iter().map(|&k| (key_of(k), id(k), k)).collect();
-                keyed.sort_unstable();
-                for (item, (_, _, k)) in items.iter_mut().zip(keyed) {
-                    *item = k;
-                }
-            });
-        } else {
-            bins.sort_cells(|items| items.sort_unstable_by_key(|&k| (key_of(k), id(k))));
-        }
         let key = |k: u32| (spheres.min_dist[k as usize], id(k));
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {
@@ -646,8 +654,7 @@ mod tests {
             adaptive: false,
         };
         let table = RayTable::new(camera.cop_view, camera.window, raster);
-        let n = spheres.len() as u32;
-        assert!(n as usize >= PARALLEL, "the pool's sorts are taken");
+        let ground = spheres.len() as u32 - 1;
         let ids = |order: &[u32]| {
             let view: Vec<ViewSphere> = order
                 .iter()
@@ -658,19 +665,35 @@ mod tests {
             let mut lists = Vec::new();
             for j in (0..90).step_by(TILE) {
                 for i in (0..160).step_by(TILE) {
-                    let list = bins.at(i, j).iter().map(|&k| columns.id[k as usize]);
-                    lists.push(list.collect::<Vec<_>>());
+                    let list: Vec<(f64, u64)> = bins
+                        .at(i, j)
+                        .iter()
+                        .map(|&k| (columns.min_dist[k as usize], columns.id[k as usize]))
+                        .collect();
+                    // Nearest possible hit first, ties by scene index; the ground aside (its
+                    // place is its bound for the tile).
+                    let bounded: Vec<_> = list.iter().filter(|s| s.1 != ground as u64).collect();
+                    for w in bounded.windows(2) {
+                        let order = w[0].0.total_cmp(&w[1].0).then(w[0].1.cmp(&w[1].1));
+                        assert!(order.is_lt(), "{w:?} in tile ({i}, {j})");
+                    }
+                    lists.push(list.into_iter().map(|s| s.1).collect::<Vec<_>>());
                 }
             }
             lists
         };
-        let forward: Vec<u32> = (0..n).collect();
-        let backward: Vec<u32> = (0..n).rev().collect();
-        let shuffled: Vec<u32> = (0..n).map(|k| (k * 7919) % n).collect();
-        let expected = ids(&forward);
-        assert!(expected.iter().any(|l| l.len() > 8), "lists with ties");
-        assert_eq!(ids(&backward), expected);
-        assert_eq!(ids(&shuffled), expected);
+        // Above PARALLEL spheres (the pool's binning) and below; the ground last.
+        for n in [spheres.len() as u32, 1001] {
+            assert_eq!(n as usize >= PARALLEL, n != 1001);
+            let ids = |order: &[u32]| ids(&[order, &[ground]].concat());
+            let forward: Vec<u32> = (0..n - 1).collect();
+            let backward: Vec<u32> = (0..n - 1).rev().collect();
+            let shuffled: Vec<u32> = (0..n - 1).map(|k| (k * 7919) % (n - 1)).collect();
+            let expected = ids(&forward);
+            assert!(expected.iter().any(|l| l.len() > 8), "lists with ties");
+            assert_eq!(ids(&backward), expected);
+            assert_eq!(ids(&shuffled), expected);
+        }
     }
 
     /// Every sample's nearest hit through its tile's list is the nearest of every sphere, with
