@@ -329,19 +329,107 @@ fn total_key(x: f64) -> u64 {
 /// The spheres in view (indices of the columns) in the order every tile searches them: nearest
 /// possible hit first (`min_dist`, ordered as `total_cmp` orders the f64), ties by the spheres'
 /// scene indices, so the order is total, deterministic and the same whatever order the columns
-/// hold the spheres in. One radix sort on the keys (each pass skipped where every key has the
-/// same digit), then each run of equal keys (rare) by scene index.
+/// hold the spheres in. One radix sort of 8 bytes a sphere ([`sort_by_high_bits`]): the key's
+/// high bits above the column index's; then each run of equal high bits (rare: their
+/// values are within 2⁻³⁹ of each other even at a million spheres) by the whole key and the
+/// scene index.
 fn search_order(spheres: &ViewColumns) -> Vec<u32> {
-    let mut keyed: Vec<(u64, u32)> = (0..spheres.len())
-        .map(|k| (total_key(spheres.min_dist[k]), k as u32))
-        .collect();
-    radsort::sort_by_key(&mut keyed, |&(key, _)| key);
-    for run in keyed.chunk_by_mut(|a, b| a.0 == b.0) {
+    let n = spheres.len();
+    let key = |k: u32| total_key(spheres.min_dist[k as usize]);
+    // The bits a column index takes.
+    let low = usize::BITS - n.saturating_sub(1).leading_zeros();
+    let pack = |k: u32| key(k) >> low << low | u64::from(k);
+    let parallel = n >= PARALLEL;
+    let keyed: Vec<u64> = if parallel {
+        (0..n as u32).into_par_iter().map(pack).collect()
+    } else {
+        (0..n as u32).map(pack).collect()
+    };
+    let keyed = sort_by_high_bits(keyed, low);
+    let index = |&x: &u64| (x & ((1u64 << low) - 1)) as u32;
+    let mut order: Vec<u32> = if parallel {
+        keyed.par_iter().map(index).collect()
+    } else {
+        keyed.iter().map(index).collect()
+    };
+    let mut at = 0;
+    for run in keyed.chunk_by(|a, b| a >> low == b >> low) {
         if run.len() > 1 {
-            run.sort_unstable_by_key(|&(_, k)| spheres.id[k as usize]);
+            let run = &mut order[at..at + run.len()];
+            run.sort_unstable_by_key(|&k| (key(k), spheres.id[k as usize]));
         }
+        at += run.len();
     }
-    keyed.into_iter().map(|(_, k)| k).collect()
+    order
+}
+
+/// The bits of a radix sort's digit.
+const DIGIT: u32 = 11;
+
+/// `keys` sorted by their bits from `low` up, equal ones kept in their order: a radix sort of
+/// 11-bit digits, least significant first, a pass skipped where every key has the same digit.
+/// From [`PARALLEL`] keys each pass runs on the pool in chunks: each chunk counts its digits,
+/// then writes its keys to its own slots of each digit's range (after the chunks before it),
+/// so the result is the one pass on one thread gives.
+fn sort_by_high_bits(keys: Vec<u64>, low: u32) -> Vec<u64> {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    const BUCKETS: usize = 1 << DIGIT;
+    let n = keys.len();
+    let chunk = if n >= PARALLEL {
+        n.div_ceil(2 * rayon::current_num_threads()).max(PARALLEL)
+    } else {
+        n.max(1)
+    };
+    let mut from: Vec<AtomicU64> = keys.into_iter().map(AtomicU64::new).collect();
+    let mut to: Vec<AtomicU64> = Vec::new();
+    for shift in (low..u64::BITS).step_by(DIGIT as usize) {
+        let digit = |x: &AtomicU64| (x.load(Relaxed) >> shift) as usize & (BUCKETS - 1);
+        let counts: Vec<Vec<u32>> = from
+            .par_chunks(chunk)
+            .map(|keys| {
+                let mut counts = vec![0u32; BUCKETS];
+                for x in keys {
+                    counts[digit(x)] += 1;
+                }
+                counts
+            })
+            .collect();
+        let mut total = vec![0usize; BUCKETS];
+        for counts in &counts {
+            for (t, &c) in total.iter_mut().zip(counts) {
+                *t += c as usize;
+            }
+        }
+        if total.contains(&n) {
+            continue;
+        }
+        // Each chunk's first slot for each digit.
+        let mut starts = counts;
+        let mut at = 0u32;
+        for d in 0..BUCKETS {
+            for chunk in starts.iter_mut() {
+                let count = chunk[d];
+                chunk[d] = at;
+                at += count;
+            }
+        }
+        if to.is_empty() {
+            to = (0..n).map(|_| AtomicU64::new(0)).collect();
+        }
+        // Every slot is written by exactly one chunk: relaxed stores, read after the join.
+        from.par_chunks(chunk)
+            .zip(starts)
+            .for_each(|(keys, mut at)| {
+                for x in keys {
+                    let d = digit(x);
+                    to[at[d] as usize].store(x.load(Relaxed), Relaxed);
+                    at[d] += 1;
+                }
+            });
+        std::mem::swap(&mut from, &mut to);
+    }
+    drop(to);
+    from.into_iter().map(AtomicU64::into_inner).collect()
 }
 
 /// The first and last of the ray table's sample positions (in `xs` or `ys`) in tile column or
@@ -402,6 +490,7 @@ impl TileBins {
         // Each sphere's pixel rectangle, eight at a time, and the spheres without bounds; beside
         // them, the order every tile searches its spheres in.
         let n = spheres.len();
+        let order = search_order(spheres);
         let mut rects = vec![[0u16; 4]; n];
         let prints = |first: usize, rects: &mut [[u16; 4]]| {
             let mut unbounded = Vec::new();
@@ -416,20 +505,15 @@ impl TileBins {
             });
             unbounded
         };
-        let (unbounded, order): (Vec<u32>, Vec<u32>) = if n >= PARALLEL {
-            rayon::join(
-                || {
-                    let parts: Vec<Vec<u32>> = rects
-                        .par_chunks_mut(PARALLEL)
-                        .enumerate()
-                        .map(|(c, rects)| prints(c * PARALLEL, rects))
-                        .collect();
-                    parts.concat()
-                },
-                || search_order(spheres),
-            )
+        let unbounded: Vec<u32> = if n >= PARALLEL {
+            let parts: Vec<Vec<u32>> = rects
+                .par_chunks_mut(PARALLEL)
+                .enumerate()
+                .map(|(c, rects)| prints(c * PARALLEL, rects))
+                .collect();
+            parts.concat()
         } else {
-            (prints(0, &mut rects), search_order(spheres))
+            prints(0, &mut rects)
         };
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are binned: left out where no ray of the tile
@@ -519,6 +603,54 @@ mod tests {
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::scene::Sphere;
+
+    /// The search order is the sort by `min_dist` (as `total_cmp` orders it) and then scene
+    /// index, on pools of one to three threads, below and above [`PARALLEL`] spheres: distances
+    /// equal, a few ulps apart (equal in the radix sort's bits, told apart after it), far
+    /// apart, negative, signed zeros, infinite and not a number; scene indices in another
+    /// order than the columns'.
+    #[test]
+    fn search_order_sorts_by_distance_then_scene_index() {
+        let mut rng = crate::splitmix::SplitMix(0x0bde);
+        let specials = [
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -f64::NAN,
+        ];
+        for n in [0, 1, 2, 7, 3000, PARALLEL + 4321] {
+            let sphere = ViewSphere::in_view(DVec3::new(0.0, 0.0, 5.0), 1.0, DVec3::ZERO, 0);
+            let mut columns = ViewColumns::new(&vec![sphere; n]);
+            for k in 0..n {
+                let anchor = [1.0, 7.5, -0.25, 1e-300, 3e5, 19.999][(rng.unit() * 6.0) as usize];
+                let mut v = anchor * (1.0 + (rng.unit() * 4.0).floor() * 1e-3);
+                for _ in 0..(rng.unit() * 3.0) as usize {
+                    v = v.next_up();
+                }
+                if k % 97 == 0 {
+                    v = specials[k / 97 % specials.len()];
+                }
+                columns.min_dist[k] = v;
+                columns.id[k] = (k as u64 * 7919) % n as u64;
+            }
+            let mut want: Vec<u32> = (0..n as u32).collect();
+            want.sort_by(|&a, &b| {
+                let (a, b) = (a as usize, b as usize);
+                let d = columns.min_dist[a].total_cmp(&columns.min_dist[b]);
+                d.then(columns.id[a].cmp(&columns.id[b]))
+            });
+            for threads in 1..=3 {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let got = pool.install(|| search_order(&columns));
+                assert!(got == want, "{n} spheres, {threads} threads");
+            }
+        }
+    }
 
     /// The footprints eight at a time, on every instruction path this CPU runs, are the
     /// one-sphere oracle's: seeded spheres in view, in front, behind, cut by the COP's plane,

@@ -451,10 +451,7 @@ pub(super) mod tests {
                 for y in 0..grid.dims.1 {
                     for x in 0..grid.dims.0 {
                         let cell = grid.bins.cell(x, y);
-                        for pair in cell.windows(2) {
-                            let [a, b] = [pair[0], pair[1]].map(|k| grid.tops[k as usize]);
-                            assert!(a >= b, "cell ({x}, {y}): {a} before {b}");
-                        }
+                        highest_top_first(grid, cell);
                         let (ax, ay) = grid.axes;
                         for &k in cell {
                             let p = c.spheres[k as usize].center_world;
@@ -471,6 +468,35 @@ pub(super) mod tests {
                 }
             }
         }
+    }
+
+    /// Asserts that `cell` lists its spheres highest top first, equal tops by index; returns
+    /// how many equal tops it holds.
+    fn highest_top_first(grid: &ShadowGrid, cell: &[u32]) -> usize {
+        let mut ties = 0;
+        for pair in cell.windows(2) {
+            let [a, b] = [pair[0], pair[1]].map(|k| grid.tops[k as usize]);
+            assert!(
+                a > b || (a == b && pair[0] < pair[1]),
+                "{pair:?}: {a} before {b}"
+            );
+            ties += usize::from(a == b);
+        }
+        ties
+    }
+
+    /// Spheres with equal tops (each of a cluster's spheres twice over, the copies later in
+    /// the list) are listed by index.
+    #[test]
+    fn equal_tops_are_listed_by_index() {
+        let c = seeded_cluster(11, 300, 0);
+        let spheres: Vec<Sphere> = [&c.spheres[..300], &c.spheres].concat();
+        let grid = ShadowGrid::build(&spheres, -DVec3::new(-0.6, -1.0, 0.4).normalize());
+        let (w, h) = grid.dims;
+        let ties: usize = (0..w * h)
+            .map(|k| highest_top_first(&grid, grid.bins.cell(k % w, k / w)))
+            .sum();
+        assert!(ties >= 300, "{ties} equal tops");
     }
 
     impl Cluster {
