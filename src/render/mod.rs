@@ -30,6 +30,7 @@ pub mod key;
 mod lanes;
 #[cfg(test)]
 mod oracle;
+mod radix;
 mod rays;
 mod rows;
 mod shadows;

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use super::bins::Bins;
 use super::lanes::{ForLanes, Lanes, LANES};
+use super::radix::{index_bits, sort_by_high_bits};
 use super::rays::RayTable;
 use super::simd::Isa;
 pub use super::view::PARALLEL;
@@ -336,8 +337,7 @@ fn total_key(x: f64) -> u64 {
 fn search_order(spheres: &ViewColumns) -> Vec<u32> {
     let n = spheres.len();
     let key = |k: u32| total_key(spheres.min_dist[k as usize]);
-    // The bits a column index takes.
-    let low = usize::BITS - n.saturating_sub(1).leading_zeros();
+    let low = index_bits(n);
     let pack = |k: u32| key(k) >> low << low | u64::from(k);
     let parallel = n >= PARALLEL;
     let keyed: Vec<u64> = if parallel {
@@ -361,75 +361,6 @@ fn search_order(spheres: &ViewColumns) -> Vec<u32> {
         at += run.len();
     }
     order
-}
-
-/// The bits of a radix sort's digit.
-const DIGIT: u32 = 11;
-
-/// `keys` sorted by their bits from `low` up, equal ones kept in their order: a radix sort of
-/// 11-bit digits, least significant first, a pass skipped where every key has the same digit.
-/// From [`PARALLEL`] keys each pass runs on the pool in chunks: each chunk counts its digits,
-/// then writes its keys to its own slots of each digit's range (after the chunks before it),
-/// so the result is the one pass on one thread gives.
-fn sort_by_high_bits(keys: Vec<u64>, low: u32) -> Vec<u64> {
-    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-    const BUCKETS: usize = 1 << DIGIT;
-    let n = keys.len();
-    let chunk = if n >= PARALLEL {
-        n.div_ceil(2 * rayon::current_num_threads()).max(PARALLEL)
-    } else {
-        n.max(1)
-    };
-    let mut from: Vec<AtomicU64> = keys.into_iter().map(AtomicU64::new).collect();
-    let mut to: Vec<AtomicU64> = Vec::new();
-    for shift in (low..u64::BITS).step_by(DIGIT as usize) {
-        let digit = |x: &AtomicU64| (x.load(Relaxed) >> shift) as usize & (BUCKETS - 1);
-        let counts: Vec<Vec<u32>> = from
-            .par_chunks(chunk)
-            .map(|keys| {
-                let mut counts = vec![0u32; BUCKETS];
-                for x in keys {
-                    counts[digit(x)] += 1;
-                }
-                counts
-            })
-            .collect();
-        let mut total = vec![0usize; BUCKETS];
-        for counts in &counts {
-            for (t, &c) in total.iter_mut().zip(counts) {
-                *t += c as usize;
-            }
-        }
-        if total.contains(&n) {
-            continue;
-        }
-        // Each chunk's first slot for each digit.
-        let mut starts = counts;
-        let mut at = 0u32;
-        for d in 0..BUCKETS {
-            for chunk in starts.iter_mut() {
-                let count = chunk[d];
-                chunk[d] = at;
-                at += count;
-            }
-        }
-        if to.is_empty() {
-            to = (0..n).map(|_| AtomicU64::new(0)).collect();
-        }
-        // Every slot is written by exactly one chunk: relaxed stores, read after the join.
-        from.par_chunks(chunk)
-            .zip(starts)
-            .for_each(|(keys, mut at)| {
-                for x in keys {
-                    let d = digit(x);
-                    to[at[d] as usize].store(x.load(Relaxed), Relaxed);
-                    at[d] += 1;
-                }
-            });
-        std::mem::swap(&mut from, &mut to);
-    }
-    drop(to);
-    from.into_iter().map(AtomicU64::into_inner).collect()
 }
 
 /// The first and last of the ray table's sample positions (in `xs` or `ys`) in tile column or
