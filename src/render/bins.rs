@@ -208,18 +208,37 @@ impl Bins {
         }
     }
 
-    /// Rewrites every cell's items in place with `edit`, given the cell (x, y) and its items:
-    /// it may reorder them and drop some, leaving the ones to keep first, and returns how many
-    /// it keeps.
-    pub fn edit_cells(&mut self, mut edit: impl FnMut((usize, usize), &mut [u32]) -> usize) {
+    /// Rewrites every cell's items in place with `edit`, given a scratch value of `init`'s (one
+    /// a task), the cell (x, y) and its items: it may reorder them and drop some, leaving the
+    /// ones to keep first, and returns how many it keeps. The cells are edited on the rayon
+    /// pool, each by one call, then closed up in order.
+    pub fn edit_cells<S>(
+        &mut self,
+        init: impl Fn() -> S + Sync + Send,
+        edit: impl Fn(&mut S, (usize, usize), &mut [u32]) -> usize + Sync + Send,
+    ) {
+        use rayon::prelude::*;
+        let width = self.width;
+        let mut cells: Vec<&mut [u32]> = Vec::with_capacity(self.offsets.len());
+        let mut rest = &mut self.items[..];
+        for w in self.offsets.windows(2) {
+            let (cell, after) = rest.split_at_mut((w[1] - w[0]) as usize);
+            cells.push(cell);
+            rest = after;
+        }
+        let kept: Vec<usize> = cells
+            .into_par_iter()
+            .enumerate()
+            .with_min_len(64)
+            .map_init(init, |scratch, (k, items)| {
+                let kept = edit(scratch, (k % width, k / width), items);
+                assert!(kept <= items.len(), "a cell gained items");
+                kept
+            })
+            .collect();
         let (mut start, mut write) = (0, 0);
-        for k in 0..self.offsets.len() - 1 {
+        for (k, kept) in kept.into_iter().enumerate() {
             let end = self.offsets[k + 1] as usize;
-            let kept = edit(
-                (k % self.width, k / self.width),
-                &mut self.items[start..end],
-            );
-            assert!(kept <= end - start, "a cell gained items");
             // Cells before this one only shrank, so the write never passes the read.
             if write != start {
                 self.items.copy_within(start..start + kept, write);
@@ -349,11 +368,11 @@ mod tests {
         // 2×2 cells: item 0 everywhere, item 1 in the top row, item 2 in cell (1, 1).
         let rects = [Some((0, 1, 0, 1)), Some((0, 1, 0, 0)), Some((1, 1, 1, 1))];
         let mut bins = Bins::build((2, 2), 3, |k| rects[k]);
-        let mut seen = Vec::new();
-        bins.edit_cells(|(x, y), items| {
-            seen.push((x, y));
+        let seen = std::sync::Mutex::new(Vec::new());
+        bins.edit_cells(Vec::<u32>::new, |scratch, (x, y), items| {
+            seen.lock().unwrap().push((x, y));
             // Cell (0, 0) drops item 0, cell (1, 0) drops item 1, cell (1, 1) reverses its
-            // items.
+            // items (through the scratch).
             match (x, y) {
                 (0, 0) | (1, 0) => {
                     let drop = if x == 0 { 0 } else { 1 };
@@ -362,12 +381,16 @@ mod tests {
                     items.len() - 1
                 }
                 (1, 1) => {
-                    items.reverse();
+                    scratch.clear();
+                    scratch.extend(items.iter().rev());
+                    items.copy_from_slice(scratch);
                     items.len()
                 }
                 _ => items.len(),
             }
         });
+        let mut seen = seen.into_inner().unwrap();
+        seen.sort_by_key(|&(x, y)| (y, x));
         assert_eq!(seen, [(0, 0), (1, 0), (0, 1), (1, 1)]);
         assert_eq!(bins.cell(0, 0), [1]);
         assert_eq!(bins.cell(1, 0), [0]);

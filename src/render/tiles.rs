@@ -474,11 +474,11 @@ impl TileBins {
         let key = |k: u32| (spheres.min_dist[k as usize], id(k));
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {
-            let mut keyed: Vec<(f64, u32, u32)> = Vec::with_capacity(wide.len());
             // They were binned into every tile; each tile's list is merged anew from its other
             // spheres and the wide ones that its rays can meet, by their bounds there.
             let is_wide = |k: u32| wide.iter().any(|w| w.index == k);
-            bins.edit_cells(|(tx, ty), items| {
+            let scratch = || Vec::<(f64, u32, u32)>::with_capacity(wide.len());
+            bins.edit_cells(scratch, |keyed, (tx, ty), items| {
                 keyed.clear();
                 let mut cone = None;
                 keyed.extend(wide.iter().filter_map(|w| {
@@ -498,7 +498,7 @@ impl TileBins {
                 // A wide sphere already put back counts at its min_dist here, below its bound
                 // for the tile but not below an earlier one in `keyed`, so the order searched
                 // stays sorted.
-                for &(bound, w_id, w) in &keyed {
+                for &(bound, w_id, w) in keyed.iter() {
                     let at = items[..n].partition_point(|&k| before(key(k), (bound, w_id)).is_lt());
                     items.copy_within(at..n, at + 1);
                     items[at] = w;
