@@ -331,9 +331,9 @@ fn total_key(x: f64) -> u64 {
 /// possible hit first (`min_dist`, ordered as `total_cmp` orders the f64), ties by the spheres'
 /// scene indices, so the order is total, deterministic and the same whatever order the columns
 /// hold the spheres in. One radix sort of 8 bytes a sphere ([`sort_by_high_bits`]): the key's
-/// high bits above the column index's; then each run of equal high bits (rare: their
-/// values are within 2⁻³⁹ of each other even at a million spheres) by the whole key and the
-/// scene index.
+/// high bits above the column index's; then each run of equal high bits (rare: at a million
+/// spheres their distances agree to 32 bits of the fraction) by the whole key and the scene
+/// index.
 fn search_order(spheres: &ViewColumns) -> Vec<u32> {
     let n = spheres.len();
     let key = |k: u32| total_key(spheres.min_dist[k as usize]);
@@ -418,8 +418,9 @@ impl TileBins {
             raster.width.max(raster.height) <= 1 << 16,
             "a raster side of at most 65,536 pixels"
         );
-        // Each sphere's pixel rectangle, eight at a time, and the spheres without bounds; beside
-        // them, the order every tile searches its spheres in.
+        // The order every tile searches its spheres in, first (its sort's buffers are freed
+        // before the rectangles are written); then each sphere's pixel rectangle, eight at a
+        // time, and the spheres without bounds.
         let n = spheres.len();
         let order = search_order(spheres);
         let mut rects = vec![[0u16; 4]; n];
@@ -498,7 +499,7 @@ impl TileBins {
                 // A wide sphere already put back counts at its min_dist here, below its bound
                 // for the tile but not below an earlier one in `keyed`, so the order searched
                 // stays sorted.
-                for &(bound, w_id, w) in keyed.iter() {
+                for &(bound, w_id, w) in &*keyed {
                     let at = items[..n].partition_point(|&k| before(key(k), (bound, w_id)).is_lt());
                     items.copy_within(at..n, at + 1);
                     items[at] = w;

@@ -485,8 +485,8 @@ pub(super) mod tests {
         ties
     }
 
-    /// Spheres with equal tops (each of a cluster's spheres twice over, the copies later in
-    /// the list) are listed by index.
+    /// Spheres with equal tops (a cluster's first 300 spheres, then all of them again) are
+    /// listed by index.
     #[test]
     fn equal_tops_are_listed_by_index() {
         let c = seeded_cluster(11, 300, 0);
