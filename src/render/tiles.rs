@@ -339,19 +339,15 @@ fn search_order(spheres: &ViewColumns) -> Vec<u32> {
     let key = |k: u32| total_key(spheres.min_dist[k as usize]);
     let low = index_bits(n);
     let pack = |k: u32| key(k) >> low << low | u64::from(k);
-    let parallel = n >= PARALLEL;
-    let keyed: Vec<u64> = if parallel {
-        (0..n as u32).into_par_iter().map(pack).collect()
-    } else {
-        (0..n as u32).map(pack).collect()
-    };
+    // On the pool from PARALLEL spheres (one task below).
+    let keyed: Vec<u64> = (0..n as u32)
+        .into_par_iter()
+        .with_min_len(PARALLEL)
+        .map(pack)
+        .collect();
     let keyed = sort_by_high_bits(keyed, low);
     let index = |&x: &u64| (x & ((1u64 << low) - 1)) as u32;
-    let mut order: Vec<u32> = if parallel {
-        keyed.par_iter().map(index).collect()
-    } else {
-        keyed.iter().map(index).collect()
-    };
+    let mut order: Vec<u32> = keyed.par_iter().with_min_len(PARALLEL).map(index).collect();
     let mut at = 0;
     for run in keyed.chunk_by(|a, b| a >> low == b >> low) {
         if run.len() > 1 {
