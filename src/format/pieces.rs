@@ -106,9 +106,12 @@ const PIECE_SPHERES: usize = 4096;
 const HEAD_BYTES: usize = 1 << 20;
 
 /// What [`parse`] gives for the text of `file` (`len` bytes long, as far as is known), read a
-/// block of `block_bytes` at a time and never held whole: each block's pieces are parsed on
-/// the pool while the next block is read and scanned. None for a text [`parse`] gives None
-/// for, or one that is not UTF-8: then the caller reads the file whole.
+/// block at a time and never held whole: each block's pieces are parsed on the pool while the
+/// next block is read and scanned, and the block before's spheres appended. The first block
+/// is [`FIRST_BLOCK`] bytes (or `block_bytes`, if less), and each next one twice the last, up
+/// to `block_bytes`: until the first block is read and scanned, one core works alone. None for
+/// a text [`parse`] gives None for, or one that is not UTF-8: then the caller reads the file
+/// whole.
 pub fn read(
     file: &mut (impl std::io::Read + Send),
     len: u64,
@@ -116,13 +119,18 @@ pub fn read(
     block_bytes: usize,
 ) -> Option<FileSpec> {
     use std::io::Read;
-    let mut more = |into: &mut Vec<u8>| file.by_ref().take(block_bytes as u64).read_to_end(into);
+    let mut size = block_bytes.min(FIRST_BLOCK);
+    // The next block appended to `into`, and whether the file ended in it (a read fell short).
+    let mut more = |into: &mut Vec<u8>| {
+        let want = size;
+        size = (size * 2).min(block_bytes);
+        let n = file.by_ref().take(want as u64).read_to_end(into).ok()?;
+        Some(n < want)
+    };
     // The text up to the list's `[` (as `parse` sees it: after a byte-order mark).
     let mut head = Vec::new();
     let (open, bom, end) = loop {
-        let n = more(&mut head).ok()?;
-        // The file ends where a read falls short.
-        let end = n < block_bytes;
+        let end = more(&mut head)?;
         let bom = if head.starts_with(b"\xef\xbb\xbf") {
             3
         } else {
@@ -143,6 +151,8 @@ pub fn read(
     let mut scanned = scan.feed(&a, base, end);
     let mut b = Vec::new();
     let mut spheres: Vec<SphereSpec> = Vec::new();
+    // The block before's spheres, and how far into the list they reach.
+    let mut parsed_before: Option<(Vec<Vec<SphereSpec>>, usize)> = None;
     let mut pieces = 0;
     let close = loop {
         let mut bounds: Vec<(usize, usize)> = Vec::with_capacity(scan.cuts.len() + 1);
@@ -160,25 +170,29 @@ pub fn read(
             }
             Scanned::More => None,
         };
-        // This block's pieces on the pool; beside them, the next block read after the piece
-        // that runs on into it, and scanned.
+        // This block's pieces on the pool; beside them, the block before's spheres appended,
+        // and the next block read after the piece that runs on into it, and scanned.
         let parse_pieces = || {
             bounds
                 .par_iter()
                 .map(|&(from, to)| piece(std::str::from_utf8(&a[from..to]).ok()?))
                 .collect::<Option<Vec<_>>>()
         };
-        let read_on = || {
+        let before = parsed_before.take();
+        let append_and_read_on = || {
+            if let Some((parsed, read)) = before {
+                append(&mut spheres, parsed, read, len as usize);
+            }
+            if close.is_some() {
+                return None;
+            }
             b.clear();
             b.extend_from_slice(&a[start - base..]);
-            let end = more(&mut b).ok()? < block_bytes;
+            let end = more(&mut b)?;
             Some(scan.feed(&b, start, end))
         };
-        let (next, parsed) = match close {
-            Some(_) => (None, parse_pieces()),
-            None => rayon::join(read_on, parse_pieces),
-        };
-        append(&mut spheres, parsed?, start - open, len as usize);
+        let (next, parsed) = rayon::join(append_and_read_on, parse_pieces);
+        parsed_before = Some((parsed?, start - open));
         if let Some(close) = close {
             break close;
         }
@@ -186,6 +200,9 @@ pub fn read(
         std::mem::swap(&mut a, &mut b);
         base = start;
     };
+    if let Some((parsed, read)) = parsed_before {
+        append(&mut spheres, parsed, read, len as usize);
+    }
     if pieces < 2 {
         return None;
     }
@@ -197,6 +214,9 @@ pub fn read(
     let rest = String::from_utf8(rest).ok()?;
     finish(options().from_str::<FileSpec>(&rest).ok()?, spheres, &rest)
 }
+
+/// The first block [`read`] reads: small, so that the pool soon has pieces to parse.
+const FIRST_BLOCK: usize = 256 << 10;
 
 /// A piece of the list: in the plain forms without RON; anything else through RON, as a list
 /// (the newline ends a line comment that the piece may end in).
