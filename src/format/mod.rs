@@ -389,7 +389,7 @@ pub fn read(path: &Path) -> Result<FileSpec> {
     if let Ok(mut file) = std::fs::File::open(path) {
         let len = file.metadata().map_or(0, |m| m.len());
         if len >= DROP_ASIDE_BYTES as u64 {
-            let (piece, block) = (pieces::PIECE_BYTES, sphere_files::BLOCK_BYTES);
+            let (piece, block) = (pieces::PIECE_BYTES, pieces::BLOCK_BYTES);
             if let Some(spec) = pieces::read(&mut file, len, piece, block) {
                 return Ok(spec);
             }
@@ -524,8 +524,7 @@ mod tests {
         // The streamed read gives it without falling back to the whole text.
         let mut file = std::fs::File::open(&path).unwrap();
         let len = text.len() as u64;
-        let block = sphere_files::BLOCK_BYTES;
-        let streamed = pieces::read(&mut file, len, pieces::PIECE_BYTES, block);
+        let streamed = pieces::read(&mut file, len, pieces::PIECE_BYTES, pieces::BLOCK_BYTES);
         assert_eq!(format!("{streamed:?}"), format!("{:?}", Some(whole)));
         let at = text.rmatch_indices("radius").nth(2).unwrap().0;
         let bad = format!("{},,{}", &text[..at], &text[at..]);
