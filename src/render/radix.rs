@@ -1,6 +1,7 @@
 //! A radix sort of 64-bit keys by their high bits, on the pool for many keys: each frame's
-//! search order of the spheres in view (`tiles.rs`). A key is a value's high bits above an
-//! index in its low bits, so the sort orders indices by value, ties by index.
+//! search order of the spheres in view (`tiles.rs`) and the shadow grid's order of tops
+//! (`shadows/`). A key is a value's high bits above an index in its low bits, so the sort
+//! orders indices by value, ties by index.
 
 use rayon::prelude::*;
 

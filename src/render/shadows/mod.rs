@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 use super::bins::{Bins, CellRect};
+use super::radix::sort_by_high_bits;
 
 use crate::camera::Camera;
 use crate::scene::Sphere;
@@ -99,34 +100,51 @@ impl ShadowGrid {
                 .map(|s| top_f32(s.center_world.dot(to_light) + s.radius))
                 .collect(),
         };
-        // Binned highest top first (equal tops by index), so every cell lists them so. Each
-        // binned disc is one sort key: its top, its index and its cells, found in index order
-        // and kept small (the grid is at most 4096 a side), so that binning in the sorted
-        // order reads them in sequence, not the spheres at random, and the sort compares
-        // integers.
-        // A sphere tested for every ray gets the largest key, and is cut off after the sort:
-        // the keys are made in place, with no filtered copy.
-        let mut keys: Vec<u128> = spheres
+        // Binned highest top first (equal tops by index), so every cell lists them so: one
+        // radix sort of 8 bytes a sphere, its top's order above its index ([`top_order`]),
+        // the keys made in index order (so equal tops stay in it). A sphere tested for every
+        // ray gets the largest key, and is cut off after the sort. Each binned disc's cells are
+        // found in index order and gathered into the sorted order, so that binning reads them
+        // in sequence, not the spheres at random.
+        let cells: Vec<u64> = spheres
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|s| {
+                if s.radius > big {
+                    return u64::MAX;
+                }
+                let (x0, x1, y0, y1) = grid.cell_range(project(s.center_world), s.radius);
+                [x0, x1, y0, y1]
+                    .iter()
+                    .fold(0u64, |key, &c| key << 16 | c as u64)
+            })
+            .collect();
+        let keys: Vec<u64> = cells
             .par_iter()
             .zip(&grid.tops)
             .enumerate()
             .with_min_len(CHUNK)
-            .map(|(k, (s, &top))| {
-                if s.radius > big {
-                    return u128::MAX;
-                }
-                let (x0, x1, y0, y1) = grid.cell_range(project(s.center_world), s.radius);
-                let cells = [x0, x1, y0, y1]
-                    .iter()
-                    .fold(0u64, |key, &c| key << 16 | c as u64);
-                (!top_order(top) as u128) << 96 | (k as u128) << 64 | cells as u128
+            .map(|(k, (&cells, &top))| match cells {
+                u64::MAX => u64::MAX,
+                _ => u64::from(!top_order(top)) << 32 | k as u64,
             })
             .collect();
-        keys.par_sort_unstable();
+        let mut keys = sort_by_high_bits(keys, 32);
         keys.truncate(count);
-        let order: Vec<u32> = keys.iter().map(|&key| (key >> 64) as u32).collect();
+        let order: Vec<u32> = keys
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&key| key as u32)
+            .collect();
+        drop(keys);
+        let sorted: Vec<u64> = order
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&k| cells[k as usize])
+            .collect();
+        drop(cells);
         let bins = Bins::build_in_bands(dims, &order, |i| {
-            let field = |shift: u32| (keys[i] >> shift) as u16 as usize;
+            let field = |shift: u32| (sorted[i] >> shift) as u16 as usize;
             Some((field(48), field(32), field(16), field(0)))
         });
         ShadowGrid { bins, ..grid }
