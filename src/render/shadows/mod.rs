@@ -125,6 +125,7 @@ impl ShadowGrid {
             .enumerate()
             .with_min_len(CHUNK)
             .map(|(k, (&cells, &top))| match cells {
+                // Not binned: a binned disc's cells are each below 4096, never all ones.
                 u64::MAX => u64::MAX,
                 _ => u64::from(!top_order(top)) << 32 | k as u64,
             })
