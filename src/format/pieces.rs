@@ -615,6 +615,15 @@ mod tests {
                 }
             }
         }
+        // Longer than the first block, with and without a head that spans the first two: read
+        // in blocks growing to 1 MB, it gives what the whole text gives.
+        let long = file(12_000, true);
+        assert!(long.len() > 2 * FIRST_BLOCK);
+        let comment = format!("/* {} */\n", "x".repeat(FIRST_BLOCK + FIRST_BLOCK / 2));
+        for text in [long.clone(), comment + &long] {
+            assert!(parse(&text, PIECE_BYTES).is_some());
+            assert!(read_as_parse(&text, PIECE_BYTES, &[BLOCK_BYTES]));
+        }
         // Split, so read in blocks.
         let text = file(57, false);
         let len = text.len() as u64;
