@@ -201,14 +201,15 @@ pub fn run_scaling(
         let _ = writeln!(progress, "{}: campath, hash only, {runs} run(s) …", s.name);
         let stats = dir.join(format!("{}.stats.json", s.name));
         let hash = run_campath(&["hash", &ron_path.to_string_lossy()], &stats, runs)?;
-        // POV-Ray reads the spheres inline; the PLY scene is the same scene as the RON one.
-        let pov = if pov && s.layout == Layout::Dense && !s.ply {
-            let n = pov_frames.min(s.frames);
-            let _ = writeln!(progress, "{}: POV-Ray, {n} frame(s) …", s.name);
-            let doc = Document::load(&ron_path)?;
-            Some((povray::time(dir, s, &doc, n)?, n))
-        } else {
-            None
+        let pov = match twin_pov(&rows, s) {
+            Some(twin) => Some(twin),
+            None if pov && s.layout == Layout::Dense => {
+                let n = pov_frames.min(s.frames);
+                let _ = writeln!(progress, "{}: POV-Ray, {n} frame(s) …", s.name);
+                let doc = Document::load(&ron_path)?;
+                Some((povray::time(dir, s, &doc, n)?, n))
+            }
+            None => None,
         };
         let pov_path = dir.join(format!("{}.pov", s.name));
         for path in [&ron_path, &ply_path, &pov_path] {
@@ -223,6 +224,20 @@ pub fn run_scaling(
         });
     }
     Ok(rows)
+}
+
+/// POV-Ray's run of the RON twin of PLY scene `s` among `rows`, if it is there. POV-Ray reads
+/// the spheres inline, so a scene from PLY and the same scene inline are one scene to it: both
+/// of campath's readings are set against one POV-Ray time.
+fn twin_pov(rows: &[ScaleRow], s: &BenchScene) -> Option<(f64, u64)> {
+    let twin = rows.iter().find(|r| {
+        let t = &r.scene;
+        s.ply
+            && !t.ply
+            && (t.layout, t.spheres, t.frames) == (s.layout, s.spheres, s.frames)
+            && (t.width, t.height, t.samples) == (s.width, s.height, s.samples)
+    })?;
+    twin.pov
 }
 
 /// The scaling table, and each layout's growth in frame time from 10,000 to 1,000,000 spheres.
@@ -334,4 +349,43 @@ pub fn command(
     };
     write!(out, "{text}").map_err(Error::stdout)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row of scaling scene `name` with POV-Ray's `pov`.
+    fn row(name: &str, pov: Option<(f64, u64)>) -> ScaleRow {
+        let scene = scaling_scenes()
+            .into_iter()
+            .find(|s| s.name == name)
+            .unwrap();
+        let hash = Run {
+            stats: Default::default(),
+            process_ms_per_frame: 50.0,
+            process_ms_runs: vec![50.0],
+        };
+        ScaleRow { scene, hash, pov }
+    }
+
+    /// A PLY scene takes POV-Ray's time from its RON twin (same spheres, frames and size), and
+    /// only from it; a RON scene never borrows one.
+    #[test]
+    fn a_ply_scene_is_set_against_its_ron_twins_povray_run() {
+        let rows = [
+            row("dense1000", Some((1200.0, 4))),
+            row("dense100000", Some((2300.0, 4))),
+        ];
+        let scene = |name: &str| row(name, None).scene;
+        assert_eq!(
+            twin_pov(&rows, &scene("dense100000-ply")),
+            Some((2300.0, 4))
+        );
+        assert_eq!(twin_pov(&rows, &scene("dense1000000-ply")), None);
+        assert_eq!(twin_pov(&rows, &scene("dense100000")), None);
+        // A twin run without POV-Ray lends nothing.
+        let rows = [row("dense100000", None)];
+        assert_eq!(twin_pov(&rows, &scene("dense100000-ply")), None);
+    }
 }

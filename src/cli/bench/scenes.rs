@@ -371,7 +371,7 @@ fn big_cluster(s: &BenchScene) -> Parts {
 
 /// The scaling scenes: sphere counts 100 … 1,000,000 at 1920×1080 for the sparse field seen
 /// from above and the growing dense cluster, then 1280×720 and 3840×2160 at 1000 spheres; and
-/// the dense cluster at 1,000, 100,000 and 1,000,000 spheres (the last also from binary PLY).
+/// the dense cluster at 1,000, 100,000 and 1,000,000 spheres (the last two also from binary PLY).
 pub fn scaling_scenes() -> Vec<BenchScene> {
     let scene = |layout: Layout, spheres: usize, (width, height): (u32, u32)| {
         let kind = if layout == Layout::Patch {
@@ -399,10 +399,12 @@ pub fn scaling_scenes() -> Vec<BenchScene> {
             out.push(scene(layout, 1000, size));
         }
     }
-    // The dense cluster against POV-Ray: 4 frames at 1080p, the million also from binary PLY.
+    // The dense cluster against POV-Ray: 4 frames at 1080p, 100,000 and the million also from
+    // binary PLY.
     for (n, ply) in [
         (1_000, false),
         (100_000, false),
+        (100_000, true),
         (1_000_000, false),
         (1_000_000, true),
     ] {
