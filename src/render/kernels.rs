@@ -19,7 +19,7 @@ use crate::scene::Sphere;
 /// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
 pub(super) struct Shading<'a> {
     pub(super) spheres: &'a ViewColumns,
-    /// The scene's spheres, by the columns' `id`: a hit sphere's colour.
+    /// The scene's spheres by rank, the columns' `id`: a hit sphere's colour.
     pub(super) scene: &'a [Sphere],
     pub(super) lights: &'a [ViewLight<'a>],
     pub(super) ambient: f64,
@@ -236,8 +236,8 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
         ]
     }
 
-    /// Each lane's sphere's colour, which the columns do not keep: read from the scene by the
-    /// sphere's index.
+    /// Each lane's sphere's colour, which the columns do not keep: read from the spheres by
+    /// rank.
     #[inline(always)]
     fn colors(&self, tok: V::Token, scene: &[Sphere]) -> [V; 3] {
         match *self {
@@ -266,7 +266,7 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
         }
     }
 
-    /// The spheres' scene indices.
+    /// The spheres' ranks.
     #[inline(always)]
     fn ids(&self, tok: V::Token) -> V::Index {
         match *self {

@@ -21,7 +21,7 @@ use std::sync::Arc;
 
 use crate::camera::Camera;
 pub use crate::raster::Raster;
-use crate::scene::Scene;
+use crate::scene::{Scene, Sphere};
 
 mod bins;
 mod drivers;
@@ -191,16 +191,18 @@ impl Renderer {
             _ => Arc::new(RayTable::new(camera.cop_view, camera.window, raster)),
         };
         self.table = Some(Arc::clone(&table));
-        // Moved into view coordinates straight into their columns.
+        // The spheres by rank (see `SceneIndex`), moved into view coordinates straight into
+        // their columns.
+        let ranked = index.spheres();
         let visible = index.visible(camera);
-        let spheres = ViewColumns::of(camera, &scene.spheres, &visible, self.spare.pop());
+        let spheres = ViewColumns::of(camera, ranked, &visible, self.spare.pop());
         drop(visible);
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
         let shadowed = index.shadows.iter().any(Option::is_some);
         let centers: Option<Arc<[(DVec3, f64)]>> =
-            (shadowed && scene.spheres.len() <= shadows::ALL_CENTERS).then(|| {
+            (shadowed && ranked.len() <= shadows::ALL_CENTERS).then(|| {
                 let center = |s| shadows::view_center(camera, s);
-                scene.spheres.iter().map(center).collect()
+                ranked.iter().map(center).collect()
             });
         let lights: Vec<ViewLight> = scene
             .lights
@@ -213,14 +215,14 @@ impl Renderer {
                     color: l.color,
                     shadows: grid.as_ref().map(|g| {
                         let all = centers.clone();
-                        FrameShadows::new(g, camera, &scene.spheres, all, to_light)
+                        FrameShadows::new(g, camera, ranked, all, to_light)
                     }),
                 }
             })
             .collect();
-        let bins = TileBins::build(self.isa, &spheres, &table, raster);
+        let bins = TileBins::build(self.isa, &spheres, index.ranks(), &table, raster);
         TimeSample {
-            scene,
+            ranked,
             table,
             spheres,
             lights,
@@ -245,7 +247,8 @@ pub struct PreparedFrame<'a> {
 
 /// The scene as one camera of a frame sees it, ready for its rays.
 struct TimeSample<'a> {
-    scene: &'a Scene,
+    /// The scene's spheres by rank, which the columns' and shadow grids' indices are.
+    ranked: &'a [Sphere],
     table: Arc<RayTable>,
     spheres: ViewColumns,
     lights: Vec<ViewLight<'a>>,
@@ -308,7 +311,7 @@ impl PreparedFrame<'_> {
             .iter()
             .map(|t| Shading {
                 spheres: &t.spheres,
-                scene: &t.scene.spheres,
+                scene: t.ranked,
                 lights: &t.lights,
                 ambient: self.ambient,
                 background: self.background,
@@ -353,7 +356,7 @@ impl PreparedFrame<'_> {
 mod tests {
     use super::*;
     use crate::camera::Basis;
-    use crate::scene::{Light, Sphere};
+    use crate::scene::Light;
     use glam::DVec2;
 
     /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
@@ -404,6 +407,73 @@ mod tests {
             let fresh = Renderer::new().render_indexed(camera, &index, raster);
             assert!(reused.render_indexed(camera, &index, raster) == fresh);
             assert_eq!(reused.spare.len(), 1);
+        }
+    }
+
+    /// Spheres numbered along the index's curve (its copy, see `SceneIndex`) give the frames
+    /// of spheres numbered as in the scene, on every instruction path, and a ray that meets two
+    /// spheres at the same distance sees the one first in the scene, whichever comes first on
+    /// the curve: two equal spheres mirrored about the view axis meet the middle column's rays
+    /// at the same distance (where they overlap), listed in both orders; and a seeded cluster.
+    #[test]
+    fn spheres_by_rank_render_the_frames_of_the_scenes_order() {
+        let (red, green) = (DVec3::new(0.9, 0.1, 0.1), DVec3::new(0.1, 0.9, 0.1));
+        let twin = |x: f64, color| Sphere {
+            center_world: DVec3::new(x, 0.0, 0.0),
+            radius: 0.8,
+            color,
+        };
+        let mut rng = crate::splitmix::SplitMix(41);
+        let cluster: Vec<Sphere> = (0..400)
+            .map(|_| {
+                let mut v = || rng.unit() * 2.0 - 1.0;
+                Sphere {
+                    center_world: DVec3::new(v() * 3.0, v(), v() * 3.0),
+                    radius: 0.1 + 0.3 * v().abs(),
+                    color: DVec3::new(v().abs(), v().abs(), v().abs()),
+                }
+            })
+            .collect();
+        // Each scene, the colour its middle pixel shows (if a tie decides it), and whether the
+        // curve takes its spheres in another order (the twins left to right).
+        let scenes = [
+            (vec![twin(0.5, red), twin(-0.5, green)], Some(red), true),
+            (vec![twin(-0.5, green), twin(0.5, red)], Some(green), false),
+            (cluster, None, true),
+        ];
+        let camera = Camera {
+            vrp_world: DVec3::new(0.0, 0.0, -5.0),
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.5),
+            window: DVec2::new(1.6, 0.9),
+        };
+        // An odd width: the middle column's rays run in the plane x = 0.
+        let raster = Raster {
+            width: 65,
+            height: 37,
+            samples: 1,
+            adaptive: false,
+        };
+        for (spheres, first, reordered) in scenes {
+            let scene = lit(spheres);
+            let copied = SceneIndex::copying_up_to(&scene, usize::MAX);
+            let in_place = SceneIndex::copying_up_to(&scene, 0);
+            let ranks: Vec<u32> = (0..scene.spheres.len() as u32)
+                .map(|r| copied.ranks().scene_index(r))
+                .collect();
+            assert_eq!(ranks.windows(2).any(|w| w[0] > w[1]), reordered);
+            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                let mut r = Renderer::with_simd(simd).unwrap();
+                let frame = r.render_indexed(&camera, &copied, raster);
+                assert!(frame == r.render_indexed(&camera, &in_place, raster));
+                if let Some(color) = first {
+                    // The middle pixel is the first sphere's: its colour's strongest channel.
+                    let at = (18 * 65 + 32) * 3;
+                    let (pixel, strongest) =
+                        (&frame[at..at + 3], if color.x > 0.5 { 0 } else { 1 });
+                    assert!(pixel[strongest] > pixel[1 - strongest], "{pixel:?}");
+                }
+            }
         }
     }
 

@@ -13,7 +13,7 @@ use super::radix::{index_bits, sort_by_high_bits};
 use super::rays::RayTable;
 use super::simd::Isa;
 pub use super::view::PARALLEL;
-use super::view::{Reach, ViewColumns};
+use super::view::{Ranks, Reach, ViewColumns};
 use crate::raster::Raster;
 
 /// Tile side in pixels.
@@ -329,12 +329,12 @@ fn total_key(x: f64) -> u64 {
 
 /// The spheres in view (indices of the columns) in the order every tile searches them: nearest
 /// possible hit first (`min_dist`, ordered as `total_cmp` orders the f64), ties by the spheres'
-/// scene indices, so the order is total, deterministic and the same whatever order the columns
-/// hold the spheres in. One radix sort of 8 bytes a sphere ([`sort_by_high_bits`]): the key's
+/// scene indices (from their ranks, the columns' `id`, by `ranks`), so the order is total,
+/// deterministic and the same whatever order the columns, or the index, hold the spheres in. One radix sort of 8 bytes a sphere ([`sort_by_high_bits`]): the key's
 /// high bits above the column index's; then each run of equal high bits (rare: at a million
 /// spheres their distances agree to 32 bits of the fraction) by the whole key and the scene
 /// index.
-fn search_order(spheres: &ViewColumns) -> Vec<u32> {
+fn search_order(spheres: &ViewColumns, ranks: Ranks) -> Vec<u32> {
     let n = spheres.len();
     let key = |k: u32| total_key(spheres.min_dist[k as usize]);
     let low = index_bits(n);
@@ -352,7 +352,9 @@ fn search_order(spheres: &ViewColumns) -> Vec<u32> {
     for run in keyed.chunk_by(|a, b| a >> low == b >> low) {
         if run.len() > 1 {
             let run = &mut order[at..at + run.len()];
-            run.sort_unstable_by_key(|&k| (key(k), spheres.id[k as usize]));
+            run.sort_unstable_by_key(|&k| {
+                (key(k), ranks.scene_index(spheres.id[k as usize] as u32))
+            });
         }
         at += run.len();
     }
@@ -406,7 +408,15 @@ pub struct TileBins {
 }
 
 impl TileBins {
-    pub fn build(isa: Isa, spheres: &ViewColumns, table: &RayTable, raster: Raster) -> TileBins {
+    /// The tiles' lists of `spheres`, whose ranks `ranks` takes back to scene indices for the
+    /// ties.
+    pub fn build(
+        isa: Isa,
+        spheres: &ViewColumns,
+        ranks: Ranks,
+        table: &RayTable,
+        raster: Raster,
+    ) -> TileBins {
         let (cop, window) = (table.cop_view, table.window);
         let tiles_x = (raster.width as usize).div_ceil(TILE);
         let tiles_y = (raster.height as usize).div_ceil(TILE);
@@ -418,7 +428,7 @@ impl TileBins {
         // before the rectangles are written); then each sphere's pixel rectangle, eight at a
         // time, and the spheres without bounds.
         let n = spheres.len();
-        let order = search_order(spheres);
+        let order = search_order(spheres, ranks);
         let mut rects = vec![[0u16; 4]; n];
         let prints = |first: usize, rects: &mut [[u16; 4]]| {
             let mut unbounded = Vec::new();
@@ -467,7 +477,7 @@ impl TileBins {
             Bins::build_in_order(dims, order.iter().map(|&k| k as usize), |k| cells(rects[k]))
         };
         drop(order);
-        let id = |k: u32| spheres.id[k as usize] as u32;
+        let id = |k: u32| ranks.scene_index(spheres.id[k as usize] as u32);
         let key = |k: u32| (spheres.min_dist[k as usize], id(k));
         let before = |a: (f64, u32), b: (f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         if !wide.is_empty() {
@@ -563,19 +573,26 @@ mod tests {
                 columns.min_dist[k] = v;
                 columns.id[k] = (k as u64 * 7919) % n as u64;
             }
-            let mut want: Vec<u32> = (0..n as u32).collect();
-            want.sort_by(|&a, &b| {
-                let (a, b) = (a as usize, b as usize);
-                let d = columns.min_dist[a].total_cmp(&columns.min_dist[b]);
-                d.then(columns.id[a].cmp(&columns.id[b]))
-            });
-            for threads in 1..=3 {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
-                let got = pool.install(|| search_order(&columns));
-                assert!(got == want, "{n} spheres, {threads} threads");
+            // The ids as scene indices, and as ranks of another order of the scene.
+            let other: Vec<u32> = (0..n as u64)
+                .map(|r| ((r * 7919 + 3) % n as u64) as u32)
+                .collect();
+            for ranks in [Ranks::SCENE, Ranks(Some(&other))] {
+                let scene = |k: usize| ranks.scene_index(columns.id[k] as u32);
+                let mut want: Vec<u32> = (0..n as u32).collect();
+                want.sort_by(|&a, &b| {
+                    let (a, b) = (a as usize, b as usize);
+                    let d = columns.min_dist[a].total_cmp(&columns.min_dist[b]);
+                    d.then(scene(a).cmp(&scene(b)))
+                });
+                for threads in 1..=3 {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let got = pool.install(|| search_order(&columns, ranks));
+                    assert!(got == want, "{n} spheres, {threads} threads, {ranks:?}");
+                }
             }
         }
     }
@@ -721,7 +738,7 @@ mod tests {
                 .map(|&k| ViewSphere::new(&camera, &spheres[k as usize], k))
                 .collect();
             let columns = ViewColumns::new(&view);
-            let bins = TileBins::build(Isa::Portable, &columns, &table, raster);
+            let bins = TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
             let mut lists = Vec::new();
             for j in (0..90).step_by(TILE) {
                 for i in (0..160).step_by(TILE) {
@@ -830,7 +847,8 @@ mod tests {
                         adaptive: false,
                     };
                     let table = RayTable::new(cop, camera.window, raster);
-                    let bins = TileBins::build(Isa::Portable, &columns, &table, raster);
+                    let bins =
+                        TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
                     let wide = Wide::new(ground, &view[ground as usize].reach(), &table, raster);
                     let g = &view[ground as usize];
                     // Per tile, the ground's bound and its nearest hit by a sample.
@@ -956,7 +974,8 @@ mod tests {
                         Footprint::Everywhere
                     );
                     let columns = ViewColumns::new(&view);
-                    let bins = TileBins::build(Isa::Portable, &columns, &table, raster);
+                    let bins =
+                        TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
                     let shading = unlit(&columns);
                     let t = root(f, sphere.c, sphere.radius * sphere.radius, d);
                     assert!(t.is_some(), "the ray meets the sphere");

@@ -19,7 +19,7 @@ pub(super) struct ViewSphere {
     pub(super) c: f64,
     /// |f| − r: no primary ray meets the sphere nearer than this.
     pub(super) min_dist: f64,
-    /// The sphere's index in the scene.
+    /// The sphere's rank (see [`Ranks`]).
     pub(super) id: u32,
 }
 
@@ -86,7 +86,7 @@ pub(super) struct ViewColumns {
     /// The centre, moved into view coordinates: what the shading's hit points are made from
     /// (moving it again for each packet it shades would cost fly1000 a tenth of its time).
     pub(super) center: [Vec<f64>; 3],
-    /// The spheres' indices in the scene.
+    /// The spheres' ranks (see [`Ranks`]).
     pub(super) id: Vec<u64>,
 }
 
@@ -238,6 +238,26 @@ impl ViewColumns {
     #[inline(always)]
     pub(super) fn f_at(&self, k: usize) -> DVec3 {
         DVec3::new(self.f[0][k], self.f[1][k], self.f[2][k])
+    }
+}
+
+/// The way from a sphere's rank (the columns' `id`) back to its scene index: the renderer
+/// numbers the spheres as its `SceneIndex` holds them, which may be another order than the
+/// scene's.
+#[derive(Debug, Clone, Copy)]
+pub struct Ranks<'a>(pub(super) Option<&'a [u32]>);
+
+impl Ranks<'_> {
+    /// Ranks that are scene indices.
+    pub const SCENE: Ranks<'static> = Ranks(None);
+
+    /// The scene index of the sphere of `rank`.
+    #[inline]
+    pub fn scene_index(self, rank: u32) -> u32 {
+        match self.0 {
+            Some(index) => index[rank as usize],
+            None => rank,
+        }
     }
 }
 
