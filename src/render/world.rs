@@ -9,7 +9,8 @@
 
 use glam::{DVec2, DVec3};
 
-use super::shadows::ShadowGrid;
+use super::radix::{index_bits, sort_by_high_bits};
+use super::shadows::{big_radius, ShadowGrid};
 use super::view::{prefetch, Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::scene::{Scene, Sphere};
@@ -204,7 +205,7 @@ fn f32_up(x: f64) -> f32 {
     }
 }
 
-/// Bits per axis of a Morton code.
+/// The most bits per axis of a Morton code.
 const MORTON_BITS: u32 = 21;
 
 /// `v` (below 2²¹) with two zero bits after each of its bits.
@@ -221,41 +222,53 @@ fn spread3(v: u64) -> u64 {
 /// The spheres' indices sorted along a Morton curve of their centres (ties by index): the
 /// hierarchy's order. Sorting once costs O(N log N) with sequential reads, where a median
 /// split per node read every sphere again at random; the tree only culls, so the curve's
-/// splits do as well as the widest axis's.
+/// splits do as well as the widest axis's. Each key is the code above the index, 8 bytes,
+/// sorted by the radix sort: the code gets the bits the index leaves (15 a side up to 2¹⁸
+/// spheres, 14 up to 2²¹). The curve spans the centres of the spheres that are not big for
+/// the scene (as the shadow grids tell them); a big one (a ground sphere, whose centre lies
+/// far below the rest) is clamped onto its faces, so that it does not squeeze the others into
+/// a few cells. The curve only orders: any order culls to the same spheres.
 fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
     use rayon::prelude::*;
-    if spheres.is_empty() {
-        return Vec::new();
-    }
+    let n = spheres.len();
+    let low = index_bits(n);
+    let bits = ((u64::BITS - low) / 3).min(MORTON_BITS);
+    let (big, _) = big_radius(spheres);
+    let none = || (DVec3::INFINITY, DVec3::NEG_INFINITY);
     let (clo, chi) = spheres
         .par_iter()
-        .fold(
-            || (DVec3::INFINITY, DVec3::NEG_INFINITY),
-            |(lo, hi), s| (lo.min(s.center_world), hi.max(s.center_world)),
-        )
-        .reduce(
-            || (DVec3::INFINITY, DVec3::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    let cells = (1u64 << MORTON_BITS) as f64;
+        .with_min_len(CHUNK)
+        .filter(|s| s.radius <= big)
+        .fold(none, |(lo, hi), s| {
+            (lo.min(s.center_world), hi.max(s.center_world))
+        })
+        .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    let last = ((1u64 << bits) - 1) as f64;
     let scale = (chi - clo).max_element();
-    let inv = if scale > 0.0 {
-        (cells - 1.0) / scale
-    } else {
-        0.0
-    };
-    let mut keys: Vec<(u64, u32)> = spheres
+    let inv = if scale > 0.0 { last / scale } else { 0.0 };
+    let keys: Vec<u64> = spheres
         .par_iter()
+        .with_min_len(CHUNK)
         .enumerate()
         .map(|(k, s)| {
-            let q = ((s.center_world - clo) * inv).to_array().map(|v| v as u64);
+            // Clamped as floats (a big sphere's, and NaN from an empty box, to the edge).
+            let q = ((s.center_world - clo) * inv)
+                .to_array()
+                .map(|v| v.max(0.0).min(last) as u64);
             let code = spread3(q[0]) << 2 | spread3(q[1]) << 1 | spread3(q[2]);
-            (code, k as u32)
+            code << low | k as u64
         })
         .collect();
-    keys.par_sort_unstable();
-    keys.iter().map(|k| k.1).collect()
+    let mask = (1u64 << low) - 1;
+    sort_by_high_bits(keys, low)
+        .par_iter()
+        .with_min_len(CHUNK)
+        .map(|&key| (key & mask) as u32)
+        .collect()
 }
+
+/// Spheres a task of the curve's keys takes on the pool.
+const CHUNK: usize = 1 << 14;
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
 /// split at the median position, level after level.
@@ -568,6 +581,47 @@ mod tests {
             }
         }
         assert!(inside > 100, "{inside} nodes wholly inside");
+    }
+
+    /// The curve's order is the sort by Morton code (bits interleaved one at a time here),
+    /// ties by index, of the centres quantised over the box of the spheres that are not big,
+    /// a big one clamped onto its faces: with the scene's ground sphere (centre 10⁵ below, in
+    /// its middle), spheres sharing cells, and sizes whose index takes 10 to 18 bits (code
+    /// bits 18 to 15 a side).
+    #[test]
+    fn the_curve_orders_by_code_over_the_box_of_the_spheres_not_big() {
+        for n in [1, 2, 3, 1000, 20_000, (1 << 18) - 5] {
+            let mut scene = scene(n);
+            // Pairs of spheres in one cell, or at one centre.
+            for k in (0..n).step_by(7).skip(1) {
+                scene.spheres[k].center_world = scene.spheres[k - 1].center_world;
+            }
+            let spheres = &scene.spheres;
+            let bits = ((64 - index_bits(n)) / 3).min(MORTON_BITS);
+            let big = big_radius(spheres).0;
+            let inner = || spheres.iter().filter(|s| s.radius <= big);
+            let lo = inner().fold(DVec3::INFINITY, |lo, s| lo.min(s.center_world));
+            let hi = inner().fold(DVec3::NEG_INFINITY, |hi, s| hi.max(s.center_world));
+            let last = ((1u64 << bits) - 1) as f64;
+            let scale = (hi - lo).max_element();
+            let code = |s: &Sphere| {
+                let q = ((s.center_world - lo) * (last / scale).min(f64::MAX))
+                    .to_array()
+                    .map(|v| {
+                        if v.is_nan() {
+                            0
+                        } else {
+                            v.clamp(0.0, last) as u64
+                        }
+                    });
+                (0..bits).rev().fold(0u64, |code, b| {
+                    (0..3).fold(code, |code, a| code << 1 | (q[a] >> b & 1))
+                })
+            };
+            let mut want: Vec<u32> = (0..n as u32).collect();
+            want.sort_by_key(|&k| (code(&spheres[k as usize]), k));
+            assert!(curve_order(spheres) == want, "{n} spheres");
+        }
     }
 
     #[test]

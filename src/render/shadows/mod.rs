@@ -283,7 +283,7 @@ pub(super) type Hints = [u32; HINTED_LIGHTS];
 /// the median radius, of every sphere up to [`MEDIAN_SAMPLE`] of them, else of that many evenly
 /// spaced in the scene's order (both only size the grid: every sphere is tested or binned
 /// whatever they are, so the answers do not depend on them).
-fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
+pub(super) fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
     let step = spheres.len().div_ceil(MEDIAN_SAMPLE).max(1);
     let mut radii: Vec<f64> = spheres.iter().step_by(step).map(|s| s.radius).collect();
     if radii.is_empty() {
