@@ -14,8 +14,9 @@
 //! - a number is what RON takes for one: the longest run of digits, `.`, `e`, `E`, `+` and `-`
 //!   (without `_`, `..` or a suffix such as `f64` after it), converted to the value
 //!   `f64::from_str` gives, as RON converts it. The conversion is `fast_float2`'s (Lemire's
-//!   algorithm, in less time): a correctly rounded conversion has one answer, and the tests
-//!   check that it takes and refuses what `f64::from_str` does, over every short run.
+//!   algorithm, finding the run's end as it reads): a correctly rounded conversion has one
+//!   answer, and the tests check the reader against RON's way with `f64::from_str`, over
+//!   every short run.
 
 use super::{SphereSpec, Triple};
 
@@ -141,32 +142,36 @@ impl<'a> Reader<'a> {
         Some((v[0], v[1], v[2]))
     }
 
-    /// A number as RON reads one for an `f64` (see the module's notes).
+    /// A number as RON reads one for an `f64` (see the module's notes), in one pass: the
+    /// conversion reads the longest number it can, which is RON's run when the byte after it
+    /// cannot continue the run (nor be a `_` or a suffix's `f`); otherwise the piece goes to
+    /// RON. A sign must be followed by a digit or a `.`: RON reads `inf` and `NaN` as words,
+    /// which the conversion would take.
     fn number(&mut self) -> Option<f64> {
-        let bytes = self.text.as_bytes();
-        let start = self.at;
-        // The run, and whether it holds `..`, in one pass.
-        let mut dots = false;
-        while let Some(&c) = bytes.get(self.at) {
-            if !(c.is_ascii_digit() || matches!(c, b'.' | b'e' | b'E' | b'+' | b'-')) {
-                break;
-            }
-            dots |= c == b'.' && self.at > start && bytes[self.at - 1] == b'.';
-            self.at += 1;
-        }
-        let token = &bytes[start..self.at];
-        if token.is_empty() || dots || matches!(self.peek(), Some(b'_' | b'f')) {
+        let rest = &self.text.as_bytes()[self.at..];
+        let unsigned = match rest.first()? {
+            b'+' | b'-' => &rest[1..],
+            _ => rest,
+        };
+        if !matches!(unsigned.first()?, b'0'..=b'9' | b'.') {
             return None;
         }
-        convert(token)
+        let (value, len) = fast_float2::parse_partial::<f64, _>(rest).ok()?;
+        if rest
+            .get(len)
+            .is_some_and(|&c| in_run(c) || matches!(c, b'_' | b'f'))
+        {
+            return None;
+        }
+        self.at += len;
+        Some(value)
     }
 }
 
-/// A run of digits, `.`, `e`, `E`, `+` and `-` as the `f64` that `f64::from_str` gives for it,
-/// None where `f64::from_str` refuses it (see the module's notes).
-#[inline]
-fn convert(token: &[u8]) -> Option<f64> {
-    fast_float2::parse(token).ok()
+/// Whether `c` continues the run of a number as RON reads it: a digit, `.`, `e`, `E`, `+` or
+/// `-`.
+fn in_run(c: u8) -> bool {
+    c.is_ascii_digit() || matches!(c, b'.' | b'e' | b'E' | b'+' | b'-')
 }
 
 #[cfg(test)]
@@ -209,31 +214,64 @@ mod tests {
         }
     }
 
-    /// The conversion takes and refuses what `f64::from_str` (RON's) does, to the same bits:
-    /// every run of up to six of `0 1 5 9 . e E + -` (600,000), and long digit strings,
-    /// halfway cases and the ends of the range.
+    /// A number as RON reads it, the way RON finds it: the longest run of its characters,
+    /// refused with `..` in it or a `_` or `f` after it, else converted by `f64::from_str`.
+    fn std_number(text: &str) -> Option<(f64, usize)> {
+        let len = text.bytes().take_while(|&c| in_run(c)).count();
+        let token = &text[..len];
+        let after = text.as_bytes().get(len);
+        if token.contains("..") || matches!(after, Some(b'_' | b'f')) {
+            return None;
+        }
+        Some((token.parse().ok()?, len))
+    }
+
+    /// The reader reads a number where RON's way with `f64::from_str` does, to the bit and
+    /// to the byte, and leaves it to RON where that refuses it: every run of up to five of
+    /// `0 1 5 9 . e E + -` before a comma, a `_`, an `f` and the end, and of six before a
+    /// comma (800,000); words RON reads (`inf`, `NaN`); long digit strings, halfway cases and
+    /// the ends of the range.
     #[test]
-    fn the_conversion_is_f64_from_str() {
+    fn numbers_are_read_as_f64_from_str_reads_them() {
         let alphabet = b"0159.eE+-";
-        let same = |token: &[u8]| {
-            let text = std::str::from_utf8(token).unwrap();
-            let std = text.parse::<f64>().ok().map(f64::to_bits);
-            assert_eq!(convert(token).map(f64::to_bits), std, "{text:?}");
+        let check = |text: &str| {
+            let mut r = Reader { text, at: 0 };
+            let quick = r.number().map(|v| (v.to_bits(), r.at));
+            let std = std_number(text).map(|(v, len)| (v.to_bits(), len));
+            assert_eq!(quick, std, "{text:?}");
         };
-        let mut token = Vec::with_capacity(6);
+        let mut token = String::with_capacity(8);
         for len in 1..=6u32 {
-            for mut n in 0..alphabet.len().pow(len) {
+            let ends: &[&str] = if len < 6 {
+                &[",", "_", "f", ""]
+            } else {
+                &[","]
+            };
+            for n in 0..alphabet.len().pow(len) {
                 token.clear();
+                let mut n = n;
                 for _ in 0..len {
-                    token.push(alphabet[n % alphabet.len()]);
+                    token.push(alphabet[n % alphabet.len()] as char);
                     n /= alphabet.len();
                 }
-                same(&token);
+                for end in ends {
+                    check(&format!("{token}{end}"));
+                }
             }
         }
-        let long = [
-            "0.49649129942854364",
-            "-8.080007050571997",
+        for text in [
+            "inf,",
+            "-inf,",
+            "+NaN,",
+            "NaN",
+            "infinity",
+            "-Infinity,",
+            "+",
+            "-",
+            ".",
+            "-.,",
+            "0.49649129942854364,",
+            "-8.080007050571997)",
             "2.2250738585072011e-308",
             "2.2250738585072014e-308",
             "4.9406564584124654e-324",
@@ -253,9 +291,8 @@ mod tests {
             "+.5e+1",
             "-5.e-1",
             "00000000000000000000000000000000000000001.5",
-        ];
-        for text in long {
-            same(text.as_bytes());
+        ] {
+            check(text);
         }
     }
 
