@@ -152,9 +152,12 @@ impl ShadowGrid {
     }
 
     /// The cells a disc of `radius` about projected point `c` overlaps, clamped to the grid.
+    /// A grid coordinate clamped to [0, last] and then cut to an integer is the clamped floor
+    /// of it (NaN gives 0 either way), without a call to `floor` (the libm crate's, in
+    /// software, through glam).
     fn cell_range(&self, c: DVec2, radius: f64) -> CellRect {
-        let a = ((c - radius - self.origin) * self.inv_cell).floor();
-        let b = ((c + radius - self.origin) * self.inv_cell).floor();
+        let a = (c - radius - self.origin) * self.inv_cell;
+        let b = (c + radius - self.origin) * self.inv_cell;
         let clampx = |v: f64| v.max(0.0).min(self.dims.0 as f64 - 1.0) as usize;
         let clampy = |v: f64| v.max(0.0).min(self.dims.1 as f64 - 1.0) as usize;
         (clampx(a.x), clampx(b.x), clampy(a.y), clampy(b.y))
@@ -415,6 +418,49 @@ pub(super) mod tests {
 
     /// Every top is the least f32 not below the f64 one, over values of every magnitude and
     /// sign, those f32 holds exactly, and those beyond its range.
+    /// A disc's cells are the clamped floors of its edges' grid coordinates (`f64::floor`),
+    /// over edges inside, on and beside cell boundaries, off either side, huge and not a
+    /// number.
+    #[test]
+    fn a_discs_cells_are_the_clamped_floors_of_its_edges() {
+        let spheres: Vec<Sphere> = (0..50)
+            .map(|k| Sphere {
+                center_world: DVec3::new(k as f64 * 0.37, (k % 7) as f64, (k % 5) as f64 * 0.5),
+                radius: 0.2,
+                color: DVec3::ONE,
+            })
+            .collect();
+        let grid = ShadowGrid::build(&spheres, DVec3::new(0.2, 1.0, -0.1).normalize());
+        let (w, h) = grid.dims;
+        assert!(w > 4 && h > 4, "{:?}", grid.dims);
+        let cell = 1.0 / grid.inv_cell;
+        let floor = |v: f64, n: usize| v.floor().max(0.0).min(n as f64 - 1.0) as usize;
+        let mut rng = crate::splitmix::SplitMix(0xce11);
+        for k in 0..20_000 {
+            let mut at = |n: usize| {
+                let u = rng.unit() * 1.4 - 0.2;
+                let v = (u * n as f64).round() * cell;
+                // On a boundary, an ulp either side of one, or anywhere.
+                match k % 4 {
+                    0 => v,
+                    1 => v.next_up(),
+                    2 => v.next_down(),
+                    _ => u * n as f64 * cell,
+                }
+            };
+            let c = grid.origin + DVec2::new(at(w), at(h));
+            let r = [0.0, 1e-12, 0.3 * cell, 2.5 * cell, 1e300][k % 5];
+            let (a, b) = (
+                (c - r - grid.origin) * grid.inv_cell,
+                (c + r - grid.origin) * grid.inv_cell,
+            );
+            let want = (floor(a.x, w), floor(b.x, w), floor(a.y, h), floor(b.y, h));
+            assert_eq!(grid.cell_range(c, r), want, "{c} {r}");
+        }
+        let nan = DVec2::new(f64::NAN, 1.0);
+        assert_eq!(grid.cell_range(nan, 0.1).0, 0);
+    }
+
     #[test]
     fn tops_round_up_to_the_next_f32() {
         let mut gen = SplitMix(3);
