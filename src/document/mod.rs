@@ -239,11 +239,11 @@ impl Checker {
         }
     }
 
-    fn document(&mut self, path: &Path, spec: FileSpec) -> Option<Document> {
+    fn document(&mut self, path: &Path, mut spec: FileSpec) -> Option<Document> {
         let raster = self.raster(&spec.image);
         let motion_blur = self.motion_blur(&spec.image);
         let folder = path.parent().unwrap_or(Path::new(""));
-        let (scene, sphere_files) = self.scene(&spec.scene, folder);
+        let (scene, sphere_files) = self.scene(&mut spec.scene, folder);
         let animation = self.animation(&spec, raster.as_ref());
         let doc = Document {
             path: path.to_path_buf(),

@@ -1,11 +1,12 @@
 //! The file's `scene` section: background, ambient term, lights and spheres.
 //!
-//! Spheres are checked on the rayon pool as they are read, straight into the scene's vector
-//! (a sphere file's are never held as [`SphereSpec`]s first); a sphere that fails is noted, and
-//! its problems are named afterwards, in file order, as the checker names any field's.
+//! A sphere file's spheres are checked on the rayon pool as they are read, straight into the
+//! scene's vector (never held as [`SphereSpec`]s first); the inline ones are checked in place,
+//! each [`SphereSpec`] turned into its [`Sphere`] in the memory it held. A sphere that fails is
+//! noted, and its problems are named afterwards, in file order, as the checker names any
+//! field's.
 
 use glam::DVec3;
-use rayon::prelude::*;
 use std::fmt;
 use std::path::Path;
 use std::sync::{Mutex, PoisonError};
@@ -15,15 +16,12 @@ use crate::format::sphere_files::{self, Listing};
 use crate::format::{self, LightSpec, SphereSpec};
 use crate::scene::{Light, Scene, Sphere};
 
-/// The fewest inline spheres a pool task checks.
-const TASK_SPHERES: usize = 4096;
-
 impl Checker {
     /// The scene, and the sphere files it names (read relative to `folder`) with how many
     /// spheres each gave.
     pub(super) fn scene(
         &mut self,
-        spec: &format::SceneSpec,
+        spec: &mut format::SceneSpec,
         folder: &Path,
     ) -> (Option<Scene>, Vec<SphereFile>) {
         let background = match spec.background {
@@ -34,16 +32,13 @@ impl Checker {
         let lights: Vec<Light> = (spec.lights.iter().enumerate())
             .filter_map(|(i, l)| self.light(&format!("scene.lights[{i}]"), l))
             .collect();
-        let mut spheres = Vec::with_capacity(spec.spheres.len());
+        // The inline spheres checked in place, in the memory their specs held (a `Sphere` is no
+        // larger): no second list of fresh pages, no first one to hand back.
         let refused = Refused::default();
-        spheres.par_extend(
-            (spec
-                .spheres
-                .par_iter()
-                .with_min_len(TASK_SPHERES)
-                .enumerate())
-            .map(|(i, s)| refused.check(i, s)),
-        );
+        let inline = std::mem::take(&mut spec.spheres);
+        let mut spheres: Vec<Sphere> = (inline.into_iter().enumerate())
+            .map(|(i, s)| refused.check(i, &s))
+            .collect();
         refused.name(self, Origin::Inline, &mut spheres);
         let mut files = Vec::with_capacity(spec.sphere_files.len());
         for (k, name) in spec.sphere_files.iter().enumerate() {
