@@ -330,10 +330,10 @@ fn total_key(x: f64) -> u64 {
 /// The spheres in view (indices of the columns) in the order every tile searches them: nearest
 /// possible hit first (`min_dist`, ordered as `total_cmp` orders the f64), ties by the spheres'
 /// scene indices (from their ranks, the columns' `id`, by `ranks`), so the order is total,
-/// deterministic and the same whatever order the columns, or the index, hold the spheres in. One radix sort of 8 bytes a sphere ([`sort_by_high_bits`]): the key's
-/// high bits above the column index's; then each run of equal high bits (rare: at a million
-/// spheres their distances agree to 32 bits of the fraction) by the whole key and the scene
-/// index.
+/// deterministic and the same whatever order the columns, or the index, hold the spheres in.
+/// One radix sort of 8 bytes a sphere ([`sort_by_high_bits`]): the key's high bits above the
+/// column index's; then each run of equal high bits (rare: at a million spheres their
+/// distances agree to 32 bits of the fraction) by the whole key and the scene index.
 fn search_order(spheres: &ViewColumns, ranks: Ranks) -> Vec<u32> {
     let n = spheres.len();
     let key = |k: u32| total_key(spheres.min_dist[k as usize]);

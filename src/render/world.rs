@@ -44,9 +44,9 @@ impl Node {
 /// The renderer numbers the spheres by their *rank*. In a scene of at most [`CURVE_COPY_MAX`]
 /// spheres, the index holds a copy of them along the hierarchy's Morton curve, and a rank is a
 /// place on it: a frame's reads of the spheres (into view coordinates, for shadow rays, for
-/// colours) then fall near each other in memory, not all over the scene (dense100000 ran in
-/// 0.93× the time with its spheres written in that order). In a larger scene the copy would
-/// cost too much memory, and a rank is the scene index. Where the scene's order decides (which
+/// colours) then fall near each other in memory, not all over the scene (dense100000 in
+/// 0.96× the time). In a larger scene the copy would cost too much memory, and a rank is the
+/// scene index. Where the scene's order decides (which
 /// of two equally near spheres a ray sees), [`Ranks::scene_index`] gives it back.
 pub struct SceneIndex<'a> {
     /// The scene indexed.
@@ -92,7 +92,7 @@ impl<'a> SceneIndex<'a> {
             let scene_index = curve_order(&scene.spheres);
             let copy: Vec<Sphere> = scene_index
                 .par_iter()
-                .with_min_len(1 << 14)
+                .with_min_len(CHUNK)
                 .map(|&k| scene.spheres[k as usize])
                 .collect();
             let order: Vec<u32> = (0..copy.len() as u32).collect();
@@ -267,7 +267,7 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
         .collect()
 }
 
-/// Spheres a task of the curve's keys takes on the pool.
+/// Spheres a task of the curve's keys, or of the copy along it, takes on the pool.
 const CHUNK: usize = 1 << 14;
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
