@@ -3,6 +3,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::lanes::prefetch;
 use super::shadows::FrameShadows;
 use crate::camera::Camera;
 use crate::scene::Sphere;
@@ -264,20 +265,6 @@ impl Ranks<'_> {
 /// How far ahead [`ViewColumns::of`] (and the hierarchy's leaves) ask for the spheres they
 /// will read.
 pub(super) const PREFETCH_AHEAD: usize = 16;
-
-/// Asks the CPU to bring `x` into the caches: a hint, which changes no value.
-#[inline(always)]
-pub(super) fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch only hints at an address (here a valid reference) and never faults;
-    // it needs SSE, which every x86-64 CPU has.
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
-}
 
 /// One chunk of each column, in [`ViewColumns`]'s order of fields (the centre after the
 /// radius), for [`ViewColumns::of`] to fill.

@@ -9,9 +9,10 @@
 
 use glam::{DVec2, DVec3};
 
+use super::lanes::prefetch;
 use super::radix::{index_bits, sort_by_high_bits};
 use super::shadows::{big_radius, ShadowGrid};
-use super::view::{prefetch, Ranks, PREFETCH_AHEAD};
+use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::scene::{Scene, Sphere};
 

@@ -45,3 +45,17 @@ pub(super) use avx2::{Avx2, Ymm2};
 mod avx512;
 #[cfg(target_arch = "x86_64")]
 pub(super) use avx512::{Avx512, Zmm};
+
+/// Asks the CPU to bring `x` into the caches: a hint, which changes no value.
+#[inline(always)]
+pub(in crate::render) fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch only hints at an address (here a valid reference) and never faults;
+    // it needs SSE, which every x86-64 CPU has.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 use super::bins::{Bins, CellRect};
+use super::lanes::prefetch;
 use super::radix::sort_by_high_bits;
 
 use crate::camera::Camera;
@@ -263,6 +264,17 @@ impl<'a> FrameShadows<'a> {
             None => view_center(&self.camera, &self.spheres[k as usize]),
         };
         (k, c, r2)
+    }
+
+    /// Asks for sphere k's top and, as [`FrameShadows::blocker`] reads them, its centre and
+    /// radius: a hint ahead of its test, which changes no value.
+    #[inline(always)]
+    fn prefetch_blocker(&self, k: u32) {
+        prefetch(&self.grid.tops[k as usize]);
+        match &self.centers {
+            Some(all) => prefetch(&all[k as usize]),
+            None => prefetch(&self.spheres[k as usize]),
+        }
     }
 
     /// The binned spheres of grid cell (x, y).
