@@ -142,7 +142,8 @@ impl Bins {
     /// [`Bins::build_in_order`] on the rayon pool, `chunk` items of `order` a task: each task
     /// counts its items' cells, and fills its own slots of every cell (after the slots of the
     /// tasks before it), so the bins are those built on one thread. For many items over a
-    /// small grid (a frame's screen tiles). `rect_at(i)` is the rectangle of item `order[i]`
+    /// small grid (a frame's screen tiles, a dense scene's shadow grid): each task's counts
+    /// are a grid's worth of u32. `rect_at(i)` is the rectangle of item `order[i]`
     /// (by position, read in sequence), called twice per item, so it must be pure.
     pub fn build_in_chunks(
         dims: (usize, usize),
@@ -184,8 +185,14 @@ impl Bins {
             }
         }
         offsets.push(total);
-        // Every slot is written by exactly one task: relaxed stores, read after the join.
-        let items: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+        // Every slot is written by exactly one task: relaxed stores, read after the join. The
+        // zeros are written on the pool, so that every core faults in its share of the fresh
+        // pages (16 MB for the PLY million's shadow grid: 10.7 -> 4.8 ms).
+        let items: Vec<AtomicU32> = (0..total)
+            .into_par_iter()
+            .with_min_len(ZEROS_A_TASK)
+            .map(|_| AtomicU32::new(0))
+            .collect();
         starts
             .into_par_iter()
             .enumerate()
@@ -258,6 +265,9 @@ impl Bins {
         &self.items[self.offsets[k] as usize..self.offsets[k + 1] as usize]
     }
 }
+
+/// The least slots a task of [`Bins::build_in_chunks`] zeroes.
+const ZEROS_A_TASK: usize = 1 << 16;
 
 #[cfg(test)]
 mod tests {

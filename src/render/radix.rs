@@ -64,7 +64,12 @@ pub fn sort_by_high_bits(keys: Vec<u64>, low: u32) -> Vec<u64> {
             }
         }
         if to.is_empty() {
-            to = (0..n).map(|_| AtomicU64::new(0)).collect();
+            // Zeroed on the pool: every core faults in its share of the fresh pages.
+            to = (0..n)
+                .into_par_iter()
+                .with_min_len(PARALLEL)
+                .map(|_| AtomicU64::new(0))
+                .collect();
         }
         // Every slot is written by exactly one chunk: relaxed stores, read after the join.
         from.par_chunks(chunk)
