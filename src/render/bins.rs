@@ -21,7 +21,9 @@ impl Bins {
 
     /// [`Bins::build_in_order`] on the rayon pool, in bands of rows: each band reads every
     /// item's rectangle and writes only its own rows' cells, so the bins are those built on one
-    /// thread. For large grids (a shadow grid of a million spheres). `rect_at(i)` is the
+    /// thread. For grids of many more cells than items (a shadow grid of small discs far
+    /// apart), where a task's counts of [`Bins::build_in_chunks`] would outweigh the items.
+    /// `rect_at(i)` is the
     /// rectangle of item `order[i]` (by position, so that the bands read the rectangles in
     /// sequence, not at random).
     pub fn build_in_bands(

@@ -1,7 +1,8 @@
 //! Eight f64 lanes and 8-bit lane masks (lane l is bit l), in three forms: one AVX-512
 //! register, two AVX2 registers, and plain arrays for every other target (the compiler
 //! vectorises them for SSE2). The packet code (`kernels.rs`, `drivers.rs`, `shadows/`, `srgb.rs`)
-//! is written once against [`Lanes`]. A leaf: it imports nothing of the renderer.
+//! is written once against [`Lanes`]. A leaf: it imports nothing of the renderer. It also
+//! holds [`prefetch`], the renderer's one cache hint.
 //!
 //! Every operation is the IEEE operation Rust's scalar code does, correctly rounded at any width:
 //! no fused multiply-add, no approximate reciprocal or square root. Comparisons are ordered

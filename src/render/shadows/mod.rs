@@ -149,11 +149,11 @@ impl ShadowGrid {
             let field = |shift: u32| (sorted[i] >> shift) as u16 as usize;
             Some((field(48), field(32), field(16), field(0)))
         };
-        // A quarter of the discs a task, each task counting its own over the whole grid, when
-        // the tasks' counts (a grid's worth of u32 each) take no more room than the discs: each
-        // disc is read twice, not twice per band of rows (dense100000's grid 2.7 -> 1.8 ms, the
-        // PLY million's 38 -> 30 ms). A grid of many more cells than discs (small discs far
-        // apart) in bands.
+        // A quarter of the discs a task (at least CHUNK), each task counting its own over the
+        // whole grid, when the tasks' counts (a grid's worth of u32 each) take no more room
+        // than the discs: each disc is read twice, not twice per band of rows (on 2 cores,
+        // dense100000's grid 2.7 -> 1.8 ms, the PLY million's 38 -> 30 ms). A grid of many
+        // more cells than discs (small discs far apart) in bands.
         let chunk = count.div_ceil(4).max(CHUNK);
         let bins = if dims.0 * dims.1 * count.div_ceil(chunk) <= count {
             Bins::build_in_chunks(dims, &order, chunk, rect_at)
