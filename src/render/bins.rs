@@ -23,9 +23,8 @@ impl Bins {
     /// item's rectangle and writes only its own rows' cells, so the bins are those built on one
     /// thread. For grids of many more cells than items (a shadow grid of small discs far
     /// apart), where a task's counts of [`Bins::build_in_chunks`] would outweigh the items.
-    /// `rect_at(i)` is the
-    /// rectangle of item `order[i]` (by position, so that the bands read the rectangles in
-    /// sequence, not at random).
+    /// `rect_at(i)` is the rectangle of item `order[i]` (by position, so that the bands read
+    /// the rectangles in sequence, not at random).
     pub fn build_in_bands(
         dims: (usize, usize),
         order: &[u32],
@@ -145,8 +144,8 @@ impl Bins {
     /// counts its items' cells, and fills its own slots of every cell (after the slots of the
     /// tasks before it), so the bins are those built on one thread. For many items over a
     /// small grid (a frame's screen tiles, a dense scene's shadow grid): each task's counts
-    /// are a grid's worth of u32. `rect_at(i)` is the rectangle of item `order[i]`
-    /// (by position, read in sequence), called twice per item, so it must be pure.
+    /// are a grid's worth of u32. `rect_at(i)` is the rectangle of item `order[i]` (by
+    /// position, read in sequence), called twice per item, so it must be pure.
     pub fn build_in_chunks(
         dims: (usize, usize),
         order: &[u32],
