@@ -36,14 +36,51 @@ pub struct ShadowGrid {
     extent: f64,
     /// Unit vector towards the light (world).
     to_light: DVec3,
-    /// Each sphere's top: how far its highest point lies towards the light (c·to_light + r),
-    /// rounded up to f32 ([`top_f32`]). A sphere can block only a ray that starts below its
-    /// top, so every cell lists its spheres highest (rounded) top first, and a shadow packet
-    /// stops reading a cell at the first one below all its open lanes (`walk` in
-    /// `occlusion.rs`). Rounded up, a top is never below the sphere's own, so the stop skips
-    /// only spheres that cannot block; in f32 it is half the memory of f64 (4 MB at a million
-    /// spheres) and frames measured the same.
-    tops: Vec<f32>,
+    /// Each sphere's top and its disc on the grid's plane ([`Disc`]), by the sphere's index.
+    discs: Vec<Disc>,
+}
+
+/// What a shadow packet reads of a binned sphere before it tests it, all rounded outward to
+/// f32 (16 bytes a sphere; the centre and radius it tests are the sphere's own, in f64).
+///
+/// - `top`: how far its highest point lies towards the light (c·to_light + r), rounded up
+///   ([`f32_up`]). A sphere can block only a ray that starts below its top, so every cell
+///   lists its spheres highest (rounded) top first, and a shadow packet stops reading a cell
+///   at the first one below all its open lanes (`walk` in `occlusion.rs`). Never below the
+///   sphere's own top, the stop skips only spheres that cannot block.
+/// - `x`, `y`, `r`: its disc on the grid's plane, the centre relative to the grid's origin
+///   and the radius widened by the centre's rounding ([`Disc::new`]), so that it holds the
+///   exact disc. A ray runs parallel to the light, so a sphere can block it only if its point
+///   falls in the sphere's disc: the walk passes a sphere whose disc misses every open lane
+///   (widened by the lane's allowance) without reading the sphere. In a dense cluster two in
+///   three of the spheres above a point miss it so (a cell is as wide as a median disc).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(super) struct Disc {
+    pub(super) top: f32,
+    pub(super) x: f32,
+    pub(super) y: f32,
+    pub(super) r: f32,
+}
+
+impl Disc {
+    /// The disc of centre `c` (on the grid's plane, relative to its origin) and `radius`, and
+    /// `top`. An f32 centre lies within 2⁻²⁴ of its coordinate's size from the f64 one: the
+    /// radius grows by four times that, is rounded up, and then goes one f32 step further (more
+    /// than any growth the f64 sum lost, and than a subnormal centre's rounding). A centre
+    /// beyond f32's range is infinite, and so is its radius.
+    fn new(c: DVec2, radius: f64, top: f64) -> Disc {
+        let rounding = match c.abs().max_element() < f32::MAX as f64 {
+            true => (c.x.abs() + c.y.abs()) * (1.0 / (1u64 << 22) as f64),
+            false => f64::INFINITY,
+        };
+        Disc {
+            top: f32_up(top),
+            x: c.x as f32,
+            y: c.y as f32,
+            r: f32_up(radius + rounding).next_up(),
+        }
+    }
 }
 
 impl ShadowGrid {
@@ -82,7 +119,7 @@ impl ShadowGrid {
                 always,
                 extent,
                 to_light,
-                tops: Vec::new(),
+                discs: Vec::new(),
             };
         }
         let (dims, inv_cell) = grid_size(hi - lo, count, median);
@@ -95,10 +132,13 @@ impl ShadowGrid {
             always,
             extent,
             to_light,
-            tops: spheres
+            discs: spheres
                 .par_iter()
                 .with_min_len(CHUNK)
-                .map(|s| top_f32(s.center_world.dot(to_light) + s.radius))
+                .map(|s| {
+                    let top = s.center_world.dot(to_light) + s.radius;
+                    Disc::new(project(s.center_world) - lo, s.radius, top)
+                })
                 .collect(),
         };
         // Binned highest top first (equal tops by index), so every cell lists them so: one
@@ -122,10 +162,10 @@ impl ShadowGrid {
             .collect();
         let keys: Vec<u64> = cells
             .par_iter()
-            .zip(&grid.tops)
+            .zip(&grid.discs)
             .enumerate()
             .with_min_len(CHUNK)
-            .map(|(k, (&cells, &top))| match cells {
+            .map(|(k, (&cells, &Disc { top, .. }))| match cells {
                 // Not binned: a binned disc's cells are each below 4096, never all ones.
                 u64::MAX => u64::MAX,
                 _ => u64::from(!top_order(top)) << 32 | k as u64,
@@ -176,11 +216,11 @@ impl ShadowGrid {
     }
 }
 
-/// `top` rounded up to an f32: the least f32 not below it (a top beyond f32's range becomes
+/// `v` rounded up to an f32: the least f32 not below it (a value beyond f32's range becomes
 /// infinite).
-fn top_f32(top: f64) -> f32 {
-    let rounded = top as f32;
-    if (rounded as f64) < top {
+fn f32_up(v: f64) -> f32 {
+    let rounded = v as f32;
+    if (rounded as f64) < v {
         rounded.next_up()
     } else {
         rounded
@@ -277,11 +317,11 @@ impl<'a> FrameShadows<'a> {
         (k, c, r2)
     }
 
-    /// Asks for sphere k's top and, as [`FrameShadows::blocker`] reads them, its centre and
+    /// Asks for sphere k's disc and, as [`FrameShadows::blocker`] reads them, its centre and
     /// radius: a hint ahead of its test, which changes no value.
     #[inline(always)]
     fn prefetch_blocker(&self, k: u32) {
-        prefetch(&self.grid.tops[k as usize]);
+        prefetch(&self.grid.discs[k as usize]);
         match &self.centers {
             Some(all) => prefetch(&all[k as usize]),
             None => prefetch(&self.spheres[k as usize]),
@@ -484,8 +524,39 @@ pub(super) mod tests {
         assert_eq!(grid.cell_range(nan, 0.1).0, 0);
     }
 
+    /// A disc holds the exact one: its f32 centre is no farther from the f64 centre than its
+    /// radius is beyond the f64 radius (the distance in f64 rounded up by one part in 2⁵⁰),
+    /// for centres of every size and sign (where one f32 step is many radii), on f32's
+    /// values, subnormal, beyond its range, and radii from tiny to huge.
     #[test]
-    fn tops_round_up_to_the_next_f32() {
+    fn a_disc_holds_the_exact_disc() {
+        let mut gen = SplitMix(0xd15c);
+        let mut coordinate = |k: usize| match k % 5 {
+            0 => 0.0,
+            1 => (gen.unit() * 40.0 - 20.0) as f32 as f64,
+            2 => 1e-40 * (gen.unit() - 0.5),
+            3 => 1e39 * (gen.unit() - 0.5),
+            _ => (gen.unit() - 0.5) * 10f64.powf(gen.unit() * 24.0 - 8.0),
+        };
+        let mut checked = [0; 2];
+        for k in 0..50_000 {
+            let c = DVec2::new(coordinate(k), coordinate(k / 5));
+            let radius = [1e-30, 1e-6, 0.07, 3.0, 1e300][k % 7 % 5];
+            let disc = Disc::new(c, radius, 0.0);
+            let moved = (DVec2::new(disc.x as f64, disc.y as f64) - c).length();
+            let beyond = disc.r as f64 - radius;
+            assert!(
+                moved.is_nan() || moved * (1.0 + 1e-15) <= beyond,
+                "{c} radius {radius}: moved {moved}, widened {beyond}"
+            );
+            checked[(moved > radius) as usize] += 1;
+        }
+        // Centres that f32 moves by more than the radius itself are among them.
+        assert!(checked.iter().all(|&n| n > 1000), "{checked:?}");
+    }
+
+    #[test]
+    fn values_round_up_to_the_next_f32() {
         let mut gen = SplitMix(3);
         let mut values: Vec<f64> = (0..20_000)
             .map(|k| {
@@ -507,7 +578,7 @@ pub(super) mod tests {
         ]);
         values.extend((0..1000).map(|k| (k as f32 * 0.37 - 150.0) as f64));
         for &t in &values {
-            let top = top_f32(t);
+            let top = f32_up(t);
             assert!(top as f64 >= t, "{t} rounded to {top}");
             // No f32 between: the next one down is below t (there is none below -f32::MAX).
             if top > -f32::MAX {
@@ -532,7 +603,7 @@ pub(super) mod tests {
             for light in &c.lights {
                 let grid = &light.grid;
                 let to_light = -light.direction.normalize();
-                for (s, &top) in c.spheres.iter().zip(&grid.tops) {
+                for (s, &Disc { top, .. }) in c.spheres.iter().zip(&grid.discs) {
                     assert!(top as f64 >= s.center_world.dot(to_light) + s.radius);
                 }
                 let mut listed = vec![false; c.spheres.len()];
@@ -563,7 +634,7 @@ pub(super) mod tests {
     fn highest_top_first(grid: &ShadowGrid, cell: &[u32]) -> usize {
         let mut ties = 0;
         for pair in cell.windows(2) {
-            let [a, b] = [pair[0], pair[1]].map(|k| grid.tops[k as usize]);
+            let [a, b] = [pair[0], pair[1]].map(|k| grid.discs[k as usize].top);
             assert!(
                 a > b || (a == b && pair[0] < pair[1]),
                 "{pair:?}: {a} before {b}"

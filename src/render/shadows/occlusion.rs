@@ -93,7 +93,7 @@ impl FrameShadows<'_> {
         }
         if (cx.1 - cx.0 + 1) * (cy.1 - cy.0 + 1) <= UNION_CELLS {
             let cells = (cx.0 as usize, cx.1 as usize, cy.0 as usize, cy.1 as usize);
-            let (blocked, found) = walk(sh, point, own, low, cells, pending, blocked);
+            let (blocked, found) = walk(sh, point, own, (low, q, err), cells, pending, blocked);
             if found != NO_HINT {
                 *hint = found;
             }
@@ -122,7 +122,7 @@ impl FrameShadows<'_> {
                 }
             }
             let found;
-            (blocked, found) = walk(sh, point, own, low, cells, lanes, blocked);
+            (blocked, found) = walk(sh, point, own, (low, q, err), cells, lanes, blocked);
             if found != NO_HINT {
                 *hint = found;
             }
@@ -133,21 +133,23 @@ impl FrameShadows<'_> {
 
 /// `blocked` with the lanes in `lanes` that a sphere of grid cells `cells` blocks added, until
 /// every one of them is blocked, and the last sphere found blocking (or [`NO_HINT`]). A cell
-/// is read down to the first sphere whose top is below every open lane's `low`. A function,
-/// not a closure, so that it is inlined into the one compiled for the instruction set.
+/// is read down to the first sphere whose top is below every open lane's `low`; a sphere whose
+/// disc misses every open lane's point `q` on the grid's plane, by more than the lane's
+/// allowance `err`, is passed without reading it (see [`super::Disc`]). A function, not a
+/// closure, so that it is inlined into the one compiled for the instruction set.
 #[inline(always)]
 fn walk<V: Lanes>(
     sh: &FrameShadows,
     point: &[V; 3],
     own: V::Index,
-    low: V,
+    (low, q, err): (V, [V; 2], V),
     (x0, x1, y0, y1): CellRect,
     lanes: u8,
     mut blocked: u8,
 ) -> (u8, u32) {
     let tok = low.token();
     let mut last = NO_HINT;
-    let tops = &sh.grid.tops;
+    let discs = &sh.grid.discs;
     for y in y0..=y1 {
         for x in x0..=x1 {
             let cell = sh.cell(x, y);
@@ -157,9 +159,18 @@ fn walk<V: Lanes>(
                 if let Some(&ahead) = cell.get(i + BLOCKER_AHEAD) {
                     sh.prefetch_blocker(ahead);
                 }
-                let reach = lanes & !blocked & V::splat(tok, tops[k as usize] as f64).ge(low);
+                let disc = discs[k as usize];
+                let reach = lanes & !blocked & V::splat(tok, disc.top as f64).ge(low);
                 if reach == 0 {
                     break;
+                }
+                // The lanes whose point, within its allowance, falls in the sphere's disc.
+                let dx = q[0].sub(V::splat(tok, disc.x as f64));
+                let dy = q[1].sub(V::splat(tok, disc.y as f64));
+                let r = V::splat(tok, disc.r as f64).add(err);
+                let reach = reach & dx.mul(dx).add(dy.mul(dy)).le(r.mul(r));
+                if reach == 0 {
+                    continue;
                 }
                 let (k, c, r2) = sh.blocker(k);
                 let found = reach & blocks(sh, point, own, k, c, r2);
