@@ -95,22 +95,28 @@ impl ViewColumns {
     /// `spheres`, one slice per field.
     #[cfg(test)]
     pub(super) fn new(spheres: &[ViewSphere]) -> ViewColumns {
-        let mut columns = ViewColumns::zeroed(0);
+        let mut columns = ViewColumns::zeroed(0, 0);
         columns.extend(spheres);
         columns
     }
 
     /// `n` spheres of zeros, in fresh memory the kernel hands over zeroed (untouched until
-    /// written).
-    fn zeroed(n: usize) -> ViewColumns {
-        let column = || vec![0.0; n];
+    /// written), with room for `room` (at least `n`).
+    fn zeroed(n: usize, room: usize) -> ViewColumns {
+        let column = || {
+            let mut column = vec![0.0; room.max(n)];
+            column.truncate(n);
+            column
+        };
+        let mut id = vec![0; room.max(n)];
+        id.truncate(n);
         ViewColumns {
             min_dist: column(),
             f: [column(), column(), column()],
             c: column(),
             radius: column(),
             center: [column(), column(), column()],
-            id: vec![0; n],
+            id,
         }
     }
 
@@ -132,7 +138,9 @@ impl ViewColumns {
                 columns.set_len(n);
                 columns
             }
-            _ => ViewColumns::zeroed(n),
+            // Room for a quarter more, which costs no memory until written: the next frames
+            // mostly see about as many spheres, and write over these instead of fresh pages.
+            _ => ViewColumns::zeroed(n, n + n / 4),
         };
         let ([min_dist, f0, f1, f2, c, radius, x0, x1, x2], id) = columns.columns_mut();
         let fill = |ids: &[u32], out: Chunk| {
