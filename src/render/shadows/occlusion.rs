@@ -229,6 +229,10 @@ fn blocks<V: Lanes>(
     ];
     let cc = dot(&f, &f).sub(r2);
     let b = dot(&f, &dir);
+    // Neither inside nor ahead on any lane (a ground below every point): no root to look at.
+    if cc.le(zero) | b.lt(zero) == 0 {
+        return 0;
+    }
     let g = [
         f[0].sub(dir[0].mul(b)),
         f[1].sub(dir[1].mul(b)),
