@@ -11,7 +11,7 @@ use glam::{DVec2, DVec3};
 
 use super::lanes::prefetch;
 use super::radix::{index_bits, sort_by_high_bits};
-use super::shadows::{big_radius, ShadowGrid};
+use super::shadows::{big_radius, f32_up, ShadowGrid};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::scene::{Scene, Sphere};
@@ -186,21 +186,11 @@ impl<'a> SceneIndex<'a> {
 /// Subtrees of at least this many spheres build their two halves in parallel.
 const PARALLEL_BUILD: usize = 1 << 16;
 
-/// `x` rounded down to an f32 (towards −∞): never above `x`.
+/// `x` rounded down to an f32 (towards −∞): never above `x` (and up: [`f32_up`]).
 fn f32_down(x: f64) -> f32 {
     let f = x as f32;
     if f as f64 > x {
         f.next_down()
-    } else {
-        f
-    }
-}
-
-/// `x` rounded up to an f32 (towards +∞): never below `x`.
-fn f32_up(x: f64) -> f32 {
-    let f = x as f32;
-    if (f as f64) < x {
-        f.next_up()
     } else {
         f
     }

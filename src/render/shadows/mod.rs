@@ -216,9 +216,9 @@ impl ShadowGrid {
     }
 }
 
-/// `v` rounded up to an f32: the least f32 not below it (a value beyond f32's range becomes
-/// infinite).
-fn f32_up(v: f64) -> f32 {
+/// `v` rounded up to an f32 (towards +∞): the least f32 not below it (a value beyond f32's
+/// range becomes infinite). The grid's tops and discs, and the hierarchy's boxes.
+pub(super) fn f32_up(v: f64) -> f32 {
     let rounded = v as f32;
     if (rounded as f64) < v {
         rounded.next_up()
