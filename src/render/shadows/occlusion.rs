@@ -135,8 +135,8 @@ impl FrameShadows<'_> {
 /// every one of them is blocked, and the last sphere found blocking (or [`NO_HINT`]). A cell
 /// is read down to the first sphere whose top is below every open lane's `low`; a sphere whose
 /// disc misses every open lane's point `q` on the grid's plane, by more than the lane's
-/// allowance `err`, is passed without reading it (see [`super::Disc`]). A function, not a
-/// closure, so that it is inlined into the one compiled for the instruction set.
+/// allowance `err`, is passed untested (see [`super::Disc`]). A function, not a closure, so
+/// that it is inlined into the one compiled for the instruction set.
 #[inline(always)]
 fn walk<V: Lanes>(
     sh: &FrameShadows,
@@ -260,6 +260,7 @@ fn cell_range(key: u64) -> CellRect {
 #[cfg(test)]
 mod tests {
     use super::super::super::lanes::Portable;
+    use super::super::super::oracle::blocks_ray;
     use super::super::tests::{cluster, seeded_cluster};
     use super::super::{view_center, ShadowGrid};
     use super::*;
@@ -361,6 +362,92 @@ mod tests {
                 // Both answers occur.
                 assert!(shadowed > 0 && shadowed < c.points.len(), "{shadowed}");
             }
+        }
+    }
+
+    /// Points on the edges of other spheres' shadows (on the rim as seen along the light, a
+    /// hair inside and outside it, and inside a sphere next to its rim) are answered as testing
+    /// every sphere does, near the origin, in a scene 2·10⁶ wide (where an f32 centre is off by
+    /// a tenth of a radius), and 10¹² and 10¹⁵ off it (where only the lanes' allowance covers
+    /// the rounding between view and world coordinates): the discs and their allowances never
+    /// pass a sphere that blocks.
+    #[test]
+    fn shadow_edges_are_found_near_and_far_from_the_origin() {
+        let mut rng = crate::splitmix::SplitMix(0xed9e);
+        for (offset, spread, radius) in [
+            (0.0, 20.0, 0.5),
+            (0.0, 2e6, 0.3),
+            (1e12, 20.0, 0.5),
+            (-1e15, 5.0, 0.5),
+        ] {
+            let mut unit = || rng.unit();
+            let groups: Vec<DVec3> = (0..8)
+                .map(|_| DVec3::new(unit() * spread, unit() * spread * 0.2, unit() * spread))
+                .collect();
+            let spheres: Vec<Sphere> = (0..300)
+                .map(|k| Sphere {
+                    center_world: DVec3::splat(offset)
+                        + groups[k % 8]
+                        + DVec3::new(unit() * 6.0, unit() * 3.0, unit() * 6.0),
+                    radius: radius * (0.5 + unit()),
+                    color: DVec3::ONE,
+                })
+                .collect();
+            let direction = DVec3::new(unit() - 0.5, -1.0, unit() - 0.5).normalize();
+            let camera = Camera {
+                vrp_world: DVec3::splat(offset) + groups[0] + DVec3::new(-15.0, 7.0, -9.0),
+                basis: Basis::from_vpn_vuv(DVec3::new(1.0, -0.3, 0.6), DVec3::Y).unwrap(),
+                cop_view: DVec3::new(0.0, 0.0, -1.2),
+                window: DVec2::new(1.6, 0.9),
+            };
+            let grid = ShadowGrid::build(&spheres, -direction);
+            let to_light = -camera.basis.to_view(direction);
+            let frame = FrameShadows::new(&grid, &camera, &spheres, None, to_light);
+            let centers: Vec<(DVec3, f64)> =
+                spheres.iter().map(|s| view_center(&camera, s)).collect();
+            // Below each sphere, on its shadow's edge and a hair either side of it, and inside it
+            // next to its rim; the point's own sphere is none of them.
+            let mut points = Vec::new();
+            for (&(c, _), s) in centers.iter().zip(&spheres) {
+                for j in 0..12 {
+                    let across =
+                        to_light.cross(DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5));
+                    let at = [
+                        1.0,
+                        1.0 - 1e-15,
+                        1.0 + 1e-15,
+                        1.0 - 1e-12,
+                        1.0 - 1e-9,
+                        1.0 + 1e-9,
+                    ][j % 6];
+                    let rim = c + across.normalize() * (s.radius * at);
+                    let along = match j < 10 {
+                        true => -s.radius * (1.0 + 3.0 * unit()),
+                        false => s.radius * 1e-9 * (unit() - 0.5),
+                    };
+                    points.push((rim + to_light * along, spheres.len() as u32));
+                }
+            }
+            let mut shadowed = 0;
+            for lanes in points.chunks(LANES) {
+                let (point, own, need) = packet(lanes);
+                let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
+                for (l, &(p, _)) in lanes.iter().enumerate() {
+                    let every = centers
+                        .iter()
+                        .any(|&(c, r2)| blocks_ray(c, r2, p, to_light));
+                    assert_eq!(
+                        got >> l & 1 == 1,
+                        every,
+                        "offset {offset:e}, spread {spread:e}, {p}"
+                    );
+                    shadowed += every as usize;
+                }
+            }
+            assert!(
+                shadowed > 100 && shadowed < points.len() - 100,
+                "{shadowed}"
+            );
         }
     }
 
