@@ -367,10 +367,10 @@ mod tests {
 
     /// Points on the edges of other spheres' shadows (on the rim as seen along the light, a
     /// hair inside and outside it, and inside a sphere next to its rim) are answered as testing
-    /// every sphere does, near the origin, in a scene 2·10⁶ wide (where an f32 centre is off by
-    /// a tenth of a radius), and 10¹² and 10¹⁵ off it (where only the lanes' allowance covers
-    /// the rounding between view and world coordinates): the discs and their allowances never
-    /// pass a sphere that blocks.
+    /// every sphere does, near the origin, in a scene 2·10⁶ wide (where rounding a centre to
+    /// f32 moves it by up to 0.125, most of the smallest radius), and 10¹² and 10¹⁵ off it
+    /// (where only the lanes' allowance covers the rounding between view and world
+    /// coordinates): the discs and their allowances never pass a sphere that blocks.
     #[test]
     fn shadow_edges_are_found_near_and_far_from_the_origin() {
         let mut rng = crate::splitmix::SplitMix(0xed9e);
