@@ -128,8 +128,10 @@ impl Shading<'_> {
         let fields = SphereLanes::<V>::new(tok, self.spheres, hit, index);
         let mut light = [V::splat(tok, self.ambient); 3];
         if !self.lights.is_empty() {
-            let f = fields.vec3(tok, |c| &c.f);
             let c = fields.vec3(tok, |c| &c.center);
+            // f = COP − centre, the subtraction the columns' f is.
+            let cop = splat3::<V>(tok, self.spheres.cop);
+            let f = [cop[0].sub(c[0]), cop[1].sub(c[1]), cop[2].sub(c[2])];
             let r = fields.field(tok, |c| &c.radius);
             // The hit relative to the centre, rel = f + d·t, has length r: normal = rel / r,
             // point = centre + rel.
@@ -289,7 +291,7 @@ mod tests {
     /// by the ray from the origin along unit `d`, in every lane.
     fn hit(center: DVec3, r: f64, d: DVec3) -> Option<f64> {
         let sphere = ViewSphere::in_view(center, r, DVec3::ZERO, 0);
-        let columns = ViewColumns::new(&[sphere]);
+        let columns = ViewColumns::new(DVec3::ZERO, &[sphere]);
         let shading = Shading {
             spheres: &columns,
             scene: &[],

@@ -152,12 +152,14 @@ impl ForLanes for Footprints<'_> {
         let (half_x, wide) = (V::splat(tok, window.x * 0.5), V::splat(tok, window.x));
         let (half_y, high) = (V::splat(tok, window.y * 0.5), V::splat(tok, window.y));
         let (ws, hs) = (V::splat(tok, w), V::splat(tok, h));
+        let view_cop = spheres.cop.to_array().map(|x| V::splat(tok, x));
         for (c, out) in rects.chunks_mut(LANES).enumerate() {
             let (at, n) = (first + c * LANES, out.len());
-            // The centre relative to the COP: −f.
-            let px = lanes_at::<V>(tok, &spheres.f[0], at, n).neg();
-            let py = lanes_at::<V>(tok, &spheres.f[1], at, n).neg();
-            let pz = lanes_at::<V>(tok, &spheres.f[2], at, n).neg();
+            // The centre relative to the COP: −f, f = COP − centre.
+            let centre = |a: usize| lanes_at::<V>(tok, &spheres.center[a], at, n);
+            let px = view_cop[0].sub(centre(0)).neg();
+            let py = view_cop[1].sub(centre(1)).neg();
+            let pz = view_cop[2].sub(centre(2)).neg();
             let r = lanes_at::<V>(tok, &spheres.radius, at, n);
             let culled = pz.le(r.neg());
             let cut = !culled & pz.le(r);
@@ -565,7 +567,7 @@ mod tests {
         ];
         for n in [0, 1, 2, 7, 3000, PARALLEL + 4321] {
             let sphere = ViewSphere::in_view(DVec3::new(0.0, 0.0, 5.0), 1.0, DVec3::ZERO, 0);
-            let mut columns = ViewColumns::new(&vec![sphere; n]);
+            let mut columns = ViewColumns::new(DVec3::ZERO, &vec![sphere; n]);
             for k in 0..n {
                 let anchor = [1.0, 7.5, -0.25, 1e-300, 3e5, 19.999][(rng.unit() * 6.0) as usize];
                 let mut v = anchor * (1.0 + (rng.unit() * 4.0).floor() * 1e-3);
@@ -641,7 +643,7 @@ mod tests {
         for (k, (center, r)) in odd.into_iter().enumerate() {
             spheres.push(ViewSphere::in_view(center, r, cop, 20_000 + k as u32));
         }
-        let columns = ViewColumns::new(&spheres);
+        let columns = ViewColumns::new(cop, &spheres);
         let raster = Raster {
             width: 97,
             height: 61,
@@ -742,7 +744,7 @@ mod tests {
                 .iter()
                 .map(|&k| ViewSphere::new(&camera, &spheres[k as usize], k))
                 .collect();
-            let columns = ViewColumns::new(&view);
+            let columns = ViewColumns::new(camera.cop_view, &view);
             let bins = TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
             let mut lists = Vec::new();
             for j in (0..90).step_by(TILE) {
@@ -842,7 +844,7 @@ mod tests {
                     .enumerate()
                     .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
                     .collect();
-                let columns = ViewColumns::new(&view);
+                let columns = ViewColumns::new(camera.cop_view, &view);
                 let shading = unlit(&columns);
                 for samples in [1, 3] {
                     let raster = Raster {
@@ -978,7 +980,7 @@ mod tests {
                         footprint(&sphere.reach(), cop, window, raster),
                         Footprint::Everywhere
                     );
-                    let columns = ViewColumns::new(&view);
+                    let columns = ViewColumns::new(cop, &view);
                     let bins =
                         TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
                     let shading = unlit(&columns);
@@ -1018,7 +1020,7 @@ mod tests {
             .expect("the tile's rays meet the ground");
         for (ground_id, small_id) in [(0, 1), (1, 0)] {
             for ranks in [None, Some(vec![1, 0])] {
-                let mut columns = ViewColumns::new(&[ground, small]);
+                let mut columns = ViewColumns::new(cop, &[ground, small]);
                 columns.id = vec![ground_id, small_id];
                 columns.min_dist[1] = bound;
                 let ranks = Ranks(ranks.as_deref());

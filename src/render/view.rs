@@ -14,7 +14,8 @@ use crate::scene::Sphere;
 pub(super) struct ViewSphere {
     pub(super) center: DVec3,
     pub(super) radius: f64,
-    /// COP − centre.
+    /// COP − centre (the columns find it from the centre).
+    #[cfg(test)]
     pub(super) f: DVec3,
     /// |f|² − r².
     pub(super) c: f64,
@@ -38,6 +39,7 @@ impl ViewSphere {
         ViewSphere {
             center,
             radius,
+            #[cfg(test)]
             f,
             c: f.length_squared() - radius * radius,
             min_dist: f.length() - radius,
@@ -74,13 +76,14 @@ pub(super) struct Reach {
 /// The frame's spheres in view coordinates, one slice per field, in the order of the spheres:
 /// the hit search reads a candidate's terms by its index, and a packet whose lanes hit several
 /// spheres gathers their fields lane by lane (`Lanes::gather`). Only what the search, the
-/// tiles and the shading read, 80 bytes a sphere: r² is the radius squared where it is needed,
+/// tiles and the shading read, 56 bytes a sphere: f (COP − centre) is found from the centre
+/// where it is needed, as the same subtraction; r² is the radius squared where it is needed;
 /// and a hit sphere's colour comes from the scene by its index.
 pub(super) struct ViewColumns {
+    /// The COP, in view coordinates: f = cop − centre.
+    pub(super) cop: DVec3,
     /// No primary ray meets the sphere nearer than this: |f| − r.
     pub(super) min_dist: Vec<f64>,
-    /// COP − centre.
-    pub(super) f: [Vec<f64>; 3],
     /// |f|² − r².
     pub(super) c: Vec<f64>,
     pub(super) radius: Vec<f64>,
@@ -92,10 +95,11 @@ pub(super) struct ViewColumns {
 }
 
 impl ViewColumns {
-    /// `spheres`, one slice per field.
+    /// `spheres`, seen from `cop`, one slice per field.
     #[cfg(test)]
-    pub(super) fn new(spheres: &[ViewSphere]) -> ViewColumns {
+    pub(super) fn new(cop: DVec3, spheres: &[ViewSphere]) -> ViewColumns {
         let mut columns = ViewColumns::zeroed(0, 0);
+        columns.cop = cop;
         columns.extend(spheres);
         columns
     }
@@ -111,8 +115,8 @@ impl ViewColumns {
         let mut id = vec![0; room.max(n)];
         id.truncate(n);
         ViewColumns {
+            cop: DVec3::ZERO,
             min_dist: column(),
-            f: [column(), column(), column()],
             c: column(),
             radius: column(),
             center: [column(), column(), column()],
@@ -142,9 +146,10 @@ impl ViewColumns {
             // mostly see about as many spheres, and write over these instead of fresh pages.
             _ => ViewColumns::zeroed(n, n + n / 4),
         };
-        let ([min_dist, f0, f1, f2, c, radius, x0, x1, x2], id) = columns.columns_mut();
+        columns.cop = camera.cop_view;
+        let ([min_dist, c, radius, x0, x1, x2], id) = columns.columns_mut();
         let fill = |ids: &[u32], out: Chunk| {
-            let (min_dist, f0, f1, f2, c, radius, x0, x1, x2, id) = out;
+            let (min_dist, c, radius, x0, x1, x2, id) = out;
             for (i, &k) in ids.iter().enumerate() {
                 // The ids follow the hierarchy, not the scene's order: a sphere some way
                 // ahead is asked for now, so that its read overlaps this one's work.
@@ -153,7 +158,6 @@ impl ViewColumns {
                 }
                 let s = ViewSphere::new(camera, &spheres[k as usize], k);
                 min_dist[i] = s.min_dist;
-                (f0[i], f1[i], f2[i]) = (s.f.x, s.f.y, s.f.z);
                 c[i] = s.c;
                 radius[i] = s.radius;
                 (x0[i], x1[i], x2[i]) = (s.center.x, s.center.y, s.center.z);
@@ -166,9 +170,6 @@ impl ViewColumns {
             }
             let floats = (
                 chunks(min_dist),
-                chunks(f0),
-                chunks(f1),
-                chunks(f2),
                 chunks(c),
                 chunks(radius),
                 chunks(x0),
@@ -181,27 +182,25 @@ impl ViewColumns {
                 ids.par_chunks(PARALLEL),
             )
                 .into_par_iter()
-                .for_each(|((a, b, c, d, e, f, g, h, i), id, ids)| {
-                    fill(ids, (a, b, c, d, e, f, g, h, i, id))
-                });
+                .for_each(|((a, b, c, d, e, f), id, ids)| fill(ids, (a, b, c, d, e, f, id)));
         } else {
-            fill(ids, (min_dist, f0, f1, f2, c, radius, x0, x1, x2, id));
+            fill(ids, (min_dist, c, radius, x0, x1, x2, id));
         }
         columns
     }
 
-    /// The nine f64 columns in the order of the fields (the centre after the radius), and the
+    /// The six f64 columns in the order of the fields (the centre after the radius), and the
     /// ids.
-    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 9], &mut Vec<u64>) {
+    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 6], &mut Vec<u64>) {
         let ViewColumns {
+            cop: _,
             min_dist,
-            f: [f0, f1, f2],
             c,
             radius,
             center: [x0, x1, x2],
             id,
         } = self;
-        ([min_dist, f0, f1, f2, c, radius, x0, x1, x2], id)
+        ([min_dist, c, radius, x0, x1, x2], id)
     }
 
     /// Every column `n` long, in the room it has: the values kept are written over by
@@ -214,15 +213,19 @@ impl ViewColumns {
         id.resize(n, 0);
     }
 
-    /// `spheres` after the ones held.
+    /// `spheres` after the ones held: each seen from the columns' COP.
     #[cfg(test)]
     pub(super) fn extend(&mut self, spheres: &[ViewSphere]) {
         for s in spheres {
+            let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+            assert!(
+                bits(s.f) == bits(self.cop - s.center),
+                "a sphere seen from another COP"
+            );
             self.min_dist.push(s.min_dist);
             self.c.push(s.c);
             self.radius.push(s.radius);
             for a in 0..3 {
-                self.f[a].push(s.f[a]);
                 self.center[a].push(s.center[a]);
             }
             self.id.push(s.id as u64);
@@ -243,10 +246,10 @@ impl ViewColumns {
         self.id.len()
     }
 
-    /// Sphere `k`'s f (COP − centre).
+    /// Sphere `k`'s f: COP − centre, the subtraction [`ViewSphere::new`] does.
     #[inline(always)]
     pub(super) fn f_at(&self, k: usize) -> DVec3 {
-        DVec3::new(self.f[0][k], self.f[1][k], self.f[2][k])
+        self.cop - DVec3::new(self.center[0][k], self.center[1][k], self.center[2][k])
     }
 }
 
@@ -277,9 +280,6 @@ pub(super) const PREFETCH_AHEAD: usize = 16;
 /// One chunk of each column, in [`ViewColumns`]'s order of fields (the centre after the
 /// radius), for [`ViewColumns::of`] to fill.
 type Chunk<'a> = (
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
     &'a mut [f64],
     &'a mut [f64],
     &'a mut [f64],
