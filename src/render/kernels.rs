@@ -69,10 +69,12 @@ impl Shading<'_> {
             if active[0] | active[1] == 0 {
                 continue;
             }
-            let f = splat3::<V>(tok, s.f_at(j));
+            // f and c = |f|² − r² as `ViewSphere::new` makes them.
+            let (fs, r) = (s.f_at(j), s.radius[j]);
+            let f = splat3::<V>(tok, fs);
             let (c, radius2, k) = (
-                V::splat(tok, s.c[j]),
-                V::splat(tok, s.radius[j] * s.radius[j]),
+                V::splat(tok, fs.length_squared() - r * r),
+                V::splat(tok, r * r),
                 V::index(tok, k as u64),
             );
             for q in 0..2 {

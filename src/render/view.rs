@@ -17,7 +17,8 @@ pub(super) struct ViewSphere {
     /// COP − centre (the columns find it from the centre).
     #[cfg(test)]
     pub(super) f: DVec3,
-    /// |f|² − r².
+    /// |f|² − r² (the search finds it from f).
+    #[cfg(test)]
     pub(super) c: f64,
     /// |f| − r: no primary ray meets the sphere nearer than this.
     pub(super) min_dist: f64,
@@ -41,6 +42,7 @@ impl ViewSphere {
             radius,
             #[cfg(test)]
             f,
+            #[cfg(test)]
             c: f.length_squared() - radius * radius,
             min_dist: f.length() - radius,
             id,
@@ -76,16 +78,14 @@ pub(super) struct Reach {
 /// The frame's spheres in view coordinates, one slice per field, in the order of the spheres:
 /// the hit search reads a candidate's terms by its index, and a packet whose lanes hit several
 /// spheres gathers their fields lane by lane (`Lanes::gather`). Only what the search, the
-/// tiles and the shading read, 56 bytes a sphere: f (COP − centre) is found from the centre
-/// where it is needed, as the same subtraction; r² is the radius squared where it is needed;
-/// and a hit sphere's colour comes from the scene by its index.
+/// tiles and the shading read, 48 bytes a sphere: f (COP − centre), c = |f|² − r² and r² are
+/// found where they are needed, by the operations [`ViewSphere::in_view`] does, and a hit
+/// sphere's colour comes from the scene by its index.
 pub(super) struct ViewColumns {
     /// The COP, in view coordinates: f = cop − centre.
     pub(super) cop: DVec3,
     /// No primary ray meets the sphere nearer than this: |f| − r.
     pub(super) min_dist: Vec<f64>,
-    /// |f|² − r².
-    pub(super) c: Vec<f64>,
     pub(super) radius: Vec<f64>,
     /// The centre, moved into view coordinates: what the shading's hit points are made from
     /// (moving it again for each packet it shades would cost fly1000 a tenth of its time).
@@ -117,7 +117,6 @@ impl ViewColumns {
         ViewColumns {
             cop: DVec3::ZERO,
             min_dist: column(),
-            c: column(),
             radius: column(),
             center: [column(), column(), column()],
             id,
@@ -128,7 +127,7 @@ impl ViewColumns {
     /// column is written in place, a chunk at a time on the pool when there are many: no
     /// second copy of the spheres, and the columns' fresh pages faulted in by every core.
     /// `spare`, an earlier frame's columns, is written over when it has room: its pages are
-    /// already the process's (at a million spheres, 80 MB a frame the kernel need not fault
+    /// already the process's (at a million spheres, 48 MB a frame the kernel need not fault
     /// in and clear again).
     pub(super) fn of(
         camera: &Camera,
@@ -147,9 +146,9 @@ impl ViewColumns {
             _ => ViewColumns::zeroed(n, n + n / 4),
         };
         columns.cop = camera.cop_view;
-        let ([min_dist, c, radius, x0, x1, x2], id) = columns.columns_mut();
+        let ([min_dist, radius, x0, x1, x2], id) = columns.columns_mut();
         let fill = |ids: &[u32], out: Chunk| {
-            let (min_dist, c, radius, x0, x1, x2, id) = out;
+            let (min_dist, radius, x0, x1, x2, id) = out;
             for (i, &k) in ids.iter().enumerate() {
                 // The ids follow the hierarchy, not the scene's order: a sphere some way
                 // ahead is asked for now, so that its read overlaps this one's work.
@@ -158,7 +157,6 @@ impl ViewColumns {
                 }
                 let s = ViewSphere::new(camera, &spheres[k as usize], k);
                 min_dist[i] = s.min_dist;
-                c[i] = s.c;
                 radius[i] = s.radius;
                 (x0[i], x1[i], x2[i]) = (s.center.x, s.center.y, s.center.z);
                 id[i] = s.id as u64;
@@ -170,7 +168,6 @@ impl ViewColumns {
             }
             let floats = (
                 chunks(min_dist),
-                chunks(c),
                 chunks(radius),
                 chunks(x0),
                 chunks(x1),
@@ -182,25 +179,24 @@ impl ViewColumns {
                 ids.par_chunks(PARALLEL),
             )
                 .into_par_iter()
-                .for_each(|((a, b, c, d, e, f), id, ids)| fill(ids, (a, b, c, d, e, f, id)));
+                .for_each(|((a, b, c, d, e), id, ids)| fill(ids, (a, b, c, d, e, id)));
         } else {
-            fill(ids, (min_dist, c, radius, x0, x1, x2, id));
+            fill(ids, (min_dist, radius, x0, x1, x2, id));
         }
         columns
     }
 
     /// The six f64 columns in the order of the fields (the centre after the radius), and the
     /// ids.
-    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 6], &mut Vec<u64>) {
+    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 5], &mut Vec<u64>) {
         let ViewColumns {
             cop: _,
             min_dist,
-            c,
             radius,
             center: [x0, x1, x2],
             id,
         } = self;
-        ([min_dist, c, radius, x0, x1, x2], id)
+        ([min_dist, radius, x0, x1, x2], id)
     }
 
     /// Every column `n` long, in the room it has: the values kept are written over by
@@ -223,7 +219,6 @@ impl ViewColumns {
                 "a sphere seen from another COP"
             );
             self.min_dist.push(s.min_dist);
-            self.c.push(s.c);
             self.radius.push(s.radius);
             for a in 0..3 {
                 self.center[a].push(s.center[a]);
@@ -280,7 +275,6 @@ pub(super) const PREFETCH_AHEAD: usize = 16;
 /// One chunk of each column, in [`ViewColumns`]'s order of fields (the centre after the
 /// radius), for [`ViewColumns::of`] to fill.
 type Chunk<'a> = (
-    &'a mut [f64],
     &'a mut [f64],
     &'a mut [f64],
     &'a mut [f64],
