@@ -359,8 +359,6 @@ mod tests {
     use crate::scene::Light;
     use glam::DVec2;
 
-    /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
-    /// of the wrong size), every path and kind of sampling gives the fresh frame.
     /// `spheres` under one shadowed light.
     fn lit(spheres: Vec<Sphere>) -> Scene {
         Scene {
@@ -375,6 +373,8 @@ mod tests {
         }
     }
 
+    /// Frames prepared over an earlier frame's columns are the frames prepared in fresh ones,
+    /// as the camera moves in and out of the spheres and its COP moves.
     #[test]
     fn frames_written_over_recycled_columns_are_the_frames_rendered_fresh() {
         let spheres = (0..60)
@@ -385,14 +385,21 @@ mod tests {
             })
             .collect();
         let scene = lit(spheres);
-        // From afar (every sphere in view), close up (a few), and afar again.
-        let at = |z: f64| Camera {
+        // From afar (every sphere in view), close up (a few), and afar again; the COP moved
+        // (zoom, distort) between frames, which the columns' f is found from.
+        let at = |z: f64, (x, y, n): (f64, f64, f64)| Camera {
             vrp_world: DVec3::new(0.3, 2.0, z),
             basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
-            cop_view: DVec3::new(0.0, 0.0, -1.5),
+            cop_view: DVec3::new(x, y, n),
             window: DVec2::new(1.6, 0.9),
         };
-        let cameras = [at(-14.0), at(-1.5), at(-1.0), at(-16.0), at(-1.5)];
+        let cameras = [
+            at(-14.0, (0.0, 0.0, -1.5)),
+            at(-1.5, (0.0, 0.0, -1.5)),
+            at(-1.0, (0.2, -0.1, -1.2)),
+            at(-16.0, (-0.3, 0.1, -2.0)),
+            at(-1.5, (0.1, 0.2, -1.5)),
+        ];
         let raster = Raster {
             width: 96,
             height: 54,
@@ -477,6 +484,8 @@ mod tests {
         }
     }
 
+    /// A reused frame buffer keeps none of its old bytes: rendered over a buffer of 0xa5 (or
+    /// of the wrong size), every path and kind of sampling gives the fresh frame.
     #[test]
     fn a_reused_buffer_is_overwritten_everywhere() {
         let scene = lit(vec![Sphere {
