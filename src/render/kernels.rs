@@ -131,7 +131,7 @@ impl Shading<'_> {
         let mut light = [V::splat(tok, self.ambient); 3];
         if !self.lights.is_empty() {
             let c = fields.vec3(tok, |c| &c.center);
-            // f = COP − centre, the subtraction the columns' f is.
+            // f = COP − centre, the subtraction `ViewSphere::in_view` does.
             let cop = splat3::<V>(tok, self.spheres.cop);
             let f = [cop[0].sub(c[0]), cop[1].sub(c[1]), cop[2].sub(c[2])];
             let r = fields.field(tok, |c| &c.radius);

@@ -386,7 +386,7 @@ mod tests {
             .collect();
         let scene = lit(spheres);
         // From afar (every sphere in view), close up (a few), and afar again; the COP moved
-        // (zoom, distort) between frames, which the columns' f is found from.
+        // (zoom, distort) between frames, from which the columns find f.
         let at = |z: f64, (x, y, n): (f64, f64, f64)| Camera {
             vrp_world: DVec3::new(0.3, 2.0, z),
             basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
