@@ -13,7 +13,7 @@ use glam::DVec3;
 
 use super::lanes::{dot, splat3, InBounds, Lanes, LANES};
 use super::shadows::{Hints, NO_HINT};
-use super::view::{ViewColumns, ViewLight};
+use super::view::{c_of, ViewColumns, ViewLight};
 use crate::scene::Sphere;
 
 /// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
@@ -69,11 +69,10 @@ impl Shading<'_> {
             if active[0] | active[1] == 0 {
                 continue;
             }
-            // f and c = |f|² − r² as `ViewSphere::new` makes them.
             let (fs, r) = (s.f_at(j), s.radius[j]);
             let f = splat3::<V>(tok, fs);
             let (c, radius2, k) = (
-                V::splat(tok, fs.length_squared() - r * r),
+                V::splat(tok, c_of(fs, r)),
                 V::splat(tok, r * r),
                 V::index(tok, k as u64),
             );

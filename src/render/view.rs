@@ -43,7 +43,7 @@ impl ViewSphere {
             #[cfg(test)]
             f,
             #[cfg(test)]
-            c: f.length_squared() - radius * radius,
+            c: c_of(f, radius),
             min_dist: f.length() - radius,
             id,
         }
@@ -58,6 +58,13 @@ impl ViewSphere {
             min_dist: self.min_dist,
         }
     }
+}
+
+/// c = |f|² − r², which the columns do not keep: the search's term, made by this one function
+/// wherever it is needed, so that it is the same bits everywhere.
+#[inline(always)]
+pub(super) fn c_of(f: DVec3, radius: f64) -> f64 {
+    f.length_squared() - radius * radius
 }
 
 /// Frames with at least this many spheres in view prepare them on the rayon pool (in chunks of
@@ -186,7 +193,7 @@ impl ViewColumns {
         columns
     }
 
-    /// The six f64 columns in the order of the fields (the centre after the radius), and the
+    /// The five f64 columns in the order of the fields (the centre after the radius), and the
     /// ids.
     fn columns_mut(&mut self) -> ([&mut Vec<f64>; 5], &mut Vec<u64>) {
         let ViewColumns {
