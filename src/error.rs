@@ -33,13 +33,20 @@ impl fmt::Display for Problem {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Problems(pub Vec<Problem>);
 
+/// The most problems a message lists: a sphere file of a million bad radii is named by its
+/// first ones and a count, not a million lines.
+pub const PROBLEMS_SHOWN: usize = 100;
+
 impl fmt::Display for Problems {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, p) in self.0.iter().enumerate() {
+        for (i, p) in self.0.iter().take(PROBLEMS_SHOWN).enumerate() {
             if i > 0 {
                 writeln!(f)?;
             }
             write!(f, "  {p}")?;
+        }
+        if let Some(more) = self.0.len().checked_sub(PROBLEMS_SHOWN).filter(|n| *n > 0) {
+            write!(f, "\n  … and {more} more")?;
         }
         Ok(())
     }

@@ -154,6 +154,17 @@ impl Document {
     }
 }
 
+/// The largest size of any number a scene is given: the renderer squares distances in f64
+/// (|COP − centre|², r²), whose range ends near 1.8e308, so coordinates and lengths stay within
+/// ±1e150 (a distance of up to 1e151 squares to 1e302). A scene scaled by a power of two within
+/// it renders the same bytes (`tests/it/extreme.rs`).
+pub const LARGEST: f64 = 1e150;
+
+/// Whether `x` is finite and within ±[`LARGEST`].
+fn sized(x: f64) -> bool {
+    x.abs() <= LARGEST
+}
+
 #[derive(Default)]
 struct Checker {
     problems: Vec<Problem>,
@@ -165,30 +176,39 @@ impl Checker {
     }
 
     fn finite(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
-        if x.is_finite() {
+        if sized(x) {
             Some(x)
         } else {
-            self.problem(field, format!("must be a finite number, got {x}"));
+            self.problem(
+                field,
+                format!("must be a finite number within ±{LARGEST:e}, got {x}"),
+            );
             None
         }
     }
 
     fn triple(&mut self, field: impl fmt::Display + Copy, t: Triple) -> Option<DVec3> {
         let v = DVec3::new(t.0, t.1, t.2);
-        if v.is_finite() {
+        if [t.0, t.1, t.2].into_iter().all(sized) {
             Some(v)
         } else {
-            self.problem(field, format!("must be finite numbers, got {t:?}"));
+            self.problem(
+                field,
+                format!("must be finite numbers within ±{LARGEST:e}, got {t:?}"),
+            );
             None
         }
     }
 
     fn pair(&mut self, field: &str, p: Pair) -> Option<DVec2> {
         let v = DVec2::new(p.0, p.1);
-        if v.is_finite() {
+        if sized(p.0) && sized(p.1) {
             Some(v)
         } else {
-            self.problem(field, format!("must be finite numbers, got {p:?}"));
+            self.problem(
+                field,
+                format!("must be finite numbers within ±{LARGEST:e}, got {p:?}"),
+            );
             None
         }
     }

@@ -169,13 +169,15 @@ impl Refused {
 }
 
 /// Sphere `s` when it passes every test of [`Checker::sphere`] (without naming anything, for
-/// the pool's tasks): finite centre, finite radius > 0, colour in [0, 1] or white.
+/// the pool's tasks): centre and radius finite and within ±1e150 (`LARGEST`), radius > 0,
+/// colour in [0, 1] or white.
 #[inline]
 fn passing(s: &SphereSpec) -> Option<Sphere> {
     let center = DVec3::from(s.center);
     let color = s.color.map_or(DVec3::ONE, DVec3::from);
-    let good = center.is_finite()
-        && s.radius.is_finite()
+    let good = [s.center.0, s.center.1, s.center.2, s.radius]
+        .into_iter()
+        .all(super::sized)
         && s.radius > 0.0
         && color.cmpge(DVec3::ZERO).all()
         && color.cmple(DVec3::ONE).all();
@@ -265,6 +267,8 @@ mod tests {
             1.0 + f64::EPSILON,
             f64::MIN_POSITIVE / 2.0,
             f64::MAX,
+            super::super::LARGEST,
+            -f64::from_bits(super::super::LARGEST.to_bits() + 1),
             f64::INFINITY,
             f64::NEG_INFINITY,
             f64::NAN,

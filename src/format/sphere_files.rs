@@ -3,7 +3,9 @@
 //!
 //! - **PLY**: `element vertex N` with `x`, `y`, `z` and `radius` (any numeric type), and
 //!   optionally `red`, `green`, `blue`: `uchar` 0–255 (divided by 255) or `float`/`double` 0–1.
-//!   Other properties and elements are read past.
+//!   Other properties and elements are read past. An ASCII value is read as its declared type
+//!   (a `float` rounded to f32, as a binary body holds it), so ASCII and binary give the same
+//!   spheres. A header line is at most 4,096 bytes.
 //! - **CSV**: a header `x,y,z,radius` or `x,y,z,radius,r,g,b` (colours 0–1), then one sphere a
 //!   line; blank lines are skipped.
 //!
@@ -29,6 +31,19 @@ pub const BLOCK_BYTES: usize = 4 << 20;
 
 /// The fewest vertices a pool task parses: a small file stays one task.
 const TASK_VERTICES: usize = 4096;
+
+/// The longest PLY header line read: a header line is a few words, and a file whose
+/// `end_header` is missing is cut here, not read whole into one line.
+const HEADER_LINE_BYTES: usize = 4096;
+
+/// `text` quoted for a message, cut after 60 characters: a line of a body read as a header
+/// is named, not printed whole.
+fn quoted(text: &str) -> String {
+    match text.char_indices().nth(60) {
+        Some((cut, _)) => format!("{:?}…", &text[..cut]),
+        None => format!("{text:?}"),
+    }
+}
 
 /// Where in a sphere file a sphere or a problem is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -163,13 +178,18 @@ pub fn csv<T>(
         ["x", "y", "z", "radius"] => false,
         ["x", "y", "z", "radius", "r", "g", "b"] => true,
         _ => {
+            // A line that still holds a CR after `lines` split it: lines end in CR alone.
+            let cr = match header.1.contains('\r') {
+                true => " (its lines end in CR alone: save it with LF or CRLF line endings)",
+                false => "",
+            };
             return Err(FileProblem::at(
                 Location::Line(header.0),
                 format!(
-                    "the header must be x,y,z,radius or x,y,z,radius,r,g,b, got {:?}",
-                    header.1
+                    "the header must be x,y,z,radius or x,y,z,radius,r,g,b, got {}{cr}",
+                    quoted(header.1)
                 ),
-            ))
+            ));
         }
     };
     let mut listing = Listing {
@@ -197,7 +217,10 @@ pub fn csv<T>(
         }
         let number = |k: usize| {
             fields[k].parse::<f64>().map_err(|_| {
-                FileProblem::at(at, format!("{}: not a number: {:?}", names[k], fields[k]))
+                FileProblem::at(
+                    at,
+                    format!("{}: not a number: {}", names[k], quoted(fields[k])),
+                )
             })
         };
         let triple = |k: usize| -> Result<Triple, FileProblem> {
@@ -245,6 +268,41 @@ impl Scalar {
             "double" | "float64" => Scalar::F64,
             _ => return None,
         })
+    }
+
+    /// The type's name in a header.
+    fn name(self) -> &'static str {
+        match self {
+            Scalar::I8 => "char",
+            Scalar::U8 => "uchar",
+            Scalar::I16 => "short",
+            Scalar::U16 => "ushort",
+            Scalar::I32 => "int",
+            Scalar::U32 => "uint",
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+
+    /// Whether a list's count may be of this type.
+    fn counts(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+
+    /// The value of an ASCII body's word, read as this type (a `float` rounded to f32, as a
+    /// binary body stores it, an integer type in its range) and widened exactly to f64; None
+    /// when the word is not one.
+    fn ascii(self, w: &str) -> Option<f64> {
+        match self {
+            Scalar::I8 => w.parse::<i8>().ok().map(f64::from),
+            Scalar::U8 => w.parse::<u8>().ok().map(f64::from),
+            Scalar::I16 => w.parse::<i16>().ok().map(f64::from),
+            Scalar::U16 => w.parse::<u16>().ok().map(f64::from),
+            Scalar::I32 => w.parse::<i32>().ok().map(f64::from),
+            Scalar::U32 => w.parse::<u32>().ok().map(f64::from),
+            Scalar::F32 => w.parse::<f32>().ok().map(f64::from),
+            Scalar::F64 => w.parse::<f64>().ok(),
+        }
     }
 
     fn size(self) -> usize {
@@ -304,16 +362,31 @@ fn ply_from<T: Send>(
     out: &mut Vec<T>,
     make: &(impl Fn(usize, &SphereSpec) -> T + Sync),
 ) -> Result<Listing, FileProblem> {
-    // The header is ASCII lines up to `end_header`.
+    // The header is ASCII lines up to `end_header`, each at most HEADER_LINE_BYTES long (the
+    // last may end the file without a newline).
     let mut line_no = 0;
     let mut raw = Vec::new();
     let mut next_line = |file: &mut dyn BufRead| -> Result<Option<(usize, String)>, FileProblem> {
         raw.clear();
-        file.read_until(b'\n', &mut raw).map_err(FileProblem::io)?;
-        if raw.pop() != Some(b'\n') {
+        let limit = HEADER_LINE_BYTES as u64 + 1;
+        (&mut *file)
+            .take(limit)
+            .read_until(b'\n', &mut raw)
+            .map_err(FileProblem::io)?;
+        if raw.is_empty() {
             return Ok(None);
         }
         line_no += 1;
+        if raw.last() == Some(&b'\n') {
+            raw.pop();
+        } else if raw.len() > HEADER_LINE_BYTES {
+            return Err(FileProblem::at(
+                Location::Line(line_no),
+                format!(
+                    "a header line longer than {HEADER_LINE_BYTES} bytes: is `end_header` missing?"
+                ),
+            ));
+        }
         let line = String::from_utf8_lossy(&raw);
         Ok(Some((
             line_no,
@@ -321,8 +394,10 @@ fn ply_from<T: Send>(
         )))
     };
     let bad = |n: usize, m: String| FileProblem::at(Location::Line(n), m);
-    match next_line(&mut file)? {
-        Some((_, l)) if l == "ply" => {}
+    match next_line(&mut file) {
+        Ok(Some((_, l))) if l == "ply" => {}
+        // A file that cannot be read is named so; a first line too long is no PLY either.
+        Err(e) if e.at.is_none() => return Err(e),
         _ => {
             return Err(FileProblem::whole(
                 "not a PLY file: it must start with `ply`",
@@ -349,28 +424,38 @@ fn ply_from<T: Send>(
             }
             ["element", name, count] => elements.push(Element {
                 name: name.to_string(),
-                count: count
-                    .parse()
-                    .map_err(|_| bad(n, format!("element count {count:?} is not a number")))?,
+                count: count.parse().map_err(|_| {
+                    bad(
+                        n,
+                        format!("element count {} is not a number", quoted(count)),
+                    )
+                })?,
                 properties: Vec::new(),
             }),
             ["property", "list", count, item, _] => {
                 let (Some(c), Some(i)) = (Scalar::parse(count), Scalar::parse(item)) else {
-                    return Err(bad(n, format!("unknown list types in {line:?}")));
+                    return Err(bad(n, format!("unknown list types in {}", quoted(&line))));
                 };
+                if !c.counts() {
+                    return Err(bad(
+                        n,
+                        format!("a list's count is an integer type, not {}", c.name()),
+                    ));
+                }
                 let e = elements
                     .last_mut()
                     .ok_or_else(|| bad(n, "a property before any element".into()))?;
                 e.properties.push(Property::List(c, i));
             }
             ["property", ty, name] => {
-                let ty = Scalar::parse(ty).ok_or_else(|| bad(n, format!("unknown type {ty:?}")))?;
+                let ty = Scalar::parse(ty)
+                    .ok_or_else(|| bad(n, format!("unknown type {}", quoted(ty))))?;
                 let e = elements
                     .last_mut()
                     .ok_or_else(|| bad(n, "a property before any element".into()))?;
                 e.properties.push(Property::Scalar(ty, name.to_string()));
             }
-            _ => return Err(bad(n, format!("not a PLY header line: {line:?}"))),
+            _ => return Err(bad(n, format!("not a PLY header line: {}", quoted(&line)))),
         }
     }
     let binary = binary.ok_or_else(|| FileProblem::whole("the header has no `format` line"))?;
@@ -400,9 +485,15 @@ fn ply_from<T: Send>(
             None => listed_vertices(&mut file, v, &columns, out, make),
         }
     } else {
-        let mut body = Vec::new();
-        file.read_to_end(&mut body).map_err(FileProblem::io)?;
-        ascii_vertices(&body, line_no + 1, &elements, vertex, &columns, out, make)
+        ascii_vertices(
+            &mut file,
+            line_no + 1,
+            &elements,
+            vertex,
+            &columns,
+            out,
+            make,
+        )
     }
 }
 
@@ -531,7 +622,14 @@ fn skip_elements(body: &mut impl BufRead, elements: &[Element]) -> Result<(), Fi
                         let mut n = [0; 8];
                         let n = &mut n[..c.size()];
                         exact(body, n)?.ok_or_else(|| cut(i))?;
-                        (c.le(n), *t)
+                        let count = c.le(n);
+                        if count < 0.0 {
+                            return Err(FileProblem::whole(format!(
+                                "element {} {i}: a negative list count ({count})",
+                                e.name
+                            )));
+                        }
+                        (count, *t)
                     }
                 };
                 let want = (count as u64).saturating_mul(item.size() as u64);
@@ -649,6 +747,12 @@ fn listed_vertices<T>(
                 Property::Scalar(t, _) => values[k] = scalar(*t)?,
                 Property::List(c, t) => {
                     let n = scalar(*c)?;
+                    if n < 0.0 {
+                        return Err(FileProblem::at(
+                            Location::Vertex(i),
+                            format!("a negative list count ({n})"),
+                        ));
+                    }
                     let want = (n as u64).saturating_mul(t.size() as u64);
                     if skip(body, want)? < want {
                         return Err(truncated(i, v.count));
@@ -664,8 +768,11 @@ fn listed_vertices<T>(
     })
 }
 
+/// The vertices of an ASCII body, read line by line up to the last vertex (what follows is
+/// never read): one record a line, blank lines passed, an element without properties taking
+/// none. Each vertex line must be UTF-8, and each value of its property's type.
 fn ascii_vertices<T>(
-    body: &[u8],
+    body: &mut impl BufRead,
     first_line: usize,
     elements: &[Element],
     vertex: usize,
@@ -673,15 +780,27 @@ fn ascii_vertices<T>(
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
 ) -> Result<Listing, FileProblem> {
-    let text = std::str::from_utf8(body).map_err(|_| FileProblem::whole("the body is not text"))?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (first_line + i, l))
-        .filter(|(_, l)| !l.trim().is_empty());
+    let mut line_no = first_line - 1;
+    let mut raw = Vec::new();
+    // The next line that is not blank, and its number; None at the end of the body.
+    let mut next = |raw: &mut Vec<u8>| -> Result<Option<usize>, FileProblem> {
+        loop {
+            raw.clear();
+            if body.read_until(b'\n', raw).map_err(FileProblem::io)? == 0 {
+                return Ok(None);
+            }
+            line_no += 1;
+            if !raw.iter().all(u8::is_ascii_whitespace) {
+                return Ok(Some(line_no));
+            }
+        }
+    };
     for e in &elements[..vertex] {
+        if e.properties.is_empty() {
+            continue;
+        }
         for i in 0..e.count {
-            lines.next().ok_or_else(|| {
+            next(&mut raw)?.ok_or_else(|| {
                 FileProblem::whole(format!(
                     "truncated: the body ends at element {} {i} (before the vertices)",
                     e.name
@@ -692,13 +811,15 @@ fn ascii_vertices<T>(
     let v = &elements[vertex];
     let mut values = vec![0.0; v.properties.len()];
     for i in 0..v.count {
-        let Some((n, line)) = lines.next() else {
+        let Some(n) = next(&mut raw)? else {
             return Err(FileProblem::at(
                 Location::Vertex(i),
                 format!("truncated: the file ends at vertex {i} of {}", v.count),
             ));
         };
         let at = Location::Line(n);
+        let line = std::str::from_utf8(&raw)
+            .map_err(|_| FileProblem::at(at, format!("vertex {i}: not UTF-8 text")))?;
         let mut words = line.split_whitespace();
         for (k, p) in v.properties.iter().enumerate() {
             let mut word = |what: &str| {
@@ -707,21 +828,32 @@ fn ascii_vertices<T>(
                 })
             };
             match p {
-                Property::Scalar(_, name) => {
+                Property::Scalar(t, name) => {
                     let w = word(name)?;
-                    values[k] = w.parse().map_err(|_| {
-                        FileProblem::at(at, format!("vertex {i}: {name}: not a number: {w:?}"))
-                    })?;
-                }
-                Property::List(..) => {
-                    let w = word("a list's count")?;
-                    let count: usize = w.parse().map_err(|_| {
+                    values[k] = t.ascii(w).ok_or_else(|| {
+                        let what = match t {
+                            Scalar::F32 | Scalar::F64 => "a number".to_string(),
+                            _ => format!("a value of type {}", t.name()),
+                        };
                         FileProblem::at(
                             at,
-                            format!("vertex {i}: a list count that is not a number: {w:?}"),
+                            format!("vertex {i}: {name}: not {what}: {}", quoted(w)),
                         )
                     })?;
-                    for _ in 0..count {
+                }
+                Property::List(c, _) => {
+                    let w = word("a list's count")?;
+                    let count = c.ascii(w).filter(|n| *n >= 0.0).ok_or_else(|| {
+                        FileProblem::at(
+                            at,
+                            format!(
+                                "vertex {i}: a list's count must be a whole number of type {}, 0 or more: {}",
+                                c.name(),
+                                quoted(w)
+                            ),
+                        )
+                    })?;
+                    for _ in 0..count as u64 {
                         word("a list item")?;
                     }
                 }
@@ -928,5 +1060,104 @@ mod tests {
             assert!(e.message.contains(want), "{cut}: {e:?}");
             assert_eq!(e.at, None);
         }
+    }
+
+    /// The unkind forms: a header without `end_header` before a long body, `end_header` at
+    /// the very end, an element without properties, ASCII values of the declared type (a
+    /// `float` as a binary body stores it), negative and float list counts, bytes that are not
+    /// UTF-8 where they are read and where they are not; every message short.
+    #[test]
+    fn unkind_ply_and_csv_forms() {
+        let short = |e: FileProblem| {
+            assert!(e.message.len() < 200, "{e:?}");
+            e
+        };
+        let xyzr = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
+        // No end_header: the body's first "line" is cut at HEADER_LINE_BYTES, named, not quoted.
+        let mut cut = b"ply\nformat binary_little_endian 1.0\nelement vertex 9\n".to_vec();
+        cut.extend(xyzr.as_bytes());
+        cut.extend(vec![7u8; 3 * HEADER_LINE_BYTES]);
+        cut.push(b'\n');
+        let e = short(ply(&cut).unwrap_err());
+        assert_eq!(e.at, Some(Location::Line(8)), "{e:?}");
+        assert!(e.message.contains("end_header"), "{e:?}");
+        assert!(short(ply(&[b'x'; 2 * HEADER_LINE_BYTES]).unwrap_err())
+            .message
+            .contains("not a PLY file"));
+        // end_header ending the file, no newline.
+        let mut end = header("binary_little_endian", xyzr, 0);
+        end.pop();
+        assert_eq!(ply(&end).unwrap().1.count, 0);
+        // An element without properties before the vertices takes no line.
+        let text = format!("ply\nformat ascii 1.0\nelement marker 3\nelement vertex 1\n{xyzr}end_header\n\n1 2 3 4\n");
+        assert_eq!(
+            ply(text.as_bytes()).unwrap().0,
+            [sphere((1.0, 2.0, 3.0), 4.0, None)]
+        );
+        // A float in ASCII is the f32 a binary body holds.
+        let mut ascii = header("ascii", xyzr, 1);
+        ascii.extend(b"0.1 0.2 0.3 0.7\n");
+        let mut bin = header("binary_little_endian", xyzr, 1);
+        for v in [0.1f32, 0.2, 0.3, 0.7] {
+            bin.extend(v.to_le_bytes());
+        }
+        let f = |v: f32| f64::from(v);
+        let want = [sphere((f(0.1), f(0.2), f(0.3)), f(0.7), None)];
+        assert_eq!(ply(&ascii).unwrap().0, want);
+        assert_eq!(ply(&bin).unwrap().0, want);
+        // An integer property takes only integers in its range.
+        for (props, row, field) in [
+            (
+                "property int x\nproperty float y\nproperty float z\nproperty float radius\n",
+                "0.5 0 0 1",
+                "x: not a value of type int",
+            ),
+            (
+                "property float x\nproperty float y\nproperty float z\nproperty uchar radius\n",
+                "0 0 0 300",
+                "radius: not a value of type uchar",
+            ),
+        ] {
+            let mut text = header("ascii", props, 1);
+            text.extend(row.as_bytes());
+            let e = short(ply(&text).unwrap_err());
+            assert!(e.message.contains(field), "{e:?}");
+        }
+        // List counts: negative in binary and ASCII, or of a float type.
+        let listed = format!("{xyzr}property list char float extra\n");
+        let mut bin = header("binary_little_endian", &listed, 1);
+        for v in [0.0f32, 0.0, 0.0, 1.0] {
+            bin.extend(v.to_le_bytes());
+        }
+        bin.push(0xff);
+        let e = ply(&bin).unwrap_err();
+        assert_eq!(e.at, Some(Location::Vertex(0)), "{e:?}");
+        assert!(e.message.contains("negative list count"), "{e:?}");
+        let mut ascii = header("ascii", &listed, 1);
+        ascii.extend(b"0 0 0 1 -1\n");
+        assert!(ply(&ascii).unwrap_err().message.contains("0 or more"));
+        let floaty = header(
+            "ascii",
+            &format!("{xyzr}property list float int extra\n"),
+            0,
+        );
+        assert!(ply(&floaty).unwrap_err().message.contains("integer type"));
+        // Bytes that are not UTF-8: named on a vertex's line, not read after the vertices.
+        let tail = format!("ply\nformat ascii 1.0\nelement vertex 1\n{xyzr}element note 1\nproperty uchar n\nend_header\n0 0 0 1\n");
+        let mut after = tail.into_bytes();
+        after.extend(b"\xe9\n");
+        assert_eq!(ply(&after).unwrap().1.count, 1);
+        let mut inside = header("ascii", xyzr, 2);
+        inside.extend(b"0 0 0 1\n0 0 0 1 \xe9\n");
+        let e = ply(&inside).unwrap_err();
+        assert_eq!(e.at, Some(Location::Line(11)), "{e:?}");
+        assert!(e.message.contains("UTF-8"), "{e:?}");
+        // CSV: a header line is quoted short, and lines ending in a lone CR are named.
+        let mut cr = b"x,y,z,radius".to_vec();
+        for _ in 0..1000 {
+            cr.extend(b"\r1,2,3,4");
+        }
+        let e = short(csv(&cr).unwrap_err());
+        assert!(e.message.contains("CR alone"), "{e:?}");
     }
 }

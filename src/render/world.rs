@@ -371,14 +371,16 @@ impl Pyramid {
     fn new(camera: &Camera) -> Pyramid {
         let cop = camera.cop_view;
         let (w, h) = (camera.window.x * 0.5, camera.window.y * 0.5);
-        // Window corners counter-clockwise seen from the COP (looking along +n).
+        // Window corners counter-clockwise seen from the COP (looking along +n), as unit
+        // directions: normalising a cross product of the corners themselves squares the square
+        // of the scene's lengths, which underflows to zero for lengths near 1e-80.
         let corners = [
             DVec2::new(-w, -h),
             DVec2::new(w, -h),
             DVec2::new(w, h),
             DVec2::new(-w, h),
         ]
-        .map(|c| DVec3::new(c.x, c.y, 0.0) - cop);
+        .map(|c| (DVec3::new(c.x, c.y, 0.0) - cop).normalize());
         let centre = -cop;
         let planes = std::array::from_fn(|k| {
             let m = corners[k].cross(corners[(k + 1) % 4]).normalize();

@@ -251,6 +251,61 @@ fn far_from_the_origin_renders_the_same_pixels() {
     }
 }
 
+/// The far scene's spheres and camera with every length times `k`.
+fn scaled_scene(k: f64) -> String {
+    let p = |x: f64, y: f64, z: f64| format!("({:?}, {:?}, {:?})", x * k, y * k, z * k);
+    let l = |x: f64| format!("{:?}", x * k);
+    format!(
+        "(frames: 2, fps: 1.0, image: (width: 96, height: 54, samples: 2),
+          camera: (tp: {tp}, cop: {cop}, window: ({w}, {h})),
+          animate: [Observer(keys: [(t: 0.0, value: {k0}), (t: 1.0, value: {k1})])],
+          scene: (ambient: 0.1, lights: [(direction: (-1.0, -2.0, 1.0))],
+                  spheres: [(center: {s0}, radius: {r0}, color: (0.9, 0.2, 0.2)), (center: {s1}, radius: {r1}, color: (0.5, 0.5, 0.5)),
+                            (center: {s2}, radius: {r2}, color: (0.2, 0.8, 0.3))]))",
+        tp = p(0.0, 0.0, 0.0),
+        cop = p(0.0, 0.0, -1.5),
+        w = l(1.6),
+        h = l(0.9),
+        k0 = p(0.0, 2.0, -10.0),
+        k1 = p(4.0, 3.0, -6.0),
+        s0 = p(0.0, 0.0, 0.0),
+        r0 = l(1.0),
+        s1 = p(0.0, -101.0, 0.0),
+        r1 = l(100.0),
+        s2 = p(2.0, 0.0, 1.0),
+        r2 = l(0.5),
+    )
+}
+
+/// Every length times a power of two is exact, so a scene scaled by one renders the same
+/// bytes: down to lengths whose squares are still normal numbers (the view pyramid's planes
+/// once underflowed there and culled every sphere), and up to the largest size a scene may
+/// have (1e150: the renderer squares distances). Beyond that the scene is refused, naming the
+/// bound, not rendered without its spheres.
+#[test]
+fn a_scene_scaled_by_a_power_of_two_renders_the_same_bytes() {
+    let render = |k: f64| {
+        let doc = Document::from_str(Path::new("scaled.ron"), &scaled_scene(k)).unwrap();
+        let mut r = Renderer::new();
+        cameras(&doc)
+            .iter()
+            .map(|c| r.render(c, &doc.scene, doc.raster))
+            .collect::<Vec<_>>()
+    };
+    let base = render(1.0);
+    // Not one colour: the spheres are in the picture.
+    assert!(base[0].chunks(3).any(|p| p != &base[0][..3]));
+    // Down to lengths near 3e-151, whose squares are still normal numbers, and up to 3e147.
+    for e in [-500, -300, -100, -40, 40, 100, 300, 490] {
+        assert!(render(2f64.powi(e)) == base, "scaled by 2^{e}");
+    }
+    // 2^500 ≈ 3.3e150.
+    let e = Document::from_str(Path::new("scaled.ron"), &scaled_scene(2f64.powi(500)))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("within ±1e150"), "{e}");
+}
+
 #[test]
 fn naive_f32_world_space_loses_the_small_sphere_far_away() {
     // The naive route, f32 world coordinates through the matrix M, puts the 1 cm sphere's centre

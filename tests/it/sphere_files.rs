@@ -180,7 +180,7 @@ fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
     for (line, want) in named.iter().zip([
         "clouds/b.ply: vertex 7: radius: must be greater than 0, got 0".to_string(),
         format!(
-            "clouds/b.ply: vertex {}: center: must be finite numbers, got (NaN, ",
+            "clouds/b.ply: vertex {}: center: must be finite numbers within ±1e150, got (NaN, ",
             n / 2
         ),
         format!(
@@ -203,4 +203,30 @@ fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
     );
     assert!(err.contains(&want), "{want:?} in:\n{err}");
     assert!(!err.contains(": vertex 7:"), "{err}");
+}
+
+/// A file of many bad spheres: the message names the first hundred, in file order, and
+/// counts the rest, not a line for each.
+#[test]
+fn many_bad_spheres_are_named_first_and_counted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let mut csv = String::from("x,y,z,radius\n");
+    for i in 0..250 {
+        writeln!(csv, "{i},0,0,-1").unwrap();
+    }
+    std::fs::write(t.join("bad.csv"), csv).unwrap();
+    std::fs::write(t.join("b.ron"), shot("", &["bad.csv"])).unwrap();
+    let o = campath(t, &["check", "b.ron"], &[]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("250 problem(s)"), "{err}");
+    let named: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("bad.csv: line "))
+        .collect();
+    assert_eq!(named.len(), campath::error::PROBLEMS_SHOWN, "{err}");
+    assert!(named[0].contains("bad.csv: line 2: radius"), "{err}");
+    assert!(named[99].contains("bad.csv: line 101: radius"), "{err}");
+    assert!(err.trim_end().ends_with("… and 150 more"), "{err}");
 }
