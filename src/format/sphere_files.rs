@@ -12,9 +12,10 @@
 //! Numbers are read exactly: a `double` in PLY, or a number in CSV (through `f64::from_str`, as
 //! RON reads its floats), gives the same bits as the same number in RON. Nothing is checked here
 //! beyond the form: each sphere is handed, with its index, to the caller's `make` as it is read
-//! ([`crate::document`] checks it there), so a file's spheres are never held twice. A binary
-//! PLY's body passes through a buffer of [`BLOCK_BYTES`], each block's vertices parsed on the
-//! rayon pool straight into the caller's vector, in file order.
+//! ([`crate::document`] checks it there), so a file's spheres are never held twice. A body
+//! passes through buffers of [`BLOCK_BYTES`], never held whole: a binary PLY's vertices parsed
+//! on the rayon pool straight into the caller's vector, in file order; a text body's lines
+//! (CSV, ASCII PLY) cut into pieces parsed on the pool, handed over in file order.
 
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, Read};
@@ -22,7 +23,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::{SphereSpec, Triple};
+use super::SphereSpec;
 
 /// The most bytes of a binary PLY body read at a time (whole vertices, at least one): a
 /// million spheres' 56 MB pass through 4 MiB, and the body is never held whole. A long
@@ -42,6 +43,54 @@ fn quoted(text: &str) -> String {
     match text.char_indices().nth(60) {
         Some((cut, _)) => format!("{:?}…", &text[..cut]),
         None => format!("{text:?}"),
+    }
+}
+
+/// A text header's lines (PLY's, and CSV's first), each at most [`HEADER_LINE_BYTES`]; the
+/// last may end the file without a line end.
+struct HeaderLines {
+    /// Lines read.
+    line: usize,
+    raw: Vec<u8>,
+    /// What a line too long suggests, when its lines do not end in CR alone.
+    suggest: &'static str,
+}
+
+impl HeaderLines {
+    fn new(suggest: &'static str) -> HeaderLines {
+        HeaderLines {
+            line: 0,
+            raw: Vec::new(),
+            suggest,
+        }
+    }
+
+    /// The next line and its number, trimmed (bytes that are not UTF-8 replaced); None at the
+    /// end of the file.
+    fn next(&mut self, file: &mut dyn BufRead) -> Result<Option<(usize, String)>, FileProblem> {
+        self.raw.clear();
+        (&mut *file)
+            .take(HEADER_LINE_BYTES as u64 + 1)
+            .read_until(b'\n', &mut self.raw)
+            .map_err(FileProblem::io)?;
+        if self.raw.is_empty() {
+            return Ok(None);
+        }
+        self.line += 1;
+        if self.raw.last() == Some(&b'\n') {
+            self.raw.pop();
+        } else if self.raw.len() > HEADER_LINE_BYTES {
+            let why = match self.raw.contains(&b'\r') {
+                true => "its lines end in CR alone: save it with LF or CRLF line endings",
+                false => self.suggest,
+            };
+            return Err(FileProblem::at(
+                Location::Line(self.line),
+                format!("a header line longer than {HEADER_LINE_BYTES} bytes: {why}"),
+            ));
+        }
+        let line = String::from_utf8_lossy(&self.raw);
+        Ok(Some((self.line, line.trim().to_string())))
     }
 }
 
@@ -131,11 +180,7 @@ pub fn read<T: Send>(
     let start = out.len();
     let listing = match ext.as_deref() {
         Some("ply") => ply_from(BufReader::new(file), len, out, &make),
-        Some("csv") => {
-            let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
-            file.read_to_end(&mut bytes).map_err(FileProblem::io)?;
-            csv(&bytes, out, &make)
-        }
+        Some("csv") => csv_from(BufReader::new(file), out, &make),
         _ => {
             // A folder, or a file that cannot be read, is named as such whatever its name.
             file.read(&mut [0]).map_err(FileProblem::io)?;
@@ -156,90 +201,258 @@ pub fn csv<T>(
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
 ) -> Result<Listing, FileProblem> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|b| **b == b'\n')
-            .count()
-            + 1;
-        FileProblem::at(Location::Line(line), "not UTF-8 text")
-    })?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
-    let header = loop {
-        match lines.next() {
+    csv_from(bytes, out, &make)
+}
+
+/// The CSV form read from `file`: the header line, then the body's lines in blocks on the
+/// pool ([`text_records`]).
+fn csv_from<T>(
+    mut file: impl BufRead + Send,
+    out: &mut Vec<T>,
+    make: &impl Fn(usize, &SphereSpec) -> T,
+) -> Result<Listing, FileProblem> {
+    let mut lines = HeaderLines::new("is it a CSV file?");
+    let (n, header) = loop {
+        match lines.next(&mut file)? {
             None => return Err(FileProblem::whole("empty: expected a header x,y,z,radius")),
-            Some((_, l)) if l.trim().is_empty() => continue,
+            Some((_, l)) if l.is_empty() => continue,
             Some((n, l)) => break (n, l),
         }
     };
-    let names: Vec<&str> = header.1.split(',').map(str::trim).collect();
+    let header = match n {
+        1 => header
+            .strip_prefix('\u{feff}')
+            .unwrap_or(&header)
+            .to_string(),
+        _ => header,
+    };
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let colours = match names.as_slice() {
         ["x", "y", "z", "radius"] => false,
         ["x", "y", "z", "radius", "r", "g", "b"] => true,
         _ => {
-            // A line that still holds a CR after `lines` split it: lines end in CR alone.
-            let cr = match header.1.contains('\r') {
+            // A line that still holds a CR: lines end in CR alone.
+            let cr = match header.contains('\r') {
                 true => " (its lines end in CR alone: save it with LF or CRLF line endings)",
                 false => "",
             };
             return Err(FileProblem::at(
-                Location::Line(header.0),
+                Location::Line(n),
                 format!(
                     "the header must be x,y,z,radius or x,y,z,radius,r,g,b, got {}{cr}",
-                    quoted(header.1)
+                    quoted(&header)
                 ),
             ));
         }
     };
+    let fields = names.len();
+    let parse = |line: &str, _: &mut Vec<f64>| -> Result<SphereSpec, String> {
+        let mut words = [""; 7];
+        let mut got = 0;
+        for (k, field) in line.split(',').enumerate() {
+            if let Some(word) = words.get_mut(k) {
+                *word = field.trim();
+            }
+            got = k + 1;
+        }
+        if got != fields {
+            return Err(format!(
+                "expected {fields} fields ({}), got {got}",
+                CSV_NAMES[..fields].join(",")
+            ));
+        }
+        let mut values = [0.0; 7];
+        for (k, (value, word)) in values.iter_mut().zip(words).take(fields).enumerate() {
+            *value = text_f64(word)
+                .ok_or_else(|| format!("{}: not a number: {}", CSV_NAMES[k], quoted(word)))?;
+        }
+        let [x, y, z, radius, r, g, b] = values;
+        Ok(SphereSpec {
+            center: (x, y, z),
+            radius,
+            color: colours.then_some((r, g, b)),
+        })
+    };
+    let first = n + 1;
     let mut listing = Listing {
-        first_line: Some(header.0 + 1),
+        first_line: Some(first),
         ..Listing::default()
     };
     let mut gaps = false;
-    for (n, line) in lines {
-        if line.trim().is_empty() {
-            gaps = true;
-            continue;
-        }
-        let at = Location::Line(n);
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != names.len() {
-            return Err(FileProblem::at(
-                at,
-                format!(
-                    "expected {} fields ({}), got {}",
-                    names.len(),
-                    names.join(","),
-                    fields.len()
-                ),
-            ));
-        }
-        let number = |k: usize| {
-            fields[k].parse::<f64>().map_err(|_| {
-                FileProblem::at(
-                    at,
-                    format!("{}: not a number: {}", names[k], quoted(fields[k])),
-                )
-            })
-        };
-        let triple = |k: usize| -> Result<Triple, FileProblem> {
-            Ok((number(k)?, number(k + 1)?, number(k + 2)?))
-        };
-        let sphere = SphereSpec {
-            center: triple(0)?,
-            radius: number(3)?,
-            color: if colours { Some(triple(4)?) } else { None },
-        };
+    let take = |line, sphere: SphereSpec| {
+        gaps |= line != first + listing.count;
         out.push(make(listing.count, &sphere));
         listing.count += 1;
-        listing.lines.push(n as u32);
-    }
+        listing.lines.push(line as u32);
+    };
+    let problem = |_, line, what| FileProblem::at(Location::Line(line), what);
+    text_records(&mut file, first, usize::MAX, parse, take, problem)?;
     if !gaps {
         // Every sphere on the line after the one before: the lines need not be kept.
         listing.lines = Vec::new();
     }
     Ok(listing)
+}
+
+/// A text field's number (CSV, and an ASCII PLY's `double`): the value `f64::from_str` gives,
+/// and only where it gives one. A finite value from `fast_float2` (correctly rounded, so the
+/// same bits, in a little more than half the CPU) is taken; anything else it gives or refuses
+/// (`inf`, `NaN`, an error) goes to `from_str`. The tests check the two agree over every field
+/// of up to five characters of numbers, infinities and NaNs, and six of digits alone.
+fn text_f64(field: &str) -> Option<f64> {
+    match fast_float2::parse::<f64, _>(field) {
+        Ok(v) if v.is_finite() => Some(v),
+        _ => field.parse().ok(),
+    }
+}
+
+/// [`text_f64`] for an ASCII PLY's `float`: the value `f32::from_str` gives.
+fn text_f32(field: &str) -> Option<f32> {
+    match fast_float2::parse::<f32, _>(field) {
+        Ok(v) if v.is_finite() => Some(v),
+        _ => field.parse().ok(),
+    }
+}
+
+/// A CSV file's columns, in the order its header names them.
+const CSV_NAMES: [&str; 7] = ["x", "y", "z", "radius", "r", "g", "b"];
+
+/// The bytes of text a pool task parses at least: a block's lines are cut into pieces of this
+/// size at line ends.
+const TASK_BYTES: usize = 64 << 10;
+
+/// A piece of a block's lines, parsed: each record with its line (counted from the piece's
+/// start, from 1), the first problem (which ends the piece), and how many lines it held.
+struct Piece<R> {
+    records: Vec<(usize, R)>,
+    problem: Option<(usize, String)>,
+    lines: usize,
+}
+
+/// The records of a text body, one a line (blank lines passed), in file order: the body read
+/// in blocks of [`BLOCK_BYTES`], each cut after its last line end, its lines parsed by
+/// `parse(line, scratch)` in pieces on the pool while the next block is read, and handed to
+/// `take(line, record)`, at most `count` of them (what follows them is parsed at most a block
+/// on, and never taken or named). A line that is not UTF-8, or that `parse` refuses, ends the
+/// reading with `problem(its record's index, its line, what is wrong)`. Lines are numbered
+/// from `first_line`. Returns how many records were taken.
+fn text_records<R: Send>(
+    body: &mut (impl Read + Send),
+    first_line: usize,
+    count: usize,
+    parse: impl Fn(&str, &mut Vec<f64>) -> Result<R, String> + Sync,
+    mut take: impl FnMut(usize, R),
+    problem: impl Fn(usize, usize, String) -> FileProblem,
+) -> Result<usize, FileProblem> {
+    let io = FileProblem::io;
+    let mut taken = 0;
+    // The lines before this block.
+    let mut before = first_line - 1;
+    let mut this = Vec::with_capacity(BLOCK_BYTES);
+    let mut next = Vec::with_capacity(BLOCK_BYTES);
+    let mut end = fill_block(body, &mut this).map_err(io)?;
+    loop {
+        // The block's whole lines: up to its last line end, or all of it at the end.
+        let cut = match (end, this.iter().rposition(|&b| b == b'\n')) {
+            (true, _) => this.len(),
+            (false, Some(k)) => k + 1,
+            (false, None) => {
+                let at = before + 1;
+                let what = format!("a line longer than {} MiB", BLOCK_BYTES >> 20);
+                return Err(problem(taken, at, what));
+            }
+        };
+        next.clear();
+        next.extend_from_slice(&this[cut..]);
+        let (read, pieces) = rayon::join(
+            || match end {
+                true => Ok(true),
+                false => fill_block(body, &mut next),
+            },
+            || parse_lines(&this[..cut], &parse),
+        );
+        for piece in pieces {
+            for (line, record) in piece.records {
+                if taken == count {
+                    return Ok(taken);
+                }
+                take(before + line, record);
+                taken += 1;
+            }
+            if let Some((line, what)) = piece.problem {
+                return match taken < count {
+                    true => Err(problem(taken, before + line, what)),
+                    false => Ok(taken),
+                };
+            }
+            before += piece.lines;
+        }
+        if end || taken == count {
+            return Ok(taken);
+        }
+        end = read.map_err(io)?;
+        std::mem::swap(&mut this, &mut next);
+    }
+}
+
+/// Fills `block` (which may hold the end of the last one) up to [`BLOCK_BYTES`] from `body`:
+/// whether the body ended.
+fn fill_block(body: &mut impl Read, block: &mut Vec<u8>) -> io::Result<bool> {
+    let room = BLOCK_BYTES.saturating_sub(block.len());
+    let got = body.take(room as u64).read_to_end(block)?;
+    Ok(got < room)
+}
+
+/// `text`'s lines parsed in pieces of about [`TASK_BYTES`] on the pool, in order.
+fn parse_lines<R: Send>(
+    text: &[u8],
+    parse: &(impl Fn(&str, &mut Vec<f64>) -> Result<R, String> + Sync),
+) -> Vec<Piece<R>> {
+    let mut cuts = vec![0];
+    while let Some(&from) = cuts.last() {
+        let want = from + TASK_BYTES;
+        if want >= text.len() {
+            break;
+        }
+        match text[want..].iter().position(|&b| b == b'\n') {
+            Some(k) if want + k + 1 < text.len() => cuts.push(want + k + 1),
+            _ => break,
+        }
+    }
+    cuts.push(text.len());
+    cuts.par_windows(2)
+        .map(|w| {
+            let mut piece = Piece {
+                records: Vec::new(),
+                problem: None,
+                lines: 0,
+            };
+            let mut scratch = Vec::new();
+            for raw in text[w[0]..w[1]].split_inclusive(|&b| b == b'\n') {
+                piece.lines += 1;
+                let line = match std::str::from_utf8(raw) {
+                    Ok(line) => line,
+                    Err(_) => {
+                        piece.problem = Some((piece.lines, "not UTF-8 text".to_string()));
+                        break;
+                    }
+                };
+                let line = line.strip_suffix('\n').unwrap_or(line);
+                let line = line.strip_suffix('\r').unwrap_or(line);
+                if line.trim().is_empty() {
+                    continue;
+                }
+                match parse(line, &mut scratch) {
+                    Ok(record) => piece.records.push((piece.lines, record)),
+                    Err(what) => {
+                        piece.problem = Some((piece.lines, what));
+                        break;
+                    }
+                }
+            }
+            piece
+        })
+        .collect()
 }
 
 /// A PLY property's scalar type.
@@ -300,8 +513,8 @@ impl Scalar {
             Scalar::U16 => w.parse::<u16>().ok().map(f64::from),
             Scalar::I32 => w.parse::<i32>().ok().map(f64::from),
             Scalar::U32 => w.parse::<u32>().ok().map(f64::from),
-            Scalar::F32 => w.parse::<f32>().ok().map(f64::from),
-            Scalar::F64 => w.parse::<f64>().ok(),
+            Scalar::F32 => text_f32(w).map(f64::from),
+            Scalar::F64 => text_f64(w),
         }
     }
 
@@ -362,39 +575,10 @@ fn ply_from<T: Send>(
     out: &mut Vec<T>,
     make: &(impl Fn(usize, &SphereSpec) -> T + Sync),
 ) -> Result<Listing, FileProblem> {
-    // The header is ASCII lines up to `end_header`, each at most HEADER_LINE_BYTES long (the
-    // last may end the file without a newline).
-    let mut line_no = 0;
-    let mut raw = Vec::new();
-    let mut next_line = |file: &mut dyn BufRead| -> Result<Option<(usize, String)>, FileProblem> {
-        raw.clear();
-        let limit = HEADER_LINE_BYTES as u64 + 1;
-        (&mut *file)
-            .take(limit)
-            .read_until(b'\n', &mut raw)
-            .map_err(FileProblem::io)?;
-        if raw.is_empty() {
-            return Ok(None);
-        }
-        line_no += 1;
-        if raw.last() == Some(&b'\n') {
-            raw.pop();
-        } else if raw.len() > HEADER_LINE_BYTES {
-            return Err(FileProblem::at(
-                Location::Line(line_no),
-                format!(
-                    "a header line longer than {HEADER_LINE_BYTES} bytes: is `end_header` missing?"
-                ),
-            ));
-        }
-        let line = String::from_utf8_lossy(&raw);
-        Ok(Some((
-            line_no,
-            line.trim_end_matches('\r').trim().to_string(),
-        )))
-    };
+    // The header is ASCII lines up to `end_header`.
+    let mut lines = HeaderLines::new("is `end_header` missing?");
     let bad = |n: usize, m: String| FileProblem::at(Location::Line(n), m);
-    match next_line(&mut file) {
+    match lines.next(&mut file) {
         Ok(Some((_, l))) if l == "ply" => {}
         // A file that cannot be read is named so; a first line too long is no PLY either.
         Err(e) if e.at.is_none() => return Err(e),
@@ -407,7 +591,7 @@ fn ply_from<T: Send>(
     let mut binary = None;
     let mut elements: Vec<Element> = Vec::new();
     loop {
-        let Some((n, line)) = next_line(&mut file)? else {
+        let Some((n, line)) = lines.next(&mut file)? else {
             return Err(FileProblem::whole("the header has no `end_header`"));
         };
         let words: Vec<&str> = line.split_whitespace().collect();
@@ -487,7 +671,7 @@ fn ply_from<T: Send>(
     } else {
         ascii_vertices(
             &mut file,
-            line_no + 1,
+            lines.line + 1,
             &elements,
             vertex,
             &columns,
@@ -768,11 +952,12 @@ fn listed_vertices<T>(
     })
 }
 
-/// The vertices of an ASCII body, read line by line up to the last vertex (what follows is
-/// never read): one record a line, blank lines passed, an element without properties taking
-/// none. Each vertex line must be UTF-8, and each value of its property's type.
+/// The vertices of an ASCII body, one record a line, blank lines passed: the elements before
+/// them read past line by line (an element without properties takes no line), then the vertices
+/// in blocks on the pool ([`text_records`]); what follows the last vertex is never named. Values
+/// are separated by ASCII whitespace (PLY is ASCII), each read as its property's type.
 fn ascii_vertices<T>(
-    body: &mut impl BufRead,
+    body: &mut (impl BufRead + Send),
     first_line: usize,
     elements: &[Element],
     vertex: usize,
@@ -780,92 +965,84 @@ fn ascii_vertices<T>(
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
 ) -> Result<Listing, FileProblem> {
-    let mut line_no = first_line - 1;
+    let mut line = first_line - 1;
     let mut raw = Vec::new();
-    // The next line that is not blank, and its number; None at the end of the body.
-    let mut next = |raw: &mut Vec<u8>| -> Result<Option<usize>, FileProblem> {
-        loop {
-            raw.clear();
-            if body.read_until(b'\n', raw).map_err(FileProblem::io)? == 0 {
-                return Ok(None);
-            }
-            line_no += 1;
-            if !raw.iter().all(u8::is_ascii_whitespace) {
-                return Ok(Some(line_no));
-            }
-        }
-    };
-    for e in &elements[..vertex] {
-        if e.properties.is_empty() {
-            continue;
-        }
+    for e in elements[..vertex]
+        .iter()
+        .filter(|e| !e.properties.is_empty())
+    {
         for i in 0..e.count {
-            next(&mut raw)?.ok_or_else(|| {
-                FileProblem::whole(format!(
-                    "truncated: the body ends at element {} {i} (before the vertices)",
-                    e.name
-                ))
-            })?;
+            // The element's next record: its next line that is not blank.
+            loop {
+                raw.clear();
+                if body.read_until(b'\n', &mut raw).map_err(FileProblem::io)? == 0 {
+                    return Err(FileProblem::whole(format!(
+                        "truncated: the body ends at element {} {i} (before the vertices)",
+                        e.name
+                    )));
+                }
+                line += 1;
+                if !raw.iter().all(u8::is_ascii_whitespace) {
+                    break;
+                }
+            }
         }
     }
     let v = &elements[vertex];
-    let mut values = vec![0.0; v.properties.len()];
-    for i in 0..v.count {
-        let Some(n) = next(&mut raw)? else {
-            return Err(FileProblem::at(
-                Location::Vertex(i),
-                format!("truncated: the file ends at vertex {i} of {}", v.count),
-            ));
-        };
-        let at = Location::Line(n);
-        let line = std::str::from_utf8(&raw)
-            .map_err(|_| FileProblem::at(at, format!("vertex {i}: not UTF-8 text")))?;
-        let mut words = line.split_whitespace();
-        for (k, p) in v.properties.iter().enumerate() {
+    let parse = |line: &str, values: &mut Vec<f64>| -> Result<SphereSpec, String> {
+        values.clear();
+        let mut words = line.split_ascii_whitespace();
+        for p in &v.properties {
             let mut word = |what: &str| {
-                words.next().ok_or_else(|| {
-                    FileProblem::at(at, format!("vertex {i}: a short row: no value for {what}"))
-                })
+                words
+                    .next()
+                    .ok_or_else(|| format!("a short row: no value for {what}"))
             };
             match p {
                 Property::Scalar(t, name) => {
                     let w = word(name)?;
-                    values[k] = t.ascii(w).ok_or_else(|| {
+                    values.push(t.ascii(w).ok_or_else(|| {
                         let what = match t {
                             Scalar::F32 | Scalar::F64 => "a number".to_string(),
                             _ => format!("a value of type {}", t.name()),
                         };
-                        FileProblem::at(
-                            at,
-                            format!("vertex {i}: {name}: not {what}: {}", quoted(w)),
-                        )
-                    })?;
+                        format!("{name}: not {what}: {}", quoted(w))
+                    })?);
                 }
                 Property::List(c, _) => {
                     let w = word("a list's count")?;
                     let count = c.ascii(w).filter(|n| *n >= 0.0).ok_or_else(|| {
-                        FileProblem::at(
-                            at,
-                            format!(
-                                "vertex {i}: a list's count must be a whole number of type {}, 0 or more: {}",
-                                c.name(),
-                                quoted(w)
-                            ),
+                        format!(
+                            "a list's count must be a whole number of type {}, 0 or more: {}",
+                            c.name(),
+                            quoted(w)
                         )
                     })?;
                     for _ in 0..count as u64 {
                         word("a list item")?;
                     }
+                    // A list is not a field: its place holds nothing read.
+                    values.push(0.0);
                 }
             }
         }
         if words.next().is_some() {
-            return Err(FileProblem::at(
-                at,
-                format!("vertex {i}: more values than the header's properties"),
-            ));
+            return Err("more values than the header's properties".to_string());
         }
-        out.push(make(i, &columns.sphere(columns.fields(&values))));
+        Ok(columns.sphere(columns.fields(values)))
+    };
+    let mut taken = 0;
+    let take = |_, sphere: SphereSpec| {
+        out.push(make(taken, &sphere));
+        taken += 1;
+    };
+    let problem = |i, at, what| FileProblem::at(Location::Line(at), format!("vertex {i}: {what}"));
+    let got = text_records(body, line + 1, v.count, parse, take, problem)?;
+    if got < v.count {
+        return Err(FileProblem::at(
+            Location::Vertex(got),
+            format!("truncated: the file ends at vertex {got} of {}", v.count),
+        ));
     }
     Ok(Listing {
         count: v.count,
@@ -876,6 +1053,7 @@ fn ascii_vertices<T>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::format::Triple;
 
     /// A file's spheres as read, and its listing.
     type Read = Result<(Vec<SphereSpec>, Listing), FileProblem>;
@@ -1159,5 +1337,136 @@ mod tests {
         }
         let e = short(csv(&cr).unwrap_err());
         assert!(e.message.contains("CR alone"), "{e:?}");
+    }
+
+    /// A text body of three blocks, read on the pool: every sphere once, in file order, with
+    /// its line past blank lines and lines cut by a block's end; the first bad line named
+    /// however the blocks fall, in CSV and in ASCII PLY; what follows the last vertex of an
+    /// ASCII PLY never read.
+    #[test]
+    fn text_blocks_keep_file_order_and_name_the_first_bad_line() {
+        let n = 2 * BLOCK_BYTES / 10 + 1234;
+        let blank = |i: usize| i % 1000 == 7;
+        let mut csv_text = String::from("x,y,z,radius\n");
+        let mut ply_rows = String::new();
+        let mut line_of = Vec::new();
+        let mut line = 1;
+        for i in 0..n {
+            if blank(i) {
+                csv_text.push_str(" \r\n");
+                ply_rows.push('\n');
+                line += 1;
+            }
+            line += 1;
+            line_of.push(line);
+            csv_text.push_str(&format!("{i},0,0,1\n"));
+            ply_rows.push_str(&format!("{i} 0 0 1\n"));
+        }
+        let (spheres, listing) = csv(csv_text.as_bytes()).unwrap();
+        assert_eq!(spheres.len(), n);
+        for (i, s) in spheres.iter().enumerate() {
+            assert_eq!(s.center.0, i as f64);
+            assert_eq!(listing.location(i), Location::Line(line_of[i]));
+        }
+        // Two bad rows past the first block: the first is named.
+        let (a, b) = (n / 2, n - 3);
+        let bad = csv_text
+            .replacen(&format!("\n{a},0,0,1\n"), &format!("\n{a},0,zero,1\n"), 1)
+            .replacen(&format!("\n{b},0,0,1\n"), &format!("\n{b},0\n"), 1);
+        let e = csv(bad.as_bytes()).unwrap_err();
+        assert_eq!(e.at, Some(Location::Line(line_of[a])), "{e:?}");
+        assert_eq!(e.message, "z: not a number: \"zero\"");
+
+        let xyzr = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
+        let mut ply_text =
+            format!("ply\nformat ascii 1.0\nelement vertex {n}\n{xyzr}element note 2\nproperty uchar k\nend_header\n").into_bytes();
+        let header_lines = 10;
+        ply_text.extend(ply_rows.as_bytes());
+        ply_text.extend(b"\xff\xfe not text\nnor this\n");
+        let (spheres, listing) = ply(&ply_text).unwrap();
+        assert_eq!((spheres.len(), listing.count), (n, n));
+        assert!(spheres
+            .iter()
+            .enumerate()
+            .all(|(i, s)| s.center.0 == i as f64));
+        // A bad vertex past the first block, named by its line and index.
+        let row = format!("\n{a} 0 0 1\n");
+        let at = ply_text
+            .windows(row.len())
+            .position(|w| w == row.as_bytes())
+            .unwrap();
+        let mut bad = ply_text.clone();
+        bad[at + 1] = b'#';
+        let e = ply(&bad).unwrap_err();
+        assert_eq!(
+            e.at,
+            Some(Location::Line(header_lines + line_of[a] - 1)),
+            "{e:?}"
+        );
+        assert!(
+            e.message
+                .starts_with(&format!("vertex {a}: x: not a number")),
+            "{e:?}"
+        );
+        // The last vertex gone: named as missing, not the lines after it as vertices.
+        let cut = ply_text.len() - b"\xff\xfe not text\nnor this\n".len();
+        let mut short = ply_text[..cut].to_vec();
+        short.truncate(short.len() - format!("{} 0 0 1\n", n - 1).len());
+        let e = ply(&short).unwrap_err();
+        assert_eq!(e.at, Some(Location::Vertex(n - 1)), "{e:?}");
+    }
+
+    /// [`text_f64`] and [`text_f32`] give what `from_str` gives, bit for bit, and refuse what
+    /// it refuses: every short field of number, infinity and NaN characters, and others.
+    #[test]
+    fn text_numbers_are_what_from_str_reads() {
+        let check = |field: &str| {
+            let std = field.parse::<f64>().ok().map(f64::to_bits);
+            assert_eq!(text_f64(field).map(f64::to_bits), std, "{field:?}");
+            let std = field.parse::<f32>().ok().map(f32::to_bits);
+            assert_eq!(text_f32(field).map(f32::to_bits), std, "{field:?}");
+        };
+        let mut field = String::with_capacity(6);
+        for (alphabet, longest) in [(&b"0159.eE+-"[..], 6), (b"09.eE+-infatyNIx(", 5)] {
+            for len in 0..=longest {
+                for n in 0..alphabet.len().pow(len) {
+                    field.clear();
+                    let mut n = n;
+                    for _ in 0..len {
+                        field.push(alphabet[n % alphabet.len()] as char);
+                        n /= alphabet.len();
+                    }
+                    check(&field);
+                }
+            }
+        }
+        for field in [
+            "inf",
+            "-Infinity",
+            "+NaN",
+            "nan",
+            "0.30000000000000004",
+            "2.2250738585072011e-308",
+            "4.9406564584124654e-324",
+            "1.7976931348623157e308",
+            "1.7976931348623159e308",
+            "3.4028235e38",
+            "3.4028236e38",
+            "1e-46",
+            "0.1",
+            "9007199254740993",
+            "18446744073709551616",
+            "1e-400",
+            "0x10",
+            "1_000",
+            " 1",
+            "١",
+            "infinity",
+            "-INFINITY",
+            "nan(1)",
+            "infinit",
+        ] {
+            check(field);
+        }
     }
 }
