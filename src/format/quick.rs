@@ -240,24 +240,17 @@ mod tests {
             let std = std_number(text).map(|(v, len)| (v.to_bits(), len));
             assert_eq!(quick, std, "{text:?}");
         };
-        let mut token = String::with_capacity(8);
         for len in 1..=6u32 {
             let ends: &[&str] = if len < 6 {
                 &[",", "_", "f", ""]
             } else {
                 &[","]
             };
-            for n in 0..alphabet.len().pow(len) {
-                token.clear();
-                let mut n = n;
-                for _ in 0..len {
-                    token.push(alphabet[n % alphabet.len()] as char);
-                    n /= alphabet.len();
-                }
+            super::super::each_string(alphabet, len, |token| {
                 for end in ends {
                     check(&format!("{token}{end}"));
                 }
-            }
+            });
         }
         for text in [
             "inf,",

@@ -1426,18 +1426,9 @@ mod tests {
             let std = field.parse::<f32>().ok().map(f32::to_bits);
             assert_eq!(text_f32(field).map(f32::to_bits), std, "{field:?}");
         };
-        let mut field = String::with_capacity(6);
         for (alphabet, longest) in [(&b"0159.eE+-"[..], 6), (b"09.eE+-infatyNIx(", 5)] {
             for len in 0..=longest {
-                for n in 0..alphabet.len().pow(len) {
-                    field.clear();
-                    let mut n = n;
-                    for _ in 0..len {
-                        field.push(alphabet[n % alphabet.len()] as char);
-                        n /= alphabet.len();
-                    }
-                    check(&field);
-                }
+                super::super::each_string(alphabet, len, check);
             }
         }
         for field in [
