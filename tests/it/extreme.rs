@@ -221,16 +221,19 @@ pub fn far_scene(offset: f64) -> String {
     )
 }
 
+/// Every frame of a keyframe file's text, rendered.
+fn render_text(text: &str) -> Vec<Vec<u8>> {
+    let doc = Document::from_str(Path::new("scene.ron"), text).unwrap();
+    let mut r = Renderer::new();
+    cameras(&doc)
+        .iter()
+        .map(|c| r.render(c, &doc.scene, doc.raster))
+        .collect()
+}
+
 #[test]
 fn far_from_the_origin_renders_the_same_pixels() {
-    let render = |offset: f64| {
-        let doc = Document::from_str(Path::new("far.ron"), &far_scene(offset)).unwrap();
-        let mut r = Renderer::new();
-        cameras(&doc)
-            .iter()
-            .map(|c| r.render(c, &doc.scene, doc.raster))
-            .collect::<Vec<_>>()
-    };
+    let render = |offset: f64| render_text(&far_scene(offset));
     let base = render(0.0);
     for offset in [1e6, 1e7, 1e8] {
         let far = render(offset);
@@ -284,14 +287,7 @@ fn scaled_scene(k: f64) -> String {
 /// bound, not rendered without its spheres.
 #[test]
 fn a_scene_scaled_by_a_power_of_two_renders_the_same_bytes() {
-    let render = |k: f64| {
-        let doc = Document::from_str(Path::new("scaled.ron"), &scaled_scene(k)).unwrap();
-        let mut r = Renderer::new();
-        cameras(&doc)
-            .iter()
-            .map(|c| r.render(c, &doc.scene, doc.raster))
-            .collect::<Vec<_>>()
-    };
+    let render = |k: f64| render_text(&scaled_scene(k));
     let base = render(1.0);
     // Not one colour: the spheres are in the picture.
     assert!(base[0].chunks(3).any(|p| p != &base[0][..3]));
