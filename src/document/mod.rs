@@ -181,7 +181,7 @@ impl Checker {
         } else {
             self.problem(
                 field,
-                format!("must be a finite number within ±{LARGEST:e}, got {x}"),
+                format!("must be a finite number within ±{LARGEST:e}, got {x:?}"),
             );
             None
         }

@@ -69,19 +69,24 @@ impl HeaderLines {
     /// end of the file.
     fn next(&mut self, file: &mut dyn BufRead) -> Result<Option<(usize, String)>, FileProblem> {
         self.raw.clear();
+        // The line, its CR and its LF.
         (&mut *file)
-            .take(HEADER_LINE_BYTES as u64 + 1)
+            .take(HEADER_LINE_BYTES as u64 + 2)
             .read_until(b'\n', &mut self.raw)
             .map_err(FileProblem::io)?;
         if self.raw.is_empty() {
             return Ok(None);
         }
         self.line += 1;
-        if self.raw.last() == Some(&b'\n') {
-            self.raw.pop();
-        } else if self.raw.len() > HEADER_LINE_BYTES {
-            let why = match self.raw.contains(&b'\r') {
-                true => "its lines end in CR alone: save it with LF or CRLF line endings",
+        let ended = self.raw.last() == Some(&b'\n');
+        for end in [b'\n', b'\r'] {
+            if self.raw.last() == Some(&end) {
+                self.raw.pop();
+            }
+        }
+        if self.raw.len() > HEADER_LINE_BYTES {
+            let why = match !ended && self.raw.contains(&b'\r') {
+                true => CR_ALONE,
                 false => self.suggest,
             };
             return Err(FileProblem::at(
@@ -93,6 +98,9 @@ impl HeaderLines {
         Ok(Some((self.line, line.trim().to_string())))
     }
 }
+
+/// What a text whose lines end in CR alone is told.
+const CR_ALONE: &str = "its lines end in CR alone: save it with LF or CRLF line endings";
 
 /// Where in a sphere file a sphere or a problem is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -286,7 +294,8 @@ fn csv_from<T>(
         listing.lines.push(line as u32);
     };
     let problem = |_, line, what| FileProblem::at(Location::Line(line), what);
-    text_records(&mut file, first, usize::MAX, parse, take, problem)?;
+    let blank = |line: &str| line.trim().is_empty();
+    text_records(&mut file, first, usize::MAX, blank, parse, take, problem)?;
     if !gaps {
         // Every sphere on the line after the one before: the lines need not be kept.
         listing.lines = Vec::new();
@@ -329,38 +338,50 @@ struct Piece<R> {
     lines: usize,
 }
 
-/// The records of a text body, one a line (blank lines passed), in file order: the body read
-/// in blocks of [`BLOCK_BYTES`], each cut after its last line end, its lines parsed by
-/// `parse(line, scratch)` in pieces on the pool while the next block is read, and handed to
-/// `take(line, record)`, at most `count` of them (what follows them is parsed at most a block
-/// on, and never taken or named). A line that is not UTF-8, or that `parse` refuses, ends the
-/// reading with `problem(its record's index, its line, what is wrong)`. Lines are numbered
-/// from `first_line`. Returns how many records were taken.
+/// The records of a text body, one a line (lines `blank` takes so are passed), in file order:
+/// the body read in blocks of [`BLOCK_BYTES`], each cut after its last line end, its lines
+/// parsed by `parse(line, scratch)` in pieces on the pool while the next block is read, and
+/// handed to `take(line, record)`, at most `count` of them (what follows them is parsed at
+/// most a block on, and never taken or named; with `count` 0 nothing is read). A line that is
+/// not UTF-8, that `parse` refuses, or of a block or more (4 MiB) ends the reading with
+/// `problem(its record's index, its line, what is wrong)`. Lines are numbered from
+/// `first_line`. Returns how many records were taken.
 fn text_records<R: Send>(
     body: &mut (impl Read + Send),
     first_line: usize,
     count: usize,
+    blank: fn(&str) -> bool,
     parse: impl Fn(&str, &mut Vec<f64>) -> Result<R, String> + Sync,
     mut take: impl FnMut(usize, R),
     problem: impl Fn(usize, usize, String) -> FileProblem,
 ) -> Result<usize, FileProblem> {
     let io = FileProblem::io;
     let mut taken = 0;
+    if count == 0 {
+        return Ok(0);
+    }
     // The lines before this block.
     let mut before = first_line - 1;
     let mut this = Vec::with_capacity(BLOCK_BYTES);
     let mut next = Vec::with_capacity(BLOCK_BYTES);
     let mut end = fill_block(body, &mut this).map_err(io)?;
     loop {
-        // The block's whole lines: up to its last line end, or all of it at the end.
-        let cut = match (end, this.iter().rposition(|&b| b == b'\n')) {
-            (true, _) => this.len(),
-            (false, Some(k)) => k + 1,
-            (false, None) => {
-                let at = before + 1;
-                let what = format!("a line longer than {} MiB", BLOCK_BYTES >> 20);
-                return Err(problem(taken, at, what));
+        // The block's whole lines: up to its last line end, or all of it at the end. A full
+        // block without a line end is one line, whole only if the body ends with it.
+        if !end && !this.contains(&b'\n') {
+            end = body.read(&mut [0]).map_err(io)? == 0;
+            if !end {
+                let cr = match this.contains(&b'\r') {
+                    true => format!(": {CR_ALONE}"),
+                    false => String::new(),
+                };
+                let what = format!("a line of {} MiB or more{cr}", BLOCK_BYTES >> 20);
+                return Err(problem(taken, before + 1, what));
             }
+        }
+        let cut = match end {
+            true => this.len(),
+            false => this.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1),
         };
         next.clear();
         next.extend_from_slice(&this[cut..]);
@@ -369,7 +390,7 @@ fn text_records<R: Send>(
                 true => Ok(true),
                 false => fill_block(body, &mut next),
             },
-            || parse_lines(&this[..cut], &parse),
+            || parse_lines(&this[..cut], blank, &parse),
         );
         for piece in pieces {
             for (line, record) in piece.records {
@@ -406,6 +427,7 @@ fn fill_block(body: &mut impl Read, block: &mut Vec<u8>) -> io::Result<bool> {
 /// `text`'s lines parsed in pieces of about [`TASK_BYTES`] on the pool, in order.
 fn parse_lines<R: Send>(
     text: &[u8],
+    blank: fn(&str) -> bool,
     parse: &(impl Fn(&str, &mut Vec<f64>) -> Result<R, String> + Sync),
 ) -> Vec<Piece<R>> {
     let mut cuts = vec![0];
@@ -439,7 +461,7 @@ fn parse_lines<R: Send>(
                 };
                 let line = line.strip_suffix('\n').unwrap_or(line);
                 let line = line.strip_suffix('\r').unwrap_or(line);
-                if line.trim().is_empty() {
+                if blank(line) {
                     continue;
                 }
                 match parse(line, &mut scratch) {
@@ -507,14 +529,22 @@ impl Scalar {
     /// when the word is not one.
     fn ascii(self, w: &str) -> Option<f64> {
         match self {
-            Scalar::I8 => w.parse::<i8>().ok().map(f64::from),
-            Scalar::U8 => w.parse::<u8>().ok().map(f64::from),
-            Scalar::I16 => w.parse::<i16>().ok().map(f64::from),
-            Scalar::U16 => w.parse::<u16>().ok().map(f64::from),
-            Scalar::I32 => w.parse::<i32>().ok().map(f64::from),
-            Scalar::U32 => w.parse::<u32>().ok().map(f64::from),
             Scalar::F32 => text_f32(w).map(f64::from),
             Scalar::F64 => text_f64(w),
+            // Read as an i64 (so `-0` is a uchar's 0, as C's readers take it), then kept to
+            // the type's range.
+            _ => {
+                let (lo, hi) = match self {
+                    Scalar::I8 => (i8::MIN.into(), i8::MAX.into()),
+                    Scalar::U8 => (0, u8::MAX.into()),
+                    Scalar::I16 => (i16::MIN.into(), i16::MAX.into()),
+                    Scalar::U16 => (0, u16::MAX.into()),
+                    Scalar::I32 => (i32::MIN.into(), i32::MAX.into()),
+                    _ => (0, u32::MAX.into()),
+                };
+                let v: i64 = w.parse().ok().filter(|v| (lo..=hi).contains(v))?;
+                Some(v as f64)
+            }
         }
     }
 
@@ -952,6 +982,11 @@ fn listed_vertices<T>(
     })
 }
 
+/// Whether an ASCII PLY line is blank: ASCII whitespace alone, the separators of its values.
+fn ascii_blank(line: &str) -> bool {
+    line.bytes().all(|b| b.is_ascii_whitespace())
+}
+
 /// The vertices of an ASCII body, one record a line, blank lines passed: the elements before
 /// them read past line by line (an element without properties takes no line), then the vertices
 /// in blocks on the pool ([`text_records`]); what follows the last vertex is never named. Values
@@ -983,6 +1018,7 @@ fn ascii_vertices<T>(
                 }
                 line += 1;
                 if !raw.iter().all(u8::is_ascii_whitespace) {
+                    // Not blank as `ascii_blank` takes it.
                     break;
                 }
             }
@@ -1037,7 +1073,7 @@ fn ascii_vertices<T>(
         taken += 1;
     };
     let problem = |i, at, what| FileProblem::at(Location::Line(at), format!("vertex {i}: {what}"));
-    let got = text_records(body, line + 1, v.count, parse, take, problem)?;
+    let got = text_records(body, line + 1, v.count, ascii_blank, parse, take, problem)?;
     if got < v.count {
         return Err(FileProblem::at(
             Location::Vertex(got),
@@ -1330,6 +1366,40 @@ mod tests {
         let e = ply(&inside).unwrap_err();
         assert_eq!(e.at, Some(Location::Line(11)), "{e:?}");
         assert!(e.message.contains("UTF-8"), "{e:?}");
+        // With no vertices nothing after the header is read; a CRLF header line of the most
+        // bytes is whole; an integer `-0` is 0.
+        let mut none = format!("ply\nformat ascii 1.0\nelement vertex 0\n{xyzr}element note 1\nproperty uchar k\nend_header\n").into_bytes();
+        none.extend(vec![b'7'; BLOCK_BYTES + 10]);
+        assert_eq!(ply(&none).unwrap().1.count, 0);
+        let comment = format!("comment {}", "c".repeat(HEADER_LINE_BYTES - 8));
+        let mut crlf = format!(
+            "ply\r\nformat ascii 1.0\r\n{comment}\r\nelement vertex 1\r\n{}end_header\r\n",
+            xyzr.replace('\n', "\r\n")
+        )
+        .into_bytes();
+        crlf.extend(b"1 2 3 4\r\n");
+        assert_eq!(ply(&crlf).unwrap().0, [sphere((1.0, 2.0, 3.0), 4.0, None)]);
+        let uchar = "property float x\nproperty float y\nproperty float z\nproperty uchar radius\n";
+        let mut zero = header("ascii", uchar, 1);
+        zero.extend(b"0 0 0 -0\n");
+        assert_eq!(ply(&zero).unwrap().0[0].radius, 0.0);
+        // Blank is ASCII whitespace alone, before the vertices and among them: a line of a
+        // no-break space is a record in both.
+        let mut before = format!("ply\nformat ascii 1.0\nelement note 1\nproperty uchar k\nelement vertex 1\n{xyzr}end_header\n").into_bytes();
+        before.extend("\u{a0}\n1 2 3 4\n".as_bytes());
+        assert_eq!(ply(&before).unwrap().1.count, 1);
+        let mut among = header("ascii", xyzr, 2);
+        among.extend("1 2 3 4\n\u{a0}\n1 2 3 4\n".as_bytes());
+        assert_eq!(ply(&among).unwrap_err().at, Some(Location::Line(11)));
+        // A vertex line of a whole block: whole when the file ends with it, else refused.
+        let mut long = header("ascii", xyzr, 1);
+        let body = long.len();
+        long.extend(b"1 2 3 4");
+        long.resize(body + BLOCK_BYTES, b' ');
+        assert_eq!(ply(&long).unwrap().1.count, 1);
+        long.push(b'\n');
+        let e = short(ply(&long).unwrap_err());
+        assert!(e.message.contains("4 MiB or more"), "{e:?}");
         // CSV: a header line is quoted short, and lines ending in a lone CR are named.
         let mut cr = b"x,y,z,radius".to_vec();
         for _ in 0..1000 {
