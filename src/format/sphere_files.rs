@@ -9,8 +9,8 @@
 //! - **CSV**: a header `x,y,z,radius` or `x,y,z,radius,r,g,b` (colours 0–1), then one sphere a
 //!   line; blank lines are skipped.
 //!
-//! Numbers are read exactly: a `double` in PLY, or a number in CSV (through `f64::from_str`, as
-//! RON reads its floats), gives the same bits as the same number in RON. Nothing is checked here
+//! Numbers are read exactly: a `double` in PLY, or a number in CSV (the value `f64::from_str`
+//! gives, as RON reads its floats), gives the same bits as the same number in RON. Nothing is checked here
 //! beyond the form: each sphere is handed, with its index, to the caller's `make` as it is read
 //! ([`crate::document`] checks it there), so a file's spheres are never held twice. A body
 //! passes through buffers of [`BLOCK_BYTES`], never held whole: a binary PLY's vertices parsed
@@ -33,8 +33,8 @@ pub const BLOCK_BYTES: usize = 4 << 20;
 /// The fewest vertices a pool task parses: a small file stays one task.
 const TASK_VERTICES: usize = 4096;
 
-/// The longest PLY header line read: a header line is a few words, and a file whose
-/// `end_header` is missing is cut here, not read whole into one line.
+/// The longest header line read (PLY's, CSV's), without its line end: a header line is a few
+/// words, and a PLY whose `end_header` is missing is cut here, not read whole into one line.
 const HEADER_LINE_BYTES: usize = 4096;
 
 /// `text` quoted for a message, cut after 60 characters: a line of a body read as a header
@@ -241,8 +241,8 @@ fn csv_from<T>(
         _ => {
             // A line that still holds a CR: lines end in CR alone.
             let cr = match header.contains('\r') {
-                true => " (its lines end in CR alone: save it with LF or CRLF line endings)",
-                false => "",
+                true => format!(" ({CR_ALONE})"),
+                false => String::new(),
             };
             return Err(FileProblem::at(
                 Location::Line(n),
@@ -305,7 +305,7 @@ fn csv_from<T>(
 
 /// A text field's number (CSV, and an ASCII PLY's `double`): the value `f64::from_str` gives,
 /// and only where it gives one. A finite value from `fast_float2` (correctly rounded, so the
-/// same bits, in a little more than half the CPU) is taken; anything else it gives or refuses
+/// same bits, and faster) is taken; anything else it gives or refuses
 /// (`inf`, `NaN`, an error) goes to `from_str`. The tests check the two agree over every field
 /// of up to five characters of numbers, infinities and NaNs, and six of digits alone.
 fn text_f64(field: &str) -> Option<f64> {
@@ -983,8 +983,8 @@ fn listed_vertices<T>(
 }
 
 /// Whether an ASCII PLY line is blank: ASCII whitespace alone, the separators of its values.
-fn ascii_blank(line: &str) -> bool {
-    line.bytes().all(|b| b.is_ascii_whitespace())
+fn ascii_blank(line: &[u8]) -> bool {
+    line.iter().all(u8::is_ascii_whitespace)
 }
 
 /// The vertices of an ASCII body, one record a line, blank lines passed: the elements before
@@ -1017,8 +1017,7 @@ fn ascii_vertices<T>(
                     )));
                 }
                 line += 1;
-                if !raw.iter().all(u8::is_ascii_whitespace) {
-                    // Not blank as `ascii_blank` takes it.
+                if !ascii_blank(&raw) {
                     break;
                 }
             }
@@ -1073,7 +1072,8 @@ fn ascii_vertices<T>(
         taken += 1;
     };
     let problem = |i, at, what| FileProblem::at(Location::Line(at), format!("vertex {i}: {what}"));
-    let got = text_records(body, line + 1, v.count, ascii_blank, parse, take, problem)?;
+    let blank = |line: &str| ascii_blank(line.as_bytes());
+    let got = text_records(body, line + 1, v.count, blank, parse, take, problem)?;
     if got < v.count {
         return Err(FileProblem::at(
             Location::Vertex(got),
