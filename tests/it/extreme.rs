@@ -254,7 +254,7 @@ fn far_from_the_origin_renders_the_same_pixels() {
     }
 }
 
-/// The far scene's spheres and camera with every length times `k`.
+/// Three spheres, a shadowing light and a moving camera, with every length times `k`.
 fn scaled_scene(k: f64) -> String {
     let p = |x: f64, y: f64, z: f64| format!("({:?}, {:?}, {:?})", x * k, y * k, z * k);
     let l = |x: f64| format!("{:?}", x * k);
