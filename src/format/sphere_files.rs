@@ -368,7 +368,8 @@ fn text_records<R: Send>(
     loop {
         // The block's whole lines: up to its last line end, or all of it at the end. A full
         // block without a line end is one line, whole only if the body ends with it.
-        if !end && !this.contains(&b'\n') {
+        let last_end = this.iter().rposition(|&b| b == b'\n');
+        if !end && last_end.is_none() {
             end = body.read(&mut [0]).map_err(io)? == 0;
             if !end {
                 let cr = match this.contains(&b'\r') {
@@ -379,9 +380,9 @@ fn text_records<R: Send>(
                 return Err(problem(taken, before + 1, what));
             }
         }
-        let cut = match end {
-            true => this.len(),
-            false => this.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1),
+        let cut = match (end, last_end) {
+            (false, Some(k)) => k + 1,
+            _ => this.len(),
         };
         next.clear();
         next.extend_from_slice(&this[cut..]);
