@@ -356,7 +356,7 @@ pub fn path(
 ) -> Result<()> {
     if format == PathFormat::Usd {
         if let Some(ext) = file_out.and_then(|p| p.extension()) {
-            if ext != "usda" && ext != "usd" {
+            if !ext.eq_ignore_ascii_case("usda") && !ext.eq_ignore_ascii_case("usd") {
                 return Err(CliError::Usage(format!(
                     "--format usd writes USD's text form: name the file .usda (or .usd), not .{}; \
                      OpenUSD converts it, e.g. in Python: pxr.Sdf.Layer.FindOrOpen(\"shot.usda\").Export(\"shot.usdc\")",
@@ -367,7 +367,8 @@ pub fn path(
     }
     let doc = Document::load(file)?;
     let frames = doc.animation.frames;
-    let glb = file_out.is_some_and(|p| p.extension().is_some_and(|e| e == "glb"));
+    let glb =
+        file_out.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")));
     let mut bytes = Vec::new();
     let dropped = match file_out {
         Some(_) => campath::export::write_path(&doc, format, glb, &mut bytes)?,

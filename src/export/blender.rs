@@ -4,8 +4,9 @@
 //!
 //! Blender's camera looks down its local −Z with +Y up, like the camera here with axes u, v, −n,
 //! so its location is the COP and its rotation the quaternion of [u, v, −n]. The lens and
-//! sensor reproduce the window exactly: with the sensor fitted to the width, lens / sensor =
-//! d / w for the COP's distance d and window width w; the off-axis COP (distort), which neither
+//! sensor reproduce the window exactly: with the sensor fitted to the width (36 mm, or wider
+//! where a lens would be under 2 mm), lens / sensor = d / w for the COP's distance d and window
+//! width w; the off-axis COP (distort), which neither
 //! `.chan` nor glTF can carry, becomes Blender's lens shift, in units of the window width:
 //! shift = −offset / w. A window whose aspect differs from the image's becomes the pixel aspect.
 //! Scene frame f is campath's frame f − 1, as in `.chan`.
@@ -14,7 +15,9 @@
 //! frames, as campath's shutter) and the shutter centred on the frame (`motion_blur_position`
 //! on the render settings, or on Cycles' and EEVEE's before Blender 4.2), and EEVEE's own
 //! switch, shutter and time steps where it has them. Blender moves the camera linearly between
-//! the keys of consecutive frames, so its sub-frame camera follows the chord of campath's path.
+//! the keys of consecutive frames, so its sub-frame camera follows the chord of campath's path;
+//! the camera is also keyed where the first frame's shutter opens and the last's closes.
+//! The clipping range clips nothing campath draws ([`clipping_range`]).
 
 use std::fmt::Write as _;
 
@@ -22,34 +25,52 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
 use crate::export::gltf::camera_rotation;
+use crate::export::{clipping_range, keyed_cameras};
 
-/// The sensor width in millimetres the lens is computed for.
+/// The sensor width in millimetres the lens is computed for, unless the shot is too wide for it.
 const SENSOR_MM: f64 = 36.0;
 
-/// Blender's (lens mm, shift x, shift y) for a camera, with the sensor fitted to the width.
-pub fn lens_and_shift(cam: &Camera) -> (f64, f64, f64) {
+/// The shortest lens the sensor is widened to give: Blender's least is 1 mm, and it raises a
+/// shorter one to that silently (a 176° field of view would become 173.6°).
+const SHORTEST_LENS_MM: f64 = 2.0;
+
+/// The sensor width for cameras `cams`: [`SENSOR_MM`], or wider where a frame's lens would be
+/// shorter than [`SHORTEST_LENS_MM`] on it. The lens shift is in units of the sensor's width,
+/// so it does not change with it.
+pub fn sensor_mm(cams: impl IntoIterator<Item = Camera>) -> f64 {
+    cams.into_iter()
+        .map(|cam| SHORTEST_LENS_MM * cam.window.x / -cam.cop_view.z)
+        .fold(SENSOR_MM, f64::max)
+}
+
+/// Blender's (lens mm, shift x, shift y) for a camera, with a sensor `sensor` mm wide fitted to
+/// the width.
+pub fn lens_and_shift(cam: &Camera, sensor: f64) -> (f64, f64, f64) {
     let d = -cam.cop_view.z;
     let w = cam.window.x;
-    (SENSOR_MM * d / w, -cam.cop_view.x / w, -cam.cop_view.y / w)
+    (sensor * d / w, -cam.cop_view.x / w, -cam.cop_view.y / w)
 }
 
 /// The script.
 pub fn script(doc: &Document) -> Result<String> {
+    let keys = keyed_cameras(doc)?;
+    let sensor = sensor_mm(keys.iter().map(|&(_, cam)| cam));
+    let cops: Vec<_> = keys.iter().map(|(_, cam)| cam.cop_world()).collect();
+    let (near, far) = clipping_range(&doc.scene.spheres, &cops);
     let mut frames = String::new();
     let mut previous: Option<glam::DQuat> = None;
-    for item in doc.cameras() {
-        let (frame, cam) = item?;
+    for &(frame, cam) in &keys {
         let mut q = camera_rotation(&cam);
         if previous.is_some_and(|p| p.dot(q) < 0.0) {
             q = -q;
         }
         previous = Some(q);
         let cop = cam.cop_world();
-        let (lens, sx, sy) = lens_and_shift(&cam);
+        let (lens, sx, sy) = lens_and_shift(&cam, sensor);
         let _ = writeln!(
             frames,
-            "    ({}, ({:?}, {:?}, {:?}), ({:?}, {:?}, {:?}, {:?}), {lens:?}, {sx:?}, {sy:?}),",
-            frame + 1,
+            "    ({:?}, ({:?}, {:?}, {:?}), ({:?}, {:?}, {:?}, {:?}), {lens:?}, {sx:?}, {sy:?}),",
+            frame + 1.0,
             cop.x,
             cop.y,
             cop.z,
@@ -97,11 +118,15 @@ FPS = {fps:?}
 WIDTH, HEIGHT = {width}, {height}
 PIXEL_ASPECT = {pixel_aspect:?}
 SENSOR_MM = {sensor:?}
+# near and far: nothing campath draws is clipped (Blender's least clip_start is 1e-6)
+CLIP = ({near:?}, {far:?})
+LAST_FRAME = {last_frame}
 BACKGROUND = ({bg_r:?}, {bg_g:?}, {bg_b:?})
 AMBIENT = {ambient:?}
 # shutter (the fraction of the frame interval it is open, centred on the frame), time samples; or None
 MOTION_BLUR = {motion_blur}
-# frame, COP (x, y, z), rotation quaternion (w, x, y, z) taking -Z to the VPN, lens mm, shift x, shift y
+# scene frame (with motion blur also where the first frame's shutter opens and the last's closes),
+# COP (x, y, z), rotation quaternion (w, x, y, z) taking -Z to the VPN, lens mm, shift x, shift y
 FRAMES = [
 {frames}]
 # centre, radius, linear RGB
@@ -124,7 +149,7 @@ def build():
         scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = 1.0, 1.0 / PIXEL_ASPECT
     scene.render.fps = max(1, round(FPS))
     scene.render.fps_base = scene.render.fps / FPS
-    scene.frame_start, scene.frame_end = 1, len(FRAMES)
+    scene.frame_start, scene.frame_end = 1, LAST_FRAME
     if MOTION_BLUR is not None:
         shutter, steps = MOTION_BLUR
         scene.render.use_motion_blur = True
@@ -142,7 +167,7 @@ def build():
     data = bpy.data.cameras.new("campath")
     data.sensor_fit = "HORIZONTAL"
     data.sensor_width = SENSOR_MM
-    data.clip_start, data.clip_end = 0.001, 1.0e6
+    data.clip_start, data.clip_end = CLIP
     camera = bpy.data.objects.new("campath camera", data)
     scene.collection.objects.link(camera)
     scene.camera = camera
@@ -199,7 +224,8 @@ build()
         fps = doc.animation.fps,
         width = r.width,
         height = r.height,
-        sensor = SENSOR_MM,
+        near = near.max(1e-6),
+        last_frame = doc.animation.frames,
         bg_r = bg.x,
         bg_g = bg.y,
         bg_b = bg.z,

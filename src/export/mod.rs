@@ -13,6 +13,7 @@ use glam::DVec3;
 use crate::camera::{Basis, Camera};
 use crate::document::Document;
 use crate::error::{Error, Result};
+use crate::scene::Sphere;
 
 /// What the camera is exported as (`campath path --format`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -151,6 +152,76 @@ impl ChanAngles {
 /// distance. Off-axis COPs (distort) have no place in a .chan file; their v offset is ignored.
 pub fn vertical_fov(cam: &Camera) -> f64 {
     2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z) * (180.0 / std::f64::consts::PI)
+}
+
+/// The clipping range (near, far) of a reader's camera whose COP passes `cops`: campath clips
+/// nothing in front of the COP, so neither may the reader. Far reaches past every sphere from
+/// every COP (through a sphere about the whole scene), with half as much again. Near is half
+/// the least distance from a COP to a sphere's surface, from outside or inside it, at most
+/// far / 10⁶ (a scene without spheres), and at least far / 10¹² (a COP on a surface).
+pub(crate) fn clipping_range(spheres: &[Sphere], cops: &[DVec3]) -> (f64, f64) {
+    use rayon::prelude::*;
+    let (lo, hi) = spheres.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), s| (lo.min(s.center_world), hi.max(s.center_world)),
+    );
+    let centre = if spheres.is_empty() {
+        DVec3::ZERO
+    } else {
+        (lo + hi) * 0.5
+    };
+    let radius = spheres
+        .iter()
+        .map(|s| (s.center_world - centre).length() + s.radius)
+        .fold(0.0, f64::max);
+    let far = cops
+        .iter()
+        .map(|c| (*c - centre).length() + radius)
+        .fold(1.0, f64::max)
+        * 1.5;
+    // The least gap, on the pool: every frame's COP against every sphere (a minimum, the same
+    // in any order).
+    let gap = spheres
+        .par_iter()
+        .with_min_len(1 << 12)
+        .map(|s| {
+            cops.iter()
+                .map(|c| ((*c - s.center_world).length() - s.radius).abs())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .reduce(|| f64::INFINITY, f64::min);
+    ((gap * 0.5).min(far * 1e-6).max(far * 1e-12), far)
+}
+
+/// The times at which a reader's camera is keyed, in frames, with campath's camera there: every
+/// frame, and with motion blur also where the first frame's shutter opens (−S/2) and where the
+/// last frame's closes (N − 1 + S/2), so that a reader blurring those frames does not hold the
+/// camera still over their outer halves (a one-frame shot included). The up vector continues
+/// outwards from the frame's camera, as in an exposure. An end where the camera is undefined
+/// is left out.
+pub(crate) fn keyed_cameras(doc: &Document) -> Result<Vec<(f64, Camera)>> {
+    let mut keys = Vec::new();
+    for item in doc.cameras() {
+        let (frame, cam) = item?;
+        keys.push((frame as f64, cam));
+    }
+    let Some(blur) = doc.motion_blur else {
+        return Ok(keys);
+    };
+    let half = blur.shutter / 2.0;
+    let fps = doc.animation.fps;
+    let end = |(_, cam): (f64, Camera), at: f64| {
+        let camera = doc.animation.camera_at(at / fps, Some(cam.basis.v)).ok()?;
+        Some((at, camera))
+    };
+    let (first, last) = (keys[0], keys[keys.len() - 1]);
+    if let Some(open) = end(first, first.0 - half) {
+        keys.insert(0, open);
+    }
+    if let Some(close) = end(last, last.0 + half) {
+        keys.push(close);
+    }
+    Ok(keys)
 }
 
 /// One frame of `--format json`: the CSV's fields, vectors as arrays.

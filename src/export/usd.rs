@@ -1,4 +1,4 @@
-//! The shot as an OpenUSD stage in the text form (USDA): the camera with one time sample per
+//! The shot as an OpenUSD stage in the text form (USDA): the camera with a time sample per
 //! frame, lens shift included, the spheres and the directional lights.
 //!
 //! - **Stage.** `metersPerUnit = 1` (a world unit is a metre: without it USD assumes
@@ -15,7 +15,9 @@
 //!   (−COP_u, −COP_v), so the offsets are −COP_u · FILM_WIDTH / w and −COP_v · FILM_WIDTH / w.
 //!   Motion blur is the camera's `shutter:open` and `shutter:close`, in time codes relative to
 //!   the frame: −S/2 and S/2 for the shutter S centred on the frame (left out without blur:
-//!   USD's default 0, 0 is no blur).
+//!   USD's default 0, 0 is no blur); the camera then has a time sample where the first frame's
+//!   shutter opens and where the last frame's closes too. `clippingRange` clips nothing campath
+//!   draws ([`clipping_range`]).
 //! - **Image.** A `UsdRender.Settings` prim carries the image size; a window whose aspect differs
 //!   from the image's becomes its pixel aspect.
 //! - **Scene.** Each sphere is a `UsdGeom.Sphere` with its radius and colour
@@ -30,6 +32,7 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
 use crate::export::gltf::camera_rotation;
+use crate::export::{clipping_range, keyed_cameras};
 
 /// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
 pub const FILM_WIDTH: f64 = 0.36;
@@ -115,40 +118,14 @@ fn aim_negative_z(d: DVec3) -> DQuat {
     DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
 }
 
-/// The clipping range (near, far): far reaches past every sphere from every frame's COP (through
-/// a sphere around the whole scene), near is far / 10⁶. campath itself clips nothing in front of
-/// the COP.
-fn clipping_range(doc: &Document, cops: &[DVec3]) -> (f64, f64) {
-    let spheres = &doc.scene.spheres;
-    let (lo, hi) = spheres.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), s| (lo.min(s.center_world), hi.max(s.center_world)),
-    );
-    let centre = if spheres.is_empty() {
-        DVec3::ZERO
-    } else {
-        (lo + hi) * 0.5
-    };
-    let radius = spheres
-        .iter()
-        .map(|s| (s.center_world - centre).length() + s.radius)
-        .fold(0.0, f64::max);
-    let far = cops
-        .iter()
-        .map(|c| (*c - centre).length() + radius)
-        .fold(1.0, f64::max)
-        * 1.5;
-    (far * 1e-6, far)
-}
-
 /// The stage as USDA text.
 pub fn usda(doc: &Document) -> Result<String> {
+    let mut times = Vec::new();
     let mut cops = Vec::new();
     let mut orients = Vec::new();
     let mut lenses = Vec::new();
     let mut previous: Option<DQuat> = None;
-    for item in doc.cameras() {
-        let (_, cam) = item?;
+    for (time, cam) in keyed_cameras(doc)? {
         let mut q = camera_rotation(&cam);
         // q and −q are the same rotation: keep the one nearest the last, so that USD's slerp
         // between samples turns the short way.
@@ -156,12 +133,13 @@ pub fn usda(doc: &Document) -> Result<String> {
             q = -q;
         }
         previous = Some(q);
+        times.push(time);
         cops.push(cam.cop_world());
         orients.push(q);
         lenses.push(UsdLens::of(&cam));
     }
-    let frames = cops.len();
-    let (near, far) = clipping_range(doc, &cops);
+    let frames = doc.animation.frames;
+    let (near, far) = clipping_range(&doc.scene.spheres, &cops);
     let r = doc.raster;
     let first = lenses[0];
     let window = doc.animation.window;
@@ -232,8 +210,12 @@ def Xform "{root}" (
     );
     let samples = |s: &mut String, decl: &str, value: &dyn Fn(usize) -> String| {
         let _ = writeln!(s, "        {decl}.timeSamples = {{");
-        for k in 0..frames {
-            let _ = writeln!(s, "            {k}: {},", value(k));
+        for (k, &time) in times.iter().enumerate() {
+            // A frame's time code as an integer; the shutter's ends as they are.
+            let _ = match time.fract() == 0.0 {
+                true => writeln!(s, "            {}: {},", time as i64, value(k)),
+                false => writeln!(s, "            {time:?}: {},", value(k)),
+            };
         }
         let _ = writeln!(s, "        }}");
     };

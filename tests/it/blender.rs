@@ -8,7 +8,10 @@ use std::process::Command;
 
 use glam::DVec3;
 
-use crate::common::{blender_lacks_module, campath, have_part, root, stderr, EXAMPLES};
+use crate::common::{
+    blender_lacks_module, campath, have_part, have_tool, reach_of_cops, root, shutter_ends, stderr,
+    EXAMPLES, EXPORT_EDGES,
+};
 
 /// Runs every job in one Blender process: build the shot from the script and record
 /// `world_to_camera_view` of the points at every frame; then import the glTF and record the
@@ -216,4 +219,142 @@ fn blender_sees_what_campath_renders() {
             worst.1
         );
     }
+}
+
+/// For every job: build the shot from the script, then record the camera's field of view, lens
+/// and clipping range, and at each of the job's scene frames (fractional: the shutter's ends)
+/// its position, lens and shift.
+const CHECK_EDGES: &str = r#"
+import bpy, json, math, sys
+jobs = json.load(open(sys.argv[sys.argv.index("--") + 1]))
+for job in jobs:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    exec(compile(open(job["script"]).read(), job["script"], "exec"), {"__name__": "__main__"})
+    scene = bpy.context.scene
+    camera = scene.camera
+    data = camera.data
+    result = {"angle_x": data.angle_x, "sensor": data.sensor_width, "clip": [data.clip_start, data.clip_end], "ends": []}
+    for f in job["frames"]:
+        whole = math.floor(f)
+        scene.frame_set(whole, subframe=f - whole)
+        result["ends"].append({"position": list(camera.matrix_world.translation), "lens": data.lens,
+                               "shift": [data.shift_x, data.shift_y]})
+    json.dump(result, open(job["out"], "w"))
+"#;
+
+/// The Blender script keeps cameras that Blender's limits would change: a 176° field of view
+/// (a lens under Blender's least, 1 mm, on a 36 mm sensor), a camera 1.8e6 from its spheres
+/// and a sphere 0.2 in front of the eye (the clipping range), and a blurred shot's camera where
+/// the first frame's shutter opens and the last's closes (the motion-blur example, and one frame
+/// that zooms and shifts in its shutter), there as campath's.
+#[test]
+fn blender_keeps_wide_far_near_and_blurred_cameras() {
+    if !have_tool("blender", "blender") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let mut names: Vec<&str> = EXPORT_EDGES.to_vec();
+    names.push("motion_blur");
+    let file_of = |name: &str| match name {
+        "motion_blur" => root().join("animations/motion_blur.ron"),
+        _ => root().join(format!("tests/data/{name}.ron")),
+    };
+    let mut jobs = Vec::new();
+    for name in &names {
+        let script = tmp.path().join(format!("{name}.py"));
+        let file = file_of(name);
+        let o = campath(
+            tmp.path(),
+            &[
+                "path",
+                file.to_str().unwrap(),
+                "--out",
+                script.to_str().unwrap(),
+            ],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let doc = campath::document::Document::load(&file).unwrap();
+        // Scene frame f is campath frame f − 1.
+        let frames: Vec<f64> = shutter_ends(&doc).iter().map(|&(t, _)| t + 1.0).collect();
+        jobs.push(serde_json::json!({
+            "script": script, "frames": frames,
+            "out": tmp.path().join(format!("{name}.json")),
+        }));
+    }
+    std::fs::write(tmp.path().join("check.py"), CHECK_EDGES).unwrap();
+    std::fs::write(
+        tmp.path().join("jobs.json"),
+        serde_json::to_string(&jobs).unwrap(),
+    )
+    .unwrap();
+    let o = Command::new("blender")
+        .current_dir(tmp.path())
+        .args([
+            "--background",
+            "--factory-startup",
+            "--python-exit-code",
+            "1",
+        ])
+        .arg("--python")
+        .arg(tmp.path().join("check.py"))
+        .arg("--")
+        .arg(tmp.path().join("jobs.json"))
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "blender: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // campath's horizontal field of view in radians.
+    let angle = |cam: &campath::camera::Camera| 2.0 * (cam.window.x / 2.0 / -cam.cop_view.z).atan();
+    let mut ends = 0;
+    for (name, job) in names.iter().zip(&jobs) {
+        let doc = campath::document::Document::load(&file_of(name)).unwrap();
+        let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
+        let r: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let f = |v: &serde_json::Value| v.as_f64().unwrap();
+        // Scene frame 1, campath's frame 0, is the scene's frame after the script.
+        let first = doc.camera(0).unwrap();
+        let angle_x = f(&r["angle_x"]);
+        assert!(
+            (angle_x - angle(&first)).abs() < 1e-6 * angle(&first),
+            "{name}: Blender's field of view {} against campath's {}",
+            angle_x.to_degrees(),
+            angle(&first).to_degrees()
+        );
+        let (near, far) = (f(&r["clip"][0]), f(&r["clip"][1]));
+        let (least, furthest) = reach_of_cops(&doc);
+        assert!(
+            near < least && far > furthest,
+            "{name}: clipping range {near}..{far}, spheres from {least} to {furthest}"
+        );
+        let sensor = f(&r["sensor"]);
+        for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(&doc)) {
+            let p = &got["position"];
+            let position = DVec3::new(f(&p[0]), f(&p[1]), f(&p[2]));
+            let want = cam.cop_world();
+            assert!(
+                (position - want).abs().max_element() < 1e-6 * want.length().max(1.0),
+                "{name} at {t}: Blender's camera at {position}, campath's at {want}"
+            );
+            let lens_angle = 2.0 * (sensor / 2.0 / f(&got["lens"])).atan();
+            assert!(
+                (lens_angle - angle(&cam)).abs() < 1e-6 * angle(&cam),
+                "{name} at {t}: {got}"
+            );
+            let shift = [
+                -cam.cop_view.x / cam.window.x,
+                -cam.cop_view.y / cam.window.x,
+            ];
+            for (a, b) in got["shift"].as_array().unwrap().iter().zip(shift) {
+                assert!((f(a) - b).abs() < 1e-6, "{name} at {t}: {got}");
+            }
+            ends += 1;
+        }
+    }
+    // The two blurred shots' two ends each.
+    assert_eq!(ends, 4);
 }

@@ -212,3 +212,50 @@ fn a_program_present_without_the_part_a_check_needs_is_told_apart() {
     assert!(why.contains("requires the chromium snap"), "{why}");
     assert_eq!(does_not_run(&with), None);
 }
+
+/// The shots that try the exports' clipping range, lens and shutter ends (`tests/data`): a
+/// camera 1.8e6 from its spheres, a sphere 0.2 in front of the eye over a huge ground, a 176°
+/// field of view, and one blurred frame that zooms and shifts during its shutter.
+pub const EXPORT_EDGES: [&str; 4] = [
+    "export_far",
+    "export_near",
+    "export_wide",
+    "export_blur_one_frame",
+];
+
+/// The least distance from any frame's COP to a sphere's surface and the furthest from any
+/// frame's COP to a sphere's far side: what a reader's clipping range must hold, found sphere
+/// by sphere from the frames' cameras.
+pub fn reach_of_cops(doc: &Document) -> (f64, f64) {
+    let (mut least, mut furthest) = (f64::INFINITY, 0.0f64);
+    for item in doc.cameras() {
+        let cop = item.unwrap().1.cop_world();
+        for s in &doc.scene.spheres {
+            let d = (cop - s.center_world).length();
+            least = least.min((d - s.radius).abs());
+            furthest = furthest.max(d + s.radius);
+        }
+    }
+    (least, furthest)
+}
+
+/// With motion blur, campath's camera where the first frame's shutter opens and where the last
+/// frame's closes, with those times in frames (−S/2 and N − 1 + S/2); none without.
+pub fn shutter_ends(doc: &Document) -> Vec<(f64, campath::camera::Camera)> {
+    let Some(blur) = doc.motion_blur else {
+        return Vec::new();
+    };
+    let a = &doc.animation;
+    let last = a.frames - 1;
+    [
+        (0, -blur.shutter / 2.0),
+        (last, last as f64 + blur.shutter / 2.0),
+    ]
+    .into_iter()
+    .map(|(frame, at)| {
+        let cam = doc.camera(frame).unwrap();
+        let end = a.camera_at(at / a.fps, Some(cam.basis.v)).unwrap();
+        (at, end)
+    })
+    .collect()
+}

@@ -16,7 +16,7 @@ use campath::camera::Camera;
 use campath::document::Document;
 use glam::DVec3;
 
-use crate::common::{campath, root, stderr, EXAMPLES};
+use crate::common::{campath, reach_of_cops, root, shutter_ends, stderr, EXAMPLES, EXPORT_EDGES};
 
 /// The Python interpreter for the checks.
 fn python() -> PathBuf {
@@ -287,6 +287,8 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
             None => [0.0, 0.0],
         };
         assert_eq!(r["shutter"], serde_json::json!(shutter), "{name}");
+        // A sample per frame, and with blur where the shutter opens and closes.
+        let keyed = frames + 2 * doc.motion_blur.is_some() as u64;
         for attr in [
             "xformOp:translate",
             "xformOp:orient",
@@ -294,7 +296,7 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
             "horizontalApertureOffset",
             "verticalApertureOffset",
         ] {
-            assert_eq!(r["samples"][attr], frames, "{name}: {attr}");
+            assert_eq!(r["samples"][attr], keyed, "{name}: {attr}");
         }
 
         let size = (doc.raster.width as f64, doc.raster.height as f64);
@@ -368,6 +370,110 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
             assert_eq!(got["shadows"], want.shadows, "{name}");
         }
     }
+}
+
+/// For every job: the camera's clipping range, and at each of the job's time codes its position
+/// (the translation of its frustum's transform), focal length and aperture offsets.
+const OPENUSD_EDGES: &str = r#"
+import json, sys
+from pxr import Usd, UsdGeom
+jobs = json.load(open(sys.argv[1]))
+for job in jobs:
+    stage = Usd.Stage.Open(job["usda"])
+    camera = UsdGeom.Camera([p for p in stage.Traverse() if p.IsA(UsdGeom.Camera)][0])
+    result = {"clip": list(camera.GetClippingRangeAttr().Get()), "ends": []}
+    for t in job["times"]:
+        gf = camera.GetCamera(Usd.TimeCode(t))
+        result["ends"].append({"position": list(gf.transform.ExtractTranslation()),
+                               "focal": gf.focalLength,
+                               "offsets": [gf.horizontalApertureOffset, gf.verticalApertureOffset]})
+    json.dump(result, open(job["out"], "w"))
+"#;
+
+/// OpenUSD reads a clipping range that clips nothing campath draws (a camera 1.8e6 from its
+/// spheres, a sphere 0.2 in front of the eye over a ground of radius 1e5), and a blurred shot's
+/// camera keyed where the first frame's shutter opens and the last's closes, where it is
+/// campath's (the motion-blur example, and one frame that zooms and shifts in its shutter).
+#[test]
+fn openusd_clips_nothing_and_keys_the_shutter_ends() {
+    if !have_module("pxr.Usd", "usd-core") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let mut names: Vec<&str> = EXPORT_EDGES.to_vec();
+    names.push("motion_blur");
+    let file_of = |name: &str| match name {
+        "motion_blur" => root().join("animations/motion_blur.ron"),
+        _ => root().join(format!("tests/data/{name}.ron")),
+    };
+    let mut jobs = Vec::new();
+    for name in &names {
+        let usda = tmp.path().join(format!("{name}.usda"));
+        let file = file_of(name);
+        let o = campath(
+            tmp.path(),
+            &[
+                "path",
+                file.to_str().unwrap(),
+                "--out",
+                usda.to_str().unwrap(),
+            ],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let doc = Document::load(&file).unwrap();
+        let times: Vec<f64> = shutter_ends(&doc).iter().map(|&(t, _)| t).collect();
+        jobs.push(serde_json::json!({
+            "usda": usda, "times": times,
+            "out": tmp.path().join(format!("{name}.json")),
+        }));
+    }
+    let script = tmp.path().join("edges.py");
+    std::fs::write(&script, OPENUSD_EDGES).unwrap();
+    let jobs_path = tmp.path().join("edges.json");
+    std::fs::write(&jobs_path, serde_json::to_string(&jobs).unwrap()).unwrap();
+    let o = Command::new(python())
+        .arg(&script)
+        .arg(&jobs_path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut ends = 0;
+    for (name, job) in names.iter().zip(&jobs) {
+        let doc = Document::load(&file_of(name)).unwrap();
+        let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
+        let r: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let (near, far) = (
+            r["clip"][0].as_f64().unwrap(),
+            r["clip"][1].as_f64().unwrap(),
+        );
+        let (least, furthest) = reach_of_cops(&doc);
+        assert!(
+            near > 0.0 && near < least && far > furthest,
+            "{name}: clipping range {near}..{far}, spheres from {least} to {furthest}"
+        );
+        for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(&doc)) {
+            // Tenths of a unit: a 0.36 film back, the lens 0.36 · d / w, offsets −(u, v) · 0.36 / w.
+            let scale = 0.36 / cam.window.x;
+            let focal = -cam.cop_view.z * scale;
+            let offsets = [-cam.cop_view.x * scale, -cam.cop_view.y * scale];
+            assert!(
+                close3(vec3(&got["position"]), cam.cop_world(), 1e-12),
+                "{name} at {t}: {got} against {}",
+                cam.cop_world()
+            );
+            assert!(
+                close(got["focal"].as_f64().unwrap(), focal, 1e-6),
+                "{name}: {got}"
+            );
+            for (a, b) in got["offsets"].as_array().unwrap().iter().zip(offsets) {
+                assert!(close(a.as_f64().unwrap(), b, 1e-6), "{name} at {t}: {got}");
+            }
+            ends += 1;
+        }
+    }
+    // The two blurred shots' two ends each.
+    assert_eq!(ends, 4);
 }
 
 /// For every job: import the stage, render at campath's size and pixel aspect, and record at
@@ -579,4 +685,12 @@ fn usd_goes_to_stdout_or_a_usda_file_and_refuses_the_binary_forms() {
         assert!(stderr(&o).contains(".usda"), "{}", stderr(&o));
         assert!(!tmp.path().join(binary).exists());
     }
+    // The extension in capitals names the same form: `.USDA` is USD's text, `.GLB` binary glTF.
+    let o = campath(tmp.path(), &["path", file, "--out", "SHOT.USDA"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |name: &str| std::fs::read(tmp.path().join(name)).unwrap();
+    assert_eq!(read("SHOT.USDA"), read("shot.usda"));
+    let o = campath(tmp.path(), &["path", file, "--out", "SHOT.GLB"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(read("SHOT.GLB").starts_with(b"glTF"));
 }
