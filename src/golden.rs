@@ -38,12 +38,17 @@ impl Golden {
         } else {
             (path.to_path_buf(), None)
         };
-        let text = std::fs::read_to_string(&file).map_err(Error::read(&file))?;
-        let m = Manifest::parse(&file, &text)?;
         let bad = |message: String| Error::Manifest {
             path: file.clone(),
             message,
         };
+        let bytes = std::fs::read(&file).map_err(Error::read(&file))?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+            bad(format!("line {line}: not UTF-8 text"))
+        })?;
+        let m = Manifest::parse(&file, &text)?;
         let mut hashes = BTreeMap::new();
         for e in m.entries {
             if let Some(before) = hashes.insert(e.frame, e.hash) {

@@ -26,6 +26,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
+use crate::document::MAX_FRAMES;
 use crate::error::{Error, Result};
 use crate::hash::FrameHash;
 use crate::render::key::{FrameKey, VERSION};
@@ -165,12 +166,18 @@ fn is_hex64(s: &str) -> Option<&str> {
     (s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit())).then_some(s)
 }
 
+// The message of a frame index out of range names the bound.
+const _: () = assert!(MAX_FRAMES == 10_000_000);
+
 fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
     let mut parts = line.split_whitespace();
     let frame = parts
         .next()
         .and_then(|f| f.parse::<u64>().ok())
         .ok_or("bad frame index")?;
+    if frame >= MAX_FRAMES {
+        return Err("a frame index of 10000000 or more (a file has at most 10000000 frames)");
+    }
     let hash: FrameHash = parts
         .next()
         .and_then(|h| h.parse().ok())

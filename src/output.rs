@@ -139,6 +139,11 @@ pub fn is_ours(name: &str) -> bool {
             "preview.png",
             "preview.gif",
             "plot.png",
+            "preview.html",
+            "status.js",
+            "first.png",
+            "middle.png",
+            "last.png",
         ]
         .contains(&base)
 }

@@ -82,6 +82,9 @@ struct Plan {
     outside: Vec<Entry>,
     /// Frame files that belong to no frame of the file as it is now (whole runs only).
     stale: Vec<PathBuf>,
+    /// Frame files of the run's frames that are not kept: their pictures are of other input,
+    /// damaged, or unrecorded, and go before the run renders them again.
+    replaced: Vec<PathBuf>,
     reasons: Reasons,
 }
 
@@ -170,21 +173,35 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     }
     let kept = on_disk(dir, total, &check);
     reasons.damaged = check.len() as u64 - kept.len() as u64;
+    let valid: BTreeSet<u64> = kept.iter().map(|e| e.frame).collect();
+    let replaced = files
+        .iter()
+        .filter(|&&frame| set.contains(frame) && !valid.contains(&frame))
+        .map(|&frame| frame_path(dir, frame, total))
+        .collect();
     Ok(Plan {
         sequence: format!("{:x}", sequence.finalize()),
         kept,
         outside,
         stale,
+        replaced,
         reasons,
     })
 }
 
-/// Refuses a path that is not a folder, or a folder that holds anything campath does not write
-/// there.
+/// Refuses a path that is not a folder, a golden folder, or a folder that holds anything
+/// campath does not write there.
 pub fn check_folder(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
         return Err(Error::Usage(format!(
             "{} is a file, not a folder: --out names the folder the frames go into",
+            dir.display()
+        )));
+    }
+    if let Some(why) = golden_folder(dir) {
+        return Err(Error::Usage(format!(
+            "{} is a golden ({why}): it is written only on approval (`campath test --update`); \
+             nothing was written (choose another --out)",
             dir.display()
         )));
     }
@@ -208,6 +225,23 @@ pub fn check_folder(dir: &Path) -> Result<()> {
     }
 }
 
+/// Why `dir` is a golden folder, if it is one: a shot's golden (`NAME.golden` beside
+/// `NAME.ron`), or a folder whose `hashes.txt` lists frames without keys, as only goldens do.
+fn golden_folder(dir: &Path) -> Option<String> {
+    let name = dir.file_name()?.to_str()?;
+    if let Some(shot) = name.strip_suffix(".golden") {
+        let ron = dir.with_file_name(format!("{shot}.ron"));
+        if ron.is_file() {
+            return Some(format!("of {}", ron.display()));
+        }
+    }
+    let hashes = dir.join(manifest::file_name(None));
+    let text = std::fs::read_to_string(&hashes).ok()?;
+    let m = Manifest::parse(&hashes, &text).ok()?;
+    (!m.entries.is_empty() && m.entries.iter().all(|e| e.key.is_none()))
+        .then(|| "its hashes.txt lists frames without keys".to_string())
+}
+
 fn remove(path: &Path) -> Result<bool> {
     match std::fs::remove_file(path) {
         Ok(()) => Ok(true),
@@ -216,10 +250,15 @@ fn remove(path: &Path) -> Result<bool> {
     }
 }
 
-/// Removes the records this run would make false: a shard removes hashes.txt (`merge` writes it
-/// again); a whole run removes the part files and the frame files of no current frame. Returns
-/// the number of frame files removed.
+/// Removes the records this run would make false: the frame files of the run's frames that it
+/// renders again (so a run stopped on the way leaves no old picture under a frame's name); a
+/// shard removes hashes.txt (`merge` writes it again); a whole run removes the part files and
+/// the frame files of no current frame. Returns the number of frame files of no current frame
+/// removed.
 fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
+    for path in &plan.replaced {
+        remove(path)?;
+    }
     if set.shard.is_some() {
         remove(&dir.join(manifest::file_name(None)))?;
         return Ok(0);

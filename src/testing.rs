@@ -98,8 +98,12 @@ impl ShotRun {
     pub fn summary(&self) -> String {
         let golden_file = golden_dir(&self.shot).join(HASHES);
         let differ = || {
-            let listed = self.golden.as_ref().and_then(|g| g.hashes.keys().last());
-            let of = listed.map_or(self.frames, |last| self.frames.max(last + 1));
+            // The shot's frames, and any the golden lists past them.
+            let past = self
+                .golden
+                .as_ref()
+                .map_or(0, |g| g.hashes.range(self.frames..).count() as u64);
+            let of = self.frames + past;
             format!(
                 "{} of {of} frame(s) differ: {}",
                 self.differ.len(),

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use super::error::{CliError, Result};
+use campath::document::MAX_FRAMES;
 use campath::export::PathFormat;
 use campath::output::Compression;
 
@@ -23,9 +24,15 @@ impl FromStr for FrameSpec {
 
     fn from_str(spec: &str) -> Result<FrameSpec, String> {
         let num = |s: &str| {
-            s.trim().parse::<u64>().map_err(|_| {
+            let n = s.trim().parse::<u64>().map_err(|_| {
                 format!("{spec:?}: expected A..B, A.., ..B, A..=B or K with whole numbers")
-            })
+            })?;
+            match n < MAX_FRAMES {
+                true => Ok(n),
+                false => Err(format!(
+                    "{spec:?}: {n} is past every frame (a file has at most {MAX_FRAMES} frames)"
+                )),
+            }
         };
         let start = |a: &str| if a.is_empty() { Ok(0) } else { num(a) };
         let (start, end, inclusive) = if let Some((a, b)) = spec.split_once("..=") {

@@ -12,38 +12,24 @@ use campath::output::frame_of;
 use campath::Error;
 
 /// `path` made absolute and free of `.` and `..`, with symbolic links resolved as far as it
-/// exists (the rest need not exist yet).
+/// exists (the rest need not exist yet): component by component, each prefix that exists taken
+/// to its real path, so a `..` leaves the real folder (a link's target, not the link's), and a
+/// `..` after a folder not made yet (`new/../link`) takes it back, as it will be a real folder.
 pub fn resolved(path: &Path) -> PathBuf {
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let mut existing = absolute.clone();
-    let mut rest = Vec::new();
-    loop {
-        if let Ok(real) = existing.canonicalize() {
-            let mut out = real;
-            for c in rest.iter().rev() {
-                out.push(c);
-            }
-            return normal(&out);
-        }
-        match (existing.file_name(), existing.parent()) {
-            (Some(name), Some(parent)) => {
-                rest.push(name.to_os_string());
-                existing = parent.to_path_buf();
-            }
-            _ => return normal(&absolute),
-        }
-    }
-}
-
-fn normal(path: &Path) -> PathBuf {
     let mut out = PathBuf::new();
-    for c in path.components() {
+    for c in absolute.components() {
         match c {
             Component::CurDir => {}
             Component::ParentDir => {
                 out.pop();
             }
-            c => out.push(c),
+            c => {
+                out.push(c);
+                if let Ok(real) = out.canonicalize() {
+                    out = real;
+                }
+            }
         }
     }
     out
@@ -52,6 +38,21 @@ fn normal(path: &Path) -> PathBuf {
 /// Whether `path` is `dir` or lies inside it.
 pub fn within(path: &Path, dir: &Path) -> bool {
     resolved(path).starts_with(resolved(dir))
+}
+
+/// Refuses a `--junit` report at `report` that is, or lies inside, the folder `dir` claimed
+/// by `option`: the folder is the run's pictures only, and a report there would be refused as
+/// another's file by the next run.
+pub fn report_apart(report: &Path, dir: &Path, option: &str) -> Result<()> {
+    if !within(report, dir) {
+        return Ok(());
+    }
+    Err(CliError::Usage(format!(
+        "--junit {} is in the {option} folder {}; nothing was written (choose a report path \
+         outside it)",
+        report.display(),
+        dir.display()
+    )))
 }
 
 /// Refuses `path` (given as `option`) when it is or lies inside one of `goldens`.
@@ -209,6 +210,13 @@ mod tests {
         assert!(within(&tmp.path().join("x/../golden/./y"), &g));
         assert!(!within(&tmp.path().join("golden2"), &g));
         assert!(!within(tmp.path(), &g));
+        // A link to the golden reached back through a folder not made yet.
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(&g, tmp.path().join("link")).unwrap();
+            assert!(within(&tmp.path().join("new/../link/f"), &g));
+            assert!(within(&tmp.path().join("new/a/../../link"), &g));
+        }
     }
 
     #[test]

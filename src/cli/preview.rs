@@ -65,6 +65,7 @@ pub fn write(
         )));
     }
     doc.check_path()?;
+    campath::sequence::check_folder(dir)?;
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
     let raster = small_raster(doc, width);
     let small = Document {

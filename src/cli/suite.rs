@@ -85,6 +85,9 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         junit::check_target(path)?;
     }
     if let Some(dir) = &a.review {
+        if let Some(path) = &a.junit {
+            failures::report_apart(path, dir, "--review")?;
+        }
         failures::claim(dir, "--review", &goldens, review::is_review_file)?;
     }
 
@@ -157,7 +160,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     } else if !a.update && differ + no_golden > 0 {
         summary += &format!(
             "\nIf the changes are intended, approve them with `campath test {} --update`.",
-            a.dir.display()
+            shell_word(&a.dir.display().to_string())
         );
     }
     writeln!(out, "{summary}").map_err(Error::stdout)?;
@@ -277,12 +280,13 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
         true => Default::default(),
         false => run.stale.iter().copied().collect(),
     };
-    let last = run
+    // The shot's frames, and any the golden lists past them.
+    let past: Vec<u64> = run
         .golden
         .as_ref()
-        .and_then(|g| g.hashes.keys().last().copied())
-        .map_or(run.frames, |l| run.frames.max(l + 1));
-    for frame in 0..last {
+        .map(|g| g.hashes.range(run.frames..).map(|(&f, _)| f).collect())
+        .unwrap_or_default();
+    for frame in (0..run.frames).chain(past) {
         let stale_picture = stale.contains(&frame).then(|| {
             "the golden's picture of this frame is missing or not the picture of its hash"
                 .to_string()
@@ -299,4 +303,29 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
         s.case(&format!("frame {frame}"), failure.or(stale_picture));
     }
     s
+}
+
+/// `word` as one word of a POSIX shell command: as it is when it holds only characters no shell
+/// treats specially, else in single quotes (a `'` inside as `'\''`), so a printed command can be
+/// pasted.
+fn shell_word(word: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-./+:=,@%".contains(c);
+    if !word.is_empty() && word.chars().all(plain) {
+        return word.to_string();
+    }
+    format!("'{}'", word.replace('\'', "'\\''"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shell_word;
+
+    #[test]
+    fn printed_paths_are_one_shell_word() {
+        assert_eq!(shell_word("shots/a-b_c.d"), "shots/a-b_c.d");
+        assert_eq!(shell_word("my shots"), "'my shots'");
+        assert_eq!(shell_word("ünï cødé"), "'ünï cødé'");
+        assert_eq!(shell_word("it's"), "'it'\\''s'");
+        assert_eq!(shell_word(""), "''");
+    }
 }

@@ -50,8 +50,36 @@ impl Stats {
         }
     }
 
+    /// Refuses (exit 2, before any work) a `--stats-json` path that is a folder, lies under a
+    /// file, or is a file other than run statistics campath wrote: it never overwrites a
+    /// keyframe file, a golden's hashes or anything else.
+    pub fn check_target(path: Option<&Path>) -> Result<()> {
+        let Some(path) = path else { return Ok(()) };
+        if let Some(file) = path.ancestors().skip(1).find(|p| p.is_file()) {
+            return Err(CliError::Usage(format!(
+                "--stats-json {}: {} is a file, not a folder; nothing was done",
+                path.display(),
+                file.display()
+            )));
+        }
+        if !path.exists() {
+            return Ok(());
+        }
+        let ours = path.is_file()
+            && std::fs::read(path).is_ok_and(|b| serde_json::from_slice::<Stats>(&b).is_ok());
+        if ours {
+            return Ok(());
+        }
+        Err(CliError::Usage(format!(
+            "--stats-json {} exists and is not run statistics campath wrote; nothing was done \
+             (choose a new path)",
+            path.display()
+        )))
+    }
+
     fn write(&self, path: Option<&Path>) -> Result<()> {
         let Some(path) = path else { return Ok(()) };
+        super::args::create_parent(path)?;
         let text = serde_json::to_string_pretty(self).expect("plain numbers serialise");
         Ok(campath::output::write_atomic(path, &text)?)
     }
@@ -288,6 +316,7 @@ pub fn with_wait<T>(
 }
 
 pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
+    Stats::check_target(a.stats_json.as_deref())?;
     let doc = Document::load(&a.file)?;
     let set = FrameSet {
         range: FrameSpec::resolve(a.frames, doc.animation.frames)?,
@@ -314,6 +343,8 @@ pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
             dir.display()
         )));
     }
+    // As render: a golden or a folder of other files is refused before the lock is taken.
+    sequence::check_folder(dir)?;
     let lock = with_wait(no_wait, false, |wait| {
         FolderLock::acquire(dir, Claim::Whole, wait)
     })?;
@@ -333,6 +364,7 @@ pub fn hash(
     stats: bool,
     stats_json: Option<&Path>,
 ) -> Result<()> {
+    Stats::check_target(stats_json)?;
     let doc = Document::load(file)?;
     let range = FrameSpec::resolve(frames, doc.animation.frames)?;
     let mut lines = std::io::BufWriter::new(std::io::stdout());

@@ -50,6 +50,9 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         junit::check_target(path)?;
     }
     if let Some(dir) = &a.save_failures {
+        if let Some(path) = &a.junit {
+            failures::report_apart(path, dir, "--save-failures")?;
+        }
         failures::claim(dir, "--save-failures", &goldens, is_failure_file)?;
     }
     let total = doc.animation.frames;

@@ -40,7 +40,9 @@ struct Status {
 
 /// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide.
 pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Write) -> Result<()> {
-    // The folder is this watch's until it stops.
+    // The folder is this watch's until it stops; as render's, it holds nothing campath does not
+    // write there, and is not a golden.
+    campath::sequence::check_folder(dir)?;
     let _lock = super::verbs::with_wait(no_wait, false, |wait| {
         campath::lock::FolderLock::acquire(dir, campath::lock::Claim::Whole, wait)
     })?;

@@ -359,6 +359,15 @@ fn bad_option_values_name_the_allowed_range() {
             &["render", &f, "--frames", "x"],
             "invalid value 'x' for '--frames <FRAMES>'",
         ),
+        // A frame number past every file's last, not a range one short or "empty".
+        (
+            &["hash", &f, "--frames", "0..=18446744073709551615"],
+            "18446744073709551615 is past every frame (a file has at most 10000000 frames)",
+        ),
+        (
+            &["hash", &f, "--frames", "18446744073709551615"],
+            "18446744073709551615 is past every frame",
+        ),
         (&["render", &f, "--bogus"], "unexpected argument '--bogus'"),
         (&["bogus"], "unrecognized subcommand 'bogus'"),
     ] {
@@ -804,5 +813,103 @@ fn verify_for_ci_writes_junit_and_difference_images_that_mark_exactly_the_change
             "{}",
             stdout(&o)
         );
+    }
+}
+
+/// Nothing is written over a golden or another program's files, and such a path is refused
+/// (exit 2) before any work: `render`, `merge` and `preview` into a shot's golden or a folder
+/// whose hashes.txt lists frames without keys (as goldens do), `preview` into a folder of other
+/// files, `merge` there (which leaves no lock behind), and `--stats-json` over the keyframe file,
+/// over a golden's hashes or below a file.
+#[test]
+fn goldens_and_other_files_are_never_written_over() {
+    let tmp = tempfile::tempdir().unwrap();
+    let shots = tmp.path().join("shots");
+    std::fs::create_dir(&shots).unwrap();
+    write(&shots, "a.ron", SMALL);
+    let o = campath(tmp.path(), &["test", "shots", "--update"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A folder of keyless hashes (a golden copied elsewhere), and one of someone's notes.
+    let copy = tmp.path().join("golden-copy");
+    std::fs::create_dir(&copy).unwrap();
+    std::fs::copy(shots.join("a.golden/hashes.txt"), copy.join("hashes.txt")).unwrap();
+    let notes = tmp.path().join("notes");
+    std::fs::create_dir(&notes).unwrap();
+    std::fs::write(notes.join("todo.txt"), "mine").unwrap();
+    let snapshot = || {
+        let mut files = Vec::new();
+        for dir in ["shots", "shots/a.golden", "golden-copy", "notes"] {
+            for e in std::fs::read_dir(tmp.path().join(dir)).unwrap().flatten() {
+                let bytes = std::fs::read(e.path()).unwrap_or_default();
+                files.push((e.path(), bytes));
+            }
+        }
+        files.sort();
+        files
+    };
+    let before = snapshot();
+    for (args, want) in [
+        (
+            &["render", "shots/a.ron", "--out", "shots/a.golden"][..],
+            "shots/a.golden is a golden (of shots/a.ron)",
+        ),
+        (
+            &["render", "shots/a.ron", "--out", "golden-copy"],
+            "golden-copy is a golden (its hashes.txt lists frames without keys)",
+        ),
+        (&["merge", "shots/a.golden"], "shots/a.golden is a golden"),
+        (
+            &["merge", "notes"],
+            "notes holds files campath did not write (todo.txt)",
+        ),
+        (
+            &["preview", "shots/a.ron", "--out", "shots/a.golden"],
+            "shots/a.golden is a golden",
+        ),
+        (
+            &["preview", "shots/a.ron", "--out", "notes"],
+            "notes holds files campath did not write (todo.txt)",
+        ),
+        (
+            &["hash", "shots/a.ron", "--stats-json", "shots/a.ron"],
+            "--stats-json shots/a.ron exists and is not run statistics campath wrote",
+        ),
+        (
+            &[
+                "render",
+                "shots/a.ron",
+                "--out",
+                "out",
+                "--stats-json",
+                "shots/a.golden/hashes.txt",
+            ],
+            "--stats-json shots/a.golden/hashes.txt exists and is not run statistics",
+        ),
+        (
+            &[
+                "render",
+                "shots/a.ron",
+                "--out",
+                "out",
+                "--stats-json",
+                "shots/a.ron/s.json",
+            ],
+            "shots/a.ron is a file, not a folder",
+        ),
+    ] {
+        let o = campath(tmp.path(), args, &[]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+        assert_eq!(snapshot(), before, "{args:?} wrote");
+        assert!(!tmp.path().join("out").exists(), "{args:?} rendered");
+    }
+    // Statistics campath wrote are written over.
+    for _ in 0..2 {
+        let o = campath(
+            tmp.path(),
+            &["hash", "shots/a.ron", "--stats-json", "s/run.json"],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
     }
 }

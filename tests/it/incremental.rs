@@ -146,3 +146,44 @@ fn another_file_rendered_into_the_same_folder_replaces_every_frame() {
         std::fs::remove_dir_all(&fresh).unwrap();
     }
 }
+
+/// A render of an edited file removes the pictures of the frames it renders again before it
+/// writes any: when its first frame is written, every frame file in the folder is a frame it
+/// kept or that one, so a run stopped there leaves no old picture under a frame's name.
+#[test]
+fn an_edited_file_leaves_no_old_picture_while_it_renders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("out");
+    let text = small_example("flythrough");
+    render_into(&text, &dir);
+    for (what, edited) in edits(&text) {
+        let before = frame_files(&dir);
+        let doc = load(&edited);
+        let set = FrameSet::all(0..doc.animation.frames);
+        let lock = lock(&doc, &dir, &set, Wait::No).unwrap();
+        let mut seen = None;
+        let summary = render(&doc, &lock, &set, RenderOptions::default(), &mut |e| {
+            if let (campath::sequence::Event::Written(frame), None) = (e, &seen) {
+                seen = Some((frame, frame_files(&dir)));
+            }
+        })
+        .unwrap();
+        let (first, on_disk) = seen.expect("a frame was rendered");
+        let first = format!("frame_{first:04}.png");
+        // The kept frames are the files unchanged since the first render.
+        let kept: Vec<&String> = on_disk
+            .iter()
+            .filter(|(name, stamp)| before.get(*name) == Some(stamp))
+            .map(|(name, _)| name)
+            .collect();
+        assert_eq!(kept.len() as u64, summary.kept, "{what}");
+        for name in on_disk.keys() {
+            assert!(
+                kept.contains(&name) || *name == first,
+                "{what}: {name} is on disk while {first} is written"
+            );
+        }
+        drop(lock);
+        render_into(&text, &dir);
+    }
+}

@@ -637,3 +637,84 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
         stdout(&o)
     );
 }
+
+/// Unkind goldens and report paths, each refused with exit 2 before anything renders: a
+/// `--junit` report in the `--save-failures` or `--review` folder, a golden listing a frame
+/// index past every file's last (10⁷ frames; u64::MAX overflowed), a golden that is not UTF-8
+/// (named by line), and `--save-failures` into a golden through a folder not made yet and a link
+/// (`new/../link/f`).
+#[test]
+fn unkind_goldens_and_report_paths_are_refused_before_any_work() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::create_dir(dir.join("shots")).unwrap();
+    std::fs::write(dir.join("shots/a.ron"), shot(3, "0.9")).unwrap();
+    let o = campath(dir, &["test", "shots", "--update"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(dir.join("shots/a.ron"), shot(3, "0.5")).unwrap();
+    std::os::unix::fs::symlink(dir.join("shots/a.golden"), dir.join("link")).unwrap();
+    let golden = std::fs::read_to_string(dir.join("shots/a.golden/hashes.txt")).unwrap();
+    let hash = frame_lines(&golden)[0]
+        .split(' ')
+        .nth(1)
+        .unwrap()
+        .to_string();
+    for (args, want) in [
+        (
+            &[
+                "verify",
+                "shots/a.ron",
+                "shots/a.golden",
+                "--junit",
+                "f",
+                "--save-failures",
+                "f",
+            ][..],
+            "--junit f is in the --save-failures folder f",
+        ),
+        (
+            &["test", "shots", "--junit", "r/j.xml", "--review", "r"],
+            "--junit r/j.xml is in the --review folder r",
+        ),
+        (
+            &[
+                "verify",
+                "shots/a.ron",
+                "shots/a.golden",
+                "--save-failures",
+                "new/../link/f",
+            ],
+            "--save-failures new/../link/f lies inside the golden shots/a.golden",
+        ),
+    ] {
+        let o = campath(dir, args, &[]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+        for left in ["f", "r", "new", "shots/a.golden/f"] {
+            assert!(!dir.join(left).exists(), "{args:?} made {left}");
+        }
+    }
+    for (lines, want) in [
+        (
+            format!("{golden}18446744073709551615 {hash}\n"),
+            "line 5: a frame index of 10000000 or more",
+        ),
+        (
+            format!("{golden}10000000 {hash}\n"),
+            "line 5: a frame index of 10000000 or more",
+        ),
+    ] {
+        std::fs::write(dir.join("g.txt"), &lines).unwrap();
+        let o = campath(dir, &["verify", "shots/a.ron", "g.txt"], &[]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{}", stderr(&o));
+    }
+    std::fs::write(dir.join("g.txt"), b"# campath renderer 1\n0 caf\xe9\n").unwrap();
+    let o = campath(dir, &["verify", "shots/a.ron", "g.txt"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("g.txt: line 2: not UTF-8 text"),
+        "{}",
+        stderr(&o)
+    );
+}
