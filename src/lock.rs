@@ -128,7 +128,10 @@ fn host() -> String {
 }
 
 fn holder_line(claim: Claim) -> String {
-    let command: Vec<String> = std::env::args().collect();
+    // A command line that is not UTF-8 is named as well as it can be.
+    let command: Vec<String> = std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
     Holder {
         pid: std::process::id(),
         claim: claim.to_string(),

@@ -125,14 +125,49 @@ pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
     std::fs::rename(&tmp, path).map_err(err)
 }
 
+/// `path` made absolute and free of `.` and `..`, with symbolic links resolved as far as it
+/// exists (the rest need not exist yet): component by component, each prefix that exists taken
+/// to its real path, so a `..` leaves the real folder (a link's target, not the link's), and a
+/// `..` after a folder not made yet (`new/../link`) takes it back, as it will be a real folder.
+pub fn resolved(path: &Path) -> PathBuf {
+    use std::path::Component;
+    // An empty path (the parent of a bare file name) is the current folder.
+    let path = match path.as_os_str().is_empty() {
+        true => Path::new("."),
+        false => path,
+    };
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = PathBuf::new();
+    for c in absolute.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            c => {
+                out.push(c);
+                if let Ok(real) = out.canonicalize() {
+                    out = real;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Whether a file of this name is a video (`video` writes `.mp4` and `.mkv`, in any case).
+pub fn is_video(name: &str) -> bool {
+    let name = name.to_ascii_lowercase();
+    name.ends_with(".mp4") || name.ends_with(".mkv")
+}
+
 /// Whether campath writes files of this name into an output folder.
 pub fn is_ours(name: &str) -> bool {
     let base = name.strip_suffix(".tmp").unwrap_or(name);
     frame_of(base).is_some()
         || crate::lock::is_lock_file(base)
         || manifest::part_of(base).is_some()
-        || base.ends_with(".mp4")
-        || base.ends_with(".mkv")
+        || is_video(base)
         || [
             "hashes.txt",
             "report.png",

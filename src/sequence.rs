@@ -20,7 +20,8 @@ use crate::frames::{keys, stream_frames, FrameSet, Timing};
 use crate::lock::{Claim, FolderLock, Wait};
 use crate::manifest::{self, Entry, Manifest, PartHeader};
 use crate::output::{
-    frame_of, frame_path, is_ours, pad_width, png_hash, write_atomic, write_png_atomic, Compression,
+    frame_of, frame_path, is_ours, is_video, pad_width, png_hash, resolved, write_atomic,
+    write_png_atomic, Compression,
 };
 
 /// Why frames of the run were rendered rather than kept.
@@ -198,10 +199,10 @@ pub fn check_folder(dir: &Path) -> Result<()> {
             dir.display()
         )));
     }
-    if let Some(why) = golden_folder(dir) {
+    if let Some(why) = golden_of(dir) {
         return Err(Error::Usage(format!(
-            "{} is a golden ({why}): it is written only on approval (`campath test --update`); \
-             nothing was written (choose another --out)",
+            "--out {}: {why}, written only on approval (`campath test --update`); nothing was \
+             written (choose another --out)",
             dir.display()
         )));
     }
@@ -225,21 +226,46 @@ pub fn check_folder(dir: &Path) -> Result<()> {
     }
 }
 
-/// Why `dir` is a golden folder, if it is one: a shot's golden (`NAME.golden` beside
-/// `NAME.ron`), or a folder whose `hashes.txt` lists frames without keys, as only goldens do.
-fn golden_folder(dir: &Path) -> Option<String> {
-    let name = dir.file_name()?.to_str()?;
-    if let Some(shot) = name.strip_suffix(".golden") {
-        let ron = dir.with_file_name(format!("{shot}.ron"));
-        if ron.is_file() {
-            return Some(format!("of {}", ron.display()));
+/// Why writing at `path` would write into a golden, if it would: `path` (as it resolves, links
+/// and `..` followed) is or lies inside a shot's golden (`NAME.golden` beside `NAME.ron`), or is
+/// a folder whose `hashes.txt` names campath's renderer and lists frames without keys, as the
+/// goldens campath writes do (an output folder's frames have keys; one from before frame keys
+/// names no renderer, and is rendered again).
+pub fn golden_of(path: &Path) -> Option<String> {
+    let real = resolved(path);
+    for folder in real.ancestors() {
+        if folder.extension().is_some_and(|e| e == "golden") {
+            let ron = folder.with_extension("ron");
+            if ron.is_file() {
+                return Some(format!(
+                    "{} is the golden of {}",
+                    folder.display(),
+                    ron.display()
+                ));
+            }
         }
     }
-    let hashes = dir.join(manifest::file_name(None));
+    let hashes = real.join(manifest::file_name(None));
     let text = std::fs::read_to_string(&hashes).ok()?;
     let m = Manifest::parse(&hashes, &text).ok()?;
-    (!m.entries.is_empty() && m.entries.iter().all(|e| e.key.is_none()))
-        .then(|| "its hashes.txt lists frames without keys".to_string())
+    let golden =
+        m.renderer.is_some() && !m.entries.is_empty() && m.entries.iter().all(|e| e.key.is_none());
+    golden.then(|| {
+        format!(
+            "{} is a golden: its hashes.txt lists frames without keys",
+            path.display()
+        )
+    })
+}
+
+/// Removes the videos (`.mp4`, `.mkv`) in `dir`.
+fn remove_videos(dir: &Path) -> Result<()> {
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        if e.file_name().to_str().is_some_and(is_video) {
+            remove(&e.path())?;
+        }
+    }
+    Ok(())
 }
 
 fn remove(path: &Path) -> Result<bool> {
@@ -318,6 +344,10 @@ pub fn render(
     }
     check_folder(dir)?;
     let plan = plan(doc, dir, set, options.force)?;
+    // A video in the folder is made of its frames: a run that changes any goes first removes it.
+    if set.count() > plan.kept.len() as u64 || !plan.stale.is_empty() {
+        remove_videos(dir)?;
+    }
     let removed = remove_stale_records(dir, set, &plan)?;
 
     let total = doc.animation.frames;

@@ -25,8 +25,10 @@ pub const UPDATE_VAR: &str = "CAMPATH_UPDATE";
 
 /// The golden folder of a shot: `shots/a/orbit.ron` → `shots/a/orbit.golden`.
 pub fn golden_dir(shot: &Path) -> PathBuf {
-    let stem = shot.file_stem().unwrap_or_default().to_string_lossy();
-    shot.with_file_name(format!("{stem}.golden"))
+    // The stem as it is (a name that is not UTF-8 stays apart from others).
+    let mut name = shot.file_stem().unwrap_or_default().to_os_string();
+    name.push(".golden");
+    shot.with_file_name(name)
 }
 
 pub use crate::frames::Difference;

@@ -23,26 +23,31 @@ impl FromStr for FrameSpec {
     type Err = String;
 
     fn from_str(spec: &str) -> Result<FrameSpec, String> {
-        let num = |s: &str| {
+        // A frame number below `bound`: MAX_FRAMES for a frame, one more for an exclusive end.
+        let bounded = |s: &str, bound: u64| {
             let n = s.trim().parse::<u64>().map_err(|_| {
                 format!("{spec:?}: expected A..B, A.., ..B, A..=B or K with whole numbers")
             })?;
-            match n < MAX_FRAMES {
+            match n < bound {
                 true => Ok(n),
                 false => Err(format!(
                     "{spec:?}: {n} is past every frame (a file has at most {MAX_FRAMES} frames)"
                 )),
             }
         };
+        let num = |s: &str| bounded(s, MAX_FRAMES);
         let start = |a: &str| if a.is_empty() { Ok(0) } else { num(a) };
         let (start, end, inclusive) = if let Some((a, b)) = spec.split_once("..=") {
-            (start(a)?, Some(num(b)?.saturating_add(1)), true)
+            (start(a)?, Some(num(b)? + 1), true)
         } else if let Some((a, b)) = spec.split_once("..") {
-            let end = if b.is_empty() { None } else { Some(num(b)?) };
+            let end = match b.is_empty() {
+                true => None,
+                false => Some(bounded(b, MAX_FRAMES + 1)?),
+            };
             (start(a)?, end, false)
         } else {
             let k = num(spec)?;
-            (k, Some(k.saturating_add(1)), false)
+            (k, Some(k + 1), false)
         };
         if end.is_some_and(|e| start >= e) {
             return Err(format!("{spec:?}: the range is empty"));
@@ -146,9 +151,8 @@ pub fn at_least_one(s: &str) -> Result<u64, String> {
 
 /// `out/<file stem>/`, relative to the working directory.
 pub fn default_out_dir(file: &Path) -> PathBuf {
-    let stem = file
-        .file_stem()
-        .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    // The stem as it is (a name that is not UTF-8 stays apart from others).
+    let stem = file.file_stem().unwrap_or("render".as_ref());
     Path::new("out").join(stem)
 }
 
@@ -218,6 +222,19 @@ mod tests {
         assert!("a..b".parse::<FrameSpec>().is_err());
         assert!(FrameSpec::resolve(Some("2..11".parse().unwrap()), 10).is_err());
         assert!(FrameSpec::resolve(Some("10..".parse().unwrap()), 10).is_err());
+        // Frame numbers lie below 10⁷, an exclusive end up to it.
+        let most = |s: &str| FrameSpec::resolve(Some(s.parse().unwrap()), MAX_FRAMES).unwrap();
+        assert_eq!(most("9999998..10000000"), 9_999_998..10_000_000);
+        assert_eq!(most("..=9999999"), 0..10_000_000);
+        for past in [
+            "10000000",
+            "..=10000000",
+            "0..10000001",
+            "18446744073709551615",
+        ] {
+            let e = past.parse::<FrameSpec>().unwrap_err();
+            assert!(e.contains("is past every frame"), "{past}: {e}");
+        }
     }
 
     #[test]

@@ -5,35 +5,11 @@
 //! then the command's own files from an earlier run are removed, so what is left after the run
 //! is this run's failures only.
 
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 use super::error::{CliError, Result};
-use campath::output::frame_of;
+use campath::output::{frame_of, resolved};
 use campath::Error;
-
-/// `path` made absolute and free of `.` and `..`, with symbolic links resolved as far as it
-/// exists (the rest need not exist yet): component by component, each prefix that exists taken
-/// to its real path, so a `..` leaves the real folder (a link's target, not the link's), and a
-/// `..` after a folder not made yet (`new/../link`) takes it back, as it will be a real folder.
-pub fn resolved(path: &Path) -> PathBuf {
-    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let mut out = PathBuf::new();
-    for c in absolute.components() {
-        match c {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                out.pop();
-            }
-            c => {
-                out.push(c);
-                if let Ok(real) = out.canonicalize() {
-                    out = real;
-                }
-            }
-        }
-    }
-    out
-}
 
 /// Whether `path` is `dir` or lies inside it.
 pub fn within(path: &Path, dir: &Path) -> bool {

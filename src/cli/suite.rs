@@ -305,13 +305,18 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
     s
 }
 
-/// `word` as one word of a POSIX shell command: as it is when it holds only characters no shell
-/// treats specially, else in single quotes (a `'` inside as `'\''`), so a printed command can be
-/// pasted.
+/// The path `word` as one word of a POSIX shell command that campath reads as a path: as it is
+/// when it holds only characters no shell treats specially, else in single quotes (a `'` inside
+/// as `'\''`); after `./` when it starts with `-`, which would read as an option. So a printed
+/// command can be pasted.
 fn shell_word(word: &str) -> String {
+    let word = match word.starts_with('-') {
+        true => format!("./{word}"),
+        false => word.to_string(),
+    };
     let plain = |c: char| c.is_ascii_alphanumeric() || "_-./+:=,@%".contains(c);
     if !word.is_empty() && word.chars().all(plain) {
-        return word.to_string();
+        return word;
     }
     format!("'{}'", word.replace('\'', "'\\''"))
 }
@@ -327,5 +332,6 @@ mod tests {
         assert_eq!(shell_word("ünï cødé"), "'ünï cødé'");
         assert_eq!(shell_word("it's"), "'it'\\''s'");
         assert_eq!(shell_word(""), "''");
+        assert_eq!(shell_word("-shots"), "./-shots");
     }
 }

@@ -51,10 +51,23 @@ impl Stats {
     }
 
     /// Refuses (exit 2, before any work) a `--stats-json` path that is a folder, lies under a
-    /// file, or is a file other than run statistics campath wrote: it never overwrites a
-    /// keyframe file, a golden's hashes or anything else.
-    pub fn check_target(path: Option<&Path>) -> Result<()> {
+    /// file, in a golden or in the run's output folder `out` (whose files are the frames and
+    /// their manifests only), or is a file other than run statistics campath wrote: it never
+    /// overwrites a keyframe file, a golden's hashes or anything else.
+    pub fn check_target(path: Option<&Path>, out: Option<&Path>) -> Result<()> {
         let Some(path) = path else { return Ok(()) };
+        let refuse = |why: String| {
+            Err(CliError::Usage(format!(
+                "--stats-json {}: {why}; nothing was done (choose another path)",
+                path.display()
+            )))
+        };
+        if let Some(dir) = out.filter(|dir| super::failures::within(path, dir)) {
+            return refuse(format!("it is in the --out folder {}", dir.display()));
+        }
+        if let Some(why) = path.parent().and_then(sequence::golden_of) {
+            return refuse(why);
+        }
         if let Some(file) = path.ancestors().skip(1).find(|p| p.is_file()) {
             return Err(CliError::Usage(format!(
                 "--stats-json {}: {} is a file, not a folder; nothing was done",
@@ -316,7 +329,7 @@ pub fn with_wait<T>(
 }
 
 pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
-    Stats::check_target(a.stats_json.as_deref())?;
+    Stats::check_target(a.stats_json.as_deref(), Some(&a.dir))?;
     let doc = Document::load(&a.file)?;
     let set = FrameSet {
         range: FrameSpec::resolve(a.frames, doc.animation.frames)?,
@@ -364,7 +377,7 @@ pub fn hash(
     stats: bool,
     stats_json: Option<&Path>,
 ) -> Result<()> {
-    Stats::check_target(stats_json)?;
+    Stats::check_target(stats_json, None)?;
     let doc = Document::load(file)?;
     let range = FrameSpec::resolve(frames, doc.animation.frames)?;
     let mut lines = std::io::BufWriter::new(std::io::stdout());

@@ -17,7 +17,7 @@ use super::verbs::Progress;
 use campath::document::Document;
 use campath::frames::FrameSet;
 use campath::manifest::Manifest;
-use campath::output::{frame_hash, frame_path};
+use campath::output::{frame_hash, frame_path, resolved};
 use campath::sequence::{self, Event, RenderOptions};
 use campath::Error;
 
@@ -50,6 +50,12 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
                 video.display()
             )));
         }
+        if let Some(why) = video.parent().and_then(campath::sequence::golden_of) {
+            return Err(CliError::Usage(format!(
+                "--out {}: {why}; nothing was written (choose another path)",
+                video.display()
+            )));
+        }
         if a.lossless {
             let what = "--lossless writes FFV1 in Matroska";
             super::args::check_extension("--out", video, &["mkv"], what)?;
@@ -59,21 +65,44 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         }
     }
     let doc = Document::load(&a.file)?;
+    // Matroska stamps frames in milliseconds: above 1000 fps two frames would share a time.
+    if a.lossless && doc.animation.fps > 1000.0 {
+        return Err(CliError::Usage(format!(
+            "{}: --lossless writes Matroska, whose timestamps are milliseconds, so it holds at \
+             most 1000 fps, not {}; nothing was written",
+            a.file.display(),
+            doc.animation.fps
+        )));
+    }
     // Before rendering anything: is there an ffmpeg to hand the frames to?
     Command::new("ffmpeg")
         .arg("-version")
         .stdout(Stdio::null())
         .status()
         .map_err(ffmpeg_missing)?;
-    let stem = a
-        .file
-        .file_stem()
-        .map_or_else(|| "video".into(), |s| s.to_string_lossy().into_owned());
     let ext = if a.lossless { "mkv" } else { "mp4" };
-    let video = a
-        .out
-        .clone()
-        .unwrap_or_else(|| a.frames_dir.join(format!("{stem}.{ext}")));
+    let video = a.out.clone().unwrap_or_else(|| {
+        let mut name = a
+            .file
+            .file_stem()
+            .unwrap_or("video".as_ref())
+            .to_os_string();
+        name.push(format!(".{ext}"));
+        a.frames_dir.join(name)
+    });
+    // A video goes into the frames folder or outside it: a folder made inside it for the video
+    // would be a file campath did not write there.
+    let parent = video.parent().filter(|p| !p.as_os_str().is_empty());
+    let parent = parent.unwrap_or(Path::new("."));
+    if super::failures::within(parent, &a.frames_dir) && resolved(parent) != resolved(&a.frames_dir)
+    {
+        return Err(CliError::Usage(format!(
+            "--out {}: a folder inside the frames folder {}; put the video in it or outside \
+             it; nothing was written",
+            video.display(),
+            a.frames_dir.display()
+        )));
+    }
 
     let total = doc.animation.frames;
     let mut progress = Progress::new(a.quiet);
@@ -120,8 +149,18 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     }
     std::fs::rename(&tmp, &video).map_err(Error::write(&video))?;
     if !a.quiet {
+        let (w, h) = (doc.raster.width, doc.raster.height);
         let what = if a.lossless {
             "FFV1 lossless RGB".to_string()
+        } else if w % 2 == 1 || h % 2 == 1 {
+            // yuv420p needs even sides (`ffmpeg_args`).
+            let even = |n: u32| n + n % 2;
+            format!(
+                "H.264 yuv420p, crf {}, padded to {}×{} with black, as 4:2:0 needs even sides",
+                a.crf,
+                even(w),
+                even(h)
+            )
         } else {
             format!("H.264 yuv420p, crf {}", a.crf)
         };

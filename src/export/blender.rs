@@ -55,8 +55,8 @@ pub fn lens_and_shift(cam: &Camera, sensor: f64) -> (f64, f64, f64) {
 pub fn script(doc: &Document) -> Result<String> {
     let keys = keyed_cameras(doc)?;
     let sensor = sensor_mm(keys.iter().map(|&(_, cam)| cam));
-    let cops: Vec<_> = keys.iter().map(|(_, cam)| cam.cop_world()).collect();
-    let (near, far) = clipping_range(&doc.scene.spheres, &cops);
+    let cams: Vec<Camera> = keys.iter().map(|&(_, cam)| cam).collect();
+    let (near, far) = clipping_range(&doc.scene.spheres, &cams);
     let mut frames = String::new();
     let mut previous: Option<glam::DQuat> = None;
     for &(frame, cam) in &keys {

@@ -154,12 +154,15 @@ pub fn vertical_fov(cam: &Camera) -> f64 {
     2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z) * (180.0 / std::f64::consts::PI)
 }
 
-/// The clipping range (near, far) of a reader's camera whose COP passes `cops`: campath clips
-/// nothing in front of the COP, so neither may the reader. Far reaches past every sphere from
-/// every COP (through a sphere about the whole scene), with half as much again. Near is half
-/// the least distance from a COP to a sphere's surface, from outside or inside it, at most
-/// far / 10⁶ (a scene without spheres), and at least far / 10¹² (a COP on a surface).
-pub(crate) fn clipping_range(spheres: &[Sphere], cops: &[DVec3]) -> (f64, f64) {
+/// The clipping range (near, far) of a reader's camera that takes the places of `cams`:
+/// campath clips nothing in front of the COP, so neither may the reader. Far reaches past every
+/// sphere from every COP (through a sphere about the whole scene), with half as much again.
+/// Near is a depth along the view direction, as readers measure it: half the least depth a
+/// sphere can show at, at most far / 10⁶ (a scene without spheres) and at least far / 10¹² (a
+/// COP on a surface). A sphere's surface lies at least its gap g from the COP (from outside or
+/// inside it), and a point seen at most α off the view direction (α at the window's furthest
+/// corner) lies at a depth of at least g · cos α.
+pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) {
     use rayon::prelude::*;
     let (lo, hi) = spheres.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -174,23 +177,40 @@ pub(crate) fn clipping_range(spheres: &[Sphere], cops: &[DVec3]) -> (f64, f64) {
         .iter()
         .map(|s| (s.center_world - centre).length() + s.radius)
         .fold(0.0, f64::max);
-    let far = cops
+    // Each camera's COP, and the cosine of its widest angle off the view direction.
+    let views: Vec<(DVec3, f64)> = cams
         .iter()
-        .map(|c| (*c - centre).length() + radius)
+        .map(|cam| {
+            let (c, half) = (cam.cop_view, cam.window * 0.5);
+            let corner = glam::DVec2::new(
+                (half.x - c.x).abs().max((half.x + c.x).abs()),
+                (half.y - c.y).abs().max((half.y + c.y).abs()),
+            );
+            let d = -c.z;
+            (
+                cam.cop_world(),
+                d / (d * d + corner.length_squared()).sqrt(),
+            )
+        })
+        .collect();
+    let far = views
+        .iter()
+        .map(|(cop, _)| (*cop - centre).length() + radius)
         .fold(1.0, f64::max)
         * 1.5;
-    // The least gap, on the pool: every frame's COP against every sphere (a minimum, the same
-    // in any order).
-    let gap = spheres
+    // The least depth, on the pool: every camera against every sphere (a minimum, the same in
+    // any order).
+    let depth = spheres
         .par_iter()
         .with_min_len(1 << 12)
         .map(|s| {
-            cops.iter()
-                .map(|c| ((*c - s.center_world).length() - s.radius).abs())
+            views
+                .iter()
+                .map(|(cop, cos)| ((*cop - s.center_world).length() - s.radius).abs() * cos)
                 .fold(f64::INFINITY, f64::min)
         })
         .reduce(|| f64::INFINITY, f64::min);
-    ((gap * 0.5).min(far * 1e-6).max(far * 1e-12), far)
+    ((depth * 0.5).min(far * 1e-6).max(far * 1e-12), far)
 }
 
 /// The times at which a reader's camera is keyed, in frames, with campath's camera there: every

@@ -121,6 +121,7 @@ fn aim_negative_z(d: DVec3) -> DQuat {
 /// The stage as USDA text.
 pub fn usda(doc: &Document) -> Result<String> {
     let mut times = Vec::new();
+    let mut cams = Vec::new();
     let mut cops = Vec::new();
     let mut orients = Vec::new();
     let mut lenses = Vec::new();
@@ -134,12 +135,13 @@ pub fn usda(doc: &Document) -> Result<String> {
         }
         previous = Some(q);
         times.push(time);
+        cams.push(cam);
         cops.push(cam.cop_world());
         orients.push(q);
         lenses.push(UsdLens::of(&cam));
     }
     let frames = doc.animation.frames;
-    let (near, far) = clipping_range(&doc.scene.spheres, &cops);
+    let (near, far) = clipping_range(&doc.scene.spheres, &cams);
     let r = doc.raster;
     let first = lenses[0];
     let window = doc.animation.window;

@@ -9,8 +9,8 @@ use std::process::Command;
 use glam::DVec3;
 
 use crate::common::{
-    blender_lacks_module, campath, have_part, have_tool, reach_of_cops, root, shutter_ends, stderr,
-    EXAMPLES, EXPORT_EDGES,
+    blender_lacks_module, campath, export_edge_shots, have_part, have_tool, reach_of_views, root,
+    shutter_ends, stderr, EXAMPLES,
 };
 
 /// Runs every job in one Blender process: build the shot from the script and record
@@ -57,7 +57,6 @@ fn blender_sees_what_campath_renders() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    std::fs::write(tmp.path().join("check.py"), CHECK).unwrap();
     // Every example, and the observer at 640×480 (another aspect than the 16:9 film back that
     // Blender's .chan importer assumes).
     let observer = std::fs::read_to_string(root().join("animations/observer.ron")).unwrap();
@@ -108,31 +107,7 @@ fn blender_sees_what_campath_renders() {
             "out": tmp.path().join(format!("{name}.json")),
         }));
     }
-    std::fs::write(
-        tmp.path().join("jobs.json"),
-        serde_json::to_string(&jobs).unwrap(),
-    )
-    .unwrap();
-    let o = Command::new("blender")
-        .current_dir(tmp.path())
-        .args([
-            "--background",
-            "--factory-startup",
-            "--python-exit-code",
-            "1",
-        ])
-        .arg("--python")
-        .arg(tmp.path().join("check.py"))
-        .arg("--")
-        .arg(tmp.path().join("jobs.json"))
-        .output()
-        .unwrap();
-    let log = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(o.status.success(), "blender: {log}");
+    run_blender(tmp.path(), CHECK, &jobs);
 
     for (name, job) in names.iter().zip(&jobs) {
         let doc = doc_of(name);
@@ -253,66 +228,23 @@ fn blender_keeps_wide_far_near_and_blurred_cameras() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    let mut names: Vec<&str> = EXPORT_EDGES.to_vec();
-    names.push("motion_blur");
-    let file_of = |name: &str| match name {
-        "motion_blur" => root().join("animations/motion_blur.ron"),
-        _ => root().join(format!("tests/data/{name}.ron")),
-    };
-    let mut jobs = Vec::new();
-    for name in &names {
-        let script = tmp.path().join(format!("{name}.py"));
-        let file = file_of(name);
-        let o = campath(
-            tmp.path(),
-            &[
-                "path",
-                file.to_str().unwrap(),
-                "--out",
-                script.to_str().unwrap(),
-            ],
-            &[],
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-        let doc = campath::document::Document::load(&file).unwrap();
-        // Scene frame f is campath frame f − 1.
-        let frames: Vec<f64> = shutter_ends(&doc).iter().map(|&(t, _)| t + 1.0).collect();
-        jobs.push(serde_json::json!({
-            "script": script, "frames": frames,
-            "out": tmp.path().join(format!("{name}.json")),
-        }));
-    }
-    std::fs::write(tmp.path().join("check.py"), CHECK_EDGES).unwrap();
-    std::fs::write(
-        tmp.path().join("jobs.json"),
-        serde_json::to_string(&jobs).unwrap(),
-    )
-    .unwrap();
-    let o = Command::new("blender")
-        .current_dir(tmp.path())
-        .args([
-            "--background",
-            "--factory-startup",
-            "--python-exit-code",
-            "1",
-        ])
-        .arg("--python")
-        .arg(tmp.path().join("check.py"))
-        .arg("--")
-        .arg(tmp.path().join("jobs.json"))
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "blender: {}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let shots = export_edge_shots(tmp.path(), "py");
+    let jobs: Vec<serde_json::Value> = shots
+        .iter()
+        .map(|(name, script, doc)| {
+            // Scene frame f is campath frame f − 1.
+            let frames: Vec<f64> = shutter_ends(doc).iter().map(|&(t, _)| t + 1.0).collect();
+            serde_json::json!({
+                "script": script, "frames": frames,
+                "out": tmp.path().join(format!("{name}.json")),
+            })
+        })
+        .collect();
+    run_blender(tmp.path(), CHECK_EDGES, &jobs);
     // campath's horizontal field of view in radians.
     let angle = |cam: &campath::camera::Camera| 2.0 * (cam.window.x / 2.0 / -cam.cop_view.z).atan();
     let mut ends = 0;
-    for (name, job) in names.iter().zip(&jobs) {
-        let doc = campath::document::Document::load(&file_of(name)).unwrap();
+    for ((name, _, doc), job) in shots.iter().zip(&jobs) {
         let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
         let r: serde_json::Value = serde_json::from_str(&text).unwrap();
         let f = |v: &serde_json::Value| v.as_f64().unwrap();
@@ -326,13 +258,13 @@ fn blender_keeps_wide_far_near_and_blurred_cameras() {
             angle(&first).to_degrees()
         );
         let (near, far) = (f(&r["clip"][0]), f(&r["clip"][1]));
-        let (least, furthest) = reach_of_cops(&doc);
+        let (least, furthest) = reach_of_views(doc);
         assert!(
             near < least && far > furthest,
             "{name}: clipping range {near}..{far}, spheres from {least} to {furthest}"
         );
         let sensor = f(&r["sensor"]);
-        for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(&doc)) {
+        for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(doc)) {
             let p = &got["position"];
             let position = DVec3::new(f(&p[0]), f(&p[1]), f(&p[2]));
             let want = cam.cop_world();
@@ -357,4 +289,31 @@ fn blender_keeps_wide_far_near_and_blurred_cameras() {
     }
     // The two blurred shots' two ends each.
     assert_eq!(ends, 4);
+}
+
+/// Runs `script` in one headless Blender in `dir` (as `check.py`, with the jobs in `jobs.json`
+/// after `--`), and fails with Blender's output if it does.
+fn run_blender(dir: &std::path::Path, script: &str, jobs: &[serde_json::Value]) {
+    std::fs::write(dir.join("check.py"), script).unwrap();
+    std::fs::write(dir.join("jobs.json"), serde_json::to_string(jobs).unwrap()).unwrap();
+    let o = Command::new("blender")
+        .current_dir(dir)
+        .args([
+            "--background",
+            "--factory-startup",
+            "--python-exit-code",
+            "1",
+        ])
+        .arg("--python")
+        .arg(dir.join("check.py"))
+        .arg("--")
+        .arg(dir.join("jobs.json"))
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "blender: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
 }

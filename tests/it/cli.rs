@@ -848,31 +848,53 @@ fn goldens_and_other_files_are_never_written_over() {
         files
     };
     let before = snapshot();
+    let golden = "a.golden is the golden of ";
     for (args, want) in [
         (
             &["render", "shots/a.ron", "--out", "shots/a.golden"][..],
-            "shots/a.golden is a golden (of shots/a.ron)",
+            golden,
+        ),
+        (
+            &["render", "shots/a.ron", "--out", "shots/a.golden/sub"],
+            golden,
+        ),
+        (
+            &["render", "shots/a.ron", "--out", "shots/a.golden/x/../."],
+            golden,
         ),
         (
             &["render", "shots/a.ron", "--out", "golden-copy"],
-            "golden-copy is a golden (its hashes.txt lists frames without keys)",
+            "golden-copy is a golden: its hashes.txt lists frames without keys",
         ),
-        (&["merge", "shots/a.golden"], "shots/a.golden is a golden"),
+        (&["merge", "shots/a.golden"], golden),
         (
             &["merge", "notes"],
             "notes holds files campath did not write (todo.txt)",
         ),
         (
             &["preview", "shots/a.ron", "--out", "shots/a.golden"],
-            "shots/a.golden is a golden",
+            golden,
         ),
         (
             &["preview", "shots/a.ron", "--out", "notes"],
             "notes holds files campath did not write (todo.txt)",
         ),
         (
+            &["video", "shots/a.ron", "--out", "shots/a.golden/a.mp4"],
+            golden,
+        ),
+        (
             &["hash", "shots/a.ron", "--stats-json", "shots/a.ron"],
             "--stats-json shots/a.ron exists and is not run statistics campath wrote",
+        ),
+        (
+            &[
+                "hash",
+                "shots/a.ron",
+                "--stats-json",
+                "shots/a.golden/s.json",
+            ],
+            golden,
         ),
         (
             &[
@@ -883,7 +905,7 @@ fn goldens_and_other_files_are_never_written_over() {
                 "--stats-json",
                 "shots/a.golden/hashes.txt",
             ],
-            "--stats-json shots/a.golden/hashes.txt exists and is not run statistics",
+            golden,
         ),
         (
             &[
@@ -896,6 +918,17 @@ fn goldens_and_other_files_are_never_written_over() {
             ],
             "shots/a.ron is a file, not a folder",
         ),
+        (
+            &[
+                "render",
+                "shots/a.ron",
+                "--out",
+                "out",
+                "--stats-json",
+                "out/hashes.txt",
+            ],
+            "it is in the --out folder out",
+        ),
     ] {
         let o = campath(tmp.path(), args, &[]);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
@@ -903,6 +936,28 @@ fn goldens_and_other_files_are_never_written_over() {
         assert_eq!(snapshot(), before, "{args:?} wrote");
         assert!(!tmp.path().join("out").exists(), "{args:?} rendered");
     }
+    // From inside the golden, `--out .` is the golden.
+    let o = campath(
+        &shots.join("a.golden"),
+        &["render", "../a.ron", "--out", "."],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(snapshot(), before, "--out . wrote");
+    // A folder rendered before frame keys (no renderer line, no keys) is rendered again.
+    let old = tmp.path().join("old");
+    std::fs::create_dir(&old).unwrap();
+    let keyless: String = frame_lines(&std::fs::read_to_string(copy.join("hashes.txt")).unwrap())
+        .iter()
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(old.join("hashes.txt"), keyless).unwrap();
+    let o = campath(
+        tmp.path(),
+        &["render", "shots/a.ron", "--out", "old", "-q"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
     // Statistics campath wrote are written over.
     for _ in 0..2 {
         let o = campath(
@@ -912,4 +967,27 @@ fn goldens_and_other_files_are_never_written_over() {
         );
         assert!(o.status.success(), "{}", stderr(&o));
     }
+}
+
+/// A keyframe file whose name is not UTF-8 renders into a folder of its own name, as it is (not
+/// one shared by every such name), and the lock's record of the command line does not fail.
+#[test]
+fn a_file_name_that_is_not_utf8_renders_into_its_own_folder() {
+    use std::os::unix::ffi::OsStrExt;
+    let tmp = tempfile::tempdir().unwrap();
+    let names = [&b"sh\xff.ron"[..], b"sh\xfe.ron"];
+    for name in names {
+        let name = std::ffi::OsStr::from_bytes(name);
+        std::fs::write(tmp.path().join(name), SMALL).unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_campath"))
+            .current_dir(tmp.path())
+            .arg("render")
+            .arg(name)
+            .arg("-q")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let folders = std::fs::read_dir(tmp.path().join("out")).unwrap().count();
+    assert_eq!(folders, names.len());
 }

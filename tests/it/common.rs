@@ -214,28 +214,75 @@ fn a_program_present_without_the_part_a_check_needs_is_told_apart() {
 }
 
 /// The shots that try the exports' clipping range, lens and shutter ends (`tests/data`): a
-/// camera 1.8e6 from its spheres, a sphere 0.2 in front of the eye over a huge ground, a 176°
-/// field of view, and one blurred frame that zooms and shifts during its shutter.
-pub const EXPORT_EDGES: [&str; 4] = [
+/// camera 1.8e6 from its spheres, a sphere 0.2 in front of the eye over a huge ground (ahead,
+/// and 70° off the view direction in a 150° view), a 176° field of view, and one blurred frame
+/// that zooms and shifts during its shutter.
+pub const EXPORT_EDGES: [&str; 5] = [
     "export_far",
     "export_near",
+    "export_near_wide",
     "export_wide",
     "export_blur_one_frame",
 ];
 
-/// The least distance from any frame's COP to a sphere's surface and the furthest from any
-/// frame's COP to a sphere's far side: what a reader's clipping range must hold, found sphere
-/// by sphere from the frames' cameras.
-pub fn reach_of_cops(doc: &Document) -> (f64, f64) {
+/// One shot of [`EXPORT_EDGES`] and the motion-blur example, exported into `dir` by
+/// `campath path --out NAME.EXT`: (name, the exported file, the shot's document).
+pub fn export_edge_shots(dir: &Path, ext: &str) -> Vec<(&'static str, PathBuf, Document)> {
+    let mut names: Vec<&'static str> = EXPORT_EDGES.to_vec();
+    names.push("motion_blur");
+    names
+        .into_iter()
+        .map(|name| {
+            let file = match name {
+                "motion_blur" => root().join("animations/motion_blur.ron"),
+                _ => root().join(format!("tests/data/{name}.ron")),
+            };
+            let out = dir.join(format!("{name}.{ext}"));
+            let (f, o) = (file.to_str().unwrap(), out.to_str().unwrap());
+            let run = campath(dir, &["path", f, "--out", o], &[]);
+            assert!(run.status.success(), "{name}: {}", stderr(&run));
+            (name, out, Document::load(&file).unwrap())
+        })
+        .collect()
+}
+
+/// What a reader's clipping range must hold: the least depth along the view direction at which
+/// any frame shows a point of a sphere, and the furthest any sphere reaches from any frame's
+/// COP. The depth is found from points spread over each sphere's surface (a Fibonacci spiral of
+/// 4096), each kept where it falls in the frame's window seen from the COP.
+pub fn reach_of_views(doc: &Document) -> (f64, f64) {
+    const POINTS: usize = 4096;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     let (mut least, mut furthest) = (f64::INFINITY, 0.0f64);
     for item in doc.cameras() {
-        let cop = item.unwrap().1.cop_world();
+        let cam = item.unwrap().1;
+        let (c, half) = (cam.cop_view, cam.window * 0.5);
         for s in &doc.scene.spheres {
-            let d = (cop - s.center_world).length();
-            least = least.min((d - s.radius).abs());
-            furthest = furthest.max(d + s.radius);
+            furthest = furthest.max((cam.cop_world() - s.center_world).length() + s.radius);
+            for i in 0..POINTS {
+                let y = 1.0 - 2.0 * (i as f64 + 0.5) / POINTS as f64;
+                let ring = (1.0 - y * y).sqrt();
+                let a = golden * i as f64;
+                let on = glam::DVec3::new(ring * a.cos(), y, ring * a.sin());
+                let v = cam.point_to_view(s.center_world + on * s.radius);
+                let depth = v.z - c.z;
+                if depth <= 0.0 {
+                    continue;
+                }
+                // Where the point falls on the view plane, seen from the COP.
+                let t = -c.z / depth;
+                let (x, y) = (c.x + (v.x - c.x) * t, c.y + (v.y - c.y) * t);
+                if x.abs() <= half.x && y.abs() <= half.y {
+                    least = least.min(depth);
+                }
+            }
         }
     }
+    assert!(
+        least.is_finite(),
+        "{}: no sphere in view",
+        doc.path.display()
+    );
     (least, furthest)
 }
 

@@ -16,7 +16,9 @@ use campath::camera::Camera;
 use campath::document::Document;
 use glam::DVec3;
 
-use crate::common::{campath, reach_of_cops, root, shutter_ends, stderr, EXAMPLES, EXPORT_EDGES};
+use crate::common::{
+    campath, export_edge_shots, reach_of_views, root, shutter_ends, stderr, EXAMPLES,
+};
 
 /// The Python interpreter for the checks.
 fn python() -> PathBuf {
@@ -400,34 +402,17 @@ fn openusd_clips_nothing_and_keys_the_shutter_ends() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    let mut names: Vec<&str> = EXPORT_EDGES.to_vec();
-    names.push("motion_blur");
-    let file_of = |name: &str| match name {
-        "motion_blur" => root().join("animations/motion_blur.ron"),
-        _ => root().join(format!("tests/data/{name}.ron")),
-    };
-    let mut jobs = Vec::new();
-    for name in &names {
-        let usda = tmp.path().join(format!("{name}.usda"));
-        let file = file_of(name);
-        let o = campath(
-            tmp.path(),
-            &[
-                "path",
-                file.to_str().unwrap(),
-                "--out",
-                usda.to_str().unwrap(),
-            ],
-            &[],
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-        let doc = Document::load(&file).unwrap();
-        let times: Vec<f64> = shutter_ends(&doc).iter().map(|&(t, _)| t).collect();
-        jobs.push(serde_json::json!({
-            "usda": usda, "times": times,
-            "out": tmp.path().join(format!("{name}.json")),
-        }));
-    }
+    let shots = export_edge_shots(tmp.path(), "usda");
+    let jobs: Vec<serde_json::Value> = shots
+        .iter()
+        .map(|(name, usda, doc)| {
+            let times: Vec<f64> = shutter_ends(doc).iter().map(|&(t, _)| t).collect();
+            serde_json::json!({
+                "usda": usda, "times": times,
+                "out": tmp.path().join(format!("{name}.json")),
+            })
+        })
+        .collect();
     let script = tmp.path().join("edges.py");
     std::fs::write(&script, OPENUSD_EDGES).unwrap();
     let jobs_path = tmp.path().join("edges.json");
@@ -439,20 +424,19 @@ fn openusd_clips_nothing_and_keys_the_shutter_ends() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut ends = 0;
-    for (name, job) in names.iter().zip(&jobs) {
-        let doc = Document::load(&file_of(name)).unwrap();
+    for ((name, _, doc), job) in shots.iter().zip(&jobs) {
         let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
         let r: serde_json::Value = serde_json::from_str(&text).unwrap();
         let (near, far) = (
             r["clip"][0].as_f64().unwrap(),
             r["clip"][1].as_f64().unwrap(),
         );
-        let (least, furthest) = reach_of_cops(&doc);
+        let (least, furthest) = reach_of_views(doc);
         assert!(
             near > 0.0 && near < least && far > furthest,
             "{name}: clipping range {near}..{far}, spheres from {least} to {furthest}"
         );
-        for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(&doc)) {
+        for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(doc)) {
             // Tenths of a unit: a 0.36 film back, the lens 0.36 · d / w, offsets −(u, v) · 0.36 / w.
             let scale = 0.36 / cam.window.x;
             let focal = -cam.cop_view.z * scale;

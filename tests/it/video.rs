@@ -155,3 +155,55 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(tmp.path().join("out/zoom/zoom.mp4").exists());
 }
+
+/// A video in the frames folder is made of its frames: an edit that renders any frame again
+/// removes it before the frames change (so a stopped run leaves no stale video under its name),
+/// a video named in capitals is still campath's, a folder made inside the frames folder for a
+/// video is refused before it is made, and `--lossless` above 1000 fps (Matroska's millisecond
+/// timestamps) is refused.
+#[test]
+fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
+    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264")) {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 32, height: 18");
+    let run = |args: &[&str]| campath(tmp.path(), args, &[]);
+    let o = run(&["video", &f, "-q", "--out", "out/zoom/CLIP.MP4"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let clip = tmp.path().join("out/zoom/CLIP.MP4");
+    assert!(clip.exists());
+    // Nothing changed: the video stays, and the folder is still campath's.
+    let o = run(&["render", &f, "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(clip.exists());
+    // An edit renders frames again: the video goes first.
+    let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
+    let edited = text.replacen("ambient: 0.12", "ambient: 0.5", 1);
+    assert_ne!(edited, text);
+    std::fs::write(tmp.path().join(&f), edited).unwrap();
+    let o = run(&["render", &f, "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!clip.exists(), "the video of the old frames is still there");
+    for (args, want) in [
+        (
+            &["video", &f, "--out", "out/zoom/sub/clip.mp4"][..],
+            "a folder inside the frames folder out/zoom",
+        ),
+        (
+            &["video", &f, "--lossless", "--out", "fast.mkv"],
+            "at most 1000 fps",
+        ),
+    ] {
+        if args.contains(&"--lossless") {
+            let fast = text.replacen("fps: 24.0", "fps: 2000.0", 1);
+            assert_ne!(fast, text);
+            std::fs::write(tmp.path().join(&f), fast).unwrap();
+        }
+        let o = run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+    }
+    assert!(!tmp.path().join("out/zoom/sub").exists());
+    assert!(!tmp.path().join("fast.mkv").exists());
+}
