@@ -166,6 +166,28 @@ fn is_hex64(s: &str) -> Option<&str> {
     (s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit())).then_some(s)
 }
 
+/// Whether the manifest at `path` begins as a golden campath wrote: its renderer line, then a
+/// frame without a key (an output folder's frames have keys). Only its first lines are read.
+pub fn written_as_golden(path: &Path) -> bool {
+    use std::io::{BufRead, BufReader};
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut lines = BufReader::new(file)
+        .split(b'\n')
+        .map_while(std::result::Result::ok)
+        .filter(|l| !l.trim_ascii().is_empty())
+        .take(2)
+        .map(|l| String::from_utf8(l).unwrap_or_default());
+    let renderer = lines
+        .next()
+        .is_some_and(|l| parse_renderer(l.trim()).is_some());
+    let keyless = lines
+        .next()
+        .is_some_and(|l| parse_entry(l.trim()).is_ok_and(|e| e.key.is_none()));
+    renderer && keyless
+}
+
 // The message of a frame index out of range names the bound.
 const _: () = assert!(MAX_FRAMES == 10_000_000);
 

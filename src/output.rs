@@ -155,19 +155,14 @@ pub fn resolved(path: &Path) -> PathBuf {
     out
 }
 
-/// Whether a file of this name is a video (`video` writes `.mp4` and `.mkv`, in any case).
-pub fn is_video(name: &str) -> bool {
-    let name = name.to_ascii_lowercase();
-    name.ends_with(".mp4") || name.ends_with(".mkv")
-}
-
 /// Whether campath writes files of this name into an output folder.
 pub fn is_ours(name: &str) -> bool {
     let base = name.strip_suffix(".tmp").unwrap_or(name);
     frame_of(base).is_some()
         || crate::lock::is_lock_file(base)
         || manifest::part_of(base).is_some()
-        || is_video(base)
+        || base.ends_with(".mp4")
+        || base.ends_with(".mkv")
         || [
             "hashes.txt",
             "report.png",

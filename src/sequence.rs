@@ -20,8 +20,8 @@ use crate::frames::{keys, stream_frames, FrameSet, Timing};
 use crate::lock::{Claim, FolderLock, Wait};
 use crate::manifest::{self, Entry, Manifest, PartHeader};
 use crate::output::{
-    frame_of, frame_path, is_ours, is_video, pad_width, png_hash, resolved, write_atomic,
-    write_png_atomic, Compression,
+    frame_of, frame_path, is_ours, pad_width, png_hash, resolved, write_atomic, write_png_atomic,
+    Compression,
 };
 
 /// Why frames of the run were rendered rather than kept.
@@ -201,8 +201,8 @@ pub fn check_folder(dir: &Path) -> Result<()> {
     }
     if let Some(why) = golden_of(dir) {
         return Err(Error::Usage(format!(
-            "--out {}: {why}, written only on approval (`campath test --update`); nothing was \
-             written (choose another --out)",
+            "{why}, written only on approval (`campath test --update`); nothing was written \
+             (choose another folder than {})",
             dir.display()
         )));
     }
@@ -233,7 +233,10 @@ pub fn check_folder(dir: &Path) -> Result<()> {
 /// names no renderer, and is rendered again).
 pub fn golden_of(path: &Path) -> Option<String> {
     let real = resolved(path);
-    for folder in real.ancestors() {
+    // The folders on the way as written, too: a golden may itself be a link (`NAME.golden` to
+    // where the frames are kept).
+    let written = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    for folder in real.ancestors().chain(written.ancestors()) {
         if folder.extension().is_some_and(|e| e == "golden") {
             let ron = folder.with_extension("ron");
             if ron.is_file() {
@@ -245,27 +248,20 @@ pub fn golden_of(path: &Path) -> Option<String> {
             }
         }
     }
-    let hashes = real.join(manifest::file_name(None));
-    let text = std::fs::read_to_string(&hashes).ok()?;
-    let m = Manifest::parse(&hashes, &text).ok()?;
-    let golden =
-        m.renderer.is_some() && !m.entries.is_empty() && m.entries.iter().all(|e| e.key.is_none());
-    golden.then(|| {
+    manifest::written_as_golden(&real.join(manifest::file_name(None))).then(|| {
         format!(
-            "{} is a golden: its hashes.txt lists frames without keys",
+            "{} is a golden: its hashes.txt names campath's renderer and lists frames without keys",
             path.display()
         )
     })
 }
 
-/// Removes the videos (`.mp4`, `.mkv`) in `dir`.
-fn remove_videos(dir: &Path) -> Result<()> {
-    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        if e.file_name().to_str().is_some_and(is_video) {
-            remove(&e.path())?;
-        }
-    }
-    Ok(())
+/// The video `campath video` writes for the keyframe file `file` into its frames folder `dir`:
+/// `STEM.mp4`, or `STEM.mkv` (lossless), the stem as it is.
+pub fn video_path(dir: &Path, file: &Path, ext: &str) -> PathBuf {
+    let mut name = file.file_stem().unwrap_or("video".as_ref()).to_os_string();
+    name.push(format!(".{ext}"));
+    dir.join(name)
 }
 
 fn remove(path: &Path) -> Result<bool> {
@@ -344,9 +340,12 @@ pub fn render(
     }
     check_folder(dir)?;
     let plan = plan(doc, dir, set, options.force)?;
-    // A video in the folder is made of its frames: a run that changes any goes first removes it.
+    // The video `video` makes in the folder is made of its frames: a run that changes any
+    // removes it first.
     if set.count() > plan.kept.len() as u64 || !plan.stale.is_empty() {
-        remove_videos(dir)?;
+        for ext in ["mp4", "mkv"] {
+            remove(&video_path(dir, &doc.path, ext))?;
+        }
     }
     let removed = remove_stale_records(dir, set, &plan)?;
 

@@ -349,14 +349,22 @@ pub fn run_shot(
 /// The private folder where an approval of `shot` writes golden frames before moving them in:
 /// hidden, beside the golden, named for this process.
 fn staging_dir(shot: &Path) -> PathBuf {
-    let stem = shot.file_stem().unwrap_or_default().to_string_lossy();
-    shot.with_file_name(format!(".{stem}.golden.update-{}", std::process::id()))
+    let mut name = staging_prefix(shot);
+    name.push(std::process::id().to_string());
+    shot.with_file_name(name)
+}
+
+/// `.STEM.golden.update-`, the stem as it is (a name that is not UTF-8 stays apart from others).
+fn staging_prefix(shot: &Path) -> std::ffi::OsString {
+    let mut name = std::ffi::OsString::from(".");
+    name.push(shot.file_stem().unwrap_or_default());
+    name.push(".golden.update-");
+    name
 }
 
 /// Staging folders of `shot` that approvals left (killed before they finished).
 fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
-    let stem = shot.file_stem().unwrap_or_default().to_string_lossy();
-    let prefix = format!(".{stem}.golden.update-");
+    let prefix = staging_prefix(shot);
     let parent = shot
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -365,7 +373,11 @@ fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
         .into_iter()
         .flatten()
         .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+        .filter(|e| {
+            let name = e.file_name();
+            name.as_encoded_bytes()
+                .starts_with(prefix.as_encoded_bytes())
+        })
         .map(|e| e.path())
         .collect()
 }

@@ -280,12 +280,12 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
         true => Default::default(),
         false => run.stale.iter().copied().collect(),
     };
-    // The shot's frames, and any the golden lists past them.
-    let past: Vec<u64> = run
-        .golden
-        .as_ref()
-        .map(|g| g.hashes.range(run.frames..).map(|(&f, _)| f).collect())
-        .unwrap_or_default();
+    // The shot's frames, and any the golden lists past them (none once approved: the golden
+    // now holds the shot's frames only).
+    let past: Vec<u64> = match (&run.golden, run.updated) {
+        (Some(g), false) => g.hashes.range(run.frames..).map(|(&f, _)| f).collect(),
+        _ => Vec::new(),
+    };
     for frame in (0..run.frames).chain(past) {
         let stale_picture = stale.contains(&frame).then(|| {
             "the golden's picture of this frame is missing or not the picture of its hash"

@@ -81,26 +81,20 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .status()
         .map_err(ffmpeg_missing)?;
     let ext = if a.lossless { "mkv" } else { "mp4" };
-    let video = a.out.clone().unwrap_or_else(|| {
-        let mut name = a
-            .file
-            .file_stem()
-            .unwrap_or("video".as_ref())
-            .to_os_string();
-        name.push(format!(".{ext}"));
-        a.frames_dir.join(name)
-    });
-    // A video goes into the frames folder or outside it: a folder made inside it for the video
-    // would be a file campath did not write there.
+    let own = sequence::video_path(&a.frames_dir, &a.file, ext);
+    let video = a.out.clone().unwrap_or_else(|| own.clone());
+    // In the frames folder a video has the file's name, the one a run that changes the frames
+    // removes; any other goes outside it (a folder made inside it would be a file campath did
+    // not write there).
     let parent = video.parent().filter(|p| !p.as_os_str().is_empty());
     let parent = parent.unwrap_or(Path::new("."));
-    if super::failures::within(parent, &a.frames_dir) && resolved(parent) != resolved(&a.frames_dir)
-    {
+    if super::failures::within(parent, &a.frames_dir) && resolved(&video) != resolved(&own) {
         return Err(CliError::Usage(format!(
-            "--out {}: a folder inside the frames folder {}; put the video in it or outside \
-             it; nothing was written",
+            "--out {}: in the frames folder {} the video is {}; put another name outside it; \
+             nothing was written",
             video.display(),
-            a.frames_dir.display()
+            a.frames_dir.display(),
+            own.display()
         )));
     }
 

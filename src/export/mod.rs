@@ -161,7 +161,8 @@ pub fn vertical_fov(cam: &Camera) -> f64 {
 /// sphere can show at, at most far / 10⁶ (a scene without spheres) and at least far / 10¹² (a
 /// COP on a surface). A sphere's surface lies at least its gap g from the COP (from outside or
 /// inside it), and a point seen at most α off the view direction (α at the window's furthest
-/// corner) lies at a depth of at least g · cos α.
+/// corner) lies at a depth of at least g · cos α. Readers keep both in f32: far is at most
+/// f32's largest value.
 pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) {
     use rayon::prelude::*;
     let (lo, hi) = spheres.iter().fold(
@@ -210,6 +211,8 @@ pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) 
                 .fold(f64::INFINITY, f64::min)
         })
         .reduce(|| f64::INFINITY, f64::min);
+    // Readers keep both in f32: a scene beyond its range is clipped at its largest value.
+    let far = far.min(f64::from(f32::MAX));
     ((depth * 0.5).min(far * 1e-6).max(far * 1e-12), far)
 }
 

@@ -818,7 +818,8 @@ fn verify_for_ci_writes_junit_and_difference_images_that_mark_exactly_the_change
 
 /// Nothing is written over a golden or another program's files, and such a path is refused
 /// (exit 2) before any work: `render`, `merge` and `preview` into a shot's golden or a folder
-/// whose hashes.txt lists frames without keys (as goldens do), `preview` into a folder of other
+/// whose hashes.txt names the renderer and lists frames without keys (as goldens do), a folder
+/// inside a golden that is a link, `preview` into a folder of other
 /// files, `merge` there (which leaves no lock behind), and `--stats-json` over the keyframe file,
 /// over a golden's hashes or below a file.
 #[test]
@@ -847,6 +848,12 @@ fn goldens_and_other_files_are_never_written_over() {
         files.sort();
         files
     };
+    // A golden that is a link to where its frames are kept.
+    let store = tmp.path().join("store");
+    std::fs::create_dir(&store).unwrap();
+    std::fs::copy(shots.join("a.golden/hashes.txt"), store.join("hashes.txt")).unwrap();
+    std::fs::write(shots.join("b.ron"), SMALL).unwrap();
+    std::os::unix::fs::symlink(&store, shots.join("b.golden")).unwrap();
     let before = snapshot();
     let golden = "a.golden is the golden of ";
     for (args, want) in [
@@ -863,8 +870,13 @@ fn goldens_and_other_files_are_never_written_over() {
             golden,
         ),
         (
+            &["render", "shots/b.ron", "--out", "shots/b.golden/sub"],
+            "b.golden is the golden of ",
+        ),
+        (
             &["render", "shots/a.ron", "--out", "golden-copy"],
-            "golden-copy is a golden: its hashes.txt lists frames without keys",
+            "golden-copy is a golden: its hashes.txt names campath's renderer and lists frames \
+             without keys",
         ),
         (&["merge", "shots/a.golden"], golden),
         (

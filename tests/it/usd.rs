@@ -678,3 +678,67 @@ fn usd_goes_to_stdout_or_a_usda_file_and_refuses_the_binary_forms() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(read("SHOT.GLB").starts_with(b"glTF"));
 }
+
+/// Without any outside program: the clipping range both exports write holds every sphere each
+/// shot shows (found from points on the spheres, `reach_of_views`), and the one-frame blur's USD
+/// lens at the shutter's ends is what its linear Zoom and Distort keys give by hand.
+#[test]
+fn the_written_clipping_range_and_shutter_ends_hold_by_hand() {
+    let tmp = tempfile::tempdir().unwrap();
+    // `(a, b)` after `prefix` on the line that has it.
+    let pair = |text: &str, prefix: &str| -> (f64, f64) {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(prefix))
+            .unwrap();
+        let inside = line.split_once('(').unwrap().1.split_once(')').unwrap().0;
+        let (a, b) = inside.split_once(',').unwrap();
+        (a.trim().parse().unwrap(), b.trim().parse().unwrap())
+    };
+    for ext in ["usda", "py"] {
+        for (name, file, doc) in export_edge_shots(tmp.path(), ext) {
+            let text = std::fs::read_to_string(&file).unwrap();
+            let prefix = match ext {
+                "usda" => "float2 clippingRange",
+                _ => "CLIP = ",
+            };
+            let (near, far) = pair(&text, prefix);
+            let (least, furthest) = reach_of_views(&doc);
+            assert!(
+                near > 0.0 && near < least && far > furthest,
+                "{name}.{ext}: clipping range {near}..{far}, spheres from {least} to {furthest}"
+            );
+        }
+    }
+    // Zoom n from −0.8 at t = −0.2 s to −6 at 0.2 s, Distort (u, v) from (0, 0) to (1, 0.5): at
+    // ∓0.4/24 s the fraction is 0.458333… and 0.541666…; the lens 0.36 · −n / 1.6 and the
+    // offsets −(u, v) · 0.36 / 1.6.
+    let text = std::fs::read_to_string(tmp.path().join("export_blur_one_frame.usda")).unwrap();
+    let samples = |attr: &str| -> Vec<(f64, f64)> {
+        let start = text.find(&format!("{attr}.timeSamples = {{")).unwrap();
+        let body = text[start..]
+            .split_once('{')
+            .unwrap()
+            .1
+            .split_once('}')
+            .unwrap()
+            .0;
+        body.lines()
+            .filter_map(|l| l.trim().trim_end_matches(',').split_once(": "))
+            .map(|(t, v)| (t.parse().unwrap(), v.parse().unwrap()))
+            .collect()
+    };
+    let by_hand = [
+        ("focalLength", [0.71625, 0.765, 0.81375]),
+        ("horizontalApertureOffset", [-0.103125, -0.1125, -0.121875]),
+        ("verticalApertureOffset", [-0.0515625, -0.05625, -0.0609375]),
+    ];
+    for (attr, want) in by_hand {
+        let got = samples(attr);
+        let times: Vec<f64> = got.iter().map(|&(t, _)| t).collect();
+        assert_eq!(times, [-0.4, 0.0, 0.4], "{attr}");
+        for ((_, v), w) in got.iter().zip(want) {
+            assert!((v - w).abs() < 1e-6, "{attr}: {got:?}");
+        }
+    }
+}

@@ -156,10 +156,11 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
     assert!(tmp.path().join("out/zoom/zoom.mp4").exists());
 }
 
-/// A video in the frames folder is made of its frames: an edit that renders any frame again
-/// removes it before the frames change (so a stopped run leaves no stale video under its name),
-/// a video named in capitals is still campath's, a folder made inside the frames folder for a
-/// video is refused before it is made, and `--lossless` above 1000 fps (Matroska's millisecond
+/// The video `video` writes into the frames folder (`STEM.mp4`) is made of its frames: an edit
+/// that renders any frame again removes it before the frames change (so a stopped run leaves no
+/// stale video under its name), while another video there (someone's `ref.mp4`) is left alone.
+/// In the frames folder a video takes the file's name (another, or a folder made there for it,
+/// is refused before anything is made), and `--lossless` above 1000 fps (Matroska's millisecond
 /// timestamps) is refused.
 #[test]
 fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
@@ -169,26 +170,36 @@ fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
     let tmp = tempfile::tempdir().unwrap();
     let f = example(tmp.path(), "width: 32, height: 18");
     let run = |args: &[&str]| campath(tmp.path(), args, &[]);
-    let o = run(&["video", &f, "-q", "--out", "out/zoom/CLIP.MP4"]);
+    let o = run(&["video", &f, "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let clip = tmp.path().join("out/zoom/CLIP.MP4");
-    assert!(clip.exists());
-    // Nothing changed: the video stays, and the folder is still campath's.
+    let video = tmp.path().join("out/zoom/zoom.mp4");
+    let other = tmp.path().join("out/zoom/ref.mp4");
+    std::fs::write(&other, "someone's").unwrap();
+    assert!(video.exists());
+    // Nothing changed: the video stays.
     let o = run(&["render", &f, "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(clip.exists());
-    // An edit renders frames again: the video goes first.
+    assert!(video.exists());
+    // An edit renders frames again: the video goes first, the other stays.
     let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
     let edited = text.replacen("ambient: 0.12", "ambient: 0.5", 1);
     assert_ne!(edited, text);
     std::fs::write(tmp.path().join(&f), edited).unwrap();
     let o = run(&["render", &f, "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(!clip.exists(), "the video of the old frames is still there");
+    assert!(
+        !video.exists(),
+        "the video of the old frames is still there"
+    );
+    assert_eq!(std::fs::read_to_string(&other).unwrap(), "someone's");
     for (args, want) in [
         (
             &["video", &f, "--out", "out/zoom/sub/clip.mp4"][..],
-            "a folder inside the frames folder out/zoom",
+            "in the frames folder out/zoom the video is out/zoom/zoom.mp4",
+        ),
+        (
+            &["video", &f, "--out", "out/zoom/CLIP.MP4"],
+            "in the frames folder out/zoom the video is out/zoom/zoom.mp4",
         ),
         (
             &["video", &f, "--lossless", "--out", "fast.mkv"],
@@ -205,5 +216,6 @@ fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
         assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
     }
     assert!(!tmp.path().join("out/zoom/sub").exists());
+    assert!(!tmp.path().join("out/zoom/CLIP.MP4").exists());
     assert!(!tmp.path().join("fast.mkv").exists());
 }
