@@ -156,14 +156,39 @@ pub fn default_out_dir(file: &Path) -> PathBuf {
     Path::new("out").join(stem)
 }
 
+/// Refuses a path below a file: no folder can be made there.
+pub fn no_file_above(file: &Path) -> Result<()> {
+    match file.ancestors().skip(1).find(|p| p.is_file()) {
+        Some(above) => Err(CliError::Usage(format!(
+            "{} is a file, not a folder",
+            above.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Refuses (exit 2, before any work) a report `path` given as `option` that exists and is not
+/// `what` campath wrote there, as `ours` tells from its bytes: a report never overwrites a shot,
+/// a golden or anything else.
+pub fn report_target(
+    option: &str,
+    path: &Path,
+    what: &str,
+    ours: impl Fn(&[u8]) -> bool,
+) -> Result<()> {
+    if !path.exists() || path.is_file() && std::fs::read(path).is_ok_and(|b| ours(&b)) {
+        return Ok(());
+    }
+    Err(CliError::Usage(format!(
+        "{option} {} exists and is not {what} campath wrote; nothing was written (choose a new \
+         path)",
+        path.display()
+    )))
+}
+
 /// Creates the folder a file will be written into.
 pub fn create_parent(file: &Path) -> Result<()> {
-    if let Some(file) = file.ancestors().skip(1).find(|p| p.is_file()) {
-        return Err(CliError::Usage(format!(
-            "{} is a file, not a folder",
-            file.display()
-        )));
-    }
+    no_file_above(file)?;
     match file.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => {
             std::fs::create_dir_all(dir).map_err(|e| campath::Error::write(dir)(e).into())

@@ -99,21 +99,10 @@ pub fn text(name: &str, suites: &[Suite]) -> String {
 /// Refuses (exit 2, before anything runs) a report path that is a folder or a file campath did
 /// not write as a JUnit report: `--junit` never overwrites a shot or anything else.
 pub fn check_target(path: &Path) -> Result<()> {
-    if !path.exists() {
-        return Ok(());
-    }
     const OURS: &[u8] = b"<testsuites name=\"campath ";
-    let ours = std::fs::read(path)
-        .is_ok_and(|b| b.starts_with(b"<?xml") && b.windows(OURS.len()).any(|w| w == OURS));
-    if ours && path.is_file() {
-        Ok(())
-    } else {
-        Err(super::error::CliError::Usage(format!(
-            "--junit {} exists and is not a JUnit report campath wrote; nothing was written \
-             (choose a new path)",
-            path.display()
-        )))
-    }
+    super::args::report_target("--junit", path, "a JUnit report", |b| {
+        b.starts_with(b"<?xml") && b.windows(OURS.len()).any(|w| w == OURS)
+    })
 }
 
 /// Writes the report to `path` (through a temporary file and a rename).

@@ -68,26 +68,10 @@ impl Stats {
         if let Some(why) = path.parent().and_then(sequence::golden_of) {
             return refuse(why);
         }
-        if let Some(file) = path.ancestors().skip(1).find(|p| p.is_file()) {
-            return Err(CliError::Usage(format!(
-                "--stats-json {}: {} is a file, not a folder; nothing was done",
-                path.display(),
-                file.display()
-            )));
-        }
-        if !path.exists() {
-            return Ok(());
-        }
-        let ours = path.is_file()
-            && std::fs::read(path).is_ok_and(|b| serde_json::from_slice::<Stats>(&b).is_ok());
-        if ours {
-            return Ok(());
-        }
-        Err(CliError::Usage(format!(
-            "--stats-json {} exists and is not run statistics campath wrote; nothing was done \
-             (choose a new path)",
-            path.display()
-        )))
+        super::args::no_file_above(path)?;
+        super::args::report_target("--stats-json", path, "run statistics", |b| {
+            serde_json::from_slice::<Stats>(b).is_ok()
+        })
     }
 
     fn write(&self, path: Option<&Path>) -> Result<()> {
