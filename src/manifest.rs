@@ -328,6 +328,11 @@ pub fn file_name(shard: Option<Shard>) -> String {
     }
 }
 
+/// Where a shard moves a whole run's `hashes.txt`: it would be stale once the shard renders, but
+/// its records (checked against each frame's key and PNG) let later shards keep their frames.
+/// `merge` and a whole run remove it.
+pub const BEFORE_SHARDS: &str = "hashes.before-shards.txt";
+
 /// The shard whose part file has this name.
 pub fn part_of(name: &str) -> Option<Shard> {
     let (k, n) = name

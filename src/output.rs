@@ -165,6 +165,7 @@ pub fn is_ours(name: &str) -> bool {
         || base.ends_with(".mkv")
         || [
             "hashes.txt",
+            manifest::BEFORE_SHARDS,
             "report.png",
             "preview.png",
             "preview.gif",

@@ -89,9 +89,14 @@ struct Plan {
     reasons: Reasons,
 }
 
-/// Every frame line of every manifest in `dir` (hashes.txt and the part files), by frame.
+/// Every frame line of every manifest in `dir` (hashes.txt, the one a shard moved aside, and the
+/// part files), by frame. hashes.txt is read before the file a shard renames it to, so a shard
+/// renaming it meanwhile hides neither.
 fn recorded(dir: &Path) -> BTreeMap<u64, Vec<Entry>> {
-    let mut paths = vec![dir.join(manifest::file_name(None))];
+    let mut paths = vec![
+        dir.join(manifest::file_name(None)),
+        dir.join(manifest::BEFORE_SHARDS),
+    ];
     paths.extend(manifest::parts_in(dir).unwrap_or_default().into_values());
     let mut out: BTreeMap<u64, Vec<Entry>> = BTreeMap::new();
     for path in paths {
@@ -274,20 +279,27 @@ fn remove(path: &Path) -> Result<bool> {
 
 /// Removes the records this run would make false: the frame files of the run's frames that it
 /// renders again (so a run stopped on the way leaves no old picture under a frame's name); a
-/// shard removes hashes.txt (`merge` writes it again); a whole run removes the part files and
-/// the frame files of no current frame. Returns the number of frame files of no current frame
-/// removed.
+/// shard moves hashes.txt aside to [`manifest::BEFORE_SHARDS`] (`merge` writes hashes.txt
+/// again; the shards still to run keep their frames by it); a whole run removes the part files,
+/// that file, and the frame files of no current frame. Returns the number of frame files of no
+/// current frame removed.
 fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
     for path in &plan.replaced {
         remove(path)?;
     }
     if set.shard.is_some() {
-        remove(&dir.join(manifest::file_name(None)))?;
-        return Ok(0);
+        let whole = dir.join(manifest::file_name(None));
+        match std::fs::rename(&whole, dir.join(manifest::BEFORE_SHARDS)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(Error::write(&whole)(e))
+            }
+            _ => return Ok(0),
+        }
     }
     for path in manifest::parts_in(dir)?.values() {
         remove(path)?;
     }
+    remove(&dir.join(manifest::BEFORE_SHARDS))?;
     let mut removed = 0;
     for path in &plan.stale {
         removed += u64::from(remove(path)?);
@@ -316,8 +328,8 @@ pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<Fo
 /// - A frame of the run is kept when a manifest records it with its current key and its PNG
 ///   decodes to the recorded hash (unless `force`); every other frame is rendered.
 /// - Records this run makes false are removed first: a whole run removes the part files and the
-///   frame files that belong to no frame of the file as it is now; a shard removes hashes.txt
-///   (`merge` writes it again from the parts).
+///   frame files that belong to no frame of the file as it is now; a shard moves hashes.txt
+///   aside (`merge` writes it again from the parts), where the shards after it still read it.
 /// - Each PNG is written under a temporary name and renamed into place; its manifest line is
 ///   appended after that, so the manifest lists only complete frames, even after SIGKILL.
 /// - PNG encoding runs on its own thread while the next frame renders.
@@ -448,5 +460,6 @@ pub fn merge(lock: &FolderLock) -> Result<u64> {
         });
     }
     write_atomic(&dir.join(manifest::file_name(None)), &text)?;
+    remove(&dir.join(manifest::BEFORE_SHARDS))?;
     Ok(merged.entries.len() as u64)
 }

@@ -108,6 +108,9 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         )
     };
     writeln!(out, "{summary}").map_err(Error::stdout)?;
+    if let Some(note) = unchecked(&golden, total) {
+        writeln!(out, "{note}").map_err(Error::stdout)?;
+    }
     if let (Some(r), false) = (golden.other_renderer(), differ.is_empty()) {
         writeln!(out, "{}", campath::testing::renderer_note(&golden.path, r))
             .map_err(Error::stdout)?;
@@ -130,6 +133,29 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         junit::write(path, "campath verify", &[suite])?;
     }
     Ok(differ.is_empty())
+}
+
+/// The frames of the animation that the golden does not list, which verify does not check (a
+/// golden of a few frames is allowed; a golden cut short, such as an unfinished render's folder,
+/// should not pass unnoticed).
+fn unchecked(golden: &Golden, total: u64) -> Option<String> {
+    let listed = golden.hashes.range(..total).count() as u64;
+    let missing = total - listed;
+    if missing == 0 {
+        return None;
+    }
+    let first: Vec<u64> = (0..total)
+        .filter(|f| !golden.hashes.contains_key(f))
+        .take(9)
+        .collect();
+    let shown = if missing > first.len() as u64 {
+        format!("{}, … ({missing} in all)", list_frames(&first[..8]))
+    } else {
+        list_frames(&first)
+    };
+    Some(format!(
+        "not checked: {missing} of the animation's {total} frame(s) are not in the golden: {shown}"
+    ))
 }
 
 fn pixels_changed(p: &PixelDiff) -> String {

@@ -2,6 +2,8 @@
 //! absurd requests and foreign folders.
 
 use crate::common::{campath, frame_lines, stderr, stdout};
+use std::collections::BTreeMap;
+use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
@@ -216,6 +218,106 @@ fn three_shards_merge_into_a_single_runs_manifest() {
     ] {
         assert!(stderr(&mixed).contains(want), "{want}: {}", stderr(&mixed));
     }
+}
+
+/// Each frame file's inode and modification time, by name: a frame written again (temporary file
+/// and rename) has a new inode.
+fn frame_stamps(dir: &Path) -> BTreeMap<String, (u64, i64, i64)> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("frame_"))
+        .map(|e| {
+            let m = e.metadata().unwrap();
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, (m.ino(), m.mtime(), m.mtime_nsec()))
+        })
+        .collect()
+}
+
+/// The frame key of each line of a hashes.txt.
+fn keys_of(manifest: &str) -> BTreeMap<String, String> {
+    frame_lines(manifest)
+        .iter()
+        .map(|l| {
+            let f: Vec<&str> = l.split(' ').collect();
+            (
+                format!("frame_{:04}.png", f[0].parse::<u64>().unwrap()),
+                f[2].to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
+    let tmp = setup();
+    let farm = tmp.path().join("farm");
+    let single = |out: &str| {
+        let run = campath(
+            tmp.path(),
+            &["render", "long.ron", "--out", out, "--quiet"],
+            &[],
+        );
+        assert!(run.status.success(), "{}", stderr(&run));
+        read(&tmp.path().join(out).join("hashes.txt"))
+    };
+    let before = single("farm");
+    // A key after the last: the frames of the last segment change, the others keep their keys.
+    let edited = LONG.replace(
+        "(t: 2.0, value: (0.0, 2.0, 6.0))",
+        "(t: 2.0, value: (0.0, 2.0, 6.0)), (t: 3.0, value: (-3.0, 2.0, 6.0))",
+    );
+    assert_ne!(edited, LONG);
+    std::fs::write(tmp.path().join("long.ron"), edited).unwrap();
+    let after = single("single");
+    let (old_keys, new_keys) = (keys_of(&before), keys_of(&after));
+    let changed: Vec<&String> = new_keys
+        .keys()
+        .filter(|f| old_keys[*f] != new_keys[*f])
+        .collect();
+    assert!((12..36).contains(&changed.len()), "{changed:?}");
+    let stamps = frame_stamps(&farm);
+    // One shard after another, each on the folder the one before it left.
+    for k in 0..3 {
+        assert!(shard(tmp.path(), k).status().unwrap().success());
+        assert!(
+            !farm.join("hashes.txt").exists(),
+            "a shard leaves no stale hashes.txt"
+        );
+    }
+    let now = frame_stamps(&farm);
+    let rewritten: Vec<&String> = now.keys().filter(|f| stamps[*f] != now[*f]).collect();
+    assert_eq!(
+        rewritten, changed,
+        "exactly the changed frames are rendered again"
+    );
+    let merged = campath(tmp.path(), &["merge", "farm"], &[]);
+    assert!(merged.status.success(), "{}", stderr(&merged));
+    assert_eq!(read(&farm.join("hashes.txt")), after);
+    assert!(!farm.join("hashes.before-shards.txt").exists());
+    assert_consistent(&farm);
+    // Shards again on the merged folder keep every frame, and a whole run finds nothing to do.
+    let stamps = frame_stamps(&farm);
+    for k in 0..3 {
+        assert!(shard(tmp.path(), k).status().unwrap().success());
+    }
+    assert_eq!(frame_stamps(&farm), stamps);
+    assert!(farm.join("hashes.before-shards.txt").exists());
+    single("farm");
+    assert_eq!(frame_stamps(&farm), stamps);
+    assert_eq!(read(&farm.join("hashes.txt")), after);
+    assert!(!farm.join("hashes.before-shards.txt").exists());
+    assert!(manifest_parts(&farm).is_empty());
+}
+
+fn manifest_parts(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("hashes.part-"))
+        .collect()
 }
 
 #[test]
