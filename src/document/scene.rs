@@ -12,7 +12,7 @@ use std::path::Path;
 use std::sync::{Mutex, PoisonError};
 
 use super::{Checker, SphereFile};
-use crate::format::sphere_files::{self, Listing};
+use crate::format::sphere_files::{self, FileProblem, Listing};
 use crate::format::{self, LightSpec, SphereSpec};
 use crate::scene::{Light, Scene, Sphere};
 
@@ -41,30 +41,25 @@ impl Checker {
             .collect();
         // The room past the last sphere held the specs' tails: handed back (8 MB at a million).
         spheres.shrink_to_fit();
-        refused.name(self, Origin::Inline, &mut spheres);
+        refused.name(self, Origin::Inline, &mut spheres, &[], |_, _| {});
         let mut files = Vec::with_capacity(spec.sphere_files.len());
         for (k, name) in spec.sphere_files.iter().enumerate() {
             let path = folder.join(name);
             let refused = Refused::default();
             let start = spheres.len();
-            let read = sphere_files::read(&path, &mut spheres, |i, s| refused.check(i, s));
-            match &read {
-                Ok(listing) => {
-                    let origin = Origin::File(name, listing);
-                    refused.name(self, origin, &mut spheres[start..]);
-                }
-                Err(e) => {
-                    let at = e.at.map_or(String::new(), |at| format!(": {at}"));
-                    self.problem(
-                        format!("scene.sphere_files[{k}] ({name}{at})"),
-                        e.message.clone(),
-                    );
-                }
-            }
+            let listing = sphere_files::read(&path, &mut spheres, |i, s| refused.check(i, s));
+            let origin = Origin::File(k, name, &listing);
+            let form = |checker: &mut Checker, e: &FileProblem| {
+                let at = e.at.map_or(String::new(), |at| format!(": {at}"));
+                let field = format!("scene.sphere_files[{k}] ({name}{at})");
+                checker.problem(field, e.message.clone());
+            };
+            let problems = &listing.problems;
+            refused.name(self, origin, &mut spheres[start..], problems, form);
             files.push(SphereFile {
                 name: name.clone(),
                 path,
-                spheres: read.map_or(0, |listing| listing.count),
+                spheres: listing.count,
             });
         }
         let scene = match (background, ambient) {
@@ -154,16 +149,31 @@ impl Refused {
         }
     }
 
-    /// Names the refused spheres' problems, by index; `spheres[i]` is sphere `i`'s place.
-    /// A sphere the checker passes after all takes its place, so the scene never depends on
-    /// [`passing`] agreeing with the checker, only the speed does.
-    fn name(self, checker: &mut Checker, origin: Origin, spheres: &mut [Sphere]) {
+    /// Names the refused spheres' problems, by index, and among them in file order the file's
+    /// own (`form`, each after the spheres read before it, named by `name_form`); `spheres[i]`
+    /// is sphere `i`'s place. A sphere the checker passes after all takes its place, so the
+    /// scene never depends on [`passing`] agreeing with the checker, only the speed does.
+    fn name(
+        self,
+        checker: &mut Checker,
+        origin: Origin,
+        spheres: &mut [Sphere],
+        form: &[(usize, FileProblem)],
+        name_form: impl Fn(&mut Checker, &FileProblem),
+    ) {
         let mut refused = self.0.into_inner().unwrap_or_else(PoisonError::into_inner);
         refused.sort_unstable_by_key(|(i, _)| *i);
+        let mut form = form.iter().peekable();
         for (i, s) in refused {
+            while let Some((_, e)) = form.next_if(|(before, _)| *before <= i) {
+                name_form(checker, e);
+            }
             if let Some(sphere) = checker.sphere(origin, i, &s) {
                 spheres[i] = sphere;
             }
+        }
+        for (_, e) in form {
+            name_form(checker, e);
         }
     }
 }
@@ -192,14 +202,15 @@ fn passing(s: &SphereSpec) -> Option<Sphere> {
 #[derive(Clone, Copy)]
 enum Origin<'a> {
     Inline,
-    /// The file's name as the keyframe file gives it, and its listing (for its spheres'
-    /// locations).
-    File(&'a str, &'a Listing),
+    /// The file's place in `sphere_files`, its name as the keyframe file gives it, and its
+    /// listing (for its spheres' locations).
+    File(usize, &'a str, &'a Listing),
 }
 
-/// Field `field` of sphere `index` (`scene.spheres[3].radius`, or `cloud.ply: vertex 3:
-/// radius`), spelled out only when a problem names it: a file of a million spheres is checked
-/// without formatting four million paths.
+/// Field `field` of sphere `index` (`scene.spheres[3].radius`, or
+/// `scene.sphere_files[0] (cloud.ply: vertex 3): radius`, as the file's own problems are named),
+/// spelled out only when a problem names it: a file of a million spheres is checked without
+/// formatting four million paths.
 #[derive(Clone, Copy)]
 struct SphereField<'a> {
     origin: Origin<'a>,
@@ -211,10 +222,10 @@ impl fmt::Display for SphereField<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.origin {
             Origin::Inline => write!(f, "scene.spheres[{}].{}", self.index, self.field),
-            Origin::File(name, listing) => {
+            Origin::File(k, name, listing) => {
                 write!(
                     f,
-                    "{name}: {}: {}",
+                    "scene.sphere_files[{k}] ({name}: {}): {}",
                     listing.location(self.index),
                     self.field
                 )

@@ -5,7 +5,7 @@
 //!   optionally `red`, `green`, `blue`: `uchar` 0–255 (divided by 255) or `float`/`double` 0–1.
 //!   Other properties and elements are read past. An ASCII value is read as its declared type
 //!   (a `float` rounded to f32, as a binary body holds it), so ASCII and binary give the same
-//!   spheres. A header line is at most 4,096 bytes.
+//!   spheres. A header line is at most 4,096 bytes (a `comment` or `obj_info` line is read past).
 //! - **CSV**: a header `x,y,z,radius` or `x,y,z,radius,r,g,b` (colours 0–1), then one sphere a
 //!   line; blank lines are skipped.
 //!
@@ -34,7 +34,8 @@ pub const BLOCK_BYTES: usize = 4 << 20;
 const TASK_VERTICES: usize = 4096;
 
 /// The longest header line read (PLY's, CSV's), without its line end: a header line is a few
-/// words, and a PLY whose `end_header` is missing is cut here, not read whole into one line.
+/// words, and a PLY whose `end_header` is missing is cut here, not read whole into one line. A
+/// PLY `comment` or `obj_info` line may be longer: what follows this is read past.
 const HEADER_LINE_BYTES: usize = 4096;
 
 /// `text` quoted for a message, cut after 60 characters: a line of a body read as a header
@@ -54,14 +55,17 @@ struct HeaderLines {
     raw: Vec<u8>,
     /// What a line too long suggests, when its lines do not end in CR alone.
     suggest: &'static str,
+    /// Whether a longer line that starts `comment` or `obj_info` is taken, cut (PLY's).
+    comments: bool,
 }
 
 impl HeaderLines {
-    fn new(suggest: &'static str) -> HeaderLines {
+    fn new(suggest: &'static str, comments: bool) -> HeaderLines {
         HeaderLines {
             line: 0,
             raw: Vec::new(),
             suggest,
+            comments,
         }
     }
 
@@ -78,7 +82,18 @@ impl HeaderLines {
             return Ok(None);
         }
         self.line += 1;
-        let ended = self.raw.last() == Some(&b'\n');
+        let mut ended = self.raw.last() == Some(&b'\n');
+        let comment = |raw: &[u8]| {
+            let words = raw.trim_ascii_start();
+            [&b"comment"[..], b"obj_info"].iter().any(|w| {
+                words.starts_with(w) && words.get(w.len()).is_some_and(|b| b.is_ascii_whitespace())
+            })
+        };
+        if !ended && self.comments && comment(&self.raw) && !self.raw.contains(&b'\r') {
+            // The rest of a long comment, read past to its line end.
+            ended = skip_line(file).map_err(FileProblem::io)?;
+            self.raw.truncate(HEADER_LINE_BYTES);
+        }
         for end in [b'\n', b'\r'] {
             if self.raw.last() == Some(&end) {
                 self.raw.pop();
@@ -96,6 +111,26 @@ impl HeaderLines {
         }
         let line = String::from_utf8_lossy(&self.raw);
         Ok(Some((self.line, line.trim().to_string())))
+    }
+}
+
+/// Reads past the rest of a line and its line end: whether there was one.
+fn skip_line(file: &mut dyn BufRead) -> io::Result<bool> {
+    loop {
+        let buf = file.fill_buf()?;
+        if buf.is_empty() {
+            return Ok(false);
+        }
+        match buf.iter().position(|&b| b == b'\n') {
+            Some(k) => {
+                file.consume(k + 1);
+                return Ok(true);
+            }
+            None => {
+                let n = buf.len();
+                file.consume(n);
+            }
+        }
     }
 }
 
@@ -159,6 +194,11 @@ pub struct Listing {
     lines: Vec<u32>,
     /// The line of the first sphere in a text file, or None for PLY vertices.
     first_line: Option<usize>,
+    /// What is wrong with the file's form, each with the number of spheres read before it, in
+    /// file order: the rows that could not be read (passed, so that the rest are read and
+    /// checked too; an ASCII PLY's keeps its vertex's place with a stand-in sphere), then what
+    /// ended the reading early, if anything.
+    pub problems: Vec<(usize, FileProblem)>,
 }
 
 impl Listing {
@@ -174,42 +214,53 @@ impl Listing {
 
 /// Reads a sphere file, by its extension (`.ply` or `.csv`), appending `make(i, sphere)` to
 /// `out` for each sphere `i` in file order; `make` runs on the rayon pool for a binary PLY.
-/// On a problem `out` is left as it was.
+/// The spheres read stay in `out` whatever the file's problems (the listing's), so their own
+/// problems can be named too.
 pub fn read<T: Send>(
     path: &Path,
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T + Sync,
-) -> Result<Listing, FileProblem> {
+) -> Listing {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    let mut file = File::open(path).map_err(FileProblem::io)?;
-    let len = file.metadata().map_err(FileProblem::io)?.len();
-    let start = out.len();
-    let listing = match ext.as_deref() {
-        Some("ply") => ply_from(BufReader::new(file), len, out, &make),
-        Some("csv") => csv_from(BufReader::new(file), out, &make),
-        _ => {
-            // A folder, or a file that cannot be read, is named as such whatever its name.
-            file.read(&mut [0]).map_err(FileProblem::io)?;
-            Err(FileProblem::whole(
-                "a sphere file is .ply or .csv (by its extension)",
-            ))
+    listed(out, |out, listing| {
+        let mut file = File::open(path)
+            .map_err(|e| FileProblem::whole(format!("cannot open {}: {e}", path.display())))?;
+        let len = file.metadata().map_err(FileProblem::io)?.len();
+        match ext.as_deref() {
+            Some("ply") => ply_from(BufReader::new(file), len, out, &make, listing),
+            Some("csv") => csv_from(BufReader::new(file), out, &make, listing),
+            _ => {
+                // A folder, or a file that cannot be read, is named as such whatever its name.
+                file.read(&mut [0]).map_err(FileProblem::io)?;
+                Err(FileProblem::whole(
+                    "a sphere file is .ply or .csv (by its extension)",
+                ))
+            }
         }
-    };
-    if listing.is_err() {
-        out.truncate(start);
+    })
+}
+
+/// The listing of what `reader` appends to `out`: its count, and the problem that ended it
+/// after those it read past.
+fn listed<T>(
+    out: &mut Vec<T>,
+    reader: impl FnOnce(&mut Vec<T>, &mut Listing) -> Result<(), FileProblem>,
+) -> Listing {
+    let start = out.len();
+    let mut listing = Listing::default();
+    let ended = reader(out, &mut listing);
+    listing.count = out.len() - start;
+    if let Err(problem) = ended {
+        listing.problems.push((listing.count, problem));
     }
     listing
 }
 
 /// The CSV form, appending `make(i, sphere)` to `out` for each sphere.
-pub fn csv<T>(
-    bytes: &[u8],
-    out: &mut Vec<T>,
-    make: impl Fn(usize, &SphereSpec) -> T,
-) -> Result<Listing, FileProblem> {
-    csv_from(bytes, out, &make)
+pub fn csv<T>(bytes: &[u8], out: &mut Vec<T>, make: impl Fn(usize, &SphereSpec) -> T) -> Listing {
+    listed(out, |out, listing| csv_from(bytes, out, &make, listing))
 }
 
 /// The CSV form read from `file`: the header line, then the body's lines in blocks on the
@@ -218,11 +269,14 @@ fn csv_from<T>(
     mut file: impl BufRead + Send,
     out: &mut Vec<T>,
     make: &impl Fn(usize, &SphereSpec) -> T,
-) -> Result<Listing, FileProblem> {
-    let mut lines = HeaderLines::new("is it a CSV file?");
+    listing: &mut Listing,
+) -> Result<(), FileProblem> {
+    let mut lines = HeaderLines::new("is it a CSV file?", false);
     let (n, header) = loop {
         match lines.next(&mut file)? {
             None => return Err(FileProblem::whole("empty: expected a header x,y,z,radius")),
+            // A byte-order mark starts the file, whatever line holds the header.
+            Some((1, l)) if l.trim_start_matches('\u{feff}').trim().is_empty() => continue,
             Some((_, l)) if l.is_empty() => continue,
             Some((n, l)) => break (n, l),
         }
@@ -282,25 +336,36 @@ fn csv_from<T>(
         })
     };
     let first = n + 1;
-    let mut listing = Listing {
-        first_line: Some(first),
-        ..Listing::default()
-    };
+    listing.first_line = Some(first);
     let mut gaps = false;
-    let take = |line, sphere: SphereSpec| {
-        gaps |= line != first + listing.count;
-        out.push(make(listing.count, &sphere));
-        listing.count += 1;
-        listing.lines.push(line as u32);
+    let mut count = 0;
+    let take = |line, sphere: Result<SphereSpec, String>| match sphere {
+        Ok(sphere) => {
+            gaps |= line != first + count;
+            out.push(make(count, &sphere));
+            count += 1;
+            listing.lines.push(line as u32);
+        }
+        // Passed: the lines of the spheres after it are kept.
+        Err(what) => {
+            gaps = true;
+            let problem = FileProblem::at(Location::Line(line), what);
+            listing.problems.push((count, problem));
+        }
     };
     let problem = |_, line, what| FileProblem::at(Location::Line(line), what);
     let blank = |line: &str| line.trim().is_empty();
-    text_records(&mut file, first, usize::MAX, blank, parse, take, problem)?;
+    let rows = Rows {
+        first_line: first,
+        count: usize::MAX,
+        rest_blank: false,
+    };
+    let ended = text_records(&mut file, rows, blank, parse, take, problem);
     if !gaps {
         // Every sphere on the line after the one before: the lines need not be kept.
         listing.lines = Vec::new();
     }
-    Ok(listing)
+    ended.map(|_| ())
 }
 
 /// A text field's number (CSV, and an ASCII PLY's `double`): the value `f64::from_str` gives,
@@ -330,34 +395,50 @@ const CSV_NAMES: [&str; 7] = ["x", "y", "z", "radius", "r", "g", "b"];
 /// size at line ends.
 const TASK_BYTES: usize = 64 << 10;
 
-/// A piece of a block's lines, parsed: each record with its line (counted from the piece's
-/// start, from 1), the first problem (which ends the piece), and how many lines it held.
+/// A piece of a block's lines, parsed: each record (or what is wrong with its line) with its
+/// line (counted from the piece's start, from 1), and how many lines it held.
 struct Piece<R> {
-    records: Vec<(usize, R)>,
-    problem: Option<(usize, String)>,
+    records: Vec<(usize, Result<R, String>)>,
     lines: usize,
+}
+
+/// Which lines of a text body are records.
+struct Rows {
+    /// The body's first line's number.
+    first_line: usize,
+    /// How many records there are (`usize::MAX`: to the end).
+    count: usize,
+    /// Whether only blank lines may follow the last record (else what follows is another
+    /// element's, and never read).
+    rest_blank: bool,
 }
 
 /// The records of a text body, one a line (lines `blank` takes so are passed), in file order:
 /// the body read in blocks of [`BLOCK_BYTES`], each cut after its last line end, its lines
 /// parsed by `parse(line, scratch)` in pieces on the pool while the next block is read, and
-/// handed to `take(line, record)`, at most `count` of them (what follows them is parsed at
-/// most a block on, and never taken or named; with `count` 0 nothing is read). A line that is
-/// not UTF-8, that `parse` refuses, or of a block or more (4 MiB) ends the reading with
-/// `problem(its record's index, its line, what is wrong)`. Lines are numbered from
-/// `first_line`. Returns how many records were taken.
+/// handed to `take(line, record)`, at most `rows.count` of them. A line that is not UTF-8 or
+/// that `parse` refuses is handed over as what is wrong with it, and counts as a record. What
+/// follows the records is parsed at most a block on and never taken (with `count` 0 nothing
+/// is read), unless only blank lines may follow: then reading goes on to the end. A line of a
+/// block or more (4 MiB), or one past the records that may not be there, ends the reading with
+/// `problem(the records before it, its line, what is wrong)`. Returns how many records were
+/// taken.
 fn text_records<R: Send>(
     body: &mut (impl Read + Send),
-    first_line: usize,
-    count: usize,
+    rows: Rows,
     blank: fn(&str) -> bool,
     parse: impl Fn(&str, &mut Vec<f64>) -> Result<R, String> + Sync,
-    mut take: impl FnMut(usize, R),
+    mut take: impl FnMut(usize, Result<R, String>),
     problem: impl Fn(usize, usize, String) -> FileProblem,
 ) -> Result<usize, FileProblem> {
     let io = FileProblem::io;
+    let Rows {
+        first_line,
+        count,
+        rest_blank,
+    } = rows;
     let mut taken = 0;
-    if count == 0 {
+    if count == 0 && !rest_blank {
         return Ok(0);
     }
     // The lines before this block.
@@ -396,20 +477,23 @@ fn text_records<R: Send>(
         for piece in pieces {
             for (line, record) in piece.records {
                 if taken == count {
-                    return Ok(taken);
+                    return match rest_blank {
+                        true => Err(problem(
+                            taken,
+                            before + line,
+                            format!(
+                                "a row past the header's {count} vertices: is its count right?"
+                            ),
+                        )),
+                        false => Ok(taken),
+                    };
                 }
                 take(before + line, record);
                 taken += 1;
             }
-            if let Some((line, what)) = piece.problem {
-                return match taken < count {
-                    true => Err(problem(taken, before + line, what)),
-                    false => Ok(taken),
-                };
-            }
             before += piece.lines;
         }
-        if end || taken == count {
+        if end || (taken == count && !rest_blank) {
             return Ok(taken);
         }
         end = read.map_err(io)?;
@@ -447,31 +531,22 @@ fn parse_lines<R: Send>(
         .map(|w| {
             let mut piece = Piece {
                 records: Vec::new(),
-                problem: None,
                 lines: 0,
             };
             let mut scratch = Vec::new();
             for raw in text[w[0]..w[1]].split_inclusive(|&b| b == b'\n') {
                 piece.lines += 1;
-                let line = match std::str::from_utf8(raw) {
-                    Ok(line) => line,
-                    Err(_) => {
-                        piece.problem = Some((piece.lines, "not UTF-8 text".to_string()));
-                        break;
-                    }
+                let Ok(line) = std::str::from_utf8(raw) else {
+                    let what = "not UTF-8 text".to_string();
+                    piece.records.push((piece.lines, Err(what)));
+                    continue;
                 };
                 let line = line.strip_suffix('\n').unwrap_or(line);
                 let line = line.strip_suffix('\r').unwrap_or(line);
                 if blank(line) {
                     continue;
                 }
-                match parse(line, &mut scratch) {
-                    Ok(record) => piece.records.push((piece.lines, record)),
-                    Err(what) => {
-                        piece.problem = Some((piece.lines, what));
-                        break;
-                    }
-                }
+                piece.records.push((piece.lines, parse(line, &mut scratch)));
             }
             piece
         })
@@ -574,11 +649,19 @@ impl Scalar {
     }
 }
 
-/// A PLY property: a scalar, or a list (count type, item type).
+/// A PLY property: a scalar, or a list (count type, item type), with its name.
 #[derive(Debug, Clone, PartialEq)]
 enum Property {
     Scalar(Scalar, String),
-    List(Scalar, Scalar),
+    List(Scalar, Scalar, String),
+}
+
+impl Property {
+    fn name(&self) -> &str {
+        match self {
+            Property::Scalar(_, name) | Property::List(_, _, name) => name,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -594,8 +677,10 @@ pub fn ply<T: Send>(
     bytes: &[u8],
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T + Sync,
-) -> Result<Listing, FileProblem> {
-    ply_from(bytes, bytes.len() as u64, out, &make)
+) -> Listing {
+    listed(out, |out, listing| {
+        ply_from(bytes, bytes.len() as u64, out, &make, listing)
+    })
 }
 
 /// The PLY form read from `file`, at most `len` bytes long (a bound on the vertices to make
@@ -605,12 +690,16 @@ fn ply_from<T: Send>(
     len: u64,
     out: &mut Vec<T>,
     make: &(impl Fn(usize, &SphereSpec) -> T + Sync),
-) -> Result<Listing, FileProblem> {
+    listing: &mut Listing,
+) -> Result<(), FileProblem> {
     // The header is ASCII lines up to `end_header`.
-    let mut lines = HeaderLines::new("is `end_header` missing?");
+    let mut lines = HeaderLines::new("is `end_header` missing?", true);
     let bad = |n: usize, m: String| FileProblem::at(Location::Line(n), m);
     match lines.next(&mut file) {
         Ok(Some((_, l))) if l == "ply" => {}
+        Ok(Some((_, l))) if l.starts_with("ply\r") => {
+            return Err(FileProblem::whole(format!("not read as PLY: {CR_ALONE}")))
+        }
         // A file that cannot be read is named so; a first line too long is no PLY either.
         Err(e) if e.at.is_none() => return Err(e),
         _ => {
@@ -621,33 +710,60 @@ fn ply_from<T: Send>(
     }
     let mut binary = None;
     let mut elements: Vec<Element> = Vec::new();
+    // The lines of the `format` and `element vertex` lines, each allowed once.
+    let (mut format_at, mut vertex_at) = (None, None);
     loop {
         let Some((n, line)) = lines.next(&mut file)? else {
             return Err(FileProblem::whole("the header has no `end_header`"));
         };
         let words: Vec<&str> = line.split_whitespace().collect();
+        let once = |at: &mut Option<usize>, what: &str| match at.replace(n) {
+            Some(first) => Err(bad(
+                n,
+                format!("a second `{what}` line (the first is line {first})"),
+            )),
+            None => Ok(()),
+        };
         match words.as_slice() {
             ["end_header"] => break,
             ["comment", ..] | ["obj_info", ..] | [] => {}
-            ["format", "ascii", _] => binary = Some(false),
-            ["format", "binary_little_endian", _] => binary = Some(true),
-            ["format", other, _] => {
-                return Err(bad(
-                    n,
-                    format!("format {other} is not read: write ascii or binary_little_endian"),
-                ))
-            }
-            ["element", name, count] => elements.push(Element {
-                name: name.to_string(),
-                count: count.parse().map_err(|_| {
-                    bad(
+            ["format", form, version] => {
+                once(&mut format_at, "format")?;
+                binary = match *form {
+                    "ascii" => Some(false),
+                    "binary_little_endian" => Some(true),
+                    other => {
+                        return Err(bad(
+                            n,
+                            format!(
+                                "format {other} is not read: write ascii or binary_little_endian"
+                            ),
+                        ))
+                    }
+                };
+                if *version != "1.0" {
+                    return Err(bad(
                         n,
-                        format!("element count {} is not a number", quoted(count)),
-                    )
-                })?,
-                properties: Vec::new(),
-            }),
-            ["property", "list", count, item, _] => {
+                        format!("format version {}: PLY 1.0 is read", quoted(version)),
+                    ));
+                }
+            }
+            ["element", name, count] => {
+                if *name == "vertex" {
+                    once(&mut vertex_at, "element vertex")?;
+                }
+                elements.push(Element {
+                    name: name.to_string(),
+                    count: count.parse().map_err(|_| {
+                        bad(
+                            n,
+                            format!("element count {} is not a number", quoted(count)),
+                        )
+                    })?,
+                    properties: Vec::new(),
+                })
+            }
+            ["property", "list", count, item, name] => {
                 let (Some(c), Some(i)) = (Scalar::parse(count), Scalar::parse(item)) else {
                     return Err(bad(n, format!("unknown list types in {}", quoted(&line))));
                 };
@@ -660,7 +776,13 @@ fn ply_from<T: Send>(
                 let e = elements
                     .last_mut()
                     .ok_or_else(|| bad(n, "a property before any element".into()))?;
-                e.properties.push(Property::List(c, i));
+                if e.properties.iter().any(|p| p.name() == *name) {
+                    return Err(bad(
+                        n,
+                        format!("element {} has a second property {}", e.name, quoted(name)),
+                    ));
+                }
+                e.properties.push(Property::List(c, i, name.to_string()));
             }
             ["property", ty, name] => {
                 let ty = Scalar::parse(ty)
@@ -668,6 +790,12 @@ fn ply_from<T: Send>(
                 let e = elements
                     .last_mut()
                     .ok_or_else(|| bad(n, "a property before any element".into()))?;
+                if e.properties.iter().any(|p| p.name() == *name) {
+                    return Err(bad(
+                        n,
+                        format!("element {} has a second property {}", e.name, quoted(name)),
+                    ));
+                }
                 e.properties.push(Property::Scalar(ty, name.to_string()));
             }
             _ => return Err(bad(n, format!("not a PLY header line: {}", quoted(&line)))),
@@ -680,6 +808,8 @@ fn ply_from<T: Send>(
         .ok_or_else(|| FileProblem::whole("the header has no `element vertex`"))?;
     let columns = Columns::of(&elements[vertex])?;
     let v = &elements[vertex];
+    // Whether the vertices end the body: then nothing may follow them.
+    let last = (elements[vertex + 1..].iter()).all(|e| e.count == 0 || e.properties.is_empty());
     if binary {
         skip_elements(&mut file, &elements[..vertex])?;
         match fixed_offsets(v) {
@@ -698,18 +828,41 @@ fn ply_from<T: Send>(
                 })
             }
             None => listed_vertices(&mut file, v, &columns, out, make),
+        }?;
+        let past = match last {
+            true => skip(&mut file, u64::MAX)?,
+            false => 0,
+        };
+        if past > 0 {
+            return Err(FileProblem::whole(format!(
+                "{past} byte(s) past the header's {} vertices: is the count right?",
+                v.count
+            )));
         }
+        Ok(())
     } else {
-        ascii_vertices(
-            &mut file,
-            lines.line + 1,
-            &elements,
+        let layout = Layout {
+            elements: &elements,
             vertex,
-            &columns,
-            out,
-            make,
-        )
+            columns: &columns,
+            first_line: lines.line + 1,
+            last,
+        };
+        ascii_vertices(&mut file, &layout, out, make, listing)
     }
+}
+
+/// Where an ASCII PLY body's vertices are.
+struct Layout<'a> {
+    /// The header's elements.
+    elements: &'a [Element],
+    /// Which of them is `vertex`.
+    vertex: usize,
+    columns: &'a Columns,
+    /// The body's first line.
+    first_line: usize,
+    /// Whether nothing follows the vertices.
+    last: bool,
 }
 
 /// Which scalar of a vertex holds each sphere field, and whether colours are bytes.
@@ -833,7 +986,7 @@ fn skip_elements(body: &mut impl BufRead, elements: &[Element]) -> Result<(), Fi
             for p in &e.properties {
                 let (count, item) = match p {
                     Property::Scalar(t, _) => (1.0, *t),
-                    Property::List(c, t) => {
+                    Property::List(c, t, _) => {
                         let mut n = [0; 8];
                         let n = &mut n[..c.size()];
                         exact(body, n)?.ok_or_else(|| cut(i))?;
@@ -902,7 +1055,7 @@ fn fixed_vertices<T: Send>(
     stride: usize,
     out: &mut Vec<T>,
     vertex: impl Fn(usize, &[u8]) -> T + Sync,
-) -> Result<Listing, FileProblem> {
+) -> Result<(), FileProblem> {
     let per_block = (BLOCK_BYTES / stride).max(1);
     let blocks = count.div_ceil(per_block);
     // Block b's bytes, as the header counts them.
@@ -935,10 +1088,7 @@ fn fixed_vertices<T: Send>(
         got = read?;
         std::mem::swap(&mut this, &mut next);
     }
-    Ok(Listing {
-        count,
-        ..Listing::default()
-    })
+    Ok(())
 }
 
 /// Vertices with lists among their properties, one at a time.
@@ -948,7 +1098,7 @@ fn listed_vertices<T>(
     columns: &Columns,
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
-) -> Result<Listing, FileProblem> {
+) -> Result<(), FileProblem> {
     let mut values = vec![0.0; v.properties.len()];
     let mut bytes = [0; 8];
     for i in 0..v.count {
@@ -960,7 +1110,7 @@ fn listed_vertices<T>(
             };
             match p {
                 Property::Scalar(t, _) => values[k] = scalar(*t)?,
-                Property::List(c, t) => {
+                Property::List(c, t, _) => {
                     let n = scalar(*c)?;
                     if n < 0.0 {
                         return Err(FileProblem::at(
@@ -977,10 +1127,7 @@ fn listed_vertices<T>(
         }
         out.push(make(i, &columns.sphere(columns.fields(&values))));
     }
-    Ok(Listing {
-        count: v.count,
-        ..Listing::default()
-    })
+    Ok(())
 }
 
 /// Whether an ASCII PLY line is blank: ASCII whitespace alone, the separators of its values.
@@ -990,17 +1137,25 @@ fn ascii_blank(line: &[u8]) -> bool {
 
 /// The vertices of an ASCII body, one record a line, blank lines passed: the elements before
 /// them read past line by line (an element without properties takes no line), then the vertices
-/// in blocks on the pool ([`text_records`]); what follows the last vertex is never named. Values
-/// are separated by ASCII whitespace (PLY is ASCII), each read as its property's type.
+/// in blocks on the pool ([`text_records`]); what follows the last vertex is never named, unless
+/// nothing should (then a line that is not blank is). Values are separated by ASCII whitespace
+/// (PLY is ASCII), each read as its property's type. A vertex line that cannot be read is
+/// named in the listing and keeps its place with a stand-in sphere, so the vertices after it are
+/// read and keep their numbers.
 fn ascii_vertices<T>(
     body: &mut (impl BufRead + Send),
-    first_line: usize,
-    elements: &[Element],
-    vertex: usize,
-    columns: &Columns,
+    layout: &Layout,
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
-) -> Result<Listing, FileProblem> {
+    listing: &mut Listing,
+) -> Result<(), FileProblem> {
+    let Layout {
+        elements,
+        vertex,
+        columns,
+        first_line,
+        last,
+    } = *layout;
     let mut line = first_line - 1;
     let mut raw = Vec::new();
     for e in elements[..vertex]
@@ -1045,7 +1200,7 @@ fn ascii_vertices<T>(
                         format!("{name}: not {what}: {}", quoted(w))
                     })?);
                 }
-                Property::List(c, _) => {
+                Property::List(c, _, _) => {
                     let w = word("a list's count")?;
                     let count = c.ascii(w).filter(|n| *n >= 0.0).ok_or_else(|| {
                         format!(
@@ -1067,42 +1222,79 @@ fn ascii_vertices<T>(
         }
         Ok(columns.sphere(columns.fields(values)))
     };
+    let problem = |i, at, what: String| {
+        let what = match i < v.count {
+            true => format!("vertex {i}: {what}"),
+            false => what,
+        };
+        FileProblem::at(Location::Line(at), what)
+    };
     let mut taken = 0;
-    let take = |_, sphere: SphereSpec| {
+    let take = |at, sphere: Result<SphereSpec, String>| {
+        let sphere = sphere.unwrap_or_else(|what| {
+            listing.problems.push((taken, problem(taken, at, what)));
+            STAND_IN
+        });
         out.push(make(taken, &sphere));
         taken += 1;
     };
-    let problem = |i, at, what| FileProblem::at(Location::Line(at), format!("vertex {i}: {what}"));
     let blank = |line: &str| ascii_blank(line.as_bytes());
-    let got = text_records(body, line + 1, v.count, blank, parse, take, problem)?;
+    let rows = Rows {
+        first_line: line + 1,
+        count: v.count,
+        rest_blank: last,
+    };
+    let got = text_records(body, rows, blank, parse, take, problem)?;
     if got < v.count {
         return Err(FileProblem::at(
             Location::Vertex(got),
             format!("truncated: the file ends at vertex {got} of {}", v.count),
         ));
     }
-    Ok(Listing {
-        count: v.count,
-        ..Listing::default()
-    })
+    Ok(())
 }
+
+/// What stands in for a vertex that could not be read: a sphere that passes every check, so
+/// only the vertex's own problem is named (and the scene, having a problem, is never made).
+const STAND_IN: SphereSpec = SphereSpec {
+    center: (0.0, 0.0, 0.0),
+    radius: 1.0,
+    color: None,
+};
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::format::Triple;
 
-    /// A file's spheres as read, and its listing.
+    /// A file's spheres as read, and its listing; or its first problem.
     type Read = Result<(Vec<SphereSpec>, Listing), FileProblem>;
+
+    fn first(out: Vec<SphereSpec>, listing: Listing) -> Read {
+        assert_eq!(out.len(), listing.count);
+        match listing.problems.first() {
+            Some((_, e)) => Err(e.clone()),
+            None => Ok((out, listing)),
+        }
+    }
 
     fn csv(bytes: &[u8]) -> Read {
         let mut out = Vec::new();
-        super::csv(bytes, &mut out, |_, s| s.clone()).map(|l| (out, l))
+        let listing = super::csv(bytes, &mut out, |_, s| s.clone());
+        first(out, listing)
     }
 
     fn ply(bytes: &[u8]) -> Read {
         let mut out = Vec::new();
-        super::ply(bytes, &mut out, |_, s| s.clone()).map(|l| (out, l))
+        let listing = super::ply(bytes, &mut out, |_, s| s.clone());
+        first(out, listing)
+    }
+
+    /// Every problem of a file, with the spheres read before each.
+    fn problems(listing: Listing) -> Vec<(usize, Option<Location>, String)> {
+        (listing.problems.into_iter())
+            .map(|(i, e)| (i, e.at, e.message))
+            .collect()
     }
 
     fn sphere(c: Triple, r: f64, color: Option<Triple>) -> SphereSpec {
@@ -1225,7 +1417,8 @@ mod tests {
             }
         }
         let mut out = Vec::new();
-        let listing = super::ply(&bin, &mut out, |i, s| (i, s.clone())).unwrap();
+        let listing = super::ply(&bin, &mut out, |i, s| (i, s.clone()));
+        assert_eq!(listing.problems, []);
         assert_eq!((listing.count, out.len()), (n, n));
         for (k, (i, s)) in out.iter().enumerate() {
             let v = |j| f64::from(value(k, j));
@@ -1485,6 +1678,140 @@ mod tests {
         short.truncate(short.len() - format!("{} 0 0 1\n", n - 1).len());
         let e = ply(&short).unwrap_err();
         assert_eq!(e.at, Some(Location::Vertex(n - 1)), "{e:?}");
+    }
+
+    /// Rows that cannot be read are named and passed, so every one is found; a CSV's spheres
+    /// after them keep their lines, an ASCII PLY's vertices their numbers (a stand-in holds
+    /// the bad vertex's place).
+    #[test]
+    fn every_bad_row_is_named_and_the_rest_still_read() {
+        let mut out = Vec::new();
+        let text = b"x,y,z,radius\n0,0,0,1\nfoo,0,0,1\n\n0,0,0,2\n0,0\n\xe9\n0,0,0,3\n";
+        let listing = super::csv(text, &mut out, |_, s| s.radius);
+        assert_eq!(out, [1.0, 2.0, 3.0]);
+        assert_eq!(
+            (1..3).map(|i| listing.location(i)).collect::<Vec<_>>(),
+            [Location::Line(5), Location::Line(8)]
+        );
+        let line = |l| Some(Location::Line(l));
+        assert_eq!(
+            problems(listing),
+            [
+                (1, line(3), "x: not a number: \"foo\"".to_string()),
+                (
+                    2,
+                    line(6),
+                    "expected 4 fields (x,y,z,radius), got 2".to_string()
+                ),
+                (2, line(7), "not UTF-8 text".to_string()),
+            ]
+        );
+        let xyzr = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
+        let mut ascii = header("ascii", xyzr, 5);
+        ascii.extend(b"0 0 0 1\n0 0 zz 1\n0 0 0 2\n0 0\n0 0 0 3\n");
+        let mut out = Vec::new();
+        let listing = super::ply(&ascii, &mut out, |i, s| (i, s.radius));
+        assert_eq!(out, [(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0), (4, 3.0)]);
+        assert_eq!(listing.location(4), Location::Vertex(4));
+        assert_eq!(
+            problems(listing),
+            [
+                (1, line(11), "vertex 1: z: not a number: \"zz\"".to_string()),
+                (
+                    3,
+                    line(13),
+                    "vertex 3: a short row: no value for z".to_string()
+                ),
+            ]
+        );
+    }
+
+    /// What a header may hold once is refused twice; a long comment is read past; nothing
+    /// may follow the vertices when no element does; a BOM before a blank line, and lines
+    /// ending in CR alone, are named as such.
+    #[test]
+    fn ambiguous_headers_and_stray_data_are_refused() {
+        let xyzr = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
+        for (text, want) in [
+            (
+                format!("ply\nformat ascii 1.0\nformat binary_little_endian 1.0\nelement vertex 0\n{xyzr}end_header\n"),
+                "a second `format` line (the first is line 2)",
+            ),
+            (
+                format!("ply\nformat ascii 2.0\nelement vertex 0\n{xyzr}end_header\n"),
+                "format version \"2.0\": PLY 1.0 is read",
+            ),
+            (
+                format!("ply\nformat ascii 1.0\nelement vertex 0\n{xyzr}element vertex 2\n{xyzr}end_header\n"),
+                "a second `element vertex` line (the first is line 3)",
+            ),
+            (
+                format!("ply\nformat ascii 1.0\nelement vertex 0\n{xyzr}property double radius\nend_header\n"),
+                "element vertex has a second property \"radius\"",
+            ),
+            (
+                format!("ply\nformat ascii 1.0\nelement vertex 0\n{xyzr}property list uchar int x\nend_header\n"),
+                "element vertex has a second property \"x\"",
+            ),
+            (
+                "ply\rformat ascii 1.0\relement vertex 0\rend_header\r".to_string(),
+                "its lines end in CR alone",
+            ),
+        ] {
+            let e = ply(text.as_bytes()).unwrap_err();
+            assert!(e.message.contains(want), "{want:?}: {e:?}");
+        }
+        // A comment and an obj_info line of 5,000 bytes, in ASCII and binary.
+        let long = |w: &str| format!("{w} {}\n", "{\"meta\":1}".repeat(500));
+        for format in ["ascii", "binary_little_endian"] {
+            let mut text = format!(
+                "ply\nformat {format} 1.0\n{}{}element vertex 1\n{xyzr}end_header\n",
+                long("comment"),
+                long("obj_info")
+            )
+            .into_bytes();
+            match format {
+                "ascii" => text.extend(b"1 2 3 4\n"),
+                _ => (1..5).for_each(|v| text.extend((v as f32).to_le_bytes())),
+            }
+            assert_eq!(ply(&text).unwrap().0, [sphere((1.0, 2.0, 3.0), 4.0, None)]);
+        }
+        let mut long_element = header("ascii", xyzr, 0);
+        long_element.splice(4..4, long("element").bytes());
+        assert!(ply(&long_element)
+            .unwrap_err()
+            .message
+            .contains("longer than"));
+        // More vertices than the header's count, with no element after them.
+        let mut ascii = header("ascii", xyzr, 1);
+        ascii.extend(b"1 2 3 4\n\n  \n5 6 7 8\n");
+        let e = ply(&ascii).unwrap_err();
+        assert_eq!(e.at, Some(Location::Line(13)), "{e:?}");
+        assert_eq!(
+            e.message,
+            "a row past the header's 1 vertices: is its count right?"
+        );
+        ascii.truncate(ascii.len() - 8);
+        assert_eq!(ply(&ascii).unwrap().1.count, 1);
+        let mut bin = header("binary_little_endian", xyzr, 1);
+        (0..8).for_each(|v| bin.extend((v as f32).to_le_bytes()));
+        let e = ply(&bin).unwrap_err();
+        assert!(
+            e.message
+                .contains("16 byte(s) past the header's 1 vertices"),
+            "{e:?}"
+        );
+        // What follows the vertices is the next element's, and not read.
+        let mut face = header(
+            "binary_little_endian",
+            &format!("{xyzr}element face 1\nproperty uchar k\n"),
+            1,
+        );
+        (0..8).for_each(|v| face.extend((v as f32).to_le_bytes()));
+        assert_eq!(ply(&face).unwrap().1.count, 1);
+        // A byte-order mark, then a blank line, then the header.
+        let (s, _) = csv(b"\xef\xbb\xbf\nx,y,z,radius\n0,0,0,1\n").unwrap();
+        assert_eq!(s.len(), 1);
     }
 
     /// [`text_f64`] and [`text_f32`] give what `from_str` gives, bit for bit, and refuse what

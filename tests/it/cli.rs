@@ -135,7 +135,11 @@ fn verify_names_every_differing_frame() {
     assert!(o.status.success());
     let again = campath(tmp.path(), &["verify", &f, "r/hashes.txt"], &[]);
     assert!(again.status.success(), "{}", stdout(&again));
-    assert!(!stdout(&again).contains("not checked"), "{}", stdout(&again));
+    assert!(
+        !stdout(&again).contains("not checked"),
+        "{}",
+        stdout(&again)
+    );
     // A golden of fewer frames passes on those, and says which frames it left unchecked.
     let short: String = good.lines().take(3).map(|l| l.to_string() + "\n").collect();
     write(tmp.path(), "short.txt", &short);

@@ -178,19 +178,19 @@ fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
     let named: Vec<&str> = err.lines().filter(|l| l.contains(": vertex ")).collect();
     assert_eq!(named.len(), 3, "{err}");
     for (line, want) in named.iter().zip([
-        "clouds/b.ply: vertex 7: radius: must be greater than 0, got 0".to_string(),
+        "scene.sphere_files[0] (clouds/b.ply: vertex 7): radius: must be greater than 0, got 0".to_string(),
         format!(
-            "clouds/b.ply: vertex {}: center: must be finite numbers within ±1e150, got (NaN, ",
+            "scene.sphere_files[0] (clouds/b.ply: vertex {}): center: must be finite numbers within ±1e150, got (NaN, ",
             n / 2
         ),
         format!(
-            "clouds/b.ply: vertex {}: radius: must be greater than 0, got -0.5",
+            "scene.sphere_files[0] (clouds/b.ply: vertex {}): radius: must be greater than 0, got -0.5",
             n - 2
         ),
     ]) {
         assert!(line.trim_start().starts_with(&want), "{want:?} in:\n{err}");
     }
-    // Cut inside the last vertex: the file's form is named, not its spheres.
+    // Cut inside the last vertex: the spheres before the cut are named, then the cut.
     let bytes = std::fs::read(t.join("clouds/b.ply")).unwrap();
     std::fs::write(t.join("clouds/b.ply"), &bytes[..bytes.len() - 1]).unwrap();
     let o = campath(t, &["check", "b.ron"], &[]);
@@ -201,8 +201,53 @@ fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
         n - 1,
         n - 1
     );
-    assert!(err.contains(&want), "{want:?} in:\n{err}");
-    assert!(!err.contains(": vertex 7:"), "{err}");
+    let named: Vec<&str> = err.lines().filter(|l| l.contains("vertex ")).collect();
+    assert_eq!(named.len(), 4, "{err}");
+    assert!(named[0].contains(": vertex 7): radius"), "{err}");
+    assert!(named[3].contains(&want), "{want:?} in:\n{err}");
+}
+
+/// Every problem of a file is named, in file order: rows that cannot be read do not hide the
+/// problems before or after them, in CSV and in ASCII PLY (whose vertices keep their numbers).
+#[test]
+fn rows_that_cannot_be_read_hide_no_other_problem() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::write(
+        t.join("a.csv"),
+        "x,y,z,radius\n0,0,0,-1\n0,0,0,1\nfoo,0,0,1\n0,0,0,-2\n0,0\n",
+    )
+    .unwrap();
+    std::fs::write(
+        t.join("b.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n\
+         property float z\nproperty float radius\nend_header\n0 0 0 -1\n0 0 0 1\n0 0 zz 1\n\
+         0 0 0 -3\n0 0\n",
+    )
+    .unwrap();
+    std::fs::write(t.join("k.ron"), shot("", &["a.csv", "b.ply"])).unwrap();
+    let o = campath(t, &["check", "k.ron"], &[]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    let named: Vec<String> = err
+        .lines()
+        .filter(|l| l.contains(".csv") || l.contains(".ply"))
+        .map(|l| l.trim().to_string())
+        .collect();
+    let want = [
+        "scene.sphere_files[0] (a.csv: line 2): radius: must be greater than 0, got -1",
+        "scene.sphere_files[0] (a.csv: line 4): x: not a number: \"foo\"",
+        "scene.sphere_files[0] (a.csv: line 5): radius: must be greater than 0, got -2",
+        "scene.sphere_files[0] (a.csv: line 6): expected 4 fields (x,y,z,radius), got 2",
+        "scene.sphere_files[1] (b.ply: vertex 0): radius: must be greater than 0, got -1",
+        "scene.sphere_files[1] (b.ply: line 11): vertex 2: z: not a number: \"zz\"",
+        "scene.sphere_files[1] (b.ply: vertex 3): radius: must be greater than 0, got -3",
+        "scene.sphere_files[1] (b.ply: line 13): vertex 4: a short row: no value for z",
+    ];
+    assert_eq!(named.len(), want.len(), "{err}");
+    for (line, want) in named.iter().zip(want) {
+        assert!(line.starts_with(want), "{want:?} in:\n{err}");
+    }
 }
 
 /// A file of many bad spheres: the message names the first hundred, in file order, and
@@ -226,7 +271,7 @@ fn many_bad_spheres_are_named_first_and_counted() {
         .filter(|l| l.contains("bad.csv: line "))
         .collect();
     assert_eq!(named.len(), campath::error::PROBLEMS_SHOWN, "{err}");
-    assert!(named[0].contains("bad.csv: line 2: radius"), "{err}");
-    assert!(named[99].contains("bad.csv: line 101: radius"), "{err}");
+    assert!(named[0].contains("bad.csv: line 2): radius"), "{err}");
+    assert!(named[99].contains("bad.csv: line 101): radius"), "{err}");
     assert!(err.trim_end().ends_with("… and 150 more"), "{err}");
 }
