@@ -299,6 +299,17 @@ impl FolderLock {
         &self.dir
     }
 
+    /// Whether the folder still holds the lock file this run locked: false once the folder
+    /// was removed or replaced (a new `campath.lock` there is no lock of this run's, and
+    /// another run may take it).
+    pub fn still_held(&self) -> bool {
+        let path = self.dir.join(FILE_NAME);
+        match (std::fs::metadata(&path), self.folder.metadata()) {
+            (Ok(now), Ok(held)) => same_file(&now, &held),
+            _ => false,
+        }
+    }
+
     /// What this run may write.
     pub fn claim(&self) -> Claim {
         self.claim
@@ -348,6 +359,19 @@ fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str)
     file.lock_shared().map_err(Error::write(&count_path))?;
     record(dir, folder, true, Some(own))?;
     Ok(file)
+}
+
+/// Whether two files' metadata are of one file.
+#[cfg(unix)]
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    (a.dev(), a.ino()) == (b.dev(), b.ino())
+}
+
+/// Whether two files' metadata are of one file (as far as the platform tells).
+#[cfg(not(unix))]
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    a.len() == b.len() && a.modified().ok() == b.modified().ok()
 }
 
 /// A whole run, holding the folder exclusively, removes the shard lock files: nobody holds them.

@@ -111,7 +111,8 @@ pub fn png_hash(path: &Path) -> Option<FrameHash> {
     Some(frame_hash(img.as_raw()))
 }
 
-fn tmp_path(path: &Path) -> PathBuf {
+/// Where a file is written before it is renamed into place: `NAME.tmp` beside it.
+pub fn tmp_path(path: &Path) -> PathBuf {
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".tmp");
     path.with_file_name(name)
@@ -153,6 +154,14 @@ pub fn resolved(path: &Path) -> PathBuf {
         }
     }
     out
+}
+
+/// Whether a file of this name is one a desktop leaves in any folder it shows (Finder's
+/// `.DS_Store` and `._NAME`, Windows Explorer's `Thumbs.db` and `desktop.ini`, KDE's
+/// `.directory`): an output folder may hold them, though campath does not write them.
+pub fn is_desktop_clutter(name: &str) -> bool {
+    [".DS_Store", "Thumbs.db", "desktop.ini", ".directory"].contains(&name)
+        || name.starts_with("._")
 }
 
 /// Whether campath writes files of this name into an output folder.

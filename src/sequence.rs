@@ -20,8 +20,8 @@ use crate::frames::{keys, stream_frames, FrameSet, Timing};
 use crate::lock::{Claim, FolderLock, Wait};
 use crate::manifest::{self, Entry, Manifest, PartHeader};
 use crate::output::{
-    frame_of, frame_path, is_ours, pad_width, png_hash, resolved, write_atomic, write_png_atomic,
-    Compression,
+    frame_of, frame_path, is_desktop_clutter, is_ours, pad_width, png_hash, resolved, write_atomic,
+    write_png_atomic, Compression,
 };
 
 /// Why frames of the run were rendered rather than kept.
@@ -217,7 +217,7 @@ pub fn check_folder(dir: &Path) -> Result<()> {
     let foreign: Vec<String> = entries
         .flatten()
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| !is_ours(n))
+        .filter(|n| !is_ours(n) && !is_desktop_clutter(n))
         .take(3)
         .collect();
     if foreign.is_empty() {

@@ -21,12 +21,13 @@ mod video;
 mod watch;
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{Parser, Subcommand};
 
 use args::{at_least_one, default_out_dir, FrameSpec};
 use campath::document::Document;
+use campath::lock::{Claim, FolderLock};
 use campath::manifest::Shard;
 use campath::sequence::RenderOptions;
 use campath::Error;
@@ -321,6 +322,14 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             let dir = dir.unwrap_or_else(|| default_out_dir(&file));
             let width = width.unwrap_or(doc.raster.width.min(240));
             let count = count.unwrap_or(doc.animation.frames.min(12));
+            preview::check(&doc, width, count)?;
+            doc.check_path()?;
+            // As render: a golden or a folder of other files is refused, and a folder is
+            // written by one run at a time.
+            campath::sequence::check_folder(&dir)?;
+            let _lock = verbs::with_wait(false, false, |wait| {
+                FolderLock::acquire(&dir, Claim::Whole, wait)
+            })?;
             let (png, gif) = preview::write(&doc, &dir, width, count, true)?;
             let gif = gif.expect("asked for the GIF");
             writeln!(out, "wrote {} and {}", png.display(), gif.display())
@@ -336,6 +345,15 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             let doc = Document::load(&file)?;
             args::check_writable(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
+            // Into a folder campath's runs write (one with their lock file), as one of them.
+            let folder = png.parent().filter(|p| !p.as_os_str().is_empty());
+            let folder = folder.unwrap_or(Path::new("."));
+            let _lock = match folder.join(campath::lock::FILE_NAME).is_file() {
+                true => Some(verbs::with_wait(false, false, |wait| {
+                    FolderLock::acquire(folder, Claim::Whole, wait)
+                })?),
+                false => None,
+            };
             plot::write(&doc, &png, every)?;
             writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
         }
@@ -435,7 +453,9 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             no_wait,
         } => {
             let dir = dir.unwrap_or_else(|| {
-                PathBuf::from(format!("{}-watch", default_out_dir(&file).display()))
+                let mut dir = default_out_dir(&file).into_os_string();
+                dir.push("-watch");
+                PathBuf::from(dir)
             });
             watch::run(&file, &dir, width, no_wait, out)?
         }

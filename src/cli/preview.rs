@@ -41,17 +41,8 @@ pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
     (0..count).map(|k| k * (frames - 1) / (count - 1)).collect()
 }
 
-/// Writes `dir/preview.png` (a sheet of `count` frames) and, with `gif`, `dir/preview.gif`
-/// (which renders every frame); returns the paths.
-///
-/// `width` is 1 to the file's width, `count` 1 to the file's frame count.
-pub fn write(
-    doc: &Document,
-    dir: &Path,
-    width: u32,
-    count: u64,
-    gif: bool,
-) -> Result<(PathBuf, Option<PathBuf>)> {
+/// Refuses a `width` outside 1 to the file's width, or a `count` outside 1 to its frame count.
+pub fn check(doc: &Document, width: u32, count: u64) -> Result<()> {
     let frames = doc.animation.frames;
     if !(1..=doc.raster.width).contains(&width) {
         return Err(CliError::Usage(format!(
@@ -64,8 +55,22 @@ pub fn write(
             "--count {count}: the contact sheet shows 1 to {frames} frames (the file's frame count)"
         )));
     }
+    Ok(())
+}
+
+/// Writes `dir/preview.png` (a sheet of `count` frames) and, with `gif`, `dir/preview.gif`
+/// (at most [`GIF_FRAMES`] frames, evenly spaced); returns the paths. Only the frames shown are
+/// rendered. The caller holds the folder's lock; `width` and `count` are as [`check`] takes them.
+pub fn write(
+    doc: &Document,
+    dir: &Path,
+    width: u32,
+    count: u64,
+    gif: bool,
+) -> Result<(PathBuf, Option<PathBuf>)> {
+    check(doc, width, count)?;
     doc.check_path()?;
-    campath::sequence::check_folder(dir)?;
+    let frames = doc.animation.frames;
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
     let raster = small_raster(doc, width);
     let small = Document {
@@ -73,22 +78,37 @@ pub fn write(
         ..doc.clone()
     };
     let sheet_at = sheet_frames(frames, count);
-    let step = frames.div_ceil(GIF_FRAMES).max(1);
+    // At most GIF_FRAMES frames, and at most 50 a second: browsers show a GIF frame of less
+    // than 2 centiseconds for 10.
+    let step = frames
+        .div_ceil(GIF_FRAMES)
+        .max((doc.animation.fps / 50.0).ceil() as u64)
+        .max(1);
     let (w, h) = (raster.width, raster.height);
     let rows = (sheet_at.len() as u32).div_ceil(COLUMNS);
     let cols = (sheet_at.len() as u32).min(COLUMNS);
     let (row_h, sheet_w) = (h + LABEL, cols * w + (cols - 1) * GAP);
     let sheet_h = rows * row_h + (rows - 1) * GAP;
     let mut sheet = vec![255u8; (sheet_w * sheet_h * 3) as usize];
-    let mut gif_frames = Vec::new();
-    let delay = image::Delay::from_numer_denom_ms(
-        (1000.0 * step as f64 / doc.animation.fps).round() as u32,
-        1,
-    );
+    // The GIF, encoded as its frames come: its bytes are all it holds.
+    let gif_path = dir.join("preview.gif");
+    let mut bytes = Vec::new();
+    let mut encoder = match gif {
+        true => {
+            let mut e = image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10);
+            e.set_repeat(image::codecs::gif::Repeat::Infinite)
+                .map_err(Error::encode(gif_path.clone()))?;
+            Some(e)
+        }
+        false => None,
+    };
+    // GIF frame k is shown from centisecond `at(k)` (GIF's unit) on: each delay rounds the
+    // times, not the step, so a long GIF keeps the file's pace.
+    let at = |k: u64| (100.0 * (k * step) as f64 / doc.animation.fps).round() as u32;
     for_each_frame(
         &small,
         &FrameSet::all(0..frames),
-        |frame| !gif && !sheet_at.contains(&frame),
+        |frame| !(sheet_at.contains(&frame) || gif && frame % step == 0),
         |frame, _, pixels, _| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = (
@@ -102,32 +122,34 @@ pub fn write(
                         .copy_from_slice(&pixels[src..src + (w * 3) as usize]);
                 }
             }
-            if gif && frame % step == 0 {
+            if let Some(encoder) = encoder.as_mut().filter(|_| frame % step == 0) {
                 let rgba: Vec<u8> = pixels
                     .chunks(3)
                     .flat_map(|p| [p[0], p[1], p[2], 255])
                     .collect();
                 let img =
                     image::RgbaImage::from_raw(w, h, rgba).expect("the buffer has w×h pixels");
-                gif_frames.push(image::Frame::from_parts(img, 0, 0, delay));
+                let k = frame / step;
+                let delay = image::Delay::from_numer_denom_ms(10 * (at(k + 1) - at(k)), 1);
+                encoder
+                    .encode_frame(image::Frame::from_parts(img, 0, 0, delay))
+                    .map_err(Error::encode(gif_path.clone()))?;
             }
             Ok(())
         },
     )?;
+    drop(encoder);
     let png = dir.join("preview.png");
     label_frames(&mut sheet, (sheet_w, sheet_h), &sheet_at, (w, h), &png)?;
     write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
     if !gif {
         return Ok((png, None));
     }
-    let gif = dir.join("preview.gif");
-    let file = std::fs::File::create(&gif).map_err(Error::write(gif.clone()))?;
-    let mut encoder =
-        image::codecs::gif::GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
-    encoder
-        .set_repeat(image::codecs::gif::Repeat::Infinite)
-        .and_then(|_| encoder.encode_frames(gif_frames))
-        .map_err(Error::encode(gif.clone()))?;
+    // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
+    let gif = gif_path;
+    let tmp = campath::output::tmp_path(&gif);
+    std::fs::write(&tmp, &bytes).map_err(Error::write(tmp.clone()))?;
+    std::fs::rename(&tmp, &gif).map_err(Error::write(gif.clone()))?;
     Ok((png, Some(gif)))
 }
 

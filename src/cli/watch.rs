@@ -4,8 +4,15 @@
 //! The folder holds `preview.png` (contact sheet), `plot.png`, `first.png`, `middle.png`,
 //! `last.png`, `preview.html` and `status.js`. The page works from `file://`: every half second
 //! it loads `status.js` again (a script, which a local page may load, where it may not fetch),
-//! and reloads the pictures when the version of the last good preview changes. An invalid save
-//! prints its error, shows it on the page, and leaves the last good preview in place.
+//! and reloads the pictures when the version of the last good preview changes (versions are
+//! numbered within a run, runs one after another in the folder, so a page left open across a
+//! restart never keeps a cached picture). An invalid save prints its error, shows it on the
+//! page, and leaves the last good preview in place. The pictures an earlier run left are
+//! removed when a run starts: the page shows this run's only.
+//!
+//! A save is noticed from the file's folder's events and, every 0.1 s, from the file's own
+//! state (which file its path resolves to, its size and times): so a folder removed and made
+//! again, a link whose target is edited, or a file removed, is noticed too.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -23,9 +30,20 @@ use campath::frames::render_frame;
 use campath::output::{write_atomic, write_png_atomic, Compression};
 use campath::Error;
 
+/// The pictures a run writes, and removes when it starts.
+const PICTURES: [&str; 5] = [
+    "first.png",
+    "middle.png",
+    "last.png",
+    "preview.png",
+    "plot.png",
+];
+
 /// What the page reads from `status.js`.
 #[derive(serde::Serialize)]
 struct Status {
+    /// This run's number in the folder: one more than the last run's.
+    run: u64,
     /// Counts every check, good or bad.
     version: u64,
     /// The version of the preview on disk (0: none yet).
@@ -36,16 +54,33 @@ struct Status {
     ms: u64,
     /// The frames shown as first, middle and last.
     frames: [u64; 3],
+    /// Whether the watch has stopped (Ctrl-C): the page no longer follows the file.
+    stopped: bool,
 }
 
 /// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide.
 pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Write) -> Result<()> {
+    // The folder, not the file: editors often save by writing a new file and renaming it.
+    let folder = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !folder.is_dir() {
+        return Err(CliError::Usage(format!(
+            "{}: no such folder: the file to watch is in a folder that exists",
+            folder.display()
+        )));
+    }
     // The folder is this watch's until it stops; as render's, it holds nothing campath does not
     // write there, and is not a golden.
     campath::sequence::check_folder(dir)?;
-    let _lock = super::verbs::with_wait(no_wait, false, |wait| {
+    let lock = super::verbs::with_wait(no_wait, false, |wait| {
         campath::lock::FolderLock::acquire(dir, campath::lock::Claim::Whole, wait)
     })?;
+    let run = last_run(dir) + 1;
+    for picture in PICTURES {
+        remove(&dir.join(picture))?;
+    }
     let name = file
         .file_name()
         .map(|n| n.to_os_string())
@@ -61,11 +96,6 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
     })?;
     let (tx, rx) = mpsc::channel();
     let mut watcher = notify::recommended_watcher(tx).map_err(|e| watch_error(file, e))?;
-    // The folder, not the file: editors often save by writing a new file and renaming it.
-    let folder = match file.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
     watcher
         .watch(&folder, RecursiveMode::NonRecursive)
         .map_err(|e| watch_error(file, e))?;
@@ -73,31 +103,97 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
     let page = dir.join("preview.html");
     writeln!(out, "watching {}; open {}", file.display(), page.display()).map_err(Error::stdout)?;
     let mut status = Status {
+        run,
         version: 0,
         good: 0,
         error: None,
         ms: 0,
         frames: [0; 3],
+        stopped: false,
     };
+    let mut seen = stamp(file);
     update(file, dir, width, Instant::now(), &mut status, out)?;
     while !stop.load(Ordering::SeqCst) {
-        let Ok(event) = rx.recv_timeout(Duration::from_millis(100)) else {
-            continue;
-        };
+        let event = rx.recv_timeout(Duration::from_millis(100));
         let saved = Instant::now();
         let ours = event.is_ok_and(|e| {
-            matches!(e.kind, EventKind::Create(_) | EventKind::Modify(_))
-                && e.paths.iter().any(|p| p.file_name() == Some(&*name))
+            e.is_ok_and(|e| {
+                matches!(e.kind, EventKind::Create(_) | EventKind::Modify(_))
+                    && e.paths.iter().any(|p| p.file_name() == Some(&*name))
+            })
         });
-        if ours {
-            // A save is often several events: let them settle, then render once.
-            std::thread::sleep(Duration::from_millis(30));
-            while rx.try_recv().is_ok() {}
-            update(file, dir, width, saved, &mut status, out)?;
+        if !ours && stamp(file) == seen {
+            continue;
         }
+        // A save is often several events: let them settle, then render once.
+        std::thread::sleep(Duration::from_millis(30));
+        while rx.try_recv().is_ok() {}
+        seen = stamp(file);
+        if !lock.still_held() {
+            let gone = std::io::Error::other(
+                "the folder was removed or replaced while watching, and its lock with it: \
+                 the watch stops, so no other run shares the folder",
+            );
+            return Err(Error::write(dir)(gone).into());
+        }
+        update(file, dir, width, saved, &mut status, out)?;
     }
+    status.stopped = true;
+    write_status(dir, &status)?;
     writeln!(out, "stopped").map_err(Error::stdout)?;
     Ok(())
+}
+
+/// The number of the last run that wrote the folder's `status.js`, or 0.
+fn last_run(dir: &Path) -> u64 {
+    let text = std::fs::read_to_string(dir.join("status.js")).unwrap_or_default();
+    let json = text
+        .trim()
+        .strip_prefix("window.campathStatus = ")
+        .and_then(|t| t.strip_suffix(';'));
+    json.and_then(|j| serde_json::from_str::<serde_json::Value>(j).ok())
+        .and_then(|v| v["run"].as_u64())
+        .unwrap_or(0)
+}
+
+fn remove(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::write(path)(e).into()),
+        _ => Ok(()),
+    }
+}
+
+/// What tells the file's versions apart: the file its path resolves to, its size and times,
+/// and the link's own when the path is a link. None while nothing is there.
+fn stamp(file: &Path) -> Option<Vec<i128>> {
+    let target = std::fs::metadata(file).ok()?;
+    let link = std::fs::symlink_metadata(file).ok()?;
+    Some([target, link].iter().flat_map(identity).collect())
+}
+
+#[cfg(unix)]
+fn identity(m: &std::fs::Metadata) -> [i128; 7] {
+    use std::os::unix::fs::MetadataExt;
+    let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
+    [
+        m.dev().into(),
+        m.ino().into(),
+        m.len().into(),
+        ns(m.mtime(), m.mtime_nsec()),
+        ns(m.ctime(), m.ctime_nsec()),
+        m.mode().into(),
+        m.nlink().into(),
+    ]
+}
+
+#[cfg(not(unix))]
+fn identity(m: &std::fs::Metadata) -> [i128; 2] {
+    let since = |t: std::io::Result<std::time::SystemTime>| {
+        t.ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos() as i128)
+    };
+    [m.len().into(), since(m.modified())]
 }
 
 fn watch_error(file: &Path, e: notify::Error) -> CliError {
@@ -133,12 +229,13 @@ fn update(
             status.error = Some(e.to_string());
         }
     }
+    write_status(dir, status)
+}
+
+fn write_status(dir: &Path, status: &Status) -> Result<()> {
     let json = serde_json::to_string(status).expect("plain values serialise");
-    write_atomic(
-        &dir.join("status.js"),
-        &format!("window.campathStatus = {json};\n"),
-    )?;
-    Ok(())
+    let text = format!("window.campathStatus = {json};\n");
+    Ok(write_atomic(&dir.join("status.js"), &text)?)
 }
 
 /// The preview of the file as it is now; returns the frames shown as first, middle and last.
@@ -185,6 +282,7 @@ fn page(name: &str) -> String {
   .row {{ display: flex; gap: 1em; flex-wrap: wrap; }}
   figure {{ margin: 0; }} figcaption {{ font-size: 0.9em; color: #555; }}
   img {{ max-width: 100%; border: 1px solid #ccc; background: #fff; }}
+  img:not([src]) {{ display: none; }}
   #error {{ display: none; background: #b00020; color: #fff; padding: 0.6em 1em; white-space: pre-wrap; font-family: monospace; }}
   #status {{ color: #555; }}
 </style>
@@ -195,28 +293,35 @@ fn page(name: &str) -> String {
 <div id="error"></div>
 <h2>First, middle and last frame</h2>
 <div class="row">
-  <figure><img data-src="first.png" src="first.png" alt="first frame"><figcaption id="cap-first">first frame</figcaption></figure>
-  <figure><img data-src="middle.png" src="middle.png" alt="middle frame"><figcaption id="cap-middle">middle frame</figcaption></figure>
-  <figure><img data-src="last.png" src="last.png" alt="last frame"><figcaption id="cap-last">last frame</figcaption></figure>
+  <figure><img data-src="first.png" alt="first frame"><figcaption id="cap-first">first frame</figcaption></figure>
+  <figure><img data-src="middle.png" alt="middle frame"><figcaption id="cap-middle">middle frame</figcaption></figure>
+  <figure><img data-src="last.png" alt="last frame"><figcaption id="cap-last">last frame</figcaption></figure>
 </div>
 <h2>Contact sheet</h2>
-<img data-src="preview.png" src="preview.png" alt="contact sheet">
+<img data-src="preview.png" alt="contact sheet">
 <h2>Camera path</h2>
-<img data-src="plot.png" src="plot.png" alt="camera path from above and from the side">
+<img data-src="plot.png" alt="camera path from above and from the side">
 <script>
-  let shown = -1;
+  let shown = "";
   function apply(s) {{
     const error = document.getElementById("error");
     error.style.display = s.error ? "block" : "none";
-    error.textContent = s.error ? "The last save is invalid; showing the last good preview.\n" + s.error : "";
-    if (s.good === 0) return;
+    const kept = s.good === 0 ? "The file is invalid; there is no preview of it yet.\n"
+      : "The last save is invalid; showing the last good preview.\n";
+    error.textContent = s.error ? kept + s.error : "";
+    const stopped = s.stopped ? " (the watch has stopped: saves are no longer followed)" : "";
+    if (s.good === 0) {{
+      document.getElementById("status").textContent = "no preview yet" + stopped;
+      return;
+    }}
     document.getElementById("status").textContent =
-      "preview " + s.good + ", rendered " + s.ms + " ms after the save";
+      "preview " + s.good + ", rendered " + s.ms + " ms after the save" + stopped;
     ["first", "middle", "last"].forEach((k, i) =>
       document.getElementById("cap-" + k).textContent = k + " frame (" + s.frames[i] + ")");
-    if (s.good !== shown) {{
-      shown = s.good;
-      document.querySelectorAll("img[data-src]").forEach(img => img.src = img.dataset.src + "?v=" + s.good);
+    const version = s.run + "." + s.good;
+    if (version !== shown) {{
+      shown = version;
+      document.querySelectorAll("img[data-src]").forEach(img => img.src = img.dataset.src + "?v=" + version);
     }}
   }}
   function poll() {{

@@ -454,11 +454,19 @@ fn utf8<'a>(path: &Path, bytes: &'a [u8]) -> Result<&'a str> {
             path: path.to_path_buf(),
             line: good.matches('\n').count() + 1,
             col: last.chars().count() + 1,
-            message: format!(
-                "the file is not UTF-8: byte 0x{:02X} does not belong here (a file saved as \
-                 Latin-1 or Windows-1252?); save it as UTF-8",
-                bytes[e.valid_up_to()]
-            ),
+            message: match bytes {
+                // UTF-16's byte-order marks, little- and big-endian.
+                [0xFF, 0xFE, ..] | [0xFE, 0xFF, ..] => {
+                    "the file is UTF-16 (it starts with UTF-16's byte-order mark); save it as \
+                     UTF-8"
+                        .to_string()
+                }
+                _ => format!(
+                    "the file is not UTF-8: byte 0x{:02X} does not belong here (a file saved as \
+                     Latin-1 or Windows-1252?); save it as UTF-8",
+                    bytes[e.valid_up_to()]
+                ),
+            },
         }
     })
 }

@@ -513,6 +513,59 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         .unwrap();
     assert_eq!(frames.len(), 48);
     assert_eq!(frames[0].buffer().dimensions(), (60, 34));
+    // Its delays keep the file's pace: 48 frames at 24 fps in 200 centiseconds.
+    let centis = |f: &image::Frame| {
+        let (n, d) = f.delay().numer_denom_ms();
+        assert_eq!((n * 100) % (d * 1000), 0, "{n}/{d} ms");
+        n / d / 10
+    };
+    assert!(frames.iter().all(|f| (4..=5).contains(&centis(f))));
+    assert_eq!(frames.iter().map(centis).sum::<u32>(), 200);
+
+    // At 60 fps every other frame: no frame shorter than 2 centiseconds, and the same pace;
+    // the sheet's last tile is still the last frame, though the frames between are not
+    // rendered.
+    std::fs::write(
+        tmp.path().join("fast.ron"),
+        LONG.replace("fps: 24.0", "fps: 60.0"),
+    )
+    .unwrap();
+    let o = campath(
+        tmp.path(),
+        &[
+            "preview", "fast.ron", "--out", "f", "--width", "60", "--count", "6",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let file =
+        std::io::BufReader::new(std::fs::File::open(tmp.path().join("f/preview.gif")).unwrap());
+    let frames = image::codecs::gif::GifDecoder::new(file)
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+    assert_eq!(frames.len(), 24);
+    assert!(frames.iter().all(|f| (3..=4).contains(&centis(f))));
+    assert_eq!(frames.iter().map(centis).sum::<u32>(), 80);
+    let sheet = image::open(tmp.path().join("f/preview.png"))
+        .unwrap()
+        .to_rgb8();
+    let fast = campath::document::Document::load(&tmp.path().join("fast.ron")).unwrap();
+    doc = campath::document::Document {
+        raster: doc.raster,
+        ..fast
+    };
+    let last = campath::frames::hashes(&doc, 47..48).unwrap();
+    // The sixth tile: second row, second column.
+    let (x0, y0) = (60 + 2, 34 + 16 + 2);
+    let mut tile = Vec::new();
+    for y in y0..y0 + 34 {
+        for x in x0..x0 + 60 {
+            tile.extend(sheet.get_pixel(x, y).0);
+        }
+    }
+    assert_eq!(campath::output::frame_hash(&tile), last[0].1);
 }
 
 #[test]

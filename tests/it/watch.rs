@@ -120,3 +120,122 @@ fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(0));
 }
+
+fn watch(dir: &Path, file: &str) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(dir)
+        .args(["watch", file, "--out", "page", "--width", "48"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn interrupt(child: &mut std::process::Child) {
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    assert_eq!(child.wait().unwrap().code(), Some(0));
+}
+
+/// The file's sphere in colour `k`.
+fn coloured(k: u8) -> String {
+    FILE.replace("(0.9, 0.2, 0.2)", &format!("(0.9, 0.2, 0.{k})"))
+}
+
+/// Watch follows the file through a link, through its folder removed and made again, and past
+/// a desktop's `.DS_Store` in its output folder; a preview waits for it; a new run shows none
+/// of the last run's pictures; and a watch whose folder is removed stops, naming it.
+#[test]
+fn watch_follows_the_file_however_it_is_replaced_and_never_shares_its_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let page = t.join("page");
+    std::fs::create_dir_all(t.join("real")).unwrap();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    std::fs::write(t.join("real/w.ron"), coloured(1)).unwrap();
+    std::os::unix::fs::symlink("../real/w.ron", t.join("shots/w.ron")).unwrap();
+    let mut child = watch(t, "shots/w.ron");
+    let s = wait_status(&page, Duration::from_secs(30), |s| s["good"] == 1);
+    assert_eq!(s["run"], 1);
+    // The link's target edited in place.
+    std::fs::write(t.join("real/w.ron"), coloured(2)).unwrap();
+    wait_status(&page, Duration::from_secs(5), |s| s["good"] == 2);
+    // The target's folder removed and made again.
+    std::fs::remove_dir_all(t.join("real")).unwrap();
+    wait_status(&page, Duration::from_secs(5), |s| s["version"] == 3);
+    std::fs::create_dir_all(t.join("real")).unwrap();
+    std::fs::write(t.join("real/w.ron"), coloured(3)).unwrap();
+    let s = wait_status(&page, Duration::from_secs(5), |s| s["good"] == 4);
+    assert!(s["error"].is_null(), "{s}");
+    // A desktop's clutter in the output folder is no reason to stop.
+    std::fs::write(page.join(".DS_Store"), "x").unwrap();
+    std::fs::write(t.join("real/w.ron"), coloured(4)).unwrap();
+    let s = wait_status(&page, Duration::from_secs(5), |s| s["good"] == 5);
+    assert!(s["error"].is_null(), "{s}");
+    // A preview into the folder waits for the watch.
+    std::fs::write(t.join("p.ron"), coloured(5)).unwrap();
+    let mut preview = Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(t)
+        .args(["preview", "p.ron", "--out", "page"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(
+        preview.try_wait().unwrap().is_none(),
+        "preview did not wait"
+    );
+    preview.kill().unwrap();
+    preview.wait().unwrap();
+    assert!(!page.join("preview.gif").exists());
+    interrupt(&mut child);
+
+    let s = wait_status(&page, Duration::from_secs(5), |s| s["stopped"] == true);
+    assert_eq!(s["good"], 5);
+
+    // The next run, of a file that does not load: no picture of the last run is shown.
+    std::fs::write(t.join("bad.ron"), "(frames: 6,").unwrap();
+    let mut child = watch(t, "bad.ron");
+    let s = wait_status(&page, Duration::from_secs(30), |s| s["run"] == 2);
+    assert_eq!(s["good"], 0);
+    assert!(!page.join("first.png").exists() && !page.join("plot.png").exists());
+    interrupt(&mut child);
+
+    // The output folder removed while watching: the next save stops the watch, naming it.
+    let mut child = watch(t, "shots/w.ron");
+    wait_status(&page, Duration::from_secs(30), |s| {
+        s["run"] == 3 && s["good"] == 1
+    });
+    std::fs::remove_dir_all(&page).unwrap();
+    std::fs::write(t.join("real/w.ron"), coloured(6)).unwrap();
+    let started = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "the watch went on"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("removed or replaced while watching"), "{err}");
+
+    // A file in a folder that does not exist: refused, nothing written.
+    let o = Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(t)
+        .args(["watch", "nowhere/w.ron", "--out", "other"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!t.join("other").exists());
+}
