@@ -503,10 +503,15 @@ fn read_part(
 
 /// `1, 4, 7` for a few frames, `1, 4, 7, … (40 in all)` for many.
 pub fn list_frames(frames: &[u64]) -> String {
+    list_first(frames.iter().copied(), frames.len() as u64)
+}
+
+/// [`list_frames`] of `count` frames, which `frames` yields (only the first are taken).
+pub fn list_first(frames: impl Iterator<Item = u64>, count: u64) -> String {
     const SHOWN: usize = 8;
-    let shown: Vec<String> = frames.iter().take(SHOWN).map(u64::to_string).collect();
-    if frames.len() > SHOWN {
-        format!("{}, … ({} in all)", shown.join(", "), frames.len())
+    let shown: Vec<String> = frames.take(SHOWN).map(|f| f.to_string()).collect();
+    if count > SHOWN as u64 {
+        format!("{}, … ({count} in all)", shown.join(", "))
     } else {
         shown.join(", ")
     }

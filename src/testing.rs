@@ -386,7 +386,10 @@ fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
 /// beside it; panics naming the frames that differ and how to approve them.
 ///
 /// With `CAMPATH_UPDATE=1` in the environment it writes the golden instead (only if the shot
-/// differs or has none) and passes: run it once so, look at the frames, and commit the golden.
+/// differs or has none) and passes; with `CAMPATH_UPDATE=frames` it writes the golden with
+/// its frames, to look at before committing it. Any other value but `0` or an empty one is
+/// refused (a panic), so a misspelt approval never passes as a check. A golden from a newer
+/// renderer is never written.
 ///
 /// ```
 /// // tests/shots/orbit.ron, with tests/shots/orbit.golden/hashes.txt beside it.
@@ -396,10 +399,20 @@ fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
 #[track_caller]
 pub fn assert_shot(shot: impl AsRef<Path>) {
     let shot = shot.as_ref();
-    let update = std::env::var_os(UPDATE_VAR).is_some_and(|v| v == "1");
+    let var = std::env::var_os(UPDATE_VAR).unwrap_or_default();
+    let (update, keep_frames) = match var.to_str() {
+        Some("" | "0") => (false, false),
+        Some("1") => (true, false),
+        Some("frames") => (true, true),
+        _ => panic!(
+            "{UPDATE_VAR}={}: set it to 1 to write the golden, or to frames to write it with its \
+             frames (to look at); unset, empty or 0 compares",
+            var.to_string_lossy()
+        ),
+    };
     let options = Options {
         update,
-        keep_frames: false,
+        keep_frames,
     };
     let run = match run_shot(shot, options, |_, _| Ok(())) {
         Ok(run) => run,
@@ -418,10 +431,23 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
             hash(&d.actual)
         );
     }
-    message += &format!(
-        "\nIf the change is intended, run the test again with {UPDATE_VAR}=1 to write the \
-         golden, look at the frames, and commit {}.",
-        golden_dir(shot).display()
-    );
+    let golden = golden_dir(shot);
+    message += &match run.verdict() {
+        // Never written by this campath: only a newer one can approve it.
+        Verdict::OtherRenderer(r) if r > VERSION => format!(
+            "\n{} is a newer campath's: update campath to check the shot against it.",
+            golden.display()
+        ),
+        Verdict::NoGolden => format!(
+            "\nThe shot has no golden yet: run the test again with {UPDATE_VAR}=frames to \
+             write {} with its frames, look at them, and commit it.",
+            golden.display()
+        ),
+        _ => format!(
+            "\nIf the change is intended, run the test again with {UPDATE_VAR}=frames (or =1, \
+             hashes alone) to write the golden, look at the frames, and commit {}.",
+            golden.display()
+        ),
+    };
     panic!("{message}");
 }

@@ -13,6 +13,7 @@ use super::failures::{self, difference, golden_pixels};
 use super::junit;
 use super::review::{self, ReviewFrame, ReviewShot};
 use campath::output::{write_png, Compression};
+use campath::render::key::VERSION;
 use campath::testing::{golden_dir, Difference, Options, Shot, ShotRun, Verdict};
 use campath::Error;
 
@@ -52,9 +53,10 @@ pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
         }
     }
     found.sort();
-    // A shot reached twice (a linked file) is one shot.
-    let mut files = std::collections::BTreeSet::new();
-    found.retain(|f| files.insert(f.canonicalize().unwrap_or_else(|_| f.clone())));
+    // A shot reached twice, with one golden (through a linked folder), is one shot; a linked
+    // file has a golden of its own beside it, and is checked against it too.
+    let mut goldens = std::collections::BTreeSet::new();
+    found.retain(|f| goldens.insert(campath::output::resolved(&golden_dir(f))));
     Ok(found)
 }
 
@@ -143,6 +145,11 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         .filter(|r| r.verdict() == Verdict::NoGolden)
         .count();
     let differ = runs.len() - updated - passed - no_golden;
+    // Goldens of a newer campath: this one never writes them, so approving is no answer.
+    let newer = open
+        .clone()
+        .filter(|r| matches!(r.verdict(), Verdict::OtherRenderer(v) if v > VERSION))
+        .count();
     let mut summary = format!(
         "test result: {}. {} shot(s): {passed} passed, {differ} differ, {no_golden} without \
          golden, {bad} could not be checked",
@@ -155,12 +162,18 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     );
     if updated > 0 {
         summary += &format!("; {updated} golden(s) written");
-    } else if a.update && differ + no_golden == 0 {
+    } else if a.update && differ + no_golden + bad == 0 {
         summary += "; no golden needed writing";
-    } else if !a.update && differ + no_golden > 0 {
+    } else if !a.update && differ + no_golden > newer {
         summary += &format!(
             "\nIf the changes are intended, approve them with `campath test {} --update`.",
             shell_word(&a.dir.display().to_string())
+        );
+    }
+    if newer > 0 {
+        summary += &format!(
+            "\n{newer} golden(s) were made by a newer campath: update campath to check them \
+             (this one never writes them)."
         );
     }
     writeln!(out, "{summary}").map_err(Error::stdout)?;

@@ -13,7 +13,7 @@ use super::junit;
 use campath::document::Document;
 use campath::frames::{compare_each, Difference};
 use campath::golden::{Golden, HASHES};
-use campath::manifest::list_frames;
+use campath::manifest::{list_first, list_frames};
 use campath::output::{frame_path, pad_width, write_png, Compression};
 use campath::Error;
 
@@ -144,15 +144,8 @@ fn unchecked(golden: &Golden, total: u64) -> Option<String> {
     if missing == 0 {
         return None;
     }
-    let first: Vec<u64> = (0..total)
-        .filter(|f| !golden.hashes.contains_key(f))
-        .take(9)
-        .collect();
-    let shown = if missing > first.len() as u64 {
-        format!("{}, … ({missing} in all)", list_frames(&first[..8]))
-    } else {
-        list_frames(&first)
-    };
+    let unlisted = (0..total).filter(|f| !golden.hashes.contains_key(f));
+    let shown = list_first(unlisted, missing);
     Some(format!(
         "not checked: {missing} of the animation's {total} frame(s) are not in the golden: {shown}"
     ))

@@ -425,8 +425,9 @@ fn the_repositorys_own_shots_pass() {
 }
 
 /// A cargo project of its own depends on campath by path without the command line and uses
-/// `assert_shot`: it fails without a golden, `CAMPATH_UPDATE=1 cargo test` writes it, then it
-/// passes, and after a change to the shot it fails naming the frames and `CAMPATH_UPDATE`.
+/// `assert_shot`: it fails without a golden, `CAMPATH_UPDATE=frames cargo test` writes it with
+/// its frames, then it passes, after a change to the shot it fails naming the frames and
+/// `CAMPATH_UPDATE`, and a value of `CAMPATH_UPDATE` it does not know fails too.
 #[test]
 fn assert_shot_in_a_cargo_project_of_its_own() {
     let tmp = tempfile::tempdir().unwrap();
@@ -471,14 +472,20 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     let (ok, text) = cargo(&[]);
     assert!(!ok, "passed without a golden: {text}");
     assert!(
-        text.contains("no golden") && text.contains("CAMPATH_UPDATE=1"),
+        text.contains("no golden yet") && text.contains("CAMPATH_UPDATE=frames"),
+        "{text}"
+    );
+    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "yes")]);
+    assert!(
+        !ok && text.contains("CAMPATH_UPDATE=yes: set it to 1"),
         "{text}"
     );
 
-    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "1")]);
+    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "frames")]);
     assert!(ok, "{text}");
     let golden = std::fs::read_to_string(p.join("shots/fly.golden/hashes.txt")).unwrap();
     assert_eq!(parse(&golden), hashed(&p, "shots/fly.ron"));
+    assert!(p.join("shots/fly.golden/frame_0003.png").is_file());
     let (ok, text) = cargo(&[]);
     assert!(ok, "{text}");
 
@@ -486,7 +493,8 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     let (ok, text) = cargo(&[]);
     assert!(!ok, "passed after a change: {text}");
     assert!(
-        text.contains("4 of 4 frame(s) differ: 0, 1, 2, 3") && text.contains("CAMPATH_UPDATE=1"),
+        text.contains("4 of 4 frame(s) differ: 0, 1, 2, 3")
+            && text.contains("CAMPATH_UPDATE=frames"),
         "{text}"
     );
     // The library alone: no command-line crate was built for it.
@@ -633,6 +641,14 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     assert_eq!(
         stdout(&o).matches("shots/a.ron").count(),
         1,
+        "{}",
+        stdout(&o)
+    );
+    // A linked file has its golden beside it, and is a shot of its own.
+    std::os::unix::fs::symlink("a.ron", t.join("shots/z.ron")).unwrap();
+    let o = campath(t, &["test"], &[]);
+    assert!(
+        stdout(&o).contains("shots/z.ron: no golden"),
         "{}",
         stdout(&o)
     );
