@@ -125,7 +125,7 @@ pub fn text(hashes: &[(u64, FrameHash)]) -> String {
 
 /// Writes a golden `hashes.txt` (through a temporary file and a rename) for these pairs.
 pub fn write(path: &Path, hashes: &[(u64, FrameHash)]) -> Result<()> {
-    write_atomic(path, &text(hashes))
+    write_atomic(path, text(hashes))
 }
 
 #[cfg(test)]

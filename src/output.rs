@@ -112,18 +112,31 @@ pub fn png_hash(path: &Path) -> Option<FrameHash> {
 }
 
 /// Where a file is written before it is renamed into place: `NAME.tmp` beside it.
-pub fn tmp_path(path: &Path) -> PathBuf {
+fn tmp_path(path: &Path) -> PathBuf {
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".tmp");
     path.with_file_name(name)
 }
 
-/// Writes `text` to `path` through a temporary file and a rename.
-pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
+/// Writes `bytes` (text or not) to `path` through a temporary file and a rename; on a
+/// failure the temporary file is removed.
+pub fn write_atomic(path: &Path, bytes: impl AsRef<[u8]>) -> Result<()> {
     let tmp = tmp_path(path);
     let err = Error::write(path);
-    std::fs::write(&tmp, text).map_err(&err)?;
-    std::fs::rename(&tmp, path).map_err(err)
+    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.map_err(err)
+}
+
+/// Removes the file at `path` if there is one: whether there was.
+pub fn remove_if_there(path: &Path) -> Result<bool> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(Error::write(path)(e)),
+    }
 }
 
 /// `path` made absolute and free of `.` and `..`, with symbolic links resolved as far as it

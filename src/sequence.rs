@@ -20,8 +20,8 @@ use crate::frames::{keys, stream_frames, FrameSet, Timing};
 use crate::lock::{Claim, FolderLock, Wait};
 use crate::manifest::{self, Entry, Manifest, PartHeader};
 use crate::output::{
-    frame_of, frame_path, is_desktop_clutter, is_ours, pad_width, png_hash, resolved, write_atomic,
-    write_png_atomic, Compression,
+    frame_of, frame_path, is_desktop_clutter, is_ours, pad_width, png_hash,
+    remove_if_there as remove, resolved, write_atomic, write_png_atomic, Compression,
 };
 
 /// Why frames of the run were rendered rather than kept.
@@ -152,6 +152,16 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     let mut reasons = Reasons::default();
     let mut check = Vec::new();
     let mut outside = Vec::new();
+    // hashes.txt's own records are of what the last whole run or merge left on disk. A frame
+    // outside the run that only another record names as current (a part file, or what a
+    // shard moved aside, which a later shard's picture may have replaced) is kept only if its
+    // PNG decodes to that record, as a frame of the run is.
+    let listed: BTreeMap<u64, Entry> = Manifest::read_lenient(&dir.join(manifest::file_name(None)))
+        .entries
+        .into_iter()
+        .map(|e| (e.frame, e))
+        .collect();
+    let mut unsure = Vec::new();
     for item in keys(doc) {
         let (frame, key) = item?;
         sequence.update(key.0.as_bytes());
@@ -171,12 +181,22 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
                 reasons.changed += 1;
             }
         } else if whole && files.contains(&frame) {
-            match current.first() {
-                Some(e) => outside.push((*e).clone()),
+            match listed.get(&frame).filter(|e| e.key.as_ref() == Some(&key)) {
+                Some(e) => outside.push(e.clone()),
+                None if !current.is_empty() => unsure.push((frame, current)),
                 None => stale.push(frame_path(dir, frame, total)),
             }
         }
     }
+    let confirmed = on_disk(dir, total, &unsure);
+    let sure: BTreeSet<u64> = confirmed.iter().map(|e| e.frame).collect();
+    for (frame, _) in &unsure {
+        if !sure.contains(frame) {
+            stale.push(frame_path(dir, *frame, total));
+        }
+    }
+    outside.extend(confirmed);
+    outside.sort_by_key(|e| e.frame);
     let kept = on_disk(dir, total, &check);
     reasons.damaged = check.len() as u64 - kept.len() as u64;
     let valid: BTreeSet<u64> = kept.iter().map(|e| e.frame).collect();
@@ -269,14 +289,6 @@ pub fn video_path(dir: &Path, file: &Path, ext: &str) -> PathBuf {
     dir.join(name)
 }
 
-fn remove(path: &Path) -> Result<bool> {
-    match std::fs::remove_file(path) {
-        Ok(()) => Ok(true),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
-        Err(e) => Err(Error::write(path)(e)),
-    }
-}
-
 /// Removes the records this run would make false: the frame files of the run's frames that it
 /// renders again (so a run stopped on the way leaves no old picture under a frame's name); a
 /// shard moves hashes.txt aside to [`manifest::BEFORE_SHARDS`] (`merge` writes hashes.txt
@@ -284,17 +296,21 @@ fn remove(path: &Path) -> Result<bool> {
 /// that file, and the frame files of no current frame. Returns the number of frame files of no
 /// current frame removed.
 fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
-    for path in &plan.replaced {
-        remove(path)?;
-    }
     if set.shard.is_some() {
+        // First: hashes.txt never lists a frame whose picture is gone.
         let whole = dir.join(manifest::file_name(None));
         match std::fs::rename(&whole, dir.join(manifest::BEFORE_SHARDS)) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
                 return Err(Error::write(&whole)(e))
             }
-            _ => return Ok(0),
+            _ => {}
         }
+    }
+    for path in &plan.replaced {
+        remove(path)?;
+    }
+    if set.shard.is_some() {
+        return Ok(0);
     }
     for path in manifest::parts_in(dir)?.values() {
         remove(path)?;
@@ -372,7 +388,7 @@ pub fn render(
         }),
         plan.kept.iter().chain(&plan.outside).cloned().collect(),
     );
-    write_atomic(&manifest_path, &manifest.text())?;
+    write_atomic(&manifest_path, manifest.text())?;
     let mut file = OpenOptions::new()
         .append(true)
         .open(&manifest_path)
@@ -415,7 +431,7 @@ pub fn render(
     }
     manifest.entries = entries.into_values().collect();
     manifest.complete = set.shard.is_some();
-    write_atomic(&manifest_path, &manifest.text())?;
+    write_atomic(&manifest_path, manifest.text())?;
     // The whole run, checking the frames on disk included.
     timing.wall_secs = started.elapsed().as_secs_f64();
     Ok(RenderSummary {

@@ -110,7 +110,7 @@ pub fn write(path: &Path, name: &str, suites: &[Suite]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(campath::Error::write(parent))?;
     }
-    Ok(campath::output::write_atomic(path, &text(name, suites))?)
+    Ok(campath::output::write_atomic(path, text(name, suites))?)
 }
 
 /// Escapes text for an XML attribute or element.

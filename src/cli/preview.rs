@@ -69,7 +69,6 @@ pub fn write(
     gif: bool,
 ) -> Result<(PathBuf, Option<PathBuf>)> {
     check(doc, width, count)?;
-    doc.check_path()?;
     let frames = doc.animation.frames;
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
     let raster = small_raster(doc, width);
@@ -104,7 +103,7 @@ pub fn write(
     };
     // GIF frame k is shown from centisecond `at(k)` (GIF's unit) on: each delay rounds the
     // times, not the step, so a long GIF keeps the file's pace.
-    let at = |k: u64| (100.0 * (k * step) as f64 / doc.animation.fps).round() as u32;
+    let at = |k: u64| (100.0 * (k * step) as f64 / doc.animation.fps).round();
     for_each_frame(
         &small,
         &FrameSet::all(0..frames),
@@ -130,7 +129,9 @@ pub fn write(
                 let img =
                     image::RgbaImage::from_raw(w, h, rgba).expect("the buffer has w×h pixels");
                 let k = frame / step;
-                let delay = image::Delay::from_numer_denom_ms(10 * (at(k + 1) - at(k)), 1);
+                // GIF's longest delay is 655.35 s.
+                let centis = ((at(k + 1) - at(k)).clamp(2.0, 65535.0) as u32).max(2);
+                let delay = image::Delay::from_numer_denom_ms(10 * centis, 1);
                 encoder
                     .encode_frame(image::Frame::from_parts(img, 0, 0, delay))
                     .map_err(Error::encode(gif_path.clone()))?;
@@ -147,9 +148,7 @@ pub fn write(
     }
     // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
     let gif = gif_path;
-    let tmp = campath::output::tmp_path(&gif);
-    std::fs::write(&tmp, &bytes).map_err(Error::write(tmp.clone()))?;
-    std::fs::rename(&tmp, &gif).map_err(Error::write(gif.clone()))?;
+    campath::output::write_atomic(&gif, &bytes)?;
     Ok((png, Some(gif)))
 }
 

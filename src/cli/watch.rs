@@ -5,8 +5,8 @@
 //! `last.png`, `preview.html` and `status.js`. The page works from `file://`: every half second
 //! it loads `status.js` again (a script, which a local page may load, where it may not fetch),
 //! and reloads the pictures when the version of the last good preview changes (versions are
-//! numbered within a run, runs one after another in the folder, so a page left open across a
-//! restart never keeps a cached picture). An invalid save prints its error, shows it on the
+//! numbered within a run, and a run by the time it started, later than the folder's last, so
+//! a page left open across a restart, or a folder made again, never keeps a cached picture). An invalid save prints its error, shows it on the
 //! page, and leaves the last good preview in place. The pictures an earlier run left are
 //! removed when a run starts: the page shows this run's only.
 //!
@@ -42,7 +42,7 @@ const PICTURES: [&str; 5] = [
 /// What the page reads from `status.js`.
 #[derive(serde::Serialize)]
 struct Status {
-    /// This run's number in the folder: one more than the last run's.
+    /// This run's number: the millisecond it started (since 1970), and past the folder's last.
     run: u64,
     /// Counts every check, good or bad.
     version: u64,
@@ -77,15 +77,15 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
     let lock = super::verbs::with_wait(no_wait, false, |wait| {
         campath::lock::FolderLock::acquire(dir, campath::lock::Claim::Whole, wait)
     })?;
-    let run = last_run(dir) + 1;
-    for picture in PICTURES {
-        remove(&dir.join(picture))?;
-    }
+    let started = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64);
+    let run = started.max(last_run(dir).saturating_add(1));
     let name = file
         .file_name()
         .map(|n| n.to_os_string())
         .unwrap_or_default();
-    write_atomic(&dir.join("preview.html"), &page(&name.to_string_lossy()))?;
+    write_atomic(&dir.join("preview.html"), page(&name.to_string_lossy()))?;
 
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
@@ -111,6 +111,11 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
         frames: [0; 3],
         stopped: false,
     };
+    // The last run's pictures go, and the page hears of it, before this run's first.
+    for picture in PICTURES {
+        campath::output::remove_if_there(&dir.join(picture))?;
+    }
+    write_status(dir, &status)?;
     let mut seen = stamp(file);
     update(file, dir, width, Instant::now(), &mut status, out)?;
     while !stop.load(Ordering::SeqCst) {
@@ -138,8 +143,11 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
         }
         update(file, dir, width, saved, &mut status, out)?;
     }
-    status.stopped = true;
-    write_status(dir, &status)?;
+    // Into the folder only while it is this run's.
+    if lock.still_held() {
+        status.stopped = true;
+        write_status(dir, &status)?;
+    }
     writeln!(out, "stopped").map_err(Error::stdout)?;
     Ok(())
 }
@@ -154,13 +162,6 @@ fn last_run(dir: &Path) -> u64 {
     json.and_then(|j| serde_json::from_str::<serde_json::Value>(j).ok())
         .and_then(|v| v["run"].as_u64())
         .unwrap_or(0)
-}
-
-fn remove(path: &Path) -> Result<()> {
-    match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::write(path)(e).into()),
-        _ => Ok(()),
-    }
 }
 
 /// What tells the file's versions apart: the file its path resolves to, its size and times,
@@ -312,6 +313,10 @@ fn page(name: &str) -> String {
     const stopped = s.stopped ? " (the watch has stopped: saves are no longer followed)" : "";
     if (s.good === 0) {{
       document.getElementById("status").textContent = "no preview yet" + stopped;
+      shown = "";
+      document.querySelectorAll("img[data-src]").forEach(img => img.removeAttribute("src"));
+      ["first", "middle", "last"].forEach(k =>
+        document.getElementById("cap-" + k).textContent = k + " frame");
       return;
     }}
     document.getElementById("status").textContent =

@@ -24,6 +24,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::SphereSpec;
+use crate::error::PROBLEMS_SHOWN;
 
 /// The most bytes of a binary PLY body read at a time (whole vertices, at least one): a
 /// million spheres' 56 MB pass through 4 MiB, and the body is never held whole. A long
@@ -82,22 +83,29 @@ impl HeaderLines {
             return Ok(None);
         }
         self.line += 1;
-        let mut ended = self.raw.last() == Some(&b'\n');
+        let ended = self.raw.last() == Some(&b'\n');
+        for end in [b'\n', b'\r'] {
+            if self.raw.last() == Some(&end) {
+                self.raw.pop();
+            }
+        }
         let comment = |raw: &[u8]| {
             let words = raw.trim_ascii_start();
             [&b"comment"[..], b"obj_info"].iter().any(|w| {
                 words.starts_with(w) && words.get(w.len()).is_some_and(|b| b.is_ascii_whitespace())
             })
         };
-        if !ended && self.comments && comment(&self.raw) && !self.raw.contains(&b'\r') {
-            // The rest of a long comment, read past to its line end.
-            ended = skip_line(file).map_err(FileProblem::io)?;
-            self.raw.truncate(HEADER_LINE_BYTES);
-        }
-        for end in [b'\n', b'\r'] {
-            if self.raw.last() == Some(&end) {
-                self.raw.pop();
+        // A long comment (not a text whose lines end in CR alone, read as one line): cut, and
+        // the rest of it read past to its line end.
+        if self.raw.len() > HEADER_LINE_BYTES
+            && self.comments
+            && comment(&self.raw)
+            && !self.raw.contains(&b'\r')
+        {
+            if !ended {
+                skip_line(file).map_err(FileProblem::io)?;
             }
+            self.raw.truncate(HEADER_LINE_BYTES);
         }
         if self.raw.len() > HEADER_LINE_BYTES {
             let why = match !ended && self.raw.contains(&b'\r') {
@@ -199,9 +207,20 @@ pub struct Listing {
     /// checked too; an ASCII PLY's keeps its vertex's place with a stand-in sphere), then what
     /// ended the reading early, if anything.
     pub problems: Vec<(usize, FileProblem)>,
+    /// Rows that could not be read past the first [`PROBLEMS_SHOWN`] named: counted, not
+    /// kept (a file of a million bad rows costs no message a row).
+    unlisted: usize,
 }
 
 impl Listing {
+    /// Notes a row that cannot be read, after `before` spheres.
+    fn unreadable(&mut self, before: usize, problem: FileProblem) {
+        match self.problems.len() < PROBLEMS_SHOWN {
+            true => self.problems.push((before, problem)),
+            false => self.unlisted += 1,
+        }
+    }
+
     /// Where sphere `i` is in its file.
     pub fn location(&self, i: usize) -> Location {
         match (self.first_line, self.lines.get(i)) {
@@ -252,8 +271,16 @@ fn listed<T>(
     let mut listing = Listing::default();
     let ended = reader(out, &mut listing);
     listing.count = out.len() - start;
+    let ended_early = ended.is_err();
     if let Err(problem) = ended {
         listing.problems.push((listing.count, problem));
+    }
+    if listing.unlisted > 0 {
+        let more = format!("and {} more row(s) that cannot be read", listing.unlisted);
+        let at = listing.problems.len() - usize::from(ended_early);
+        listing
+            .problems
+            .insert(at, (listing.count, FileProblem::whole(more)));
     }
     listing
 }
@@ -350,7 +377,7 @@ fn csv_from<T>(
         Err(what) => {
             gaps = true;
             let problem = FileProblem::at(Location::Line(line), what);
-            listing.problems.push((count, problem));
+            listing.unreadable(count, problem);
         }
     };
     let problem = |_, line, what| FileProblem::at(Location::Line(line), what);
@@ -482,7 +509,7 @@ fn text_records<R: Send>(
                             taken,
                             before + line,
                             format!(
-                                "a row past the header's {count} vertices: is its count right?"
+                                "a row past the header's vertex count ({count}): is the count right?"
                             ),
                         )),
                         false => Ok(taken),
@@ -695,11 +722,12 @@ fn ply_from<T: Send>(
     // The header is ASCII lines up to `end_header`.
     let mut lines = HeaderLines::new("is `end_header` missing?", true);
     let bad = |n: usize, m: String| FileProblem::at(Location::Line(n), m);
+    let head = file.fill_buf().map_err(FileProblem::io)?;
+    if head.starts_with(b"ply\r") && head.get(4) != Some(&b'\n') {
+        return Err(FileProblem::whole(format!("not read as PLY: {CR_ALONE}")));
+    }
     match lines.next(&mut file) {
         Ok(Some((_, l))) if l == "ply" => {}
-        Ok(Some((_, l))) if l.starts_with("ply\r") => {
-            return Err(FileProblem::whole(format!("not read as PLY: {CR_ALONE}")))
-        }
         // A file that cannot be read is named so; a first line too long is no PLY either.
         Err(e) if e.at.is_none() => return Err(e),
         _ => {
@@ -773,29 +801,13 @@ fn ply_from<T: Send>(
                         format!("a list's count is an integer type, not {}", c.name()),
                     ));
                 }
-                let e = elements
-                    .last_mut()
-                    .ok_or_else(|| bad(n, "a property before any element".into()))?;
-                if e.properties.iter().any(|p| p.name() == *name) {
-                    return Err(bad(
-                        n,
-                        format!("element {} has a second property {}", e.name, quoted(name)),
-                    ));
-                }
+                let e = last_element(&mut elements, name).map_err(|m| bad(n, m))?;
                 e.properties.push(Property::List(c, i, name.to_string()));
             }
             ["property", ty, name] => {
                 let ty = Scalar::parse(ty)
                     .ok_or_else(|| bad(n, format!("unknown type {}", quoted(ty))))?;
-                let e = elements
-                    .last_mut()
-                    .ok_or_else(|| bad(n, "a property before any element".into()))?;
-                if e.properties.iter().any(|p| p.name() == *name) {
-                    return Err(bad(
-                        n,
-                        format!("element {} has a second property {}", e.name, quoted(name)),
-                    ));
-                }
+                let e = last_element(&mut elements, name).map_err(|m| bad(n, m))?;
                 e.properties.push(Property::Scalar(ty, name.to_string()));
             }
             _ => return Err(bad(n, format!("not a PLY header line: {}", quoted(&line)))),
@@ -829,13 +841,9 @@ fn ply_from<T: Send>(
             }
             None => listed_vertices(&mut file, v, &columns, out, make),
         }?;
-        let past = match last {
-            true => skip(&mut file, u64::MAX)?,
-            false => 0,
-        };
-        if past > 0 {
+        if last && fill(&mut file, &mut [0])? > 0 {
             return Err(FileProblem::whole(format!(
-                "{past} byte(s) past the header's {} vertices: is the count right?",
+                "the body goes on past the header's vertex count ({}): is the count right?",
                 v.count
             )));
         }
@@ -849,6 +857,21 @@ fn ply_from<T: Send>(
             last,
         };
         ascii_vertices(&mut file, &layout, out, make, listing)
+    }
+}
+
+/// The element a `property` line adds to (the last), refusing a property named twice.
+fn last_element<'a>(elements: &'a mut [Element], name: &str) -> Result<&'a mut Element, String> {
+    let e = elements
+        .last_mut()
+        .ok_or_else(|| "a property before any element".to_string())?;
+    match e.properties.iter().any(|p| p.name() == name) {
+        true => Err(format!(
+            "element {} has a second property {}",
+            e.name,
+            quoted(name)
+        )),
+        false => Ok(e),
     }
 }
 
@@ -1232,7 +1255,7 @@ fn ascii_vertices<T>(
     let mut taken = 0;
     let take = |at, sphere: Result<SphereSpec, String>| {
         let sphere = sphere.unwrap_or_else(|what| {
-            listing.problems.push((taken, problem(taken, at, what)));
+            listing.unreadable(taken, problem(taken, at, what));
             STAND_IN
         });
         out.push(make(taken, &sphere));
@@ -1789,7 +1812,7 @@ mod tests {
         assert_eq!(e.at, Some(Location::Line(13)), "{e:?}");
         assert_eq!(
             e.message,
-            "a row past the header's 1 vertices: is its count right?"
+            "a row past the header's vertex count (1): is the count right?"
         );
         ascii.truncate(ascii.len() - 8);
         assert_eq!(ply(&ascii).unwrap().1.count, 1);
@@ -1798,7 +1821,7 @@ mod tests {
         let e = ply(&bin).unwrap_err();
         assert!(
             e.message
-                .contains("16 byte(s) past the header's 1 vertices"),
+                .contains("goes on past the header's vertex count (1)"),
             "{e:?}"
         );
         // What follows the vertices is the next element's, and not read.
@@ -1809,6 +1832,37 @@ mod tests {
         );
         (0..8).for_each(|v| face.extend((v as f32).to_le_bytes()));
         assert_eq!(ply(&face).unwrap().1.count, 1);
+        // A comment of exactly the most bytes and one or two more, with LF and with CRLF.
+        for len in HEADER_LINE_BYTES - 1..HEADER_LINE_BYTES + 3 {
+            for end in ["\n", "\r\n"] {
+                let comment = format!("comment {}{end}", "c".repeat(len - 8));
+                let mut text =
+                    format!("ply\nformat ascii 1.0\n{comment}element vertex 1\n{xyzr}end_header\n")
+                        .into_bytes();
+                text.extend(b"1 2 3 4\n");
+                assert_eq!(ply(&text).unwrap().1.count, 1, "{len} {end:?}");
+            }
+        }
+        // Lines that end in CR alone, in a file of many lines.
+        let mut cr = format!(
+            "ply\rformat ascii 1.0\relement vertex 2000\r{}end_header\r",
+            xyzr.replace('\n', "\r")
+        )
+        .into_bytes();
+        (0..2000).for_each(|_| cr.extend(b"1 2 3 4\r"));
+        assert!(ply(&cr).unwrap_err().message.contains("CR alone"));
+        // A file of many unreadable rows: the first hundred named, the rest counted.
+        let mut rows = String::from("x,y,z,radius\n");
+        (0..250).for_each(|i| rows.push_str(&format!("{i};0;0;1\n")));
+        let mut out = Vec::new();
+        let listing = super::csv(rows.as_bytes(), &mut out, |_, s| s.radius);
+        let named = problems(listing);
+        assert_eq!(named.len(), PROBLEMS_SHOWN + 1);
+        assert_eq!(named[99].1, Some(Location::Line(101)));
+        assert_eq!(
+            named[100],
+            (0, None, "and 150 more row(s) that cannot be read".into())
+        );
         // A byte-order mark, then a blank line, then the header.
         let (s, _) = csv(b"\xef\xbb\xbf\nx,y,z,radius\n0,0,0,1\n").unwrap();
         assert_eq!(s.len(), 1);

@@ -269,7 +269,7 @@ fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
         "(t: 2.0, value: (0.0, 2.0, 6.0)), (t: 3.0, value: (-3.0, 2.0, 6.0))",
     );
     assert_ne!(edited, LONG);
-    std::fs::write(tmp.path().join("long.ron"), edited).unwrap();
+    std::fs::write(tmp.path().join("long.ron"), &edited).unwrap();
     let after = single("single");
     let (old_keys, new_keys) = (keys_of(&before), keys_of(&after));
     let changed: Vec<&String> = new_keys
@@ -309,6 +309,37 @@ fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
     assert_eq!(read(&farm.join("hashes.txt")), after);
     assert!(!farm.join("hashes.before-shards.txt").exists());
     assert!(manifest_parts(&farm).is_empty());
+
+    // Back to the first file in one shard of two, then forward again in a run of one frame:
+    // what the shard moved aside names the edited file's pictures, which the shard replaced;
+    // none of them is listed as current, and the folder holds no picture it does not list.
+    std::fs::write(tmp.path().join("long.ron"), LONG).unwrap();
+    let half = campath(
+        tmp.path(),
+        &[
+            "render", "long.ron", "--out", "farm", "--quiet", "--shard", "0/2",
+        ],
+        &[],
+    );
+    assert!(half.status.success(), "{}", stderr(&half));
+    std::fs::write(tmp.path().join("long.ron"), &edited).unwrap();
+    let one = campath(
+        tmp.path(),
+        &[
+            "render", "long.ron", "--out", "farm", "--quiet", "--frames", "1",
+        ],
+        &[],
+    );
+    assert!(one.status.success(), "{}", stderr(&one));
+    assert_consistent(&farm);
+    let listed = frame_lines(&read(&farm.join("hashes.txt"))).len();
+    assert_eq!(listed, frame_stamps(&farm).len());
+    assert!(
+        listed < 48,
+        "the shard's pictures of the first file are listed"
+    );
+    single("farm");
+    assert_eq!(read(&farm.join("hashes.txt")), after);
 }
 
 fn manifest_parts(dir: &Path) -> Vec<String> {
