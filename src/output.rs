@@ -101,8 +101,12 @@ pub fn write_png_atomic(
     compression: Compression,
 ) -> Result<()> {
     let tmp = tmp_path(path);
-    write_png(&tmp, pixels, size, compression)?;
-    std::fs::rename(&tmp, path).map_err(Error::write(path))
+    let written = write_png(&tmp, pixels, size, compression)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(Error::write(path)));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 /// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.

@@ -89,22 +89,23 @@ struct Plan {
     reasons: Reasons,
 }
 
-/// Every frame line of every manifest in `dir` (hashes.txt, the one a shard moved aside, and the
-/// part files), by frame. hashes.txt is read before the file a shard renames it to, so a shard
-/// renaming it meanwhile hides neither.
-fn recorded(dir: &Path) -> BTreeMap<u64, Vec<Entry>> {
-    let mut paths = vec![
-        dir.join(manifest::file_name(None)),
-        dir.join(manifest::BEFORE_SHARDS),
-    ];
-    paths.extend(manifest::parts_in(dir).unwrap_or_default().into_values());
+/// Every frame line of every manifest in `dir`, by frame: hashes.txt's and the part files', and
+/// apart from them those of the hashes.txt a shard moved aside. hashes.txt is read before the
+/// file a shard renames it to, so a shard renaming it meanwhile hides neither.
+fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
+    let whole = Manifest::read_lenient(&dir.join(manifest::file_name(None)));
+    let aside = Manifest::read_lenient(&dir.join(manifest::BEFORE_SHARDS));
+    let parts = manifest::parts_in(dir).unwrap_or_default().into_values();
     let mut out: BTreeMap<u64, Vec<Entry>> = BTreeMap::new();
-    for path in paths {
-        for e in Manifest::read_lenient(&path).entries {
-            out.entry(e.frame).or_default().push(e);
-        }
+    for e in whole
+        .entries
+        .into_iter()
+        .chain(parts.flat_map(|p| Manifest::read_lenient(&p).entries))
+    {
+        out.entry(e.frame).or_default().push(e);
     }
-    out
+    let aside = aside.entries.into_iter().map(|e| (e.frame, e)).collect();
+    (out, aside)
 }
 
 /// The frames on disk under this animation's names, and the frame files named for no frame of it
@@ -142,7 +143,7 @@ fn on_disk(dir: &Path, total: u64, check: &[(u64, Vec<&Entry>)]) -> Vec<Entry> {
 
 fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan> {
     let total = doc.animation.frames;
-    let recorded = recorded(dir);
+    let (recorded, aside) = recorded(dir);
     let whole = set.shard.is_none();
     let (files, mut stale) = frame_files(dir, total);
     if !whole {
@@ -152,24 +153,15 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     let mut reasons = Reasons::default();
     let mut check = Vec::new();
     let mut outside = Vec::new();
-    // hashes.txt's own records are of what the last whole run or merge left on disk. A frame
-    // outside the run that only another record names as current (a part file, or what a
-    // shard moved aside, which a later shard's picture may have replaced) is kept only if its
-    // PNG decodes to that record, as a frame of the run is.
-    let listed: BTreeMap<u64, Entry> = Manifest::read_lenient(&dir.join(manifest::file_name(None)))
-        .entries
-        .into_iter()
-        .map(|e| (e.frame, e))
-        .collect();
     let mut unsure = Vec::new();
     for item in keys(doc) {
         let (frame, key) = item?;
         sequence.update(key.0.as_bytes());
-        let records = recorded.get(&frame).map_or(&[][..], Vec::as_slice);
-        let current: Vec<&Entry> = records
-            .iter()
-            .filter(|e| e.key.as_ref() == Some(&key))
+        let is_current = |e: &&Entry| e.key.as_ref() == Some(&key);
+        let records: Vec<&Entry> = (recorded.get(&frame).into_iter().flatten())
+            .chain(aside.get(&frame))
             .collect();
+        let current: Vec<&Entry> = records.iter().copied().filter(is_current).collect();
         if set.contains(frame) {
             if force {
                 reasons.forced += 1;
@@ -181,7 +173,12 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
                 reasons.changed += 1;
             }
         } else if whole && files.contains(&frame) {
-            match listed.get(&frame).filter(|e| e.key.as_ref() == Some(&key)) {
+            // What a shard moved aside may be older than the frame's picture (a later shard
+            // may have rendered it again from other input): a frame outside the run that only
+            // that file names as current is kept only if its PNG decodes to the record, as a
+            // frame of the run is. The other records are of what their run left on disk.
+            let trusted = recorded.get(&frame).into_iter().flatten().find(is_current);
+            match trusted {
                 Some(e) => outside.push(e.clone()),
                 None if !current.is_empty() => unsure.push((frame, current)),
                 None => stale.push(frame_path(dir, frame, total)),
@@ -343,9 +340,10 @@ pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<Fo
 ///   holds files campath did not write.
 /// - A frame of the run is kept when a manifest records it with its current key and its PNG
 ///   decodes to the recorded hash (unless `force`); every other frame is rendered.
-/// - Records this run makes false are removed first: a whole run removes the part files and the
-///   frame files that belong to no frame of the file as it is now; a shard moves hashes.txt
-///   aside (`merge` writes it again from the parts), where the shards after it still read it.
+/// - The run's manifest is written first, listing the frames it keeps; then the records it
+///   makes false go: a whole run removes the part files and the frame files that belong to no
+///   frame of the file as it is now; a shard moves hashes.txt aside (`merge` writes it again
+///   from the parts), where the shards after it still read it.
 /// - Each PNG is written under a temporary name and renamed into place; its manifest line is
 ///   appended after that, so the manifest lists only complete frames, even after SIGKILL.
 /// - PNG encoding runs on its own thread while the next frame renders.
@@ -375,8 +373,6 @@ pub fn render(
             remove(&video_path(dir, &doc.path, ext))?;
         }
     }
-    let removed = remove_stale_records(dir, set, &plan)?;
-
     let total = doc.animation.frames;
     let manifest_path = dir.join(manifest::file_name(set.shard));
     let mut manifest = Manifest::new(
@@ -388,7 +384,10 @@ pub fn render(
         }),
         plan.kept.iter().chain(&plan.outside).cloned().collect(),
     );
+    // The manifest first, of the pictures that stay: a run stopped at any point after it leaves
+    // every kept frame recorded, before the records it replaces and the stale pictures go.
     write_atomic(&manifest_path, manifest.text())?;
+    let removed = remove_stale_records(dir, set, &plan)?;
     let mut file = OpenOptions::new()
         .append(true)
         .open(&manifest_path)

@@ -249,6 +249,9 @@ impl Shot {
         let size = (doc.raster.width, doc.raster.height);
         let keeps_frames = !golden_frames.is_empty();
         let writes_frames = options.update && (options.keep_frames || keeps_frames);
+        // A golden that keeps frames, or is to keep them, must hold the pictures its hashes
+        // name: a hashes-only golden approved with its frames gets every one.
+        let checks_pictures = keeps_frames || writes_frames;
         let staging = staging_dir(&path);
         let mut staged = Vec::new();
         let mut fresh = Vec::with_capacity(total as usize);
@@ -262,8 +265,7 @@ impl Shot {
                 fresh.push((frame, hash));
                 let expected = golden.as_ref().and_then(|g| g.hash(frame));
                 let same = expected == Some(hash);
-                // A golden that keeps frames must keep the pictures its hashes name.
-                let picture_ok = !keeps_frames
+                let picture_ok = !checks_pictures
                     || golden_frames
                         .get(&frame)
                         .and_then(|p| png_hash(p))
@@ -444,8 +446,9 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
             golden.display()
         ),
         _ => format!(
-            "\nIf the change is intended, run the test again with {UPDATE_VAR}=frames (or =1, \
-             hashes alone) to write the golden, look at the frames, and commit {}.",
+            "\nIf the change is intended, run the test again with {UPDATE_VAR}=frames to write \
+             the golden with its frames (=1: its hashes, and the frames it keeps), look at the \
+             frames, and commit {}.",
             golden.display()
         ),
     };

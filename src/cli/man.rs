@@ -111,7 +111,7 @@ pub fn write_pages(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
     let path = dir.join("campath.1");
     let mut text = Vec::new();
     page(&mut text)?;
-    campath::output::write_atomic(&path, String::from_utf8_lossy(&text).as_bytes())?;
+    campath::output::write_atomic(&path, &text)?;
     written.insert(0, path);
     Ok(written)
 }

@@ -207,15 +207,16 @@ pub struct Listing {
     /// checked too; an ASCII PLY's keeps its vertex's place with a stand-in sphere), then what
     /// ended the reading early, if anything.
     pub problems: Vec<(usize, FileProblem)>,
-    /// Rows that could not be read past the first [`PROBLEMS_SHOWN`] named: counted, not
-    /// kept (a file of a million bad rows costs no message a row).
+    /// Rows that could not be read past the first [`PROBLEMS_SHOWN`] − 1 named: counted, not
+    /// kept (a file of a million bad rows costs no message a row), and named as a count in
+    /// the hundredth place, which a message shows.
     unlisted: usize,
 }
 
 impl Listing {
     /// Notes a row that cannot be read, after `before` spheres.
     fn unreadable(&mut self, before: usize, problem: FileProblem) {
-        match self.problems.len() < PROBLEMS_SHOWN {
+        match self.problems.len() < PROBLEMS_SHOWN - 1 {
             true => self.problems.push((before, problem)),
             false => self.unlisted += 1,
         }
@@ -1857,11 +1858,11 @@ mod tests {
         let mut out = Vec::new();
         let listing = super::csv(rows.as_bytes(), &mut out, |_, s| s.radius);
         let named = problems(listing);
-        assert_eq!(named.len(), PROBLEMS_SHOWN + 1);
-        assert_eq!(named[99].1, Some(Location::Line(101)));
+        assert_eq!(named.len(), PROBLEMS_SHOWN);
+        assert_eq!(named[98].1, Some(Location::Line(100)));
         assert_eq!(
-            named[100],
-            (0, None, "and 150 more row(s) that cannot be read".into())
+            named[99],
+            (0, None, "and 151 more row(s) that cannot be read".into())
         );
         // A byte-order mark, then a blank line, then the header.
         let (s, _) = csv(b"\xef\xbb\xbf\nx,y,z,radius\n0,0,0,1\n").unwrap();

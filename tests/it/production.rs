@@ -342,6 +342,38 @@ fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
     assert_eq!(read(&farm.join("hashes.txt")), after);
 }
 
+/// A whole run that cannot write its manifest has removed nothing: the shards' records and
+/// every picture are still there, and the next run keeps every frame it did not render.
+#[test]
+fn a_whole_run_that_cannot_write_its_manifest_removes_nothing() {
+    let tmp = setup();
+    for k in 0..3 {
+        assert!(shard(tmp.path(), k).status().unwrap().success());
+    }
+    let farm = tmp.path().join("farm");
+    let stamps = frame_stamps(&farm);
+    // hashes.txt cannot be written: its temporary name is a folder.
+    std::fs::create_dir(farm.join("hashes.txt.tmp")).unwrap();
+    let one = |dir: &Path| {
+        campath(
+            dir,
+            &["render", "long.ron", "--out", "farm", "--frames", "0"],
+            &[],
+        )
+    };
+    let failed = one(tmp.path());
+    assert_eq!(failed.status.code(), Some(1), "{}", stderr(&failed));
+    assert_eq!(manifest_parts(&farm).len(), 3);
+    assert_eq!(frame_stamps(&farm), stamps);
+    std::fs::remove_dir(farm.join("hashes.txt.tmp")).unwrap();
+    let again = one(tmp.path());
+    assert!(again.status.success(), "{}", stderr(&again));
+    assert!(!stdout(&again).contains("stale"), "{}", stdout(&again));
+    assert_eq!(frame_stamps(&farm), stamps);
+    assert_eq!(frame_lines(&read(&farm.join("hashes.txt"))).len(), 48);
+    assert_consistent(&farm);
+}
+
 fn manifest_parts(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
         .unwrap()

@@ -734,3 +734,37 @@ fn unkind_goldens_and_report_paths_are_refused_before_any_work() {
         stderr(&o)
     );
 }
+
+/// Approving with frames (`--keep-frames`, `CAMPATH_UPDATE=frames`) a golden that kept its
+/// hashes alone writes every frame, not only those that differ, so the next check passes; a
+/// passing golden of hashes alone gains its frames too.
+#[test]
+fn approving_frames_into_a_golden_of_hashes_writes_every_frame() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let golden = t.join("shots/a.golden");
+    let frames = || {
+        (0..6)
+            .filter(|f| golden.join(format!("frame_{f:04}.png")).is_file())
+            .count()
+    };
+    let test = |args: &[&str]| {
+        let o = campath(t, &[&["test", "shots"][..], args].concat(), &[]);
+        assert!(o.status.success(), "{args:?}: {}{}", stdout(&o), stderr(&o));
+    };
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    std::fs::write(t.join("shots/a.ron"), shot(4, "0.9")).unwrap();
+    test(&["--update"]);
+    assert_eq!(frames(), 0);
+    test(&["--update", "--keep-frames"]);
+    assert_eq!(frames(), 4);
+    test(&[]);
+    // Hashes alone again, and a fifth frame: the first four are the same.
+    for f in 0..4 {
+        std::fs::remove_file(golden.join(format!("frame_{f:04}.png"))).unwrap();
+    }
+    std::fs::write(t.join("shots/a.ron"), shot(5, "0.9")).unwrap();
+    test(&["--update", "--keep-frames"]);
+    assert_eq!(frames(), 5);
+    test(&[]);
+}
