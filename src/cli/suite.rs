@@ -54,10 +54,30 @@ pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
     }
     found.sort();
     // A shot reached twice, with one golden (through a linked folder), is one shot; a linked
-    // file has a golden of its own beside it, and is checked against it too.
-    let mut goldens = std::collections::BTreeSet::new();
-    found.retain(|f| goldens.insert(campath::output::resolved(&golden_dir(f))));
-    Ok(found)
+    // file has a golden of its own beside it, and is checked against it too. Two shots with
+    // one golden (goldens linked to one folder) are refused: each would approve over the other.
+    let mut goldens: BTreeMap<PathBuf, (PathBuf, PathBuf)> = BTreeMap::new();
+    let mut kept = Vec::new();
+    for shot in found {
+        let golden = campath::output::resolved(&golden_dir(&shot));
+        let file = shot.canonicalize().unwrap_or_else(|_| shot.clone());
+        match goldens.get(&golden) {
+            None => {
+                goldens.insert(golden, (shot.clone(), file));
+                kept.push(shot);
+            }
+            Some((_, same)) if *same == file => {}
+            Some((first, _)) => {
+                return Err(CliError::Usage(format!(
+                    "{} and {} have one golden, {}: each shot needs its own",
+                    first.display(),
+                    shot.display(),
+                    golden.display()
+                )))
+            }
+        }
+    }
+    Ok(kept)
 }
 
 /// A shot checked: its run, or why it could not be; and its review pictures.

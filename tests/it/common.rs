@@ -306,3 +306,19 @@ pub fn shutter_ends(doc: &Document) -> Vec<(f64, campath::camera::Camera)> {
     })
     .collect()
 }
+
+/// Each frame file's inode and modification time, by name: a frame written again (temporary
+/// file and rename) has a new inode.
+pub fn frame_stamps(dir: &Path) -> std::collections::BTreeMap<String, (u64, i64, i64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("frame_"))
+        .map(|e| {
+            let m = e.metadata().unwrap();
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, (m.ino(), m.mtime(), m.mtime_nsec()))
+        })
+        .collect()
+}

@@ -1,11 +1,9 @@
 //! Incremental re-render: after an edit, `render` without `--force` gives exactly the folder a
 //! fresh render of the edited file gives, and rewrites only the frames the edit touched.
 
-use std::collections::BTreeMap;
-use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
-use crate::common::{root, EXAMPLES};
+use crate::common::{frame_stamps, root, EXAMPLES};
 use campath::document::Document;
 use campath::frames::FrameSet;
 use campath::lock::Wait;
@@ -27,21 +25,6 @@ fn render_into(text: &str, dir: &Path) -> RenderSummary {
     let set = FrameSet::all(0..doc.animation.frames);
     let lock = lock(&doc, dir, &set, Wait::No).unwrap();
     render(&doc, &lock, &set, RenderOptions::default(), &mut |_| {}).unwrap()
-}
-
-/// Each frame file's inode and modification time: a rewrite (temporary file and rename) changes
-/// the inode.
-fn frame_files(dir: &Path) -> BTreeMap<String, (u64, i64, i64)> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with("frame_"))
-        .map(|e| {
-            let m = e.metadata().unwrap();
-            let name = e.file_name().to_string_lossy().into_owned();
-            (name, (m.ino(), m.mtime(), m.mtime_nsec()))
-        })
-        .collect()
 }
 
 /// Replaces the first number after byte `at` with `f(number)`.
@@ -84,7 +67,7 @@ fn every_edit_rerenders_exactly_the_frames_it_touched() {
         let mut text = small_example(name);
         render_into(&text, &dir);
         for (what, edited) in edits(&text) {
-            let before = frame_files(&dir);
+            let before = frame_stamps(&dir);
             let summary = render_into(&edited, &dir);
             let fresh = tmp.path().join(format!("{name}-fresh"));
             render_into(&edited, &fresh);
@@ -105,7 +88,7 @@ fn every_edit_rerenders_exactly_the_frames_it_touched() {
                 .zip(cameras(&new))
                 .map(|(a, b)| same_world && *a == b)
                 .collect();
-            let after = frame_files(&dir);
+            let after = frame_stamps(&dir);
             assert_eq!(before.len(), after.len(), "{name}, {what}");
             for (k, (file, stamp)) in after.iter().enumerate() {
                 assert_eq!(
@@ -142,7 +125,7 @@ fn another_file_rendered_into_the_same_folder_replaces_every_frame() {
         assert_eq!(read(&dir), read(&fresh), "{name}");
         let frames = load(&text).animation.frames;
         assert_eq!(summary.kept, 0, "{name}");
-        assert_eq!(frame_files(&dir).len() as u64, frames, "{name}");
+        assert_eq!(frame_stamps(&dir).len() as u64, frames, "{name}");
         std::fs::remove_dir_all(&fresh).unwrap();
     }
 }
@@ -157,14 +140,14 @@ fn an_edited_file_leaves_no_old_picture_while_it_renders() {
     let text = small_example("flythrough");
     render_into(&text, &dir);
     for (what, edited) in edits(&text) {
-        let before = frame_files(&dir);
+        let before = frame_stamps(&dir);
         let doc = load(&edited);
         let set = FrameSet::all(0..doc.animation.frames);
         let lock = lock(&doc, &dir, &set, Wait::No).unwrap();
         let mut seen = None;
         let summary = render(&doc, &lock, &set, RenderOptions::default(), &mut |e| {
             if let (campath::sequence::Event::Written(frame), None) = (e, &seen) {
-                seen = Some((frame, frame_files(&dir)));
+                seen = Some((frame, frame_stamps(&dir)));
             }
         })
         .unwrap();

@@ -1,9 +1,8 @@
 //! Production use: atomic frames, resume after SIGKILL, shards and merge, progress, refusing
 //! absurd requests and foreign folders.
 
-use crate::common::{campath, frame_lines, stderr, stdout};
+use crate::common::{campath, frame_lines, frame_stamps, stderr, stdout};
 use std::collections::BTreeMap;
-use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
@@ -218,21 +217,6 @@ fn three_shards_merge_into_a_single_runs_manifest() {
     ] {
         assert!(stderr(&mixed).contains(want), "{want}: {}", stderr(&mixed));
     }
-}
-
-/// Each frame file's inode and modification time, by name: a frame written again (temporary file
-/// and rename) has a new inode.
-fn frame_stamps(dir: &Path) -> BTreeMap<String, (u64, i64, i64)> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with("frame_"))
-        .map(|e| {
-            let m = e.metadata().unwrap();
-            let name = e.file_name().to_string_lossy().into_owned();
-            (name, (m.ino(), m.mtime(), m.mtime_nsec()))
-        })
-        .collect()
 }
 
 /// The frame key of each line of a hashes.txt.

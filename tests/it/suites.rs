@@ -652,6 +652,17 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
         "{}",
         stdout(&o)
     );
+    // Two shots whose goldens are one folder: refused before anything renders.
+    std::os::unix::fs::symlink("a.golden", t.join("shots/z.golden")).unwrap();
+    std::fs::remove_file(t.join("shots/z.ron")).unwrap();
+    std::fs::write(t.join("shots/z.ron"), shot(4, "0.1")).unwrap();
+    let o = campath(t, &["test"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("have one golden") && stderr(&o).contains("a.golden"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Unkind goldens and report paths, each refused with exit 2 before anything renders: a
