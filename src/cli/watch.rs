@@ -6,9 +6,10 @@
 //! it loads `status.js` again (a script, which a local page may load, where it may not fetch),
 //! and reloads the pictures when the version of the last good preview changes (versions are
 //! numbered within a run, and a run by the time it started, later than the folder's last, so
-//! a page left open across a restart, or a folder made again, never keeps a cached picture). An invalid save prints its error, shows it on the
-//! page, and leaves the last good preview in place. The pictures an earlier run left are
-//! removed when a run starts: the page shows this run's only.
+//! a page left open across a restart, or a folder made again, never keeps a cached picture).
+//! An invalid save prints its error, shows it on the page, and leaves the last good preview in
+//! place. The pictures an earlier run left are removed when a run starts: the page shows this
+//! run's only.
 //!
 //! A save is noticed from the file's folder's events and, every 0.1 s, from the file's own
 //! state (which file its path resolves to, its size and times): so a folder removed and made
@@ -120,6 +121,10 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
     update(file, dir, width, Instant::now(), &mut status, out)?;
     while !stop.load(Ordering::SeqCst) {
         let event = rx.recv_timeout(Duration::from_millis(100));
+        if matches!(event, Err(mpsc::RecvTimeoutError::Disconnected)) {
+            // No events any more: the file's state alone, polled.
+            std::thread::sleep(Duration::from_millis(100));
+        }
         let saved = Instant::now();
         let ours = event.is_ok_and(|e| {
             e.is_ok_and(|e| {
