@@ -508,6 +508,25 @@ fn absurd_requests_are_refused_before_allocating() {
     }
 }
 
+/// The frame hash of the 60×34 tile at `(x0, y0)` of a contact sheet.
+fn tile_hash(sheet: &image::RgbImage, (x0, y0): (u32, u32)) -> campath::output::FrameHash {
+    let mut tile = Vec::new();
+    for y in y0..y0 + 34 {
+        for x in x0..x0 + 60 {
+            tile.extend(sheet.get_pixel(x, y).0);
+        }
+    }
+    campath::output::frame_hash(&tile)
+}
+
+/// Every frame of a GIF, decoded.
+fn gif_frames(path: &Path) -> Vec<image::Frame> {
+    use image::AnimationDecoder;
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let decoder = image::codecs::gif::GifDecoder::new(file).unwrap();
+    decoder.into_frames().collect_frames().unwrap()
+}
+
 #[test]
 fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     let tmp = setup();
@@ -542,22 +561,9 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         adaptive: false,
     };
     let frame0 = campath::frames::hashes(&doc, 0..1).unwrap();
-    let mut tile = Vec::new();
-    for y in 0..34 {
-        for x in 0..60 {
-            tile.extend(sheet.get_pixel(x, y).0);
-        }
-    }
-    assert_eq!(campath::output::frame_hash(&tile), frame0[0].1);
+    assert_eq!(tile_hash(&sheet, (0, 0)), frame0[0].1);
     // The GIF holds every frame of the 48.
-    use image::AnimationDecoder;
-    let file =
-        std::io::BufReader::new(std::fs::File::open(tmp.path().join("p/preview.gif")).unwrap());
-    let frames = image::codecs::gif::GifDecoder::new(file)
-        .unwrap()
-        .into_frames()
-        .collect_frames()
-        .unwrap();
+    let frames = gif_frames(&tmp.path().join("p/preview.gif"));
     assert_eq!(frames.len(), 48);
     assert_eq!(frames[0].buffer().dimensions(), (60, 34));
     // Its delays keep the file's pace: 48 frames at 24 fps in 200 centiseconds.
@@ -585,13 +591,7 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         &[],
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let file =
-        std::io::BufReader::new(std::fs::File::open(tmp.path().join("f/preview.gif")).unwrap());
-    let frames = image::codecs::gif::GifDecoder::new(file)
-        .unwrap()
-        .into_frames()
-        .collect_frames()
-        .unwrap();
+    let frames = gif_frames(&tmp.path().join("f/preview.gif"));
     assert_eq!(frames.len(), 24);
     assert!(frames.iter().all(|f| (3..=4).contains(&centis(f))));
     assert_eq!(frames.iter().map(centis).sum::<u32>(), 80);
@@ -605,14 +605,7 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     };
     let last = campath::frames::hashes(&doc, 47..48).unwrap();
     // The sixth tile: second row, second column.
-    let (x0, y0) = (60 + 2, 34 + 16 + 2);
-    let mut tile = Vec::new();
-    for y in y0..y0 + 34 {
-        for x in x0..x0 + 60 {
-            tile.extend(sheet.get_pixel(x, y).0);
-        }
-    }
-    assert_eq!(campath::output::frame_hash(&tile), last[0].1);
+    assert_eq!(tile_hash(&sheet, (60 + 2, 34 + 16 + 2)), last[0].1);
 }
 
 #[test]
