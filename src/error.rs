@@ -53,6 +53,10 @@ impl fmt::Display for Problems {
 }
 
 /// Everything that can go wrong in campath.
+///
+/// An I/O or encoder failure's cause is part of the message and kept in the variant's `cause`
+/// (match on it for the [`std::io::ErrorKind`]); `source()` does not return it again, so a
+/// printer of the error chain says it once.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A file could not be read (exit 1).

@@ -178,7 +178,8 @@ pub fn written_as_golden(path: &Path) -> bool {
         .map_while(std::result::Result::ok)
         .filter(|l| !l.trim_ascii().is_empty())
         .take(2)
-        .map(|l| String::from_utf8(l).unwrap_or_default());
+        .map(|l| String::from_utf8(l).unwrap_or_default())
+        .map(|l| l.trim_start_matches('\u{feff}').to_string());
     let renderer = lines
         .next()
         .is_some_and(|l| parse_renderer(l.trim()).is_some());
@@ -226,25 +227,26 @@ impl Manifest {
     }
 
     /// Parses a manifest strictly: every line must be a frame line, the renderer line (first),
-    /// the part header (first after it), or `# complete` (last); blank lines are skipped.
+    /// the part header (first after it), or `# complete` (last); blank lines are skipped, and so
+    /// is a byte order mark before the first line (an editor's).
     pub fn parse(path: &Path, text: &str) -> Result<Manifest> {
         let mut m = Manifest::default();
         // Lines before the first frame line, the renderer line and the part header among them.
         let mut leading = true;
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         for (i, line) in text.lines().enumerate() {
             let line = line.trim();
             let bad = |what: &str| Error::Manifest {
                 path: path.to_path_buf(),
-                message: format!(
-                    "line {}: {what}: expected `<frame> <sha256 hex> [<key>]`, got {line:?}",
-                    i + 1
-                ),
+                message: format!("line {}: {what}, got {line:?}", i + 1),
             };
+            let bad_frame =
+                |what: &str| bad(&format!("{what}: expected `<frame> <sha256 hex> [<key>]`"));
             if line.is_empty() {
                 continue;
             }
             if m.complete {
-                return Err(bad("text after `# complete`"));
+                return Err(bad("text after `# complete`, which ends a part file"));
             }
             if line == COMPLETE {
                 m.complete = true;
@@ -252,18 +254,25 @@ impl Manifest {
                 if !leading || m.renderer.is_some() || m.header.is_some() {
                     return Err(bad("a renderer line that is not the first line"));
                 }
-                m.renderer = Some(
-                    parse_renderer(line)
-                        .ok_or_else(|| bad("bad renderer line (`# campath renderer N`)"))?,
-                );
-            } else if line.starts_with('#') {
+                m.renderer =
+                    Some(parse_renderer(line).ok_or_else(|| {
+                        bad("bad renderer line: expected `# campath renderer N`")
+                    })?);
+            } else if line.starts_with("# campath ") {
                 if !leading || m.header.is_some() {
-                    return Err(bad("a header that is not at the top"));
+                    return Err(bad("a part header that is not at the top"));
                 }
-                m.header = Some(PartHeader::parse(line).ok_or_else(|| bad("bad part header"))?);
+                m.header = Some(PartHeader::parse(line).ok_or_else(|| {
+                    bad("bad part header: expected `# campath part=K-of-N range=A..B frames=F sequence=<sha256 hex>`")
+                })?);
+            } else if line.starts_with('#') {
+                return Err(bad(
+                    "a `#` line campath does not know (comments are not kept: its `#` lines are \
+                     `# campath renderer N`, a shard's `# campath part=…` header and `# complete`)",
+                ));
             } else {
                 leading = false;
-                m.entries.push(parse_entry(line).map_err(bad)?);
+                m.entries.push(parse_entry(line).map_err(bad_frame)?);
             }
         }
         Ok(m)
@@ -274,7 +283,7 @@ impl Manifest {
     pub fn read_lenient(path: &Path) -> Manifest {
         let text = std::fs::read_to_string(path).unwrap_or_default();
         let mut m = Manifest::default();
-        for line in text.lines() {
+        for line in text.trim_start_matches('\u{feff}').lines() {
             let line = line.trim();
             if line == COMPLETE {
                 m.complete = true;
@@ -539,6 +548,40 @@ mod tests {
         ] {
             assert!(Manifest::parse(Path::new("g"), junk).is_err(), "{junk}");
         }
+    }
+
+    #[test]
+    fn an_editors_byte_order_mark_is_read_past_and_comments_are_named() {
+        let h = "ab".repeat(32);
+        let text = format!("\u{feff}# campath renderer 7\r\n3 {h}\r\n");
+        let m = Manifest::parse(Path::new("g"), &text).unwrap();
+        assert_eq!((m.renderer, m.entries.len()), (Some(7), 1));
+        let dir = tempfile::tempdir().unwrap();
+        let golden = dir.path().join("hashes.txt");
+        std::fs::write(&golden, &text).unwrap();
+        assert!(written_as_golden(&golden));
+        assert_eq!(Manifest::read_lenient(&golden), m);
+        for (text, line) in [
+            (format!("# made by hand\n3 {h}\n"), 1),
+            (format!("3 {h}\n# a note\n"), 2),
+        ] {
+            let e = Manifest::parse(Path::new("g"), &text)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!(
+                    "line {line}: a `#` line campath does not know (comments are not kept"
+                )),
+                "{e}"
+            );
+        }
+        let e = Manifest::parse(Path::new("g"), &format!("\u{feff}x {h}\n")).unwrap_err();
+        assert!(
+            e.to_string().contains(
+                "line 1: bad frame index: expected `<frame> <sha256 hex> [<key>]`, got \"x"
+            ),
+            "{e}"
+        );
     }
 
     #[test]

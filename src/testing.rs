@@ -194,7 +194,9 @@ impl Shot {
     }
 
     /// [`Shot::load`], first taking the shot's lock when `options.update` (waiting for another
-    /// approval of the same shot to finish), and clearing what a killed approval left.
+    /// approval of the same shot to finish), and clearing what a killed approval left. A check
+    /// clears that too when no approval holds the lock, as far as it can (a check writes
+    /// nothing it must).
     pub fn open(path: &Path, options: Options) -> Result<Shot> {
         let lock = if options.update {
             let file = std::fs::File::open(path).map_err(Error::read(path))?;
@@ -204,6 +206,13 @@ impl Shot {
             }
             Some(file)
         } else {
+            if let Ok(file) = std::fs::File::open(path) {
+                if file.try_lock().is_ok() {
+                    for stale in staging_dirs(path) {
+                        let _ = std::fs::remove_dir_all(&stale);
+                    }
+                }
+            }
             None
         };
         let doc = Document::load(path)?;

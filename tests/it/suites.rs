@@ -559,6 +559,19 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
         ]
     );
 
+    // What a killed approval left beside the golden is cleared by the next check, but not
+    // while an approval of the shot holds its lock.
+    let left = t.join("shots/.a.golden.update-4242");
+    std::fs::create_dir(&left).unwrap();
+    std::fs::write(left.join("frame_0000.png"), b"half").unwrap();
+    let approval = std::fs::File::open(t.join("shots/a.ron")).unwrap();
+    approval.lock().unwrap();
+    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    assert!(left.exists());
+    drop(approval);
+    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    assert!(!left.exists());
+
     // hashes.txt lost beside old frames: approval writes both anew.
     std::fs::write(t.join("shots/a.ron"), shot(4, "0.3")).unwrap();
     std::fs::remove_file(golden_a.join("hashes.txt")).unwrap();
