@@ -211,8 +211,8 @@ fn inside_spheres(out: &mut Vec<Warning>, doc: &Document, cameras: &[Camera]) {
             quantity: Quantity::CopInsideSphere,
             frames: run.iter().map(|k| *k as u64).collect(),
             message: format!(
-                "the COP is inside sphere {sphere} (the scene's spheres counted from 0): the \
-                 frame is a wall of its colour"
+                "the COP is inside the sphere {}: the frame is a wall of its colour",
+                doc.sphere_place(sphere)
             ),
         });
     }

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use crate::animation::{Animation, Exposure, Pointing};
 use crate::camera::{Camera, CameraError};
 use crate::error::{Error, Problem, Problems, Result};
+use crate::format::sphere_files::Listing;
 use crate::format::{self, FileSpec, Pair, Triple};
 use crate::raster::{MotionBlur, Raster};
 use crate::scene::Scene;
@@ -46,9 +47,30 @@ pub struct SphereFile {
     pub path: PathBuf,
     /// How many spheres it gave.
     pub spheres: usize,
+    /// Where each of its spheres is in it.
+    pub listing: Listing,
 }
 
 impl Document {
+    /// Where the scene's sphere `i` (the inline spheres first, then each file's, as the renderer
+    /// counts them) is written: `scene.spheres[3]`, or `scene.sphere_files[0] (cloud.ply:
+    /// vertex 3)`.
+    pub fn sphere_place(&self, i: usize) -> String {
+        let in_files: usize = self.sphere_files.iter().map(|f| f.spheres).sum();
+        let mut first = self.scene.spheres.len().saturating_sub(in_files);
+        if i < first {
+            return format!("scene.spheres[{i}]");
+        }
+        for (k, file) in self.sphere_files.iter().enumerate() {
+            if i - first < file.spheres {
+                let at = file.listing.location(i - first);
+                return format!("scene.sphere_files[{k}] ({}: {at})", file.name);
+            }
+            first += file.spheres;
+        }
+        format!("the scene's sphere {i} (counted from 0)")
+    }
+
     /// Reads, parses and checks a keyframe file.
     pub fn load(path: &Path) -> Result<Document> {
         Document::from_spec(path, format::read(path)?)

@@ -60,6 +60,7 @@ impl Checker {
                 name: name.clone(),
                 path,
                 spheres: listing.count,
+                listing,
             });
         }
         let scene = match (background, ambient) {

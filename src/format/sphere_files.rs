@@ -193,7 +193,7 @@ impl FileProblem {
 }
 
 /// What a sphere file gave: how many spheres, and where each is.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Listing {
     /// How many spheres the file gave.
     pub count: usize,

@@ -46,10 +46,33 @@ fn the_camera_inside_a_sphere_and_a_target_at_the_camera_are_named() {
     let (_, out) = check(&file, false);
     // Eye z at frame k: −7 + 0.5k; inside when −1 < z < 1: k = 13, 14, 15.
     assert!(
-        out.contains("warning: frames 13, 14, 15: the COP is inside sphere 0"),
+        out.contains("warning: frames 13, 14, 15: the COP is inside the sphere scene.spheres[0]: "),
         "{out}"
     );
     assert!(!out.contains("speed"), "{out}");
+
+    // A sphere of a file is named by its file and line: the same path through the second
+    // sphere of a CSV with a blank line, after an inline sphere far away.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("s.csv"),
+        "x,y,z,radius\n0,9,0,0.5\n\n0,0,0,1\n",
+    )
+    .unwrap();
+    let text = file.replace(
+        SCENE,
+        "scene: (spheres: [(center: (9.0, 0.0, 0.0), radius: 1.0)], sphere_files: [\"s.csv\"])",
+    );
+    std::fs::write(tmp.path().join("w.ron"), text).unwrap();
+    let o = campath(tmp.path(), &["check", "w.ron"], &[]);
+    let out = format!("{}{}", stdout(&o), stderr(&o));
+    assert!(
+        out.contains(
+            "warning: frames 13, 14, 15: the COP is inside the sphere \
+             scene.sphere_files[0] (s.csv: line 4): "
+        ),
+        "{out}"
+    );
 
     // A target that passes 0.05 units from the VRP, against a median distance of about 4.
     let file = format!(
