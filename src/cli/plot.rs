@@ -48,9 +48,23 @@ impl View {
     }
 }
 
-/// What the plot shows, gathered from the file.
+/// The most cameras the path is drawn through: a longer file is sampled evenly (with its last
+/// frame), finer than the panel's pixels.
+const PATH_POINTS: u64 = 20_000;
+
+/// What the plot shows, gathered from the file in one pass over its cameras, keeping only those
+/// it draws: a file of ten million frames costs no more memory than one of twenty thousand.
 struct Marks {
-    cams: Vec<Camera>,
+    /// The cameras drawn, in frame order: the path's samples and the frustums' frames.
+    cams: Vec<(u64, Camera)>,
+    /// The last frame.
+    last: u64,
+    /// Whether the VRP differs between frames.
+    moves: bool,
+    /// The box of every frame's VRP and COP.
+    bounds: (DVec3, DVec3),
+    /// The path's main horizontal direction ([`Marks::travel`]).
+    travel: DVec3,
     /// The Observer track's keys.
     keys: Vec<DVec3>,
     /// The Track keys, or the fixed target point.
@@ -58,11 +72,30 @@ struct Marks {
 }
 
 impl Marks {
-    fn of(doc: &Document) -> Result<Marks> {
-        let cams: Vec<Camera> = doc
-            .cameras()
-            .map(|r| r.map(|(_, c)| c))
-            .collect::<campath::Result<_>>()?;
+    fn of(doc: &Document, every: u64) -> Result<Marks> {
+        let last = doc.animation.frames - 1;
+        let stride = doc.animation.frames.div_ceil(PATH_POINTS);
+        let mut cams = Vec::new();
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let mut first: Option<Camera> = None;
+        let mut moves = false;
+        let mut spread = Spread::default();
+        for r in doc.cameras() {
+            let (k, cam) = r?;
+            let first = *first.get_or_insert(cam);
+            let tol = 1e-12 * (1.0 + first.vrp_world.length());
+            moves |= (cam.vrp_world - first.vrp_world).length() > tol;
+            for p in [cam.vrp_world, cam.cop_world()] {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+            spread.add(cam.vrp_world);
+            if k % stride == 0 || k % every.max(1) == 0 || k == last {
+                cams.push((k, cam));
+            }
+        }
+        let (first, end) = (cams[0].1, cams[cams.len() - 1].1);
+        let travel = spread.travel(&first, end.vrp_world - first.vrp_world);
         let a = &doc.animation;
         let keys = a
             .observer
@@ -77,6 +110,10 @@ impl Marks {
         }
         Ok(Marks {
             cams,
+            last,
+            moves,
+            bounds: (lo, hi),
+            travel,
             keys,
             targets,
         })
@@ -84,25 +121,16 @@ impl Marks {
 
     /// Whether the camera moves (its VRP differs between frames).
     fn moves(&self) -> bool {
-        let first = self.cams[0].vrp_world;
-        let tol = 1e-12 * (1.0 + first.length());
-        self.cams
-            .iter()
-            .any(|c| (c.vrp_world - first).length() > tol)
+        self.moves
     }
 
     /// The region shown: the path, keys and targets, and the spheres no larger than that
     /// region, as a centre and a half-width.
     fn region(&self, doc: &Document) -> (DVec3, f64) {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        let points = self.cams.iter().flat_map(|c| [c.vrp_world, c.cop_world()]);
-        for p in points
-            .chain(self.keys.iter().copied())
-            .chain(self.targets.iter().copied())
-        {
-            lo = lo.min(p);
-            hi = hi.max(p);
+        let (mut lo, mut hi) = self.bounds;
+        for p in self.keys.iter().chain(&self.targets) {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
         }
         let extent = (hi - lo).max_element().max(1.0);
         for s in doc.scene.spheres.iter().filter(|s| s.radius < extent) {
@@ -112,20 +140,39 @@ impl Marks {
         ((lo + hi) * 0.5, (hi - lo).max_element() * 0.55 + 1e-9)
     }
 
-    /// The path's main horizontal direction: the principal axis of the VRPs in (x, z), or the
-    /// first camera's view direction when the camera does not move.
+    /// The path's main horizontal direction.
     fn travel(&self) -> DVec3 {
-        let n = self.cams.len() as f64;
-        let mean = self.cams.iter().map(|c| c.vrp_world).sum::<DVec3>() / n;
-        let (mut xx, mut xz, mut zz) = (0.0, 0.0, 0.0);
-        for c in &self.cams {
-            let d = c.vrp_world - mean;
-            xx += d.x * d.x;
-            xz += d.x * d.z;
-            zz += d.z * d.z;
-        }
-        if xx + zz < 1e-18 {
-            let n = self.cams[0].basis.n;
+        self.travel
+    }
+}
+
+/// The spread of the VRPs in (x, z), gathered one at a time (Welford's updates: no sum of
+/// squares far larger than the spread).
+#[derive(Default)]
+struct Spread {
+    n: f64,
+    mean: DVec2,
+    xx: f64,
+    xz: f64,
+    zz: f64,
+}
+
+impl Spread {
+    fn add(&mut self, p: DVec3) {
+        self.n += 1.0;
+        let d = DVec2::new(p.x, p.z) - self.mean;
+        self.mean += d / self.n;
+        let e = DVec2::new(p.x, p.z) - self.mean;
+        self.xx += d.x * e.x;
+        self.xz += d.x * e.y;
+        self.zz += d.y * e.y;
+    }
+
+    /// The principal axis of the VRPs in (x, z), pointing from the first VRP towards the last
+    /// (`first_to_last`), or the first camera's view direction when the VRPs do not spread.
+    fn travel(&self, first: &Camera, first_to_last: DVec3) -> DVec3 {
+        if self.xx + self.zz < 1e-18 {
+            let n = first.basis.n;
             let h = DVec3::new(n.x, 0.0, n.z);
             return if h.length() > 1e-9 {
                 h.normalize()
@@ -134,20 +181,19 @@ impl Marks {
             };
         }
         // The larger eigenvector of [[xx, xz], [xz, zz]].
-        let angle = 0.5 * libm::atan2(2.0 * xz, xx - zz);
-        let mut dir = DVec3::new(libm::cos(angle), 0.0, libm::sin(angle));
-        // Pointing the way the camera travels, from the first VRP to the last.
-        let first_to_last = self.cams[self.cams.len() - 1].vrp_world - self.cams[0].vrp_world;
+        let angle = 0.5 * libm::atan2(2.0 * self.xz, self.xx - self.zz);
+        let dir = DVec3::new(libm::cos(angle), 0.0, libm::sin(angle));
         if dir.dot(first_to_last) < 0.0 {
-            dir = -dir;
+            -dir
+        } else {
+            dir
         }
-        dir
     }
 }
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
 pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
-    let marks = Marks::of(doc)?;
+    let marks = Marks::of(doc, every)?;
     let (mid, half) = marks.region(doc);
     let h = marks.travel();
     let views = [
@@ -259,10 +305,11 @@ fn outline(s: &Sphere, view: &View, (centre, half): (DVec2, f64)) -> (Points, Po
     } else {
         (0.0, std::f64::consts::TAU)
     };
-    // About 200 segments across the panel's width.
+    // About 200 segments across the panel's width (3 pixels each), and at least 16: a sphere
+    // a few pixels wide is round without 64 points (a million of them drew in 12 s).
     let steps = ((s.radius * span) / (half / 100.0))
         .ceil()
-        .clamp(64.0, 20_000.0) as usize;
+        .clamp(16.0, 20_000.0) as usize;
     let arc = |r: f64| -> Vec<(f64, f64)> {
         (0..=steps)
             .map(|k| {
@@ -319,11 +366,10 @@ fn frustums(
     view: &View,
     path: &Path,
 ) -> Result<()> {
-    let cams = &marks.cams;
     let moves = marks.moves();
-    for (k, cam) in cams.iter().enumerate() {
-        let ends = k == 0 || k + 1 == cams.len();
-        if !(k as u64).is_multiple_of(every.max(1)) && !ends {
+    for &(k, ref cam) in &marks.cams {
+        let ends = k == 0 || k == marks.last;
+        if !k.is_multiple_of(every.max(1)) && !ends {
             continue;
         }
         if !moves && !ends {
@@ -391,7 +437,7 @@ fn path_and_keys<'a>(
     let line: Vec<(f64, f64)> = marks
         .cams
         .iter()
-        .map(|c| view.project(c.vrp_world))
+        .map(|(_, c)| view.project(c.vrp_world))
         .collect();
     let (start, end) = (line[0], line[line.len() - 1]);
     // The direction of travel at the start: towards the first VRP that differs enough.
@@ -586,4 +632,47 @@ fn legend(
         x += entry_w;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_file_keeps_a_sample_of_its_cameras_and_the_measures_of_all() {
+        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/long.ron");
+        let doc = Document::load(Path::new(file)).unwrap();
+        let frames = doc.animation.frames;
+        assert_eq!(frames, 100_000);
+        let marks = Marks::of(&doc, 12_500).unwrap();
+        // Every fifth frame (20,000 points), with the frustums' frames and the last.
+        let kept: Vec<u64> = marks.cams.iter().map(|(k, _)| *k).collect();
+        assert_eq!(kept.len(), 20_001);
+        assert!(kept.iter().all(|k| k % 5 == 0 || *k == frames - 1));
+        assert_eq!(kept.last(), Some(&(frames - 1)));
+        // The bounds and the direction of travel are those of every camera, computed directly.
+        let all: Vec<Camera> = doc.cameras().map(|r| r.unwrap().1).collect();
+        let points = all.iter().flat_map(|c| [c.vrp_world, c.cop_world()]);
+        let lo = points.clone().fold(DVec3::INFINITY, DVec3::min);
+        let hi = points.fold(DVec3::NEG_INFINITY, DVec3::max);
+        assert_eq!(marks.bounds, (lo, hi));
+        let n = all.len() as f64;
+        let mean = all.iter().map(|c| c.vrp_world).sum::<DVec3>() / n;
+        let (mut xx, mut xz, mut zz) = (0.0, 0.0, 0.0);
+        for c in &all {
+            let d = c.vrp_world - mean;
+            (xx, xz, zz) = (xx + d.x * d.x, xz + d.x * d.z, zz + d.z * d.z);
+        }
+        let angle = 0.5 * (2.0 * xz).atan2(xx - zz);
+        let mut dir = DVec3::new(angle.cos(), 0.0, angle.sin());
+        if dir.dot(all[all.len() - 1].vrp_world - all[0].vrp_world) < 0.0 {
+            dir = -dir;
+        }
+        assert!(
+            (marks.travel() - dir).length() < 1e-9,
+            "{} {dir}",
+            marks.travel()
+        );
+        assert!(marks.moves());
+    }
 }
