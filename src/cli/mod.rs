@@ -255,9 +255,10 @@ enum Command {
         /// Where the preview and its page go [default: out/<file stem>-watch/].
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Width of the small frames in pixels (at most the file's width).
-        #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=16384))]
-        width: u32,
+        /// Width of the small frames in pixels [default: 240, or the file's width if smaller];
+        /// a width above the file's (which a save may change) gives the file's, and says so.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+        width: Option<u32>,
         /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
         #[arg(long)]
         no_wait: bool,

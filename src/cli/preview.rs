@@ -86,7 +86,9 @@ pub fn write(
     let (w, h) = (raster.width, raster.height);
     let rows = (sheet_at.len() as u32).div_ceil(COLUMNS);
     let cols = (sheet_at.len() as u32).min(COLUMNS);
-    let (row_h, sheet_w) = (h + LABEL, cols * w + (cols - 1) * GAP);
+    // A tile's slot is as wide as its frame number, when that is wider than the tile.
+    let slot_w = w.max(label_width(&sheet_at, w));
+    let (row_h, sheet_w) = (h + LABEL, cols * slot_w + (cols - 1) * GAP);
     let sheet_h = rows * row_h + (rows - 1) * GAP;
     let mut sheet = vec![255u8; (sheet_w * sheet_h * 3) as usize];
     // The GIF, encoded as its frames come: its bytes are all it holds.
@@ -111,7 +113,7 @@ pub fn write(
         |frame, _, pixels, _| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = (
-                    slot as u32 % COLUMNS * (w + GAP),
+                    slot as u32 % COLUMNS * (slot_w + GAP),
                     slot as u32 / COLUMNS * (row_h + GAP),
                 );
                 for y in 0..h {
@@ -141,7 +143,13 @@ pub fn write(
     )?;
     drop(encoder);
     let png = dir.join("preview.png");
-    label_frames(&mut sheet, (sheet_w, sheet_h), &sheet_at, (w, h), &png)?;
+    label_frames(
+        &mut sheet,
+        (sheet_w, sheet_h),
+        &sheet_at,
+        (w, slot_w, h),
+        &png,
+    )?;
     write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
     if !gif {
         return Ok((png, None));
@@ -152,26 +160,43 @@ pub fn write(
     Ok((png, Some(gif)))
 }
 
+/// The font of the frame numbers under tiles `w` pixels wide.
+fn label_font(w: u32) -> plotters::style::FontDesc<'static> {
+    use plotters::prelude::*;
+    super::chart::register_font();
+    (
+        "sans-serif",
+        (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0),
+    )
+        .into_font()
+}
+
+/// The width the widest frame number of `frames` needs under tiles `w` pixels wide, with its
+/// margin.
+fn label_width(frames: &[u64], w: u32) -> u32 {
+    let font = label_font(w);
+    frames
+        .iter()
+        .filter_map(|f| font.box_size(&f.to_string()).ok())
+        .map(|(width, _)| width + 4)
+        .max()
+        .unwrap_or(0)
+}
+
 /// Writes each tile's frame number in the band under it.
 fn label_frames(
     sheet: &mut [u8],
     size: (u32, u32),
     frames: &[u64],
-    (w, h): (u32, u32),
+    (w, slot_w, h): (u32, u32, u32),
     path: &Path,
 ) -> Result<()> {
     use plotters::prelude::*;
-    super::chart::register_font();
     let root = BitMapBackend::with_buffer(sheet, size).into_drawing_area();
-    let font = (
-        "sans-serif",
-        (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0),
-    )
-        .into_font()
-        .color(&BLACK);
+    let font = label_font(w).color(&BLACK);
     for (slot, frame) in frames.iter().enumerate() {
         let (x, y) = (
-            slot as u32 % COLUMNS * (w + GAP),
+            slot as u32 % COLUMNS * (slot_w + GAP),
             slot as u32 / COLUMNS * (h + LABEL + GAP) + h + 3,
         );
         root.draw(&Text::new(

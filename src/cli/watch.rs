@@ -8,7 +8,8 @@
 //! numbered within a run, and a run by the time it started, later than the folder's last, so
 //! a page left open across a restart, or a folder made again, never keeps a cached picture).
 //! An invalid save prints its error, shows it on the page, and leaves the last good preview in
-//! place. The pictures an earlier run left are removed when a run starts: the page shows this
+//! place; the error waits until the file has stayed as it is for 0.3 s, so a save in two steps
+//! (the file emptied, then written) is not reported between them. The pictures an earlier run left are removed when a run starts: the page shows this
 //! run's only.
 //!
 //! A save is noticed from the file's folder's events and, every 0.1 s, from the file's own
@@ -59,8 +60,15 @@ struct Status {
     stopped: bool,
 }
 
-/// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide.
-pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Write) -> Result<()> {
+/// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide (240 by
+/// default), at most the file's width.
+pub fn run(
+    file: &Path,
+    dir: &Path,
+    width: Option<u32>,
+    no_wait: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
     // The folder, not the file: editors often save by writing a new file and renaming it.
     let folder = match file.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -118,7 +126,15 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
     }
     write_status(dir, &status)?;
     let mut seen = stamp(file);
-    update(file, dir, width, Instant::now(), &mut status, out)?;
+    update(
+        file,
+        dir,
+        width,
+        Instant::now(),
+        &mut status,
+        &mut seen,
+        out,
+    )?;
     while !stop.load(Ordering::SeqCst) {
         let event = rx.recv_timeout(Duration::from_millis(100));
         if matches!(event, Err(mpsc::RecvTimeoutError::Disconnected)) {
@@ -146,7 +162,7 @@ pub fn run(file: &Path, dir: &Path, width: u32, no_wait: bool, out: &mut dyn Wri
             );
             return Err(Error::write(dir)(gone).into());
         }
-        update(file, dir, width, saved, &mut status, out)?;
+        update(file, dir, width, saved, &mut status, &mut seen, out)?;
     }
     // Into the folder only while it is this run's.
     if lock.still_held() {
@@ -210,23 +226,53 @@ fn watch_error(file: &Path, e: notify::Error) -> CliError {
     }
 }
 
-/// Checks the file and renders the preview; an invalid file is reported, not fatal.
+/// How long a file that fails to load must stay as it is before its error is shown: an editor
+/// that empties the file and then writes it leaves it unreadable for a moment.
+const STILL: Duration = Duration::from_millis(300);
+
+/// Checks the file (as it was at `seen`) and renders the preview; an invalid file is reported,
+/// not fatal, once it has been still for [`STILL`] (when it changes, it is rendered again).
 fn update(
     file: &Path,
     dir: &Path,
-    width: u32,
+    width: Option<u32>,
     saved: Instant,
     status: &mut Status,
+    seen: &mut Option<Vec<i128>>,
     out: &mut dyn Write,
 ) -> Result<()> {
     status.version += 1;
-    match render(file, dir, width) {
-        Ok(frames) => {
+    let mut result = render(file, dir, width);
+    for _ in 0..10 {
+        if !matches!(result, Err(ref e) if !matches!(e, CliError::Campath(Error::Write { .. }))) {
+            break;
+        }
+        let still_since = Instant::now();
+        while stamp(file) == *seen && still_since.elapsed() < STILL {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        if stamp(file) == *seen {
+            break;
+        }
+        // Written again: let the writes settle, then render what is there now.
+        std::thread::sleep(Duration::from_millis(30));
+        *seen = stamp(file);
+        result = render(file, dir, width);
+    }
+    match result {
+        Ok((frames, used)) => {
             status.good = status.version;
             status.error = None;
             status.frames = frames;
             status.ms = saved.elapsed().as_millis() as u64;
-            writeln!(out, "updated the preview in {} ms", status.ms).map_err(Error::stdout)?;
+            let narrower = match width {
+                Some(asked) if asked > used => {
+                    format!(" ({used} px wide, the file's width: --width {asked} is wider)")
+                }
+                _ => String::new(),
+            };
+            writeln!(out, "updated the preview in {} ms{narrower}", status.ms)
+                .map_err(Error::stdout)?;
         }
         // I/O trouble in the output folder ends the watch; anything about the file is shown.
         Err(CliError::Campath(e @ Error::Write { .. })) => return Err(e.into()),
@@ -244,12 +290,13 @@ fn write_status(dir: &Path, status: &Status) -> Result<()> {
     Ok(write_atomic(&dir.join("status.js"), &text)?)
 }
 
-/// The preview of the file as it is now; returns the frames shown as first, middle and last.
-fn render(file: &Path, dir: &Path, width: u32) -> Result<[u64; 3]> {
+/// The preview of the file as it is now; returns the frames shown as first, middle and last,
+/// and the preview's width.
+fn render(file: &Path, dir: &Path, width: Option<u32>) -> Result<([u64; 3], u32)> {
     let doc = Document::load(file)?;
     doc.check_path()?;
     let frames = doc.animation.frames;
-    let width = width.clamp(1, doc.raster.width);
+    let width = width.unwrap_or(240).clamp(1, doc.raster.width);
     preview::write(&doc, dir, width, frames.min(12), false)?;
     plot::write(&doc, &dir.join("plot.png"), (frames / 8).max(1))?;
     let small = Document {
@@ -267,7 +314,7 @@ fn render(file: &Path, dir: &Path, width: u32) -> Result<[u64; 3]> {
             Compression::Fast,
         )?;
     }
-    Ok(shown)
+    Ok((shown, width))
 }
 
 /// The page: the pictures, the file's error if the last save was invalid, and the polling.

@@ -606,6 +606,43 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     let last = campath::frames::hashes(&doc, 47..48).unwrap();
     // The sixth tile: second row, second column.
     assert_eq!(tile_hash(&sheet, (60 + 2, 34 + 16 + 2)), last[0].1);
+
+    // Tiles narrower than their frame numbers: each slot is widened to its number, and no
+    // number runs into the gap between slots.
+    let o = campath(
+        tmp.path(),
+        &[
+            "preview", "long.ron", "--out", "t", "--width", "3", "--count", "6",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let sheet = image::open(tmp.path().join("t/preview.png"))
+        .unwrap()
+        .to_rgb8();
+    let slot = (sheet.width() - 3 * 2) / 4;
+    assert!(slot > 6, "{slot}");
+    for row in 0..2 {
+        let band = row * (2 + 16 + 2) + 2..row * (2 + 16 + 2) + 2 + 16;
+        let ink = |x: u32| {
+            band.clone()
+                .any(|y| sheet.get_pixel(x, y).0.iter().all(|&c| c < 160))
+        };
+        let slots = if row == 0 { 4 } else { 2 };
+        for k in 0..slots {
+            let x0 = k * (slot + 2);
+            assert!(
+                (x0..x0 + slot).any(ink),
+                "no number in slot {k} of row {row}"
+            );
+            if k + 1 < slots {
+                assert!(
+                    !(x0 + slot..x0 + slot + 2).any(ink),
+                    "slot {k} of row {row}"
+                );
+            }
+        }
+    }
 }
 
 #[test]

@@ -45,7 +45,7 @@ fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
     let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
         .current_dir(tmp.path())
         .args(["watch", "w.ron", "--out", "page", "--width", "48"])
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -65,14 +65,27 @@ fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
     assert_ne!(std::fs::read(page.join("first.png")).unwrap(), first);
     eprintln!("watch: save to new preview in {} ms", took.as_millis());
 
+    // A save in two steps, the file emptied and written 100 ms later (as some editors save):
+    // the empty file is never shown as an error.
+    let green = FILE.replace("color: (0.9, 0.2, 0.2)", "color: (0.2, 0.9, 0.2)");
+    let mut f = std::fs::File::create(tmp.path().join("w.ron")).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    std::io::Write::write_all(&mut f, green.as_bytes()).unwrap();
+    drop(f);
+    let s = wait_status(&page, Duration::from_secs(5), |s| {
+        s["good"].as_u64() > Some(2) && s["good"] == s["version"]
+    });
+    assert!(s["error"].is_null(), "{s}");
+    let good = s["good"].clone();
+
     // A broken save: the error is shown, the last good preview stays, the watcher runs on.
     std::fs::write(
         tmp.path().join("w.ron"),
         "(frames: 6,\n  camera: (vpn: (0.0, 0.0 1.0)))",
     )
     .unwrap();
-    let s = wait_status(&page, Duration::from_secs(5), |s| s["version"] == 3);
-    assert_eq!(s["good"], 2);
+    let s = wait_status(&page, Duration::from_secs(5), |s| !s["error"].is_null());
+    assert_eq!(s["good"], good);
     assert!(s["error"].as_str().unwrap().contains("w.ron:2:"), "{s}");
     std::thread::sleep(Duration::from_millis(200));
     assert!(child.try_wait().unwrap().is_none(), "the watcher stopped");
@@ -83,14 +96,34 @@ fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
         assert!(count([176, 0, 32]) > 1000, "the error banner is not shown");
     }
 
+    // A save narrower than --width: the preview takes the file's width, and says so.
+    std::fs::write(
+        tmp.path().join("w.ron"),
+        FILE.replace("width: 64, height: 36", "width: 40, height: 36"),
+    )
+    .unwrap();
+    wait_status(&page, Duration::from_secs(5), |s| s["error"].is_null());
+    let png = image::open(page.join("first.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (40, 36));
+
     // Ctrl-C ends it with status 0.
     let kill = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
-    let status = child.wait().unwrap();
-    assert_eq!(status.code(), Some(0));
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    let said = String::from_utf8_lossy(&o.stdout);
+    let lines: Vec<&str> = said.lines().filter(|l| l.starts_with("updated")).collect();
+    assert!(!lines[1].contains("px wide"), "{said}");
+    assert!(
+        lines[lines.len() - 1].ends_with(" ms (40 px wide, the file's width: --width 48 is wider)"),
+        "{said}"
+    );
+    // The broken save's error alone was reported.
+    let errors = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(errors.matches("campath: error").count(), 1, "{errors}");
 }
 
 /// The page in `page` as headless Chromium shows it: how many pixels have a colour (None, with
