@@ -120,10 +120,27 @@ fn choice<T: Copy + Send + Sync + 'static, const N: usize>(
     })
 }
 
-/// `--format`, or the one `--out`'s extension says (CSV when neither says); a `--format` that
-/// another known extension contradicts is refused.
+/// `--format`, or the one `--out`'s extension says (CSV when neither says: `--out` without an
+/// extension, or `.txt`); a `--format` that another known extension contradicts is refused, and
+/// so is an extension no format has without `--format` (`.usdc` and `.usdz` are USD's, which
+/// [`super::verbs::path`] refuses with a way to convert).
 pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<PathFormat> {
     let by_name = out.and_then(PathFormat::of_extension);
+    let ext = out
+        .and_then(|p| p.extension())
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match (format, by_name, ext.as_deref()) {
+        (None, None, Some("usdc" | "usdz")) => return Ok(PathFormat::Usd),
+        (None, None, Some("txt")) => return Ok(PathFormat::Csv),
+        (None, None, Some(ext)) => {
+            return Err(CliError::Usage(format!(
+                "--out {}: no format is written as .{ext}; name the file .csv, .json, .chan, \
+                 .gltf, .glb, .py or .usda, or give --format",
+                out.expect("an extension comes from --out").display()
+            )))
+        }
+        _ => {}
+    }
     match (format, by_name) {
         (Some(f), Some(n)) if f != n => {
             let out = out.expect("an extension comes from --out");
@@ -278,6 +295,9 @@ mod tests {
             PathFormat::Chan
         );
         assert!(r(Some(PathFormat::Csv), "x.glb").is_err());
+        assert!(r(None, "x.fbx").is_err());
+        assert_eq!(r(None, "x.usdz").unwrap(), PathFormat::Usd);
+        assert_eq!(r(None, "cameras").unwrap(), PathFormat::Csv);
         assert_eq!(resolve_format(None, None).unwrap(), PathFormat::Csv);
     }
 }

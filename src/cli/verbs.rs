@@ -387,7 +387,7 @@ pub fn path(
         if let Some(ext) = file_out.and_then(|p| p.extension()) {
             if !ext.eq_ignore_ascii_case("usda") && !ext.eq_ignore_ascii_case("usd") {
                 return Err(CliError::Usage(format!(
-                    "--format usd writes USD's text form: name the file .usda (or .usd), not .{}; \
+                    "campath writes USD's text form: name the file .usda (or .usd), not .{}; \
                      OpenUSD converts it, e.g. in Python: pxr.Sdf.Layer.FindOrOpen(\"shot.usda\").Export(\"shot.usdc\")",
                     ext.to_string_lossy()
                 )));

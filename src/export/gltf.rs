@@ -5,7 +5,9 @@
 //!   u, v, n (the columns of the rotation are u, v and −n, a proper rotation since u × v = −n),
 //!   sampled LINEAR at the frame times t = k / fps. Its `yfov` is the window's height seen from
 //!   the COP and its aspect the window's; a Zoom track animates `yfov` through
-//!   `KHR_animation_pointer` (used, not required). An off-axis COP has no place in glTF.
+//!   `KHR_animation_pointer` (used, not required). An off-axis COP has no place in glTF. Its
+//!   `znear` is the USD export's near ([`clipping_range`]), its far infinite: nothing campath
+//!   draws is clipped.
 //! - Spheres share one unit sphere's geometry; each is a node scaled by its radius, with a mesh
 //!   that pairs the shared geometry with its own colour.
 //! - Lights are `KHR_lights_punctual` directional lights, pointing their node's −Z along the
@@ -20,6 +22,7 @@ use serde_json::{json, Value};
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
+use crate::export::clipping_range;
 
 /// Segments around and rings from pole to pole of the shared unit sphere.
 const SEGMENTS: u32 = 48;
@@ -158,10 +161,10 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
     let (mut times, mut translations, mut rotations, mut fovs) = (vec![], vec![], vec![], vec![]);
     let mut previous: Option<DQuat> = None;
     let mut off_axis = 0;
-    let mut first: Option<Camera> = None;
+    let mut cams: Vec<Camera> = Vec::new();
     for item in doc.cameras() {
         let (frame, cam) = item?;
-        first.get_or_insert(cam);
+        cams.push(cam);
         times.push(doc.animation.time(frame) as f32);
         translations.extend(f32s(cam.cop_world()));
         let mut q = camera_rotation(&cam);
@@ -175,7 +178,9 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
         fovs.push(yfov(&cam) as f32);
         off_axis += u64::from(cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0);
     }
-    let first = first.expect("an animation has a frame");
+    let first = cams[0];
+    // As USD's near: nothing campath draws is clipped (no far: glTF's is then infinite).
+    let (near, _) = clipping_range(&doc.scene.spheres, &cams);
     let time = buf.floats(&times, 1, None, true);
     let translation = buf.floats(&translations, 3, None, false);
     let rotation = buf.floats(&rotations, 4, None, false);
@@ -264,7 +269,7 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
         "cameras": [{"type": "perspective", "perspective": {
             "yfov": yfov(&first) as f32,
             "aspectRatio": aspect as f32,
-            "znear": 0.01,
+            "znear": near as f32,
         }}],
         "animations": [{"name": "camera", "samplers": samplers, "channels": channels}],
         "buffers": [buffer],

@@ -80,6 +80,14 @@ fn prim_name(stem: &str) -> String {
     name
 }
 
+/// The shot's top prim: the file's stem as a prim name, apart from the stage's `/Render` scope.
+fn root_name(stem: &str) -> String {
+    match prim_name(stem) {
+        name if name == "Render" => "Render_shot".into(),
+        name => name,
+    }
+}
+
 /// A string in USDA's quotes: `"` and `\` escaped, control characters as spaces.
 fn quoted(s: &str) -> String {
     let mut out = String::from("\"");
@@ -147,7 +155,7 @@ pub fn usda(doc: &Document) -> Result<String> {
     let window = doc.animation.window;
     let pixel_aspect = (window.x / window.y) / (r.width as f64 / r.height as f64);
     let fps = doc.animation.fps;
-    let root = prim_name(
+    let root = root_name(
         &doc.path
             .file_stem()
             .map_or_else(|| "shot".into(), |s| s.to_string_lossy()),
@@ -341,5 +349,7 @@ mod tests {
         assert_eq!(prim_name("distort"), "distort");
         assert_eq!(prim_name("2 shots-b"), "_2_shots_b");
         assert_eq!(prim_name(""), "_");
+        assert_eq!(root_name("Render"), "Render_shot");
+        assert_eq!(root_name("render"), "render");
     }
 }

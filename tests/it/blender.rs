@@ -4,8 +4,10 @@
 //! where campath puts it (to 1e-5). The script's scene has campath's motion blur: on with the
 //! shutter and centred on the frame where the file has it, off where not.
 
+use std::path::PathBuf;
 use std::process::Command;
 
+use campath::document::Document;
 use glam::DVec3;
 
 use crate::common::{
@@ -229,22 +231,60 @@ fn blender_keeps_wide_far_near_and_blurred_cameras() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let shots = export_edge_shots(tmp.path(), "py");
-    let jobs: Vec<serde_json::Value> = shots
+    let jobs = edge_jobs(tmp.path(), &shots);
+    run_blender(tmp.path(), CHECK_EDGES, &jobs);
+    assert_edges(&shots, &jobs);
+}
+
+/// The same in Blender 5 (PyPI's bpy), whose actions keep their F-curves in slots.
+#[test]
+fn blender_5_builds_the_same_cameras_from_the_script() {
+    if !crate::usd::have_module("bpy", "bpy") {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let shots = export_edge_shots(tmp.path(), "py");
+    let jobs = edge_jobs(tmp.path(), &shots);
+    std::fs::write(tmp.path().join("check.py"), CHECK_EDGES).unwrap();
+    std::fs::write(
+        tmp.path().join("jobs.json"),
+        serde_json::to_string(&jobs).unwrap(),
+    )
+    .unwrap();
+    let o = Command::new(crate::usd::python())
+        .current_dir(tmp.path())
+        .args(["check.py", "--", "jobs.json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_edges(&shots, &jobs);
+}
+
+/// The jobs of [`CHECK_EDGES`] for `shots`: each script, the scene frames of its shutter's ends,
+/// and where its result goes.
+fn edge_jobs(
+    dir: &std::path::Path,
+    shots: &[(&'static str, PathBuf, Document)],
+) -> Vec<serde_json::Value> {
+    shots
         .iter()
         .map(|(name, script, doc)| {
             // Scene frame f is campath frame f − 1.
             let frames: Vec<f64> = shutter_ends(doc).iter().map(|&(t, _)| t + 1.0).collect();
             serde_json::json!({
                 "script": script, "frames": frames,
-                "out": tmp.path().join(format!("{name}.json")),
+                "out": dir.join(format!("{name}.json")),
             })
         })
-        .collect();
-    run_blender(tmp.path(), CHECK_EDGES, &jobs);
+        .collect()
+}
+
+/// What [`CHECK_EDGES`] recorded is campath's camera.
+fn assert_edges(shots: &[(&'static str, PathBuf, Document)], jobs: &[serde_json::Value]) {
     // campath's horizontal field of view in radians.
     let angle = |cam: &campath::camera::Camera| 2.0 * (cam.window.x / 2.0 / -cam.cop_view.z).atan();
     let mut ends = 0;
-    for ((name, _, doc), job) in shots.iter().zip(&jobs) {
+    for ((name, _, doc), job) in shots.iter().zip(jobs) {
         let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
         let r: serde_json::Value = serde_json::from_str(&text).unwrap();
         let f = |v: &serde_json::Value| v.as_f64().unwrap();

@@ -288,12 +288,28 @@ fn output_paths_say_the_format_and_are_checked_before_any_work() {
     }
     let py = std::fs::read_to_string(tmp.path().join("shot.py")).unwrap();
     assert!(py.contains("import bpy"), "{py}");
+    // A file name with line breaks stays inside the script's first comment line.
+    let odd = "shot\nprint(\"from the name\")\n#.ron";
+    std::fs::copy(tmp.path().join(&f), tmp.path().join(odd)).unwrap();
+    let o = campath(tmp.path(), &["path", odd, "--format", "blender"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let script = stdout(&o);
+    assert!(script.lines().all(|l| !l.starts_with("print(")), "{script}");
+    assert!(
+        script.starts_with("# The campath shot \"shot\\nprint(\\\"from the name\\\")\\n#.ron\""),
+        "{script}"
+    );
     // Given both, they must agree; nothing is written otherwise.
     std::fs::create_dir(tmp.path().join("clips")).unwrap();
     for (args, want) in [
         (
             &["path", &f, "--format", "csv", "--out", "x.glb"][..],
             "--out x.glb names a glTF file, but --format csv writes CSV",
+        ),
+        (
+            &["path", &f, "--out", "x.fbx"],
+            "--out x.fbx: no format is written as .fbx; name the file .csv, .json, .chan, .gltf, \
+             .glb, .py or .usda, or give --format",
         ),
         (
             &["plot", &f, "--out", "plot.jpg"],

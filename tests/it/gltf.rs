@@ -143,3 +143,22 @@ fn the_camera_from_the_files_samplers_is_campaths_at_every_frame() {
         }
     }
 }
+
+#[test]
+fn the_near_plane_clips_nothing_campath_draws() {
+    // A sphere of radius 0.001 whose surface is 0.005 in front of the COP (at z = −1, 1 unit
+    // behind the VRP): a fixed near plane of 0.01 hid it.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("small.ron"),
+        "(frames: 2, camera: (vrp: (0.0, 0.0, 0.0), vpn: (0.0, 0.0, 1.0)),
+          scene: (spheres: [(center: (0.0, 0.0, -0.994), radius: 0.001)]))",
+    )
+    .unwrap();
+    let o = campath(tmp.path(), &["path", "small.ron", "--format", "gltf"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let gltf: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let znear = gltf["cameras"][0]["perspective"]["znear"].as_f64().unwrap();
+    assert!(znear > 0.0 && znear <= 0.005, "{znear}");
+    assert!(gltf["cameras"][0]["perspective"].get("zfar").is_none());
+}

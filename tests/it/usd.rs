@@ -21,13 +21,13 @@ use crate::common::{
 };
 
 /// The Python interpreter for the checks.
-fn python() -> PathBuf {
+pub fn python() -> PathBuf {
     std::env::var_os("CAMPATH_PYTHON").map_or_else(|| "python3".into(), PathBuf::from)
 }
 
 /// Whether the Python imports `module`; otherwise the check is skipped with a printed reason, or
 /// fails under CAMPATH_REQUIRE_TOOLS=1.
-fn have_module(module: &str, package: &str) -> bool {
+pub fn have_module(module: &str, package: &str) -> bool {
     let python = python();
     let o = Command::new(&python)
         .args(["-c", &format!("import {module}")])
@@ -659,15 +659,15 @@ fn usd_goes_to_stdout_or_a_usda_file_and_refuses_the_binary_forms() {
         std::fs::read(tmp.path().join("shot.usda")).unwrap(),
         o.stdout
     );
+    // Binary USD, with --format usd or by its extension alone (which once wrote CSV there).
     for binary in ["shot.usdc", "shot.usdz"] {
-        let o = campath(
-            tmp.path(),
-            &["path", file, "--format", "usd", "--out", binary],
-            &[],
-        );
-        assert_eq!(o.status.code(), Some(2), "{binary}");
-        assert!(stderr(&o).contains(".usda"), "{}", stderr(&o));
-        assert!(!tmp.path().join(binary).exists());
+        for format in [&["--format", "usd"][..], &[]] {
+            let args = [&["path", file, "--out", binary][..], format].concat();
+            let o = campath(tmp.path(), &args, &[]);
+            assert_eq!(o.status.code(), Some(2), "{binary}");
+            assert!(stderr(&o).contains(".usda"), "{}", stderr(&o));
+            assert!(!tmp.path().join(binary).exists());
+        }
     }
     // The extension in capitals names the same form: `.USDA` is USD's text, `.GLB` binary glTF.
     let o = campath(tmp.path(), &["path", file, "--out", "SHOT.USDA"], &[]);
