@@ -367,9 +367,9 @@ pub fn render(
     check_folder(dir)?;
     let plan = plan(doc, dir, set, options.force)?;
     // The video `video` makes in the folder is made of its frames: a run that changes any
-    // removes it first.
+    // removes it first, and what a stopped encode of it left.
     if set.count() > plan.kept.len() as u64 || !plan.stale.is_empty() {
-        for ext in ["mp4", "mkv"] {
+        for ext in ["mp4", "mkv", "mp4.tmp", "mkv.tmp"] {
             remove(&video_path(dir, &doc.path, ext))?;
         }
     }

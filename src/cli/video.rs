@@ -121,9 +121,12 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     let mut tmp = video.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
+    // As a `file:` URL: a name that begins with `-` is not an option to ffmpeg.
+    let mut url = std::ffi::OsString::from("file:");
+    url.push(&tmp);
     let mut child = Command::new("ffmpeg")
         .args(ffmpeg_args(&doc, a.lossless, a.crf))
-        .arg(&tmp)
+        .arg(url)
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -197,14 +200,22 @@ fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
             "-c:v", "ffv1", "-level", "3", "-pix_fmt", "bgr0", "-f", "matroska",
         ]
     } else {
-        // yuv420p needs even sides: pad odd ones by a pixel.
+        // yuv420p needs even sides: pad odd ones by a pixel. The sRGB levels go to Y'CbCr by
+        // BT.709's matrix in limited range, and the stream says so (untagged, players guess,
+        // and HD players guess BT.709 where ffmpeg's default matrix is BT.601's).
         &[
             "-c:v",
             "libx264",
-            "-pix_fmt",
-            "yuv420p",
             "-vf",
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2,scale=out_color_matrix=bt709:out_range=tv:flags=accurate_rnd+full_chroma_int,format=yuv420p",
+            "-colorspace",
+            "bt709",
+            "-color_primaries",
+            "bt709",
+            "-color_trc",
+            "iec61966-2-1",
+            "-color_range",
+            "tv",
             "-movflags",
             "+faststart",
             "-f",

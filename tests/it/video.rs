@@ -68,17 +68,20 @@ fn the_default_mp4_has_the_right_frames_rate_and_duration() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let f = example(tmp.path(), "width: 95, height: 53");
+    // A name that begins with `-` is a file to ffmpeg, not an option.
     let o = campath(
         tmp.path(),
-        &["video", &f, "--quiet", "--out", "clip.mp4"],
+        &["video", &f, "--quiet", "--out=-clip.mp4"],
         &[],
     );
     assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::rename(tmp.path().join("-clip.mp4"), tmp.path().join("clip.mp4")).unwrap();
     let probe = Command::new("ffprobe")
         .args(["-v", "error", "-select_streams", "v:0", "-count_frames"])
         .args([
             "-show_entries",
-            "stream=nb_read_frames,r_frame_rate,width,height,pix_fmt,codec_name",
+            "stream=nb_read_frames,r_frame_rate,width,height,pix_fmt,codec_name,\
+             color_range,color_space,color_primaries,color_transfer",
         ])
         .args(["-show_entries", "format=duration", "-of", "json"])
         .arg(tmp.path().join("clip.mp4"))
@@ -90,6 +93,16 @@ fn the_default_mp4_has_the_right_frames_rate_and_duration() {
     assert_eq!(s["pix_fmt"], "yuv420p");
     assert_eq!(s["nb_read_frames"], "72");
     assert_eq!(s["r_frame_rate"], "24/1");
+    // Tagged as what it is: BT.709's matrix and primaries in limited range, sRGB levels.
+    assert_eq!(
+        [
+            &s["color_range"],
+            &s["color_space"],
+            &s["color_primaries"],
+            &s["color_transfer"]
+        ],
+        ["tv", "bt709", "bt709", "iec61966-2-1"]
+    );
     assert_eq!(
         (s["width"].as_u64(), s["height"].as_u64()),
         (Some(96), Some(54))
@@ -97,7 +110,37 @@ fn the_default_mp4_has_the_right_frames_rate_and_duration() {
     let duration: f64 = v["format"]["duration"].as_str().unwrap().parse().unwrap();
     assert!((duration - 3.0).abs() < 0.05, "duration {duration}");
     // No temporary file is left beside it.
-    assert!(!tmp.path().join("clip.mp4.tmp").exists());
+    assert!(!tmp.path().join("-clip.mp4.tmp").exists());
+
+    // Decoded by the matrix it is tagged with, frame 0 is the PNG's levels within H.264's
+    // loss: within 2.5 levels on average in each channel (a small frame, mostly edges), and
+    // closer than by BT.601's matrix (which the video once used, untagged).
+    let png = image::open(tmp.path().join("out/zoom/frame_0000.png"))
+        .unwrap()
+        .to_rgb8();
+    let error = |matrix: &str| -> [f64; 3] {
+        let o = Command::new("ffmpeg")
+            .args(["-v", "error", "-i"])
+            .arg(tmp.path().join("clip.mp4"))
+            .args(["-frames:v", "1", "-vf"])
+            .arg(format!(
+                "scale=in_color_matrix={matrix}:in_range=tv:out_range=pc:\
+                 flags=accurate_rnd+full_chroma_int,crop=95:53:0:0,format=rgb24"
+            ))
+            .args(["-f", "rawvideo", "-pix_fmt", "rgb24", "-"])
+            .output()
+            .unwrap();
+        assert_eq!(o.stdout.len(), png.as_raw().len(), "{}", stderr(&o));
+        let mut sums = [0.0; 3];
+        for (i, (a, b)) in o.stdout.iter().zip(png.as_raw()).enumerate() {
+            sums[i % 3] += (f64::from(*a) - f64::from(*b)).abs();
+        }
+        sums.map(|s| s / (95.0 * 53.0))
+    };
+    let (bt709, bt601) = (error("bt709"), error("bt601"));
+    for c in 0..3 {
+        assert!(bt709[c] < 2.5 && bt709[c] < bt601[c], "{bt709:?} {bt601:?}");
+    }
 }
 
 #[test]
@@ -150,6 +193,16 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
     child.wait().unwrap();
     std::thread::sleep(std::time::Duration::from_millis(300)); // ffmpeg sees its input end
     assert!(!tmp.path().join("out/zoom/zoom.mp4").exists());
+    // What the stopped encode left goes with the frames it was made of: a render that changes
+    // them removes it.
+    assert!(partial.exists());
+    let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
+    let edited = text.replacen("fps: 24.0", "fps: 25.0", 1);
+    assert_ne!(edited, text, "the example's rate moved");
+    std::fs::write(tmp.path().join(&f), edited).unwrap();
+    let o = campath(tmp.path(), &["render", &f, "--quiet"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!partial.exists());
     // Run again: it completes.
     let o = campath(tmp.path(), &["video", &f, "--quiet"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
