@@ -194,9 +194,8 @@ impl Shot {
     }
 
     /// [`Shot::load`], first taking the shot's lock when `options.update` (waiting for another
-    /// approval of the same shot to finish), and clearing what a killed approval left. A check
-    /// clears that too when no approval holds the lock, as far as it can (a check writes
-    /// nothing it must).
+    /// approval of the same shot to finish), and clearing what a killed approval left (a check
+    /// leaves that to [`clear_left_approvals`]).
     pub fn open(path: &Path, options: Options) -> Result<Shot> {
         let lock = if options.update {
             let file = std::fs::File::open(path).map_err(Error::read(path))?;
@@ -206,13 +205,6 @@ impl Shot {
             }
             Some(file)
         } else {
-            if let Ok(file) = std::fs::File::open(path) {
-                if file.try_lock().is_ok() {
-                    for stale in staging_dirs(path) {
-                        let _ = std::fs::remove_dir_all(&stale);
-                    }
-                }
-            }
             None
         };
         let doc = Document::load(path)?;
@@ -373,6 +365,37 @@ fn staging_prefix(shot: &Path) -> std::ffi::OsString {
     name
 }
 
+/// Removes, as far as it can, the staging folders that killed approvals left in `folder`:
+/// those of shots no approval holds the lock of now. The folder is listed once, so a check of
+/// every shot of a folder costs one listing. A check writes nothing it must: a folder that
+/// cannot be read or removed is left.
+pub fn clear_left_approvals(folder: &Path) {
+    let folder = if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    };
+    for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
+        let name = entry.file_name();
+        let bytes = name.as_encoded_bytes();
+        let Some(at) = bytes.windows(15).position(|w| w == b".golden.update-") else {
+            continue;
+        };
+        if at < 2 || bytes[0] != b'.' {
+            continue;
+        }
+        // The shot's stem lies between the dot and `.golden.update-` (a stem that is not
+        // UTF-8 is left to its next approval).
+        let Ok(stem) = std::str::from_utf8(&bytes[1..at]) else {
+            continue;
+        };
+        let shot = folder.join(format!("{stem}.ron"));
+        if std::fs::File::open(&shot).is_ok_and(|f| f.try_lock().is_ok()) {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+}
+
 /// Staging folders of `shot` that approvals left (killed before they finished).
 fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
     let prefix = staging_prefix(shot);
@@ -425,6 +448,9 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
         update,
         keep_frames,
     };
+    if !update {
+        clear_left_approvals(shot.parent().unwrap_or(Path::new(".")));
+    }
     let run = match run_shot(shot, options, |_, _| Ok(())) {
         Ok(run) => run,
         Err(e) => panic!("campath shot {}: {e}", shot.display()),

@@ -75,6 +75,21 @@ impl Marks {
     fn of(doc: &Document, every: u64) -> Result<Marks> {
         let last = doc.animation.frames - 1;
         let stride = doc.animation.frames.div_ceil(PATH_POINTS);
+        // The frames about each Observer key, where the path may turn or jump (a Step key):
+        // kept whatever the stride.
+        let fps = doc.animation.fps;
+        let turns: std::collections::BTreeSet<u64> = doc
+            .animation
+            .observer
+            .as_ref()
+            .map_or(&[][..], |o| o.keys())
+            .iter()
+            .flat_map(|k| {
+                let at = (k.t * fps).clamp(0.0, last as f64);
+                let (lo, hi) = (at.floor() as u64, at.ceil() as u64);
+                lo.saturating_sub(1)..=(hi + 1).min(last)
+            })
+            .collect();
         let mut cams = Vec::new();
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         let mut first: Option<Camera> = None;
@@ -90,7 +105,7 @@ impl Marks {
                 hi = hi.max(p);
             }
             spread.add(cam.vrp_world);
-            if k % stride == 0 || k % every.max(1) == 0 || k == last {
+            if k % stride == 0 || k % every.max(1) == 0 || k == last || turns.contains(&k) {
                 cams.push((k, cam));
             }
         }
@@ -647,8 +662,11 @@ mod tests {
         let marks = Marks::of(&doc, 12_500).unwrap();
         // Every fifth frame (20,000 points), with the frustums' frames and the last.
         let kept: Vec<u64> = marks.cams.iter().map(|(k, _)| *k).collect();
-        assert_eq!(kept.len(), 20_001);
-        assert!(kept.iter().all(|k| k % 5 == 0 || *k == frames - 1));
+        // With the frames about each Observer key.
+        let turns: Vec<u64> = kept.iter().copied().filter(|k| k % 5 != 0).collect();
+        let keys = doc.animation.observer.as_ref().unwrap().keys().len();
+        assert!(turns.len() <= 3 * keys, "{turns:?}");
+        assert_eq!(kept.len(), 20_000 + turns.len());
         assert_eq!(kept.last(), Some(&(frames - 1)));
         // The bounds and the direction of travel are those of every camera, computed directly.
         let all: Vec<Camera> = doc.cameras().map(|r| r.unwrap().1).collect();
@@ -674,5 +692,22 @@ mod tests {
             marks.travel()
         );
         assert!(marks.moves());
+    }
+
+    #[test]
+    fn a_step_key_held_between_samples_stays_on_the_path() {
+        // 40,001 frames, sampled every third: B is held for frame 20,000 alone, which is not a
+        // multiple of 3.
+        let text = "(frames: 40001, fps: 1.0, camera: (vrp: (0.0, 0.0, 0.0), vpn: (0.0, 0.0, 1.0)),
+            animate: [Observer(keys: [(t: 0.0, value: (0.0, 0.0, 0.0)),
+                (t: 20000.0, value: (10.0, 0.0, 0.0)), (t: 20001.0, value: (10.0, 0.0, 10.0))],
+                interpolation: Step)])";
+        let doc = Document::from_str(Path::new("step.ron"), text).unwrap();
+        let marks = Marks::of(&doc, 7000).unwrap();
+        let b = DVec3::new(10.0, 0.0, 0.0);
+        assert!(marks
+            .cams
+            .iter()
+            .any(|(k, c)| *k == 20_000 && c.vrp_world == b));
     }
 }

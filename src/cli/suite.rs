@@ -113,6 +113,15 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         failures::claim(dir, "--review", &goldens, review::is_review_file)?;
     }
 
+    // What killed approvals left beside the goldens: a check clears it, a folder at a time.
+    if !a.update {
+        let folders: std::collections::BTreeSet<&Path> =
+            shots.iter().filter_map(|s| s.parent()).collect();
+        for folder in folders {
+            campath::testing::clear_left_approvals(folder);
+        }
+    }
+
     // Shots run side by side; their lines are printed in shot order as soon as each is known.
     let next = AtomicUsize::new(0);
     let results: Mutex<BTreeMap<usize, Checked>> = Mutex::new(BTreeMap::new());

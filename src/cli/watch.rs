@@ -133,6 +133,7 @@ pub fn run(
         Instant::now(),
         &mut status,
         &mut seen,
+        &stop,
         out,
     )?;
     while !stop.load(Ordering::SeqCst) {
@@ -162,7 +163,10 @@ pub fn run(
             );
             return Err(Error::write(dir)(gone).into());
         }
-        update(file, dir, width, saved, &mut status, &mut seen, out)?;
+        update(file, dir, width, saved, &mut status, &mut seen, &stop, out)?;
+        // The events of the saves that update rendered (a save in two steps) are done with; a
+        // save since then shows in the file's state.
+        while rx.try_recv().is_ok() {}
     }
     // Into the folder only while it is this run's.
     if lock.still_held() {
@@ -231,7 +235,9 @@ fn watch_error(file: &Path, e: notify::Error) -> CliError {
 const STILL: Duration = Duration::from_millis(300);
 
 /// Checks the file (as it was at `seen`) and renders the preview; an invalid file is reported,
-/// not fatal, once it has been still for [`STILL`] (when it changes, it is rendered again).
+/// not fatal, once it has been still for [`STILL`] (when it changes, it is rendered again, for
+/// at most 2 s, and not after Ctrl-C).
+#[allow(clippy::too_many_arguments)]
 fn update(
     file: &Path,
     dir: &Path,
@@ -239,16 +245,19 @@ fn update(
     saved: Instant,
     status: &mut Status,
     seen: &mut Option<Vec<i128>>,
+    stop: &AtomicBool,
     out: &mut dyn Write,
 ) -> Result<()> {
     status.version += 1;
+    let started = Instant::now();
     let mut result = render(file, dir, width);
-    for _ in 0..10 {
+    while started.elapsed() < Duration::from_secs(2) && !stop.load(Ordering::SeqCst) {
         if !matches!(result, Err(ref e) if !matches!(e, CliError::Campath(Error::Write { .. }))) {
             break;
         }
         let still_since = Instant::now();
-        while stamp(file) == *seen && still_since.elapsed() < STILL {
+        while stamp(file) == *seen && still_since.elapsed() < STILL && !stop.load(Ordering::SeqCst)
+        {
             std::thread::sleep(Duration::from_millis(20));
         }
         if stamp(file) == *seen {
