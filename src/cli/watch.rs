@@ -9,8 +9,8 @@
 //! a page left open across a restart, or a folder made again, never keeps a cached picture).
 //! An invalid save prints its error, shows it on the page, and leaves the last good preview in
 //! place; the error waits until the file has stayed as it is for 0.3 s, so a save in two steps
-//! (the file emptied, then written) is not reported between them. The pictures an earlier run left are removed when a run starts: the page shows this
-//! run's only.
+//! (the file emptied, then written) is not reported between them. The pictures an earlier run
+//! left are removed when a run starts: the page shows this run's only.
 //!
 //! A save is noticed from the file's folder's events and, every 0.1 s, from the file's own
 //! state (which file its path resolves to, its size and times): so a folder removed and made
