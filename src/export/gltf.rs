@@ -17,6 +17,7 @@
 
 use base64::Engine as _;
 use glam::{DMat3, DQuat, DVec3};
+use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::camera::Camera;
@@ -142,7 +143,7 @@ fn yfov(cam: &Camera) -> f64 {
 
 /// The glTF document (JSON) and its binary buffer; the caller embeds the buffer (`.gltf`) or
 /// appends it (`.glb`). Also returns the frames with an off-axis COP that glTF cannot carry.
-fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
+fn build(doc: &Document, embed: bool) -> Result<(Gltf, Vec<u8>, u64)> {
     let mut buf = Buffer::default();
     let (positions, indices) = unit_sphere();
     let position = buf.floats(&positions, 3, Some(34962), true);
@@ -203,33 +204,36 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
     }
 
     let q0 = camera_rotation(&first);
-    let mut nodes = vec![json!({
+    let mut nodes = vec![Node::Other(json!({
         "name": "camera",
         "camera": 0,
         "translation": f32s(first.cop_world()),
         "rotation": [q0.x as f32, q0.y as f32, q0.z as f32, q0.w as f32],
-    })];
+    }))];
     let (mut meshes, mut materials) = (vec![], vec![]);
     for (i, s) in doc.scene.spheres.iter().enumerate() {
-        materials.push(json!({
-            "name": format!("sphere {i}"),
-            "pbrMetallicRoughness": {
-                "baseColorFactor": [s.color.x as f32, s.color.y as f32, s.color.z as f32, 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 1.0,
+        materials.push(Material {
+            name: format!("sphere {i}"),
+            pbr_metallic_roughness: Pbr {
+                base_color_factor: [s.color.x as f32, s.color.y as f32, s.color.z as f32, 1.0],
+                metallic_factor: 0.0,
+                roughness_factor: 1.0,
             },
-        }));
-        meshes.push(json!({"name": format!("sphere {i}"), "primitives": [{
-            "attributes": {"POSITION": position, "NORMAL": normal},
-            "indices": index,
-            "material": i,
-        }]}));
+        });
+        meshes.push(Mesh {
+            name: format!("sphere {i}"),
+            primitives: [Primitive {
+                attributes: Attributes { position, normal },
+                indices: index,
+                material: i,
+            }],
+        });
         let r = s.radius as f32;
-        nodes.push(json!({
-            "name": format!("sphere {i}"),
-            "mesh": i,
-            "translation": f32s(s.center_world),
-            "scale": [r, r, r],
+        nodes.push(Node::Sphere(SphereNode {
+            name: format!("sphere {i}"),
+            mesh: i,
+            translation: f32s(s.center_world),
+            scale: [r, r, r],
         }));
     }
     let mut lights = vec![];
@@ -241,11 +245,11 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
             "color": f32s(l.color.clamp(DVec3::ZERO, DVec3::ONE)),
             "intensity": l.color.max_element().max(1.0) as f32,
         }));
-        nodes.push(json!({
+        nodes.push(Node::Other(json!({
             "name": format!("light {i}"),
             "rotation": [q.x as f32, q.y as f32, q.z as f32, q.w as f32],
             "extensions": {"KHR_lights_punctual": {"light": i}},
-        }));
+        })));
     }
 
     let mut used = vec![];
@@ -264,8 +268,6 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
     let mut gltf = json!({
         "asset": {"version": "2.0", "generator": concat!("campath ", env!("CARGO_PKG_VERSION"))},
         "scene": 0,
-        "scenes": [{"name": doc.path.file_stem().map_or_else(|| "shot".into(), |s| s.to_string_lossy()), "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
-        "nodes": nodes,
         "cameras": [{"type": "perspective", "perspective": {
             "yfov": yfov(&first) as f32,
             "aspectRatio": aspect as f32,
@@ -276,17 +278,101 @@ fn build(doc: &Document, embed: bool) -> Result<(Value, Vec<u8>, u64)> {
         "bufferViews": buf.views,
         "accessors": buf.accessors,
     });
-    if !meshes.is_empty() {
-        gltf["meshes"] = json!(meshes);
-        gltf["materials"] = json!(materials);
-    }
     if !lights.is_empty() {
         gltf["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
     }
     if !used.is_empty() {
         gltf["extensionsUsed"] = json!(used);
     }
+    let Value::Object(rest) = gltf else {
+        unreachable!("json! of an object")
+    };
+    let scene = Scene {
+        name: doc
+            .path
+            .file_stem()
+            .map_or_else(|| "shot".into(), |s| s.to_string_lossy().into_owned()),
+        nodes: (0..nodes.len()).collect(),
+    };
+    let gltf = Gltf {
+        rest,
+        scenes: [scene],
+        nodes,
+        meshes,
+        materials,
+    };
     Ok((gltf, buf.bytes, off_axis))
+}
+
+/// The document: the parts with an entry a sphere typed, the rest as JSON values (as values, a
+/// million spheres took 9.8 GB).
+#[derive(Serialize)]
+struct Gltf {
+    #[serde(flatten)]
+    rest: serde_json::Map<String, Value>,
+    scenes: [Scene; 1],
+    nodes: Vec<Node>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    meshes: Vec<Mesh>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    materials: Vec<Material>,
+}
+
+#[derive(Serialize)]
+struct Scene {
+    name: String,
+    nodes: Vec<usize>,
+}
+
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Node {
+    Sphere(SphereNode),
+    /// The camera's and the lights'.
+    Other(Value),
+}
+
+#[derive(Serialize)]
+struct SphereNode {
+    name: String,
+    mesh: usize,
+    translation: [f32; 3],
+    scale: [f32; 3],
+}
+
+#[derive(Serialize)]
+struct Mesh {
+    name: String,
+    primitives: [Primitive; 1],
+}
+
+#[derive(Serialize)]
+struct Primitive {
+    attributes: Attributes,
+    indices: usize,
+    material: usize,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "UPPERCASE")]
+struct Attributes {
+    position: usize,
+    normal: usize,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Material {
+    name: String,
+    pbr_metallic_roughness: Pbr,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Pbr {
+    base_color_factor: [f32; 4],
+    metallic_factor: f32,
+    roughness_factor: f32,
 }
 
 /// The shot as `.gltf` text with the buffer embedded; and the number of frames with an off-axis
