@@ -2,6 +2,7 @@
 //! that Nuke and Blender import; the whole shot as glTF, a Blender script or an OpenUSD stage.
 
 pub mod blender;
+mod gaps;
 pub mod gltf;
 pub mod povray;
 pub mod usd;
@@ -199,17 +200,14 @@ pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) 
         .map(|(cop, _)| (*cop - centre).length() + radius)
         .fold(1.0, f64::max)
         * 1.5;
-    // The least depth, on the pool: every camera against every sphere (a minimum, the same in
-    // any order).
-    let depth = spheres
+    // The least depth, on the pool: each camera's least gap, through a tree of the spheres
+    // (the minimum over every camera and sphere; a minimum is the same in any order, and a
+    // product with cos ≥ 0 keeps the order of the gaps).
+    let gaps = gaps::Gaps::new(spheres);
+    let depth = views
         .par_iter()
-        .with_min_len(1 << 12)
-        .map(|s| {
-            views
-                .iter()
-                .map(|(cop, cos)| ((*cop - s.center_world).length() - s.radius).abs() * cos)
-                .fold(f64::INFINITY, f64::min)
-        })
+        .with_min_len(64)
+        .map(|(cop, cos)| gaps.least(*cop) * cos)
         .reduce(|| f64::INFINITY, f64::min);
     // Readers keep both in f32: a scene beyond its range is clipped at its largest value.
     let far = far.min(f64::from(f32::MAX));
