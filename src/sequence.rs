@@ -278,6 +278,20 @@ pub fn golden_of(path: &Path) -> Option<String> {
     })
 }
 
+/// The folder of rendered frames that `path` (as it resolves) is or lies inside, if any: the
+/// nearest on the way up that holds a manifest or a lock of campath's.
+pub fn frames_folder_of(path: &Path) -> Option<PathBuf> {
+    let marks = [
+        manifest::file_name(None),
+        manifest::BEFORE_SHARDS.to_string(),
+        crate::lock::FILE_NAME.to_string(),
+    ];
+    resolved(path)
+        .ancestors()
+        .find(|dir| marks.iter().any(|name| dir.join(name).is_file()))
+        .map(Path::to_path_buf)
+}
+
 /// The video `campath video` writes for the keyframe file `file` into its frames folder `dir`:
 /// `STEM.mp4`, or `STEM.mkv` (lossless), the stem as it is.
 pub fn video_path(dir: &Path, file: &Path, ext: &str) -> PathBuf {

@@ -19,6 +19,9 @@ pub enum CliError {
         package: &'static str,
         message: String,
     },
+    /// Stopped by Ctrl-C or a termination signal, what the run wrote removed (exit 130).
+    #[error("{0}")]
+    Stopped(String),
     /// A JSON file campath wrote for itself (a run's numbers) does not parse (exit 1).
     #[error("{}: not the JSON campath writes: {cause}", path.display())]
     Json {
@@ -31,12 +34,14 @@ pub enum CliError {
 }
 
 impl CliError {
-    /// 2 for bad input or options, 3 for an outside program, 1 for the rest (I/O).
+    /// 2 for bad input or options, 3 for an outside program, 130 for a stop by a signal, 1 for
+    /// the rest (I/O).
     pub fn exit_status(&self) -> u8 {
         match self {
             CliError::Campath(e) if e.is_bad_input() => 2,
             CliError::Usage(_) => 2,
             CliError::Tool { .. } => 3,
+            CliError::Stopped(_) => 130,
             _ => 1,
         }
     }

@@ -28,6 +28,10 @@ cannot be used; an output folder held by another run under \fB\-\-no\-wait\fR. N
 \fB3\fR
 An outside program (ffmpeg for \fBvideo\fR, POV\-Ray for \fBbench\fR) is missing or failed; the
 message names its Debian package.
+.TP
+\fB130\fR
+\fBvideo\fR was stopped by Ctrl\-C (or SIGTERM, SIGHUP) while it encoded; the partial video is
+removed.
 .SH ENVIRONMENT
 .TP
 \fBCAMPATH_SIMD\fR

@@ -10,6 +10,8 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::error::{CliError, Result};
@@ -74,12 +76,6 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
             doc.animation.fps
         )));
     }
-    // Before rendering anything: is there an ffmpeg to hand the frames to?
-    Command::new("ffmpeg")
-        .arg("-version")
-        .stdout(Stdio::null())
-        .status()
-        .map_err(ffmpeg_missing)?;
     let ext = if a.lossless { "mkv" } else { "mp4" };
     let own = sequence::video_path(&a.frames_dir, &a.file, ext);
     let video = a.out.clone().unwrap_or_else(|| own.clone());
@@ -97,6 +93,24 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
             own.display()
         )));
     }
+    // Nor in another render's frames folder: there it would pass for that render's video.
+    if !super::failures::within(parent, &a.frames_dir) {
+        if let Some(theirs) = sequence::frames_folder_of(parent) {
+            return Err(CliError::Usage(format!(
+                "--out {}: {} is the frames folder of another render, where a video would pass \
+                 for its own; nothing was written (put it outside, or leave out --out for {})",
+                video.display(),
+                theirs.display(),
+                own.display()
+            )));
+        }
+    }
+    // Before rendering anything: is there an ffmpeg to hand the frames to?
+    Command::new("ffmpeg")
+        .arg("-version")
+        .stdout(Stdio::null())
+        .status()
+        .map_err(ffmpeg_missing)?;
 
     let total = doc.animation.frames;
     let mut progress = Progress::new(a.quiet);
@@ -124,6 +138,16 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     // As a `file:` URL: a name that begins with `-` is not an option to ffmpeg.
     let mut url = std::ffi::OsString::from("file:");
     url.push(&tmp);
+    // Ctrl-C (or SIGTERM, SIGHUP) from here on stops the encode and removes what it wrote: the
+    // frames stop going to ffmpeg, and the temporary video is removed once ffmpeg has ended.
+    // ffmpeg, in the same process group, stops on a Ctrl-C of its own.
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
+        tool: "ctrlc",
+        package: "campath",
+        message: format!("cannot catch Ctrl-C: {e}"),
+    })?;
     let mut child = Command::new("ffmpeg")
         .args(ffmpeg_args(&doc, a.lossless, a.crf))
         .arg(url)
@@ -135,10 +159,24 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     let mut stdin = child.stdin.take().expect("piped");
     let mut progress = Progress::new(a.quiet);
     progress.begin(total, 0, "encode");
-    let fed = feed(&a.frames_dir, total, &hashes, &mut stdin, &mut progress);
+    let fed = feed(
+        &a.frames_dir,
+        total,
+        &hashes,
+        &mut stdin,
+        &mut progress,
+        &stop,
+    );
     drop(stdin);
     progress.finish();
     let result = child.wait_with_output().map_err(ffmpeg_missing)?;
+    if stop.load(Ordering::SeqCst) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(CliError::Stopped(format!(
+            "the encode of {} was stopped; the partial video was removed",
+            video.display()
+        )));
+    }
     // ffmpeg's own failure explains a pipe it stopped reading.
     if let Err(e) = encoder_status(&result).and(fed) {
         let _ = std::fs::remove_file(&tmp);
@@ -167,12 +205,27 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
             video.display(),
             doc.raster.width,
             doc.raster.height,
-            doc.animation.fps,
+            match frame_rate(doc.animation.fps) {
+                ntsc if ntsc.contains('/') => format!("{} ({ntsc})", doc.animation.fps),
+                _ => doc.animation.fps.to_string(),
+            },
             started.elapsed().as_secs_f64()
         )
         .map_err(Error::stdout)?;
     }
     Ok(())
+}
+
+/// The video's frame rate as ffmpeg reads it: a rate within 0.005 of an NTSC one, N × 1000/1001
+/// (23.976, 23.98, 29.97, 59.94, …), as that fraction, which players and editors expect
+/// (ffmpeg would store 23.976 as 2997/125); any other as written.
+fn frame_rate(fps: f64) -> String {
+    let n = (fps * 1.001).round();
+    if n >= 1.0 && fps.fract() != 0.0 && (fps - n * 1000.0 / 1001.0).abs() <= 0.005 {
+        format!("{}/1001", n as u64 * 1000)
+    } else {
+        fps.to_string()
+    }
 }
 
 /// ffmpeg's arguments, up to the output path: raw RGB frames on standard input.
@@ -192,7 +245,7 @@ fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
     .to_vec();
     args.push(format!("{}x{}", doc.raster.width, doc.raster.height));
     args.push("-framerate".into());
-    args.push(doc.animation.fps.to_string());
+    args.push(frame_rate(doc.animation.fps));
     args.extend(["-i", "-", "-an"].map(String::from));
     let codec: &[&str] = if lossless {
         // FFV1 stores RGB exactly; bgr0 is its packed RGB input.
@@ -237,8 +290,12 @@ fn feed(
     hashes: &std::collections::BTreeMap<u64, campath::output::FrameHash>,
     stdin: &mut impl Write,
     progress: &mut Progress,
+    stop: &AtomicBool,
 ) -> Result<()> {
     for frame in 0..total {
+        if stop.load(Ordering::SeqCst) {
+            return Ok(());
+        }
         let path = frame_path(dir, frame, total);
         let pixels = image::open(&path)
             .map_err(Error::encode(&path))?
@@ -277,4 +334,31 @@ fn encoder_status(result: &std::process::Output) -> Result<()> {
             String::from_utf8_lossy(&result.stderr).trim()
         ),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::frame_rate;
+
+    #[test]
+    fn ntsc_rates_are_their_exact_fractions() {
+        for (fps, want) in [
+            (23.976, "24000/1001"),
+            (23.98, "24000/1001"),
+            (24000.0 / 1001.0, "24000/1001"),
+            (29.97, "30000/1001"),
+            (47.952, "48000/1001"),
+            (59.94, "60000/1001"),
+            (119.88, "120000/1001"),
+            (24.0, "24"),
+            (25.0, "25"),
+            (1000.0, "1000"),
+            (12.5, "12.5"),
+            (23.9, "23.9"),
+            (29.9, "29.9"),
+            (0.5, "0.5"),
+        ] {
+            assert_eq!(frame_rate(fps), want, "{fps}");
+        }
+    }
 }

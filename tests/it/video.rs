@@ -203,6 +203,39 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
     let o = campath(tmp.path(), &["render", &f, "--quiet"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!partial.exists());
+    // Stopped by Ctrl-C or SIGTERM (sent to campath alone, ffmpeg left to end on its input):
+    // exit 130, and nothing of the encode is left.
+    for signal in ["-INT", "-TERM"] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
+            .current_dir(tmp.path())
+            .args(["video", &f, "--quiet"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        while !partial.exists() {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "finished before {signal}"
+            );
+            assert!(started.elapsed().as_secs() < 120, "no encode began");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let sent = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(130), "{signal}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("the partial video was removed"),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!partial.exists(), "{signal}");
+        assert!(!tmp.path().join("out/zoom/zoom.mp4").exists(), "{signal}");
+    }
     // Run again: it completes.
     let o = campath(tmp.path(), &["video", &f, "--quiet"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -271,4 +304,62 @@ fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
     assert!(!tmp.path().join("out/zoom/sub").exists());
     assert!(!tmp.path().join("out/zoom/CLIP.MP4").exists());
     assert!(!tmp.path().join("fast.mkv").exists());
+}
+
+/// A video goes into its own frames folder or outside any: `--out` in another render's frames
+/// folder (or a folder inside it) is refused before anything is rendered, as a video there
+/// would pass for that render's own. An NTSC rate is stored as its exact fraction.
+#[test]
+fn a_video_stays_out_of_other_renders_and_keeps_ntsc_rates_exact() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 16, height: 10");
+    let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
+    std::fs::write(tmp.path().join("track.ron"), &text).unwrap();
+    let run = |args: &[&str]| campath(tmp.path(), args, &[]);
+    let o = run(&["render", "track.ron", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let listing = || {
+        let mut names: Vec<_> = std::fs::read_dir(tmp.path().join("out/track"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        names.sort();
+        names
+    };
+    let before = listing();
+    for out in ["out/track/track.mp4", "out/track/sub/clip.mp4"] {
+        let o = run(&["video", &f, "-q", "--out", out]);
+        assert_eq!(o.status.code(), Some(2), "{out}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("is the frames folder of another render"),
+            "{out}: {}",
+            stderr(&o)
+        );
+    }
+    assert_eq!(listing(), before);
+    assert!(!tmp.path().join("out/zoom").exists(), "nothing rendered");
+
+    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"))
+        || !have_tool("ffprobe", "ffmpeg")
+    {
+        return;
+    }
+    for (fps, want) in [
+        ("23.976", "24000/1001"),
+        ("29.97", "30000/1001"),
+        ("12.5", "25/2"),
+    ] {
+        let edited = text.replacen("fps: 24.0", &format!("fps: {fps}"), 1);
+        assert_ne!(edited, text, "the example's rate moved");
+        std::fs::write(tmp.path().join(&f), edited).unwrap();
+        let o = run(&["video", &f, "-q", "--out", "clip.mp4"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let probe = Command::new("ffprobe")
+            .args(["-v", "error", "-select_streams", "v:0"])
+            .args(["-show_entries", "stream=r_frame_rate", "-of", "csv=p=0"])
+            .arg(tmp.path().join("clip.mp4"))
+            .output()
+            .unwrap();
+        assert_eq!(String::from_utf8_lossy(&probe.stdout).trim(), want, "{fps}");
+    }
 }
