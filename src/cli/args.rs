@@ -91,6 +91,18 @@ pub fn compression() -> impl clap::builder::TypedValueParser<Value = Compression
     choice(Compression::ALL.map(|c| (c, c.name(), help(c))))
 }
 
+/// `path --origin X,Y,Z`: three finite numbers.
+pub fn point(s: &str) -> std::result::Result<glam::DVec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let numbers: Vec<f64> = parts.iter().filter_map(|p| p.parse().ok()).collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 && numbers.iter().all(|n| n.is_finite()) => {
+            Ok(glam::DVec3::new(x, y, z))
+        }
+        _ => Err(format!("expected X,Y,Z (three finite numbers), not {s:?}")),
+    }
+}
+
 /// `path --format`: the library's formats, with a line of help each.
 pub fn path_format() -> impl clap::builder::TypedValueParser<Value = PathFormat> {
     let help = |f: PathFormat| match f {

@@ -178,6 +178,10 @@ enum Command {
         /// .usda or .usd).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Write every place relative to this point of campath's world (glTF and Blender keep
+        /// places in f32: a shot far from the origin needs one near it).
+        #[arg(long, value_name = "X,Y,Z", value_parser = args::point, allow_hyphen_values = true)]
+        origin: Option<glam::DVec3>,
     },
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check {
@@ -405,9 +409,11 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             file,
             format,
             out: file_out,
+            origin,
         } => {
             let format = args::resolve_format(format, file_out.as_deref())?;
-            verbs::path(&file, format, file_out.as_deref(), out)?
+            let origin = origin.unwrap_or_default();
+            verbs::path(&file, format, file_out.as_deref(), origin, out)?
         }
         Command::Check { file, strict } => return verbs::check(&file, strict, out),
         Command::Report {

@@ -381,6 +381,7 @@ pub fn path(
     file: &Path,
     format: PathFormat,
     file_out: Option<&Path>,
+    origin: glam::DVec3,
     out: &mut dyn Write,
 ) -> Result<()> {
     if format == PathFormat::Usd {
@@ -400,9 +401,12 @@ pub fn path(
         file_out.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")));
     let mut bytes = Vec::new();
     let dropped = match file_out {
-        Some(_) => campath::export::write_path(&doc, format, glb, &mut bytes)?,
-        None => campath::export::write_path(&doc, format, glb, out)?,
+        Some(_) => campath::export::write_path(&doc, format, glb, origin, &mut bytes)?,
+        None => campath::export::write_path(&doc, format, glb, origin, out)?,
     };
+    if matches!(format, PathFormat::Gltf | PathFormat::Blender) {
+        f32_warning(&doc, format, origin)?;
+    }
     if dropped.off_axis > 0 {
         let (off_axis, first, last) = (dropped.off_axis, dropped.first, dropped.last);
         let which = match format {
@@ -424,6 +428,41 @@ pub fn path(
         super::args::create_parent(path)?;
         std::fs::write(path, &bytes).map_err(Error::write(path))?;
     }
+    Ok(())
+}
+
+/// Warns when glTF or Blender, keeping places in f32, would move the camera's picture by a
+/// quarter of a pixel or more (a shot far from the origin), and names an origin that keeps it
+/// near zero.
+fn f32_warning(doc: &Document, format: PathFormat, origin: glam::DVec3) -> Result<()> {
+    const MOST_PX: f64 = 0.25;
+    let Some(shift) = campath::export::f32_shift(doc, origin)? else {
+        return Ok(());
+    };
+    if shift.px < MOST_PX {
+        return Ok(());
+    }
+    let m = shift.middle;
+    let better = campath::export::f32_shift(doc, m)?.map_or(0.0, |s| s.px);
+    let hint = if better < MOST_PX {
+        format!(
+            "--origin {},{},{} (the middle of the camera's path) writes every place relative to \
+             it (about {better:.1e} px)",
+            m.x, m.y, m.z
+        )
+    } else {
+        "the camera's path is too long for f32 at this scale: write the shot in parts, each \
+         with an --origin near it, or use usd, which keeps f64"
+            .to_string()
+    };
+    eprintln!(
+        "campath: warning: {} keeps places in f32: this far from the origin, rounding moves \
+         the camera by {:.1e} at frame {}, about {:.1} px on the nearest sphere; {hint}",
+        format.title(),
+        shift.units,
+        shift.frame,
+        shift.px
+    );
     Ok(())
 }
 

@@ -21,11 +21,13 @@
 
 use std::fmt::Write as _;
 
+use glam::DVec3;
+
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
 use crate::export::gltf::camera_rotation;
-use crate::export::{clipping_range, keyed_cameras};
+use crate::export::{clipping_range, keyed_cameras, relative};
 
 /// The sensor width in millimetres the lens is computed for, unless the shot is too wide for it.
 const SENSOR_MM: f64 = 36.0;
@@ -52,7 +54,7 @@ pub fn lens_and_shift(cam: &Camera, sensor: f64) -> (f64, f64, f64) {
 }
 
 /// The script.
-pub fn script(doc: &Document) -> Result<String> {
+pub fn script(doc: &Document, origin: DVec3) -> Result<String> {
     let keys = keyed_cameras(doc)?;
     let sensor = sensor_mm(keys.iter().map(|&(_, cam)| cam));
     let cams: Vec<Camera> = keys.iter().map(|&(_, cam)| cam).collect();
@@ -65,7 +67,7 @@ pub fn script(doc: &Document) -> Result<String> {
             q = -q;
         }
         previous = Some(q);
-        let cop = cam.cop_world();
+        let cop = relative(cam, origin).cop_world();
         let (lens, sx, sy) = lens_and_shift(&cam, sensor);
         let _ = writeln!(
             frames,
@@ -82,7 +84,7 @@ pub fn script(doc: &Document) -> Result<String> {
     }
     let mut spheres = String::new();
     for s in &doc.scene.spheres {
-        let (c, k) = (s.center_world, s.color);
+        let (c, k) = (s.center_world - origin, s.color);
         let _ = writeln!(
             spheres,
             "    (({:?}, {:?}, {:?}), {:?}, ({:?}, {:?}, {:?})),",
@@ -123,6 +125,8 @@ CLIP = ({near:?}, {far:?})
 LAST_FRAME = {last_frame}
 BACKGROUND = ({bg_r:?}, {bg_g:?}, {bg_b:?})
 AMBIENT = {ambient:?}
+# the point of campath's world at this file's origin (campath path --origin)
+ORIGIN = ({origin_x:?}, {origin_y:?}, {origin_z:?})
 # shutter (the fraction of the frame interval it is open, centred on the frame), time samples; or None
 MOTION_BLUR = {motion_blur}
 # scene frame (with motion blur also where the first frame's shutter opens and the last's closes),
@@ -160,6 +164,7 @@ def build():
     scene.render.fps = max(1, round(FPS))
     scene.render.fps_base = scene.render.fps / FPS
     scene.frame_start, scene.frame_end = 1, LAST_FRAME
+    scene["campath_origin"] = ORIGIN
     if MOTION_BLUR is not None:
         shutter, steps = MOTION_BLUR
         scene.render.use_motion_blur = True
@@ -253,6 +258,9 @@ build()
         bg_g = bg.y,
         bg_b = bg.z,
         ambient = doc.scene.ambient,
+        origin_x = origin.x,
+        origin_y = origin.y,
+        origin_z = origin.z,
         motion_blur = match doc.motion_blur {
             Some(b) => format!("({:?}, {})", b.shutter, b.samples),
             None => "None".to_string(),

@@ -23,7 +23,7 @@ use serde_json::{json, Value};
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
-use crate::export::clipping_range;
+use crate::export::{clipping_range, relative};
 
 /// Segments around and rings from pole to pole of the shared unit sphere.
 const SEGMENTS: u32 = 48;
@@ -143,7 +143,7 @@ fn yfov(cam: &Camera) -> f64 {
 
 /// The glTF document (JSON) and its binary buffer; the caller embeds the buffer (`.gltf`) or
 /// appends it (`.glb`). Also returns the frames with an off-axis COP that glTF cannot carry.
-fn build(doc: &Document, embed: bool) -> Result<(Gltf, Vec<u8>, u64)> {
+fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u64)> {
     let mut buf = Buffer::default();
     let (positions, indices) = unit_sphere();
     let position = buf.floats(&positions, 3, Some(34962), true);
@@ -167,7 +167,7 @@ fn build(doc: &Document, embed: bool) -> Result<(Gltf, Vec<u8>, u64)> {
         let (frame, cam) = item?;
         cams.push(cam);
         times.push(doc.animation.time(frame) as f32);
-        translations.extend(f32s(cam.cop_world()));
+        translations.extend(f32s(relative(cam, origin).cop_world()));
         let mut q = camera_rotation(&cam);
         // q and −q are the same rotation: keep the one nearest the last, so LINEAR slerps the
         // short way.
@@ -207,7 +207,7 @@ fn build(doc: &Document, embed: bool) -> Result<(Gltf, Vec<u8>, u64)> {
     let mut nodes = vec![Node::Other(json!({
         "name": "camera",
         "camera": 0,
-        "translation": f32s(first.cop_world()),
+        "translation": f32s(relative(first, origin).cop_world()),
         "rotation": [q0.x as f32, q0.y as f32, q0.z as f32, q0.w as f32],
     }))];
     let (mut meshes, mut materials) = (vec![], vec![]);
@@ -232,7 +232,7 @@ fn build(doc: &Document, embed: bool) -> Result<(Gltf, Vec<u8>, u64)> {
         nodes.push(Node::Sphere(SphereNode {
             name: format!("sphere {i}"),
             mesh: i,
-            translation: f32s(s.center_world),
+            translation: f32s(s.center_world - origin),
             scale: [r, r, r],
         }));
     }
@@ -278,6 +278,8 @@ fn build(doc: &Document, embed: bool) -> Result<(Gltf, Vec<u8>, u64)> {
         "bufferViews": buf.views,
         "accessors": buf.accessors,
     });
+    // Where the file's origin lies in campath's world (`campath path --origin`).
+    gltf["asset"]["extras"] = json!({"campath_origin": origin.to_array()});
     if !lights.is_empty() {
         gltf["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
     }
@@ -377,8 +379,8 @@ struct Pbr {
 
 /// The shot as `.gltf` text with the buffer embedded; and the number of frames with an off-axis
 /// COP that glTF cannot carry.
-pub fn gltf(doc: &Document) -> Result<(String, u64)> {
-    let (json, _, off_axis) = build(doc, true)?;
+pub fn gltf(doc: &Document, origin: DVec3) -> Result<(String, u64)> {
+    let (json, _, off_axis) = build(doc, true, origin)?;
     Ok((
         serde_json::to_string_pretty(&json).expect("finite numbers serialise") + "\n",
         off_axis,
@@ -386,8 +388,8 @@ pub fn gltf(doc: &Document) -> Result<(String, u64)> {
 }
 
 /// The shot as binary `.glb`; and the number of frames with an off-axis COP.
-pub fn glb(doc: &Document) -> Result<(Vec<u8>, u64)> {
-    let (json, mut bin, off_axis) = build(doc, false)?;
+pub fn glb(doc: &Document, origin: DVec3) -> Result<(Vec<u8>, u64)> {
+    let (json, mut bin, off_axis) = build(doc, false, origin)?;
     let mut text = serde_json::to_vec(&json).expect("finite numbers serialise");
     while !text.len().is_multiple_of(4) {
         text.push(b' ');

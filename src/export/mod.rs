@@ -182,18 +182,7 @@ pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) 
     // Each camera's COP, and the cosine of its widest angle off the view direction.
     let views: Vec<(DVec3, f64)> = cams
         .iter()
-        .map(|cam| {
-            let (c, half) = (cam.cop_view, cam.window * 0.5);
-            let corner = glam::DVec2::new(
-                (half.x - c.x).abs().max((half.x + c.x).abs()),
-                (half.y - c.y).abs().max((half.y + c.y).abs()),
-            );
-            let d = -c.z;
-            (
-                cam.cop_world(),
-                d / (d * d + corner.length_squared()).sqrt(),
-            )
-        })
+        .map(|cam| (cam.cop_world(), widest_cos(cam)))
         .collect();
     let far = views
         .iter()
@@ -270,12 +259,82 @@ pub struct Dropped {
     pub last: u64,
 }
 
+/// `cam` with its places relative to `origin` (`campath path --origin`): the VRP, and so the
+/// COP, less `origin` (the same camera when `origin` is zero).
+pub(crate) fn relative(mut cam: Camera, origin: DVec3) -> Camera {
+    cam.vrp_world -= origin;
+    cam
+}
+
+/// How far keeping places in f32 (glTF, Blender) moves the camera's picture: see [`f32_shift`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct F32Shift {
+    /// The most, in pixels.
+    pub px: f64,
+    /// The frame where it is the most.
+    pub frame: u64,
+    /// How far f32 moves the COP there, in world units.
+    pub units: f64,
+    /// The middle of the COPs' bounds, each coordinate rounded to a whole number: an origin
+    /// that keeps the camera near zero.
+    pub middle: DVec3,
+}
+
+/// The most that keeping the camera's place in f32 (glTF, Blender) moves its picture, in
+/// pixels: over the frames, the distance from the COP (relative to `origin`) to its nearest
+/// f32, seen from the nearest depth a sphere can show at (each camera's least gap times the
+/// cosine of its widest angle, as [`clipping_range`] finds it). An estimate: the spheres'
+/// own places are rounded too, and a reader's f32 arithmetic adds to it. None without
+/// spheres.
+pub fn f32_shift(doc: &Document, origin: DVec3) -> Result<Option<F32Shift>> {
+    if doc.scene.spheres.is_empty() {
+        return Ok(None);
+    }
+    let gaps = gaps::Gaps::new(&doc.scene.spheres);
+    let mut worst = F32Shift {
+        px: 0.0,
+        frame: 0,
+        units: 0.0,
+        middle: DVec3::ZERO,
+    };
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for item in doc.cameras() {
+        let (frame, cam) = item?;
+        (lo, hi) = (lo.min(cam.cop_world()), hi.max(cam.cop_world()));
+        let cop = relative(cam, origin).cop_world();
+        let kept = DVec3::from(cop.to_array().map(|x| f64::from(x as f32)));
+        let depth = gaps.least(cam.cop_world()) * widest_cos(&cam);
+        // A point at depth z moves by e·d/z on the view plane, d the COP's distance to it.
+        let d = -cam.cop_view.z;
+        let units = (kept - cop).length();
+        let px = units * d / depth / cam.window.x * doc.raster.width as f64;
+        if px > worst.px {
+            (worst.px, worst.frame, worst.units) = (px, frame, units);
+        }
+    }
+    worst.middle = ((lo + hi) * 0.5).round();
+    Ok(Some(worst))
+}
+
+/// The cosine of the widest angle off the view direction at which `cam` sees: at the window's
+/// furthest corner from the COP's foot.
+fn widest_cos(cam: &Camera) -> f64 {
+    let (c, half) = (cam.cop_view, cam.window * 0.5);
+    let corner = glam::DVec2::new(
+        (half.x - c.x).abs().max((half.x + c.x).abs()),
+        (half.y - c.y).abs().max((half.y + c.y).abs()),
+    );
+    let d = -c.z;
+    d / (d * d + corner.length_squared()).sqrt()
+}
+
 /// Writes the shot in `format` (glTF as binary GLB when `glb`); says which frames lost part of
 /// their camera on the way. The per-frame formats stream a frame at a time.
 pub fn write_path(
     doc: &Document,
     format: PathFormat,
     glb: bool,
+    origin: DVec3,
     out: &mut dyn Write,
 ) -> Result<Dropped> {
     let whole = |bytes: &[u8], off_axis: u64, out: &mut dyn Write| {
@@ -289,15 +348,15 @@ pub fn write_path(
     match format {
         PathFormat::Csv | PathFormat::Json | PathFormat::Chan => {}
         PathFormat::Gltf if glb => {
-            let (bytes, off_axis) = gltf::glb(doc)?;
+            let (bytes, off_axis) = gltf::glb(doc, origin)?;
             return whole(&bytes, off_axis, out);
         }
         PathFormat::Gltf => {
-            let (text, off_axis) = gltf::gltf(doc)?;
+            let (text, off_axis) = gltf::gltf(doc, origin)?;
             return whole(text.as_bytes(), off_axis, out);
         }
-        PathFormat::Blender => return whole(blender::script(doc)?.as_bytes(), 0, out),
-        PathFormat::Usd => return whole(usd::usda(doc)?.as_bytes(), 0, out),
+        PathFormat::Blender => return whole(blender::script(doc, origin)?.as_bytes(), 0, out),
+        PathFormat::Usd => return whole(usd::usda(doc, origin)?.as_bytes(), 0, out),
     }
     let mut out = std::io::BufWriter::new(out);
     let mut dropped = Dropped::default();
@@ -311,6 +370,7 @@ pub fn write_path(
     out.write_all(header.as_bytes()).map_err(Error::stdout)?;
     for item in doc.cameras() {
         let (frame, cam) = item?;
+        let cam = relative(cam, origin);
         let t = doc.animation.time(frame);
         let line = match format {
             PathFormat::Csv => csv_row(frame, t, &cam),

@@ -32,7 +32,7 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
 use crate::export::gltf::camera_rotation;
-use crate::export::{clipping_range, keyed_cameras};
+use crate::export::{clipping_range, keyed_cameras, relative};
 
 /// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
 pub const FILM_WIDTH: f64 = 0.36;
@@ -127,7 +127,7 @@ fn aim_negative_z(d: DVec3) -> DQuat {
 }
 
 /// The stage as USDA text.
-pub fn usda(doc: &Document) -> Result<String> {
+pub fn usda(doc: &Document, origin: DVec3) -> Result<String> {
     let mut times = Vec::new();
     let mut cams = Vec::new();
     let mut cops = Vec::new();
@@ -144,7 +144,7 @@ pub fn usda(doc: &Document) -> Result<String> {
         previous = Some(q);
         times.push(time);
         cams.push(cam);
-        cops.push(cam.cop_world());
+        cops.push(relative(cam, origin).cop_world());
         orients.push(q);
         lenses.push(UsdLens::of(&cam));
     }
@@ -176,6 +176,7 @@ pub fn usda(doc: &Document) -> Result<String> {
         double pixelAspect = {pixel_aspect:?}
         double3 background = {background}
         double ambient = {ambient:?}
+        double3 origin = {origin}
     }}
     defaultPrim = "{root}"
     endTimeCode = {end}
@@ -204,6 +205,7 @@ def Xform "{root}" (
         height = r.height,
         background = double3(bg),
         ambient = doc.scene.ambient,
+        origin = double3(origin),
         end = frames - 1,
         near = f32s(near),
         far = f32s(far),
@@ -264,7 +266,7 @@ def Xform "{root}" (
 "#,
             m = -e,
             color = color3f(sphere.color),
-            centre = double3(sphere.center_world),
+            centre = double3(sphere.center_world - origin),
         );
     }
     for (i, light) in doc.scene.lights.iter().enumerate() {

@@ -65,11 +65,18 @@ fn blender_sees_what_campath_renders() {
     let four_three = observer.replace("width: 640, height: 360", "width: 640, height: 480");
     assert_ne!(four_three, observer);
     std::fs::write(tmp.path().join("observer_4_3.ron"), four_three).unwrap();
+    // And the observer 2e6 from the origin, written relative to a point near it (`--origin`):
+    // in f32 without it, Blender's camera would be pixels off.
+    std::fs::write(tmp.path().join("observer_far.ron"), far_away(&observer)).unwrap();
     let mut names: Vec<&str> = EXAMPLES.to_vec();
-    names.push("observer_4_3");
+    names.extend(["observer_4_3", "observer_far"]);
     let file_of = |name: &str| match name {
-        "observer_4_3" => tmp.path().join("observer_4_3.ron"),
+        "observer_4_3" | "observer_far" => tmp.path().join(format!("{name}.ron")),
         _ => root().join(format!("animations/{name}.ron")),
+    };
+    let origin_of = |name: &str| match name {
+        "observer_far" => DVec3::new(FAR, 1.0, -3.0),
+        _ => DVec3::ZERO,
     };
     let doc_of = |name: &str| campath::document::Document::load(&file_of(name)).unwrap();
     let mut jobs = Vec::new();
@@ -77,6 +84,8 @@ fn blender_sees_what_campath_renders() {
         let file = file_of(name);
         let script = tmp.path().join(format!("{name}.py"));
         let glb = tmp.path().join(format!("{name}.glb"));
+        let o = origin_of(name);
+        let origin = format!("{},{},{}", o.x, o.y, o.z);
         for (format, out) in [("blender", &script), ("gltf", &glb)] {
             let o = campath(
                 tmp.path(),
@@ -87,20 +96,24 @@ fn blender_sees_what_campath_renders() {
                     format,
                     "--out",
                     out.to_str().unwrap(),
+                    "--origin",
+                    &origin,
                 ],
                 &[],
             );
             assert!(o.status.success(), "{}", stderr(&o));
+            assert!(!stderr(&o).contains("warning"), "{name}: {}", stderr(&o));
         }
         // Test points: each small sphere's centre, and points a unit away from it.
         let doc = doc_of(name);
+        // Blender's points are where the files put them: relative to the origin.
         let points: Vec<[f64; 3]> = doc
             .scene
             .spheres
             .iter()
             .filter(|s| s.radius < 50.0)
             .flat_map(|s| {
-                let c = s.center_world;
+                let c = s.center_world - o;
                 [DVec3::ZERO, DVec3::X, DVec3::NEG_Y, DVec3::Z].map(|d| (c + d).to_array())
             })
             .collect();
@@ -113,6 +126,7 @@ fn blender_sees_what_campath_renders() {
 
     for (name, job) in names.iter().zip(&jobs) {
         let doc = doc_of(name);
+        let origin = origin_of(name);
         let result: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(tmp.path().join(format!("{name}.json"))).unwrap(),
         )
@@ -141,7 +155,7 @@ fn blender_sees_what_campath_renders() {
                     p[0].as_f64().unwrap(),
                     p[1].as_f64().unwrap(),
                     p[2].as_f64().unwrap(),
-                );
+                ) + origin;
                 let v = cam.world_to_view().transform_point3(p);
                 let c = cam.cop_view;
                 if v.z - c.z < 0.5 {
@@ -170,7 +184,7 @@ fn blender_sees_what_campath_renders() {
             };
             let b = cam.basis;
             for (got, want) in [
-                (col(3), cam.cop_world()),
+                (col(3), cam.cop_world() - origin),
                 (col(0), b.u),
                 (col(1), b.v),
                 (col(2), -b.n),
@@ -194,6 +208,81 @@ fn blender_sees_what_campath_renders() {
             worst.1 < 1e-5,
             "{name}: the imported glTF camera is {} off",
             worst.1
+        );
+    }
+}
+
+/// How far `far_away` moves a shot along x.
+const FAR: f64 = 2.0e6;
+
+/// `text` (a keyframe file) with every keyed value and sphere centre moved `FAR` along x.
+fn far_away(text: &str) -> String {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(at) = ["value: (", "center: ("]
+        .iter()
+        .filter_map(|tag| rest.find(tag).map(|i| i + tag.len()))
+        .min()
+    {
+        let (head, tail) = rest.split_at(at);
+        let end = tail.find(',').unwrap();
+        let x: f64 = tail[..end].trim().parse().unwrap();
+        out.push_str(head);
+        out.push_str(&format!("{:?}", x + FAR));
+        rest = &tail[end..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// Without `--origin`, the far shot's exports warn that f32 moves the camera, and name an
+/// origin near it; with it, they do not (Blender's check of that is above).
+#[test]
+fn a_shot_far_from_the_origin_is_warned_of_and_kept_by_an_origin_near_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let observer = std::fs::read_to_string(root().join("animations/observer.ron")).unwrap();
+    std::fs::write(tmp.path().join("far.ron"), far_away(&observer)).unwrap();
+    for format in ["gltf", "blender"] {
+        let o = campath(tmp.path(), &["path", "far.ron", "--format", format], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("keeps places in f32"), "{e}");
+        assert!(e.contains("--origin 2000000,2,-6 (the middle"), "{e}");
+        let o = campath(
+            tmp.path(),
+            &[
+                "path",
+                "far.ron",
+                "--format",
+                format,
+                "--origin=2000000,2,-6",
+            ],
+            &[],
+        );
+        assert!(
+            o.status.success() && !stderr(&o).contains("warning"),
+            "{}",
+            stderr(&o)
+        );
+    }
+    // USD keeps f64: no warning; the examples, near the origin, none either.
+    let o = campath(tmp.path(), &["path", "far.ron", "--format", "usd"], &[]);
+    assert!(
+        o.status.success() && stderr(&o).is_empty(),
+        "{}",
+        stderr(&o)
+    );
+    for name in EXAMPLES {
+        let file = root().join(format!("animations/{name}.ron"));
+        let o = campath(
+            tmp.path(),
+            &["path", file.to_str().unwrap(), "--format", "gltf"],
+            &[],
+        );
+        assert!(
+            o.status.success() && !stderr(&o).contains("warning"),
+            "{name}: {}",
+            stderr(&o)
         );
     }
 }

@@ -178,10 +178,12 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
         .args(["video", &f, "--quiet"])
         .spawn()
         .unwrap();
-    // Killed while ffmpeg writes: once its output exists under the temporary name.
+    // Killed while ffmpeg writes: once its output has bytes under the temporary name (not the
+    // empty probe that checks the folder is writable before the render).
     let partial = tmp.path().join("out/zoom/zoom.mp4.tmp");
+    let encoding = || partial.metadata().is_ok_and(|m| m.len() > 0);
     let started = std::time::Instant::now();
-    while !partial.exists() {
+    while !encoding() {
         assert!(
             child.try_wait().unwrap().is_none(),
             "campath finished before its encode could be killed"
@@ -213,7 +215,7 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
             .spawn()
             .unwrap();
         let started = std::time::Instant::now();
-        while !partial.exists() {
+        while !encoding() {
             assert!(
                 child.try_wait().unwrap().is_none(),
                 "finished before {signal}"
