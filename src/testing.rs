@@ -168,6 +168,9 @@ pub struct Options {
     /// With `update`, write every frame's PNG into the golden too, even where it kept only
     /// hashes before.
     pub keep_frames: bool,
+    /// With `update`, the shot's folder was just cleared by [`clear_left_approvals`] (once for
+    /// a folder of shots): [`Shot::open`] does not list it again for the shot's own.
+    pub swept: bool,
 }
 
 /// A shot loaded: its checked document and its golden, if it has one.
@@ -200,8 +203,10 @@ impl Shot {
         let lock = if options.update {
             let file = std::fs::File::open(path).map_err(Error::read(path))?;
             file.lock().map_err(Error::read(path))?;
-            for stale in staging_dirs(path) {
-                std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
+            if !options.swept {
+                for stale in staging_dirs(path) {
+                    std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
+                }
             }
             Some(file)
         } else {
@@ -447,6 +452,7 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
     let options = Options {
         update,
         keep_frames,
+        swept: false,
     };
     if !update {
         clear_left_approvals(shot.parent().unwrap_or(Path::new(".")));

@@ -113,13 +113,12 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         failures::claim(dir, "--review", &goldens, review::is_review_file)?;
     }
 
-    // What killed approvals left beside the goldens: a check clears it, a folder at a time.
-    if !a.update {
-        let folders: std::collections::BTreeSet<&Path> =
-            shots.iter().filter_map(|s| s.parent()).collect();
-        for folder in folders {
-            campath::testing::clear_left_approvals(folder);
-        }
+    // What killed approvals left beside the goldens, cleared a folder at a time (an approval
+    // then does not list the folder again for its shot).
+    let folders: std::collections::BTreeSet<&Path> =
+        shots.iter().filter_map(|s| s.parent()).collect();
+    for folder in folders {
+        campath::testing::clear_left_approvals(folder);
     }
 
     // Shots run side by side; their lines are printed in shot order as soon as each is known.
@@ -129,6 +128,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let options = Options {
         update: a.update,
         keep_frames: a.keep_frames,
+        swept: true,
     };
     let mut checked = Vec::with_capacity(shots.len());
     let mut printed = Ok(());
