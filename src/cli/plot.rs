@@ -274,7 +274,7 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
                 .draw()
                 .map_err(draw_error(path))?;
             let spans = (DVec2::new(cx, cy), half);
-            spheres(&mut chart, doc, view, spans, path)?;
+            spheres(&mut chart, doc, view, spans, plot_h / (2.0 * half), path)?;
             frustums(&mut chart, &marks, every, half * 0.12, view, path)?;
             path_and_keys(&mut chart, &marks, view, half, path)?;
         }
@@ -342,19 +342,43 @@ fn outline(s: &Sphere, view: &View, (centre, half): (DVec2, f64)) -> (Points, Po
     (region, edge)
 }
 
+/// Each sphere in scene order: its region a third opaque, its outline opaque; one under 2.5
+/// pixels across (which its outline would cover) as a filled square of its size and the
+/// stroke's, a run of those drawn together (a million spheres 2 px across took 3.2 s as
+/// outlines, 0.34 s as squares; `the_plot_from_above_…` checks one, the examples' plots are
+/// the same pictures).
 fn spheres(
     chart: &mut Chart,
     doc: &Document,
     view: &View,
     panel: (DVec2, f64),
+    px_per_unit: f64,
     path: &Path,
 ) -> Result<()> {
+    let mut dots = Vec::new();
+    let flush = |chart: &mut Chart, dots: &mut Vec<Rectangle<(f64, f64)>>| {
+        chart
+            .draw_series(dots.drain(..))
+            .map(|_| ())
+            .map_err(draw_error(path))
+    };
     for s in &doc.scene.spheres {
         let col = RGBColor(
             (s.color.x * 255.0) as u8,
             (s.color.y * 255.0) as u8,
             (s.color.z * 255.0) as u8,
         );
+        if s.radius * px_per_unit < 1.25 {
+            // Half a pixel wider on each side, as the outline's stroke is.
+            let (x, y) = view.project(s.center_world);
+            let r = s.radius + 0.5 / px_per_unit;
+            dots.push(Rectangle::new(
+                [(x - r, y - r), (x + r, y + r)],
+                col.filled(),
+            ));
+            continue;
+        }
+        flush(chart, &mut dots)?;
         let (region, edge) = outline(s, view, panel);
         chart
             .draw_series(std::iter::once(Polygon::new(region, col.mix(0.3))))
@@ -363,7 +387,7 @@ fn spheres(
             .draw_series(std::iter::once(PathElement::new(edge, col)))
             .map_err(draw_error(path))?;
     }
-    Ok(())
+    flush(chart, &mut dots)
 }
 
 /// A frustum every `every` frames and at the last, drawn from the camera forwards as Blender and

@@ -738,4 +738,25 @@ fn the_plot_from_above_agrees_with_the_frames_left_and_right() {
         mean_x([255, 0, 255]) > mean_x([0, 0, 255]) + 50.0,
         "sphere right of the path"
     );
+    let path_x = mean_x([0, 0, 255]);
+
+    // A sphere under a pixel across is drawn too, as a dot of its colour at its place.
+    let text = std::fs::read_to_string(tmp.path().join("side.ron")).unwrap();
+    let tiny = text.replace("radius: 1.0", "radius: 0.004");
+    assert_ne!(tiny, text);
+    std::fs::write(tmp.path().join("side.ron"), tiny).unwrap();
+    let o = campath(tmp.path(), &["plot", "side.ron", "--out", "tiny.png"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plot = image::open(tmp.path().join("tiny.png")).unwrap().to_rgb8();
+    let dots: Vec<u32> = (0..700)
+        .flat_map(|x| (0..630).map(move |y| (x, y)))
+        .filter(|&(x, y)| plot.get_pixel(x, y).0 == [255, 0, 255])
+        .map(|(x, _)| x)
+        .collect();
+    assert!(
+        (1..=4).contains(&dots.len()),
+        "{} magenta pixels",
+        dots.len()
+    );
+    assert!(dots.iter().all(|&x| f64::from(x) > path_x + 50.0));
 }
