@@ -134,6 +134,37 @@ pub fn write_atomic(path: &Path, bytes: impl AsRef<[u8]>) -> Result<()> {
     written.map_err(err)
 }
 
+/// Writes `path` through a temporary file and a rename, as `write` streams into it (buffered):
+/// the file appears whole or not at all. A failure of `write` to write (reported as one to
+/// standard output, [`Error::stdout`]) names `path`; on any failure the temporary file is
+/// removed.
+pub fn write_atomic_with<T>(
+    path: &Path,
+    write: impl FnOnce(&mut dyn std::io::Write) -> Result<T>,
+) -> Result<T> {
+    let tmp = tmp_path(path);
+    let result = std::fs::File::create(&tmp)
+        .map_err(Error::write(path))
+        .and_then(|file| {
+            let mut out = std::io::BufWriter::new(file);
+            let value = write(&mut out).map_err(|e| match e {
+                Error::Write { path: p, cause } if p.as_os_str() == "<stdout>" => {
+                    Error::write(path)(cause)
+                }
+                e => e,
+            })?;
+            out.into_inner()
+                .map_err(|e| e.into_error())
+                .and_then(|_| std::fs::rename(&tmp, path))
+                .map_err(Error::write(path))?;
+            Ok(value)
+        });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
 /// Removes the file at `path` if there is one: whether there was.
 pub fn remove_if_there(path: &Path) -> Result<bool> {
     match std::fs::remove_file(path) {

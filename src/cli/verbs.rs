@@ -399,14 +399,47 @@ pub fn path(
     let frames = doc.animation.frames;
     let glb =
         file_out.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")));
-    let mut bytes = Vec::new();
+    // Before anything is written: places that f32 cannot hold are refused, and a reader that
+    // keeps f32 (glTF, Blender, Blender's USD importer) is warned of rounding.
+    if matches!(
+        format,
+        PathFormat::Gltf | PathFormat::Blender | PathFormat::Usd
+    ) {
+        let f32_file = format != PathFormat::Usd;
+        if let Some(place) = f32_file
+            .then(|| campath::export::past_f32(&doc, origin))
+            .flatten()
+        {
+            return Err(CliError::Usage(format!(
+                "{place} lies past f32's range (±3.4e38){}, which {} keeps; nothing was written",
+                if origin == glam::DVec3::ZERO {
+                    String::new()
+                } else {
+                    " relative to --origin".to_string()
+                },
+                format.title()
+            )));
+        }
+        f32_warning(&doc, format, origin)?;
+    } else if origin != glam::DVec3::ZERO {
+        eprintln!(
+            "campath: note: {} has no place to record --origin: its places are relative to \
+             ({}, {}, {}) without saying so",
+            format.title(),
+            origin.x,
+            origin.y,
+            origin.z
+        );
+    }
     let dropped = match file_out {
-        Some(_) => campath::export::write_path(&doc, format, glb, origin, &mut bytes)?,
+        Some(path) => {
+            super::args::create_parent(path)?;
+            campath::output::write_atomic_with(path, |file| {
+                campath::export::write_path(&doc, format, glb, origin, file)
+            })?
+        }
         None => campath::export::write_path(&doc, format, glb, origin, out)?,
     };
-    if matches!(format, PathFormat::Gltf | PathFormat::Blender) {
-        f32_warning(&doc, format, origin)?;
-    }
     if dropped.off_axis > 0 {
         let (off_axis, first, last) = (dropped.off_axis, dropped.first, dropped.last);
         let which = match format {
@@ -424,16 +457,12 @@ pub fn path(
             format.title()
         );
     }
-    if let Some(path) = file_out {
-        super::args::create_parent(path)?;
-        std::fs::write(path, &bytes).map_err(Error::write(path))?;
-    }
     Ok(())
 }
 
-/// Warns when glTF or Blender, keeping places in f32, would move the camera's picture by a
-/// quarter of a pixel or more (a shot far from the origin), and names an origin that keeps it
-/// near zero.
+/// Warns when glTF or Blender (or Blender's USD importer), keeping places in f32, would move
+/// the camera's picture by a quarter of a pixel or more (a shot far from the origin), and
+/// names an origin that keeps it near zero.
 fn f32_warning(doc: &Document, format: PathFormat, origin: glam::DVec3) -> Result<()> {
     const MOST_PX: f64 = 0.25;
     let Some(shift) = campath::export::f32_shift(doc, origin)? else {
@@ -452,16 +481,21 @@ fn f32_warning(doc: &Document, format: PathFormat, origin: glam::DVec3) -> Resul
         )
     } else {
         "the camera's path is too long for f32 at this scale: write the shot in parts, each \
-         with an --origin near it, or use usd, which keeps f64"
+         with an --origin near it, or read the USD with OpenUSD, which keeps f64"
             .to_string()
     };
+    let keeps = match format {
+        PathFormat::Usd => "USD keeps f64, but Blender's USD importer keeps places in f32",
+        _ => "keeps places in f32",
+    };
+    let title = match format {
+        PathFormat::Usd => String::new(),
+        _ => format!("{} ", format.title()),
+    };
     eprintln!(
-        "campath: warning: {} keeps places in f32: this far from the origin, rounding moves \
-         the camera by {:.1e} at frame {}, about {:.1} px on the nearest sphere; {hint}",
-        format.title(),
-        shift.units,
-        shift.frame,
-        shift.px
+        "campath: warning: {title}{keeps}: this far from the origin, rounding moves the camera \
+         by {:.1e} at frame {}, about {:.1} px on the nearest sphere; {hint}",
+        shift.units, shift.frame, shift.px
     );
     Ok(())
 }

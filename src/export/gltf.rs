@@ -15,6 +15,8 @@
 //!
 //! Everything numeric is f32 in the file.
 
+use std::io::Write;
+
 use base64::Engine as _;
 use glam::{DMat3, DQuat, DVec3};
 use serde::Serialize;
@@ -22,7 +24,7 @@ use serde_json::{json, Value};
 
 use crate::camera::Camera;
 use crate::document::Document;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::export::{clipping_range, relative};
 
 /// Segments around and rings from pole to pole of the shared unit sphere.
@@ -145,18 +147,23 @@ fn yfov(cam: &Camera) -> f64 {
 /// appends it (`.glb`). Also returns the frames with an off-axis COP that glTF cannot carry.
 fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u64)> {
     let mut buf = Buffer::default();
-    let (positions, indices) = unit_sphere();
-    let position = buf.floats(&positions, 3, Some(34962), true);
-    let normal = buf.floats(&positions, 3, Some(34962), false);
-    let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-    let index = buf.push(
-        &index_bytes,
-        indices.len(),
-        "SCALAR",
-        5123,
-        Some(34963),
-        json!({}),
-    );
+    // The unit sphere every sphere's mesh scales: positions, normals, indices (none without
+    // spheres: an accessor nothing uses).
+    let (mut position, mut normal, mut index) = (0, 0, 0);
+    if !doc.scene.spheres.is_empty() {
+        let (positions, indices) = unit_sphere();
+        position = buf.floats(&positions, 3, Some(34962), true);
+        normal = buf.floats(&positions, 3, Some(34962), false);
+        let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        index = buf.push(
+            &index_bytes,
+            indices.len(),
+            "SCALAR",
+            5123,
+            Some(34963),
+            json!({}),
+        );
+    }
 
     // The camera, frame by frame.
     let (mut times, mut translations, mut rotations, mut fovs) = (vec![], vec![], vec![], vec![]);
@@ -377,20 +384,19 @@ struct Pbr {
     roughness_factor: f32,
 }
 
-/// The shot as `.gltf` text with the buffer embedded; and the number of frames with an off-axis
-/// COP that glTF cannot carry.
-pub fn gltf(doc: &Document, origin: DVec3) -> Result<(String, u64)> {
-    let (json, _, off_axis) = build(doc, true, origin)?;
-    Ok((
-        serde_json::to_string_pretty(&json).expect("finite numbers serialise") + "\n",
-        off_axis,
-    ))
-}
-
-/// The shot as binary `.glb`; and the number of frames with an off-axis COP.
-pub fn glb(doc: &Document, origin: DVec3) -> Result<(Vec<u8>, u64)> {
-    let (json, mut bin, off_axis) = build(doc, false, origin)?;
+/// Writes the shot as glTF into `out`: binary `.glb` when `binary`, else `.gltf` text with the
+/// buffer embedded; returns the number of frames with an off-axis COP that glTF cannot carry.
+/// The document goes straight to `out`, never whole in memory beside another copy (a million
+/// spheres' JSON is about 400 MB).
+pub fn write(doc: &Document, origin: DVec3, binary: bool, out: &mut dyn Write) -> Result<u64> {
+    let (json, mut bin, off_axis) = build(doc, !binary, origin)?;
+    if !binary {
+        serde_json::to_writer_pretty(&mut *out, &json).map_err(|e| Error::stdout(e.into()))?;
+        out.write_all(b"\n").map_err(Error::stdout)?;
+        return Ok(off_axis);
+    }
     let mut text = serde_json::to_vec(&json).expect("finite numbers serialise");
+    drop(json);
     while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
@@ -398,15 +404,23 @@ pub fn glb(doc: &Document, origin: DVec3) -> Result<(Vec<u8>, u64)> {
         bin.push(0);
     }
     let total = 12 + 8 + text.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((text.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(text);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(bin);
-    Ok((out, off_axis))
+    // GLB's lengths are 32-bit: a file past 4 GiB cannot be written as one.
+    let Ok(total32) = u32::try_from(total) else {
+        return Err(Error::Usage(format!(
+            "the shot as .glb would be {} MiB, past GLB's 4 GiB; write .gltf (text), which has \
+             no such limit, or fewer spheres",
+            total >> 20
+        )));
+    };
+    let mut write = |bytes: &[u8]| out.write_all(bytes).map_err(Error::stdout);
+    write(b"glTF")?;
+    write(&2u32.to_le_bytes())?;
+    write(&total32.to_le_bytes())?;
+    write(&(text.len() as u32).to_le_bytes())?;
+    write(b"JSON")?;
+    write(&text)?;
+    write(&(bin.len() as u32).to_le_bytes())?;
+    write(b"BIN\0")?;
+    write(&bin)?;
+    Ok(off_axis)
 }

@@ -316,6 +316,23 @@ pub fn f32_shift(doc: &Document, origin: DVec3) -> Result<Option<F32Shift>> {
     Ok(Some(worst))
 }
 
+/// The first place written relative to `origin` that f32 cannot hold (past ±3.4·10³⁸): a
+/// frame's camera or a sphere, named as the file names it. Checked before a format that keeps
+/// f32 (or is read so) writes anything.
+pub fn past_f32(doc: &Document, origin: DVec3) -> Option<String> {
+    let past = |p: DVec3| p.abs().max_element() > f64::from(f32::MAX);
+    for (frame, cam) in doc.cameras().flatten() {
+        if past(relative(cam, origin).cop_world()) {
+            return Some(format!("frame {frame}'s COP"));
+        }
+    }
+    doc.scene
+        .spheres
+        .iter()
+        .position(|s| past(s.center_world - origin))
+        .map(|i| format!("the centre of {}", doc.sphere_place(i)))
+}
+
 /// The cosine of the widest angle off the view direction at which `cam` sees: at the window's
 /// furthest corner from the COP's foot.
 fn widest_cos(cam: &Camera) -> f64 {
@@ -347,13 +364,13 @@ pub fn write_path(
     };
     match format {
         PathFormat::Csv | PathFormat::Json | PathFormat::Chan => {}
-        PathFormat::Gltf if glb => {
-            let (bytes, off_axis) = gltf::glb(doc, origin)?;
-            return whole(&bytes, off_axis, out);
-        }
         PathFormat::Gltf => {
-            let (text, off_axis) = gltf::gltf(doc, origin)?;
-            return whole(text.as_bytes(), off_axis, out);
+            let off_axis = gltf::write(doc, origin, glb, out)?;
+            out.flush().map_err(Error::stdout)?;
+            return Ok(Dropped {
+                off_axis,
+                ..Dropped::default()
+            });
         }
         PathFormat::Blender => return whole(blender::script(doc, origin)?.as_bytes(), 0, out),
         PathFormat::Usd => return whole(usd::usda(doc, origin)?.as_bytes(), 0, out),

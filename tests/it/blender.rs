@@ -235,8 +235,9 @@ fn far_away(text: &str) -> String {
     out
 }
 
-/// Without `--origin`, the far shot's exports warn that f32 moves the camera, and name an
-/// origin near it; with it, they do not (Blender's check of that is above).
+/// Without `--origin`, the far shot's exports warn that f32 moves the camera (USD for Blender's
+/// importer), and name an origin near it; with it, they do not (Blender's check of that is
+/// above). An origin past f32's range is refused; CSV says it cannot record one.
 #[test]
 fn a_shot_far_from_the_origin_is_warned_of_and_kept_by_an_origin_near_it() {
     let tmp = tempfile::tempdir().unwrap();
@@ -265,13 +266,57 @@ fn a_shot_far_from_the_origin_is_warned_of_and_kept_by_an_origin_near_it() {
             stderr(&o)
         );
     }
-    // USD keeps f64: no warning; the examples, near the origin, none either.
+    // USD keeps f64, but Blender's USD importer rounds to f32: a warning of its own.
     let o = campath(tmp.path(), &["path", "far.ron", "--format", "usd"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        o.status.success() && stderr(&o).is_empty(),
+        stderr(&o).contains("USD keeps f64, but Blender's USD importer keeps places in f32"),
         "{}",
         stderr(&o)
     );
+    // An origin that puts places past f32's range is refused before anything is written; the
+    // formats that cannot record an origin say so.
+    for format in ["gltf", "blender"] {
+        let o = campath(
+            tmp.path(),
+            &[
+                "path",
+                "far.ron",
+                "--format",
+                format,
+                "--origin=-1e300,0,0",
+                "--out",
+                "x",
+            ],
+            &[],
+        );
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("lies past f32's range"),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!tmp.path().join("x").exists());
+    }
+    let o = campath(
+        tmp.path(),
+        &[
+            "path",
+            "far.ron",
+            "--format",
+            "csv",
+            "--origin",
+            "2000000,2,-6",
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("CSV has no place to record --origin"),
+        "{}",
+        stderr(&o)
+    );
+    // The examples, near the origin: no warning.
     for name in EXAMPLES {
         let file = root().join(format!("animations/{name}.ron"));
         let o = campath(
