@@ -384,6 +384,21 @@ pub fn path(
     origin: glam::DVec3,
     out: &mut dyn Write,
 ) -> Result<()> {
+    // Not into a golden or a folder of rendered frames: the next render there would refuse
+    // the folder for holding a file campath did not write.
+    if let Some(target) = file_out {
+        let parent = target.parent().unwrap_or(Path::new(""));
+        let why = campath::sequence::golden_of(parent).or_else(|| {
+            campath::sequence::frames_folder_of(parent)
+                .map(|dir| format!("{} is a folder of rendered frames", dir.display()))
+        });
+        if let Some(why) = why {
+            return Err(CliError::Usage(format!(
+                "--out {}: {why}; nothing was written (put the export outside it)",
+                target.display()
+            )));
+        }
+    }
     if format == PathFormat::Usd {
         if let Some(ext) = file_out.and_then(|p| p.extension()) {
             if !ext.eq_ignore_ascii_case("usda") && !ext.eq_ignore_ascii_case("usd") {

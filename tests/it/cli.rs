@@ -339,6 +339,22 @@ fn output_paths_say_the_format_and_are_checked_before_any_work() {
     for name in ["x.glb", "plot.jpg", "r.jpg", "shot.mp4", "shot.mkv", "out"] {
         assert!(!tmp.path().join(name).exists(), "{name} was written");
     }
+    // Not into a folder of rendered frames (its next render would refuse the file).
+    let o = campath(tmp.path(), &["render", &f, "--frames", "0", "-q"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for out in ["out/small/cam.usda", "out/small/sub/cam.csv"] {
+        let o = campath(tmp.path(), &["path", &f, "--out", out], &[]);
+        assert_eq!(o.status.code(), Some(2), "{out}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("is a folder of rendered frames"),
+            "{}",
+            stderr(&o)
+        );
+    }
+    assert!(!tmp.path().join("out/small/cam.usda").exists());
+    assert!(!tmp.path().join("out/small/sub").exists());
+    let o = campath(tmp.path(), &["render", &f, "--frames", "0", "-q"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]
