@@ -1,5 +1,6 @@
 //! The `campath` command: parses the arguments, runs the command, prints the error chain, and
-//! exits 2 on bad input, 3 when an outside program is missing or failed, 1 on other failures.
+//! exits 2 on bad input, 3 when an outside program is missing or failed, 130 when Ctrl-C stops
+//! `video`'s encode, 1 on other failures.
 
 mod cli;
 

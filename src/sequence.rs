@@ -228,6 +228,16 @@ pub fn check_folder(dir: &Path) -> Result<()> {
             dir.display()
         )));
     }
+    // Nor inside another folder of rendered frames: that one would then hold a folder campath
+    // did not write there, and its next render would refuse it.
+    if let Some(outer) = resolved(dir).parent().and_then(frames_folder_of) {
+        return Err(Error::Usage(format!(
+            "{} lies inside {}, a folder of rendered frames; nothing was written (choose a \
+             folder outside it)",
+            dir.display(),
+            outer.display()
+        )));
+    }
     let Ok(entries) = std::fs::read_dir(dir) else {
         return Ok(());
     };
@@ -279,16 +289,26 @@ pub fn golden_of(path: &Path) -> Option<String> {
 }
 
 /// The folder of rendered frames that `path` (as it resolves) is or lies inside, if any: the
-/// nearest on the way up that holds a manifest or a lock of campath's.
+/// nearest on the way up that holds campath's lock file, or a manifest that begins as
+/// campath's do (`# campath`; someone's `hashes.txt` of checksums is not one).
 pub fn frames_folder_of(path: &Path) -> Option<PathBuf> {
-    let marks = [
-        manifest::file_name(None),
-        manifest::BEFORE_SHARDS.to_string(),
-        crate::lock::FILE_NAME.to_string(),
-    ];
+    let campaths = |name: &str, dir: &Path| {
+        let mut head = [0u8; 12];
+        std::fs::File::open(dir.join(name))
+            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+            .is_ok_and(|n| {
+                let head = &head[..n];
+                let head = head.strip_prefix("\u{feff}".as_bytes()).unwrap_or(head);
+                head.starts_with(b"# campath")
+            })
+    };
     resolved(path)
         .ancestors()
-        .find(|dir| marks.iter().any(|name| dir.join(name).is_file()))
+        .find(|dir| {
+            dir.join(crate::lock::FILE_NAME).is_file()
+                || campaths(&manifest::file_name(None), dir)
+                || campaths(manifest::BEFORE_SHARDS, dir)
+        })
         .map(Path::to_path_buf)
 }
 

@@ -203,7 +203,9 @@ impl Shot {
         let lock = if options.update {
             let file = std::fs::File::open(path).map_err(Error::read(path))?;
             file.lock().map_err(Error::read(path))?;
-            if !options.swept {
+            // The sweep passes stems that are not UTF-8: those the shot clears itself.
+            let swept = options.swept && path.file_stem().is_some_and(|s| s.to_str().is_some());
+            if !swept {
                 for stale in staging_dirs(path) {
                     std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
                 }

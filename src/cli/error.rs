@@ -19,7 +19,7 @@ pub enum CliError {
         package: &'static str,
         message: String,
     },
-    /// Stopped by Ctrl-C or a termination signal, what the run wrote removed (exit 130).
+    /// Stopped by Ctrl-C, what the run wrote removed (exit 130).
     #[error("{0}")]
     Stopped(String),
     /// A JSON file campath wrote for itself (a run's numbers) does not parse (exit 1).

@@ -30,8 +30,7 @@ An outside program (ffmpeg for \fBvideo\fR, POV\-Ray for \fBbench\fR) is missing
 message names its Debian package.
 .TP
 \fB130\fR
-\fBvideo\fR was stopped by Ctrl\-C (or SIGTERM, SIGHUP) while it encoded; the partial video is
-removed.
+\fBvideo\fR was stopped by Ctrl\-C while it encoded; the partial video is removed.
 .SH ENVIRONMENT
 .TP
 \fBCAMPATH_SIMD\fR

@@ -231,7 +231,8 @@ enum Command {
         scaling: bool,
     },
     /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
-    /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt.
+    /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt. Ctrl-C
+    /// during the encode removes the partial video (exit 130).
     Video {
         /// The keyframe file (RON; see docs/format.md).
         file: PathBuf,

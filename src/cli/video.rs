@@ -138,9 +138,10 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     // As a `file:` URL: a name that begins with `-` is not an option to ffmpeg.
     let mut url = std::ffi::OsString::from("file:");
     url.push(&tmp);
-    // Ctrl-C (or SIGTERM, SIGHUP) from here on stops the encode and removes what it wrote: the
-    // frames stop going to ffmpeg, and the temporary video is removed once ffmpeg has ended.
-    // ffmpeg, in the same process group, stops on a Ctrl-C of its own.
+    // Ctrl-C from here on stops the encode and removes what it wrote: the frames stop going to
+    // ffmpeg, and the temporary video is removed once ffmpeg has ended. ffmpeg, in the same
+    // process group, stops on a Ctrl-C of its own. (Another signal ends campath as before; the
+    // next render that changes the frames removes what it left.)
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {

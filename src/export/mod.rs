@@ -271,8 +271,9 @@ pub(crate) fn relative(mut cam: Camera, origin: DVec3) -> Camera {
 pub struct F32Shift {
     /// The most, in pixels.
     pub px: f64,
-    /// The frame where it is the most.
-    pub frame: u64,
+    /// The frame where it is the most (with motion blur, a shutter's end may be a fraction
+    /// before the first frame or after the last).
+    pub frame: f64,
     /// How far f32 moves the COP there, in world units.
     pub units: f64,
     /// The middle of the COPs' bounds, each coordinate rounded to a whole number: an origin
@@ -283,7 +284,8 @@ pub struct F32Shift {
 /// The most that keeping the camera's place in f32 (glTF, Blender) moves its picture, in
 /// pixels: over the frames, the distance from the COP (relative to `origin`) to its nearest
 /// f32, seen from the nearest depth a sphere can show at (each camera's least gap times the
-/// cosine of its widest angle, as [`clipping_range`] finds it). An estimate: the spheres'
+/// cosine of its widest angle, as [`clipping_range`] finds it), at every time a reader keys
+/// ([`keyed_cameras`]: with motion blur also the shutter's ends). An estimate: the spheres'
 /// own places are rounded too, and a reader's f32 arithmetic adds to it. None without
 /// spheres.
 pub fn f32_shift(doc: &Document, origin: DVec3) -> Result<Option<F32Shift>> {
@@ -293,13 +295,12 @@ pub fn f32_shift(doc: &Document, origin: DVec3) -> Result<Option<F32Shift>> {
     let gaps = gaps::Gaps::new(&doc.scene.spheres);
     let mut worst = F32Shift {
         px: 0.0,
-        frame: 0,
+        frame: 0.0,
         units: 0.0,
         middle: DVec3::ZERO,
     };
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for item in doc.cameras() {
-        let (frame, cam) = item?;
+    for (frame, cam) in keyed_cameras(doc)? {
         (lo, hi) = (lo.min(cam.cop_world()), hi.max(cam.cop_world()));
         let cop = relative(cam, origin).cop_world();
         let kept = DVec3::from(cop.to_array().map(|x| f64::from(x as f32)));
@@ -308,11 +309,13 @@ pub fn f32_shift(doc: &Document, origin: DVec3) -> Result<Option<F32Shift>> {
         let d = -cam.cop_view.z;
         let units = (kept - cop).length();
         let px = units * d / depth / cam.window.x * doc.raster.width as f64;
-        if px > worst.px {
+        // A COP on a sphere's surface (depth 0) sees any move as infinite: no measure there.
+        if px.is_finite() && px > worst.px {
             (worst.px, worst.frame, worst.units) = (px, frame, units);
         }
     }
-    worst.middle = ((lo + hi) * 0.5).round();
+    // + 0: never −0 in the origin named.
+    worst.middle = ((lo + hi) * 0.5).round() + DVec3::ZERO;
     Ok(Some(worst))
 }
 

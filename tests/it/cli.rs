@@ -355,6 +355,32 @@ fn output_paths_say_the_format_and_are_checked_before_any_work() {
     assert!(!tmp.path().join("out/small/sub").exists());
     let o = campath(tmp.path(), &["render", &f, "--frames", "0", "-q"], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // Nor a render's folder inside another's.
+    let o = campath(
+        tmp.path(),
+        &[
+            "render",
+            &f,
+            "--frames",
+            "0",
+            "-q",
+            "--out",
+            "out/small/inner",
+        ],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("a folder of rendered frames"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!tmp.path().join("out/small/inner").exists());
+    // Someone's hashes.txt of checksums does not make a folder one of rendered frames.
+    std::fs::create_dir(tmp.path().join("sums")).unwrap();
+    std::fs::write(tmp.path().join("sums/hashes.txt"), "0123abcd  small.ron\n").unwrap();
+    let o = campath(tmp.path(), &["path", &f, "--out", "sums/cam.csv"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]

@@ -571,10 +571,32 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     drop(approval);
     assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
     assert!(!left.exists());
-    // An approval clears it too (the folder swept once, not once a shot).
+    // An approval clears it too (the folder swept once, not once a shot), also for a shot whose
+    // name is not UTF-8 (which the sweep passes).
     std::fs::create_dir(&left).unwrap();
+    #[cfg(unix)]
+    let odd = {
+        use std::os::unix::ffi::OsStrExt;
+        let shots = t.join("shots");
+        std::fs::copy(
+            shots.join("a.ron"),
+            shots.join(std::ffi::OsStr::from_bytes(b"o\xff.ron")),
+        )
+        .unwrap();
+        let odd = shots.join(std::ffi::OsStr::from_bytes(b".o\xff.golden.update-4242"));
+        std::fs::create_dir(&odd).unwrap();
+        odd
+    };
     assert!(campath(t, &["test", "--update"], &[]).status.success());
     assert!(!left.exists());
+    #[cfg(unix)]
+    {
+        assert!(!odd.exists());
+        use std::os::unix::ffi::OsStrExt;
+        let shots = t.join("shots");
+        std::fs::remove_file(shots.join(std::ffi::OsStr::from_bytes(b"o\xff.ron"))).unwrap();
+        std::fs::remove_dir_all(shots.join(std::ffi::OsStr::from_bytes(b"o\xff.golden"))).unwrap();
+    }
 
     // hashes.txt lost beside old frames: approval writes both anew.
     std::fs::write(t.join("shots/a.ron"), shot(4, "0.3")).unwrap();
