@@ -289,6 +289,20 @@ pub struct RenderArgs {
     pub stats_json: Option<PathBuf>,
 }
 
+/// A flag that Ctrl-C sets from now on, instead of ending the process (`watch`, and `video`'s
+/// encode).
+pub fn ctrl_c_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let flag = std::sync::Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
+        tool: "ctrlc",
+        package: "campath",
+        message: format!("cannot catch Ctrl-C: {e}"),
+    })?;
+    Ok(stop)
+}
+
 /// How a verb waits for its output folder: not at all with `--no-wait` (refusing with exit 2),
 /// or after saying which run it waits for (unless quiet).
 pub fn with_wait<T>(

@@ -11,7 +11,6 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Instant;
 
 use super::error::{CliError, Result};
@@ -142,13 +141,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     // ffmpeg, and the temporary video is removed once ffmpeg has ended. ffmpeg, in the same
     // process group, stops on a Ctrl-C of its own. (Another signal ends campath as before; the
     // next render that changes the frames removes what it left.)
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
-        tool: "ctrlc",
-        package: "campath",
-        message: format!("cannot catch Ctrl-C: {e}"),
-    })?;
+    let stop = super::verbs::ctrl_c_flag()?;
     let mut child = Command::new("ffmpeg")
         .args(ffmpeg_args(&doc, a.lossless, a.crf))
         .arg(url)

@@ -20,7 +20,6 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use notify::{EventKind, RecursiveMode, Watcher};
@@ -96,13 +95,7 @@ pub fn run(
         .unwrap_or_default();
     write_atomic(&dir.join("preview.html"), page(&name.to_string_lossy()))?;
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
-        tool: "ctrlc",
-        package: "campath",
-        message: format!("cannot catch Ctrl-C: {e}"),
-    })?;
+    let stop = super::verbs::ctrl_c_flag()?;
     let (tx, rx) = mpsc::channel();
     let mut watcher = notify::recommended_watcher(tx).map_err(|e| watch_error(file, e))?;
     watcher
