@@ -13,7 +13,8 @@
 //! - Lights are `KHR_lights_punctual` directional lights, pointing their node's −Z along the
 //!   light's direction.
 //!
-//! Everything numeric is f32 in the file.
+//! Everything numeric is f32 in the file, but `asset.extras.campath_origin` (`campath path
+//! --origin`), which keeps the origin as given.
 
 use std::io::Write;
 
