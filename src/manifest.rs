@@ -166,6 +166,20 @@ fn is_hex64(s: &str) -> Option<&str> {
     (s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit())).then_some(s)
 }
 
+/// Whether the file at `path` begins as every manifest campath writes does, with `# campath`
+/// (after an editor's byte order mark): someone's `hashes.txt` of checksums does not. Only its
+/// first bytes are read.
+pub fn begins_as_campaths(path: &Path) -> bool {
+    let mut head = [0u8; 12];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+        .is_ok_and(|n| {
+            let head = &head[..n];
+            let head = head.strip_prefix("\u{feff}".as_bytes()).unwrap_or(head);
+            head.starts_with(b"# campath")
+        })
+}
+
 /// Whether the manifest at `path` begins as a golden campath wrote: its renderer line, then a
 /// frame without a key (an output folder's frames have keys). Only its first lines are read.
 pub fn written_as_golden(path: &Path) -> bool {

@@ -292,22 +292,12 @@ pub fn golden_of(path: &Path) -> Option<String> {
 /// nearest on the way up that holds campath's lock file, or a manifest that begins as
 /// campath's do (`# campath`; someone's `hashes.txt` of checksums is not one).
 pub fn frames_folder_of(path: &Path) -> Option<PathBuf> {
-    let campaths = |name: &str, dir: &Path| {
-        let mut head = [0u8; 12];
-        std::fs::File::open(dir.join(name))
-            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-            .is_ok_and(|n| {
-                let head = &head[..n];
-                let head = head.strip_prefix("\u{feff}".as_bytes()).unwrap_or(head);
-                head.starts_with(b"# campath")
-            })
-    };
     resolved(path)
         .ancestors()
         .find(|dir| {
             dir.join(crate::lock::FILE_NAME).is_file()
-                || campaths(&manifest::file_name(None), dir)
-                || campaths(manifest::BEFORE_SHARDS, dir)
+                || manifest::begins_as_campaths(&dir.join(manifest::file_name(None)))
+                || manifest::begins_as_campaths(&dir.join(manifest::BEFORE_SHARDS))
         })
         .map(Path::to_path_buf)
 }
