@@ -45,11 +45,11 @@ pub use simd::Simd;
 pub use srgb::{srgb_decode, srgb_encoder, SrgbEncoder};
 pub use world::SceneIndex;
 
-use drivers::RowJob;
+use drivers::{RowJob, BAND};
 use kernels::Shading;
 use lanes::LANES;
 use rays::RayTable;
-use rows::rows_in_order;
+use rows::{rows_in_order, Bands};
 use shadows::FrameShadows;
 use simd::Isa;
 use tiles::TileBins;
@@ -232,8 +232,11 @@ impl Renderer {
 }
 
 /// Rows in the ring of [`PreparedFrame::render_through`]: enough that rendering seldom waits
-/// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide).
+/// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide);
+/// whole bands of rows.
 pub const RING_ROWS: usize = 64;
+
+const _: () = assert!(RING_ROWS.is_multiple_of(BAND));
 
 /// A frame made ready for its rays by [`Renderer::prepare`] or [`Renderer::prepare_times`].
 pub struct PreparedFrame<'a> {
@@ -324,12 +327,21 @@ impl PreparedFrame<'_> {
             .map(|(t, ctx)| self.job(ctx, t))
             .collect();
         let isa = self.isa;
+        let bands = Bands {
+            row_bytes: width * 3,
+            rows,
+            band: BAND,
+        };
         if let [job] = &jobs[..] {
-            let render = |j, row: &mut [u8]| job.row(isa, j, row);
-            rows_in_order(buffer, width * 3, rows, render, in_order);
+            let render = |j, band: &mut [u8]| job.band(isa, j, band);
+            rows_in_order(buffer, bands, render, in_order);
         } else {
-            let render = |j, row: &mut [u8]| shutter::mean_row(isa, &jobs, j, row);
-            rows_in_order(buffer, width * 3, rows, render, in_order);
+            let render = |j, band: &mut [u8]| {
+                for (r, row) in band.chunks_mut(width * 3).enumerate() {
+                    shutter::mean_row(isa, &jobs, j + r, row)
+                }
+            };
+            rows_in_order(buffer, bands, render, in_order);
         }
     }
 
@@ -479,6 +491,54 @@ mod tests {
                     let (pixel, strongest) =
                         (&frame[at..at + 3], if color.x > 0.5 { 0 } else { 1 });
                     assert!(pixel[strongest] > pixel[1 - strongest], "{pixel:?}");
+                }
+            }
+        }
+    }
+
+    /// Through the ring of [`RING_ROWS`] rows, a hash-only run's, the consumer is handed every
+    /// row of the frame rendered whole, in order: heights that end inside a band, at the ring's
+    /// size and past it, with a band's last rows in the ring's first slot, on every path and
+    /// kind of sampling.
+    #[test]
+    fn the_ring_hands_on_the_frame_rendered_whole() {
+        let scene = lit(vec![
+            Sphere {
+                center_world: DVec3::ZERO,
+                radius: 1.0,
+                color: DVec3::new(0.9, 0.4, 0.1),
+            },
+            Sphere {
+                center_world: DVec3::new(0.8, 0.9, -0.4),
+                radius: 0.4,
+                color: DVec3::new(0.2, 0.7, 0.3),
+            },
+        ]);
+        let camera = Camera {
+            vrp_world: DVec3::new(0.0, 0.5, -4.0),
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.5),
+            window: DVec2::new(1.6, 0.9),
+        };
+        let index = SceneIndex::new(&scene);
+        for height in [1, 3, 6, 63, 64, 65, 67, 130] {
+            for (samples, adaptive) in [(1, false), (2, true)] {
+                let raster = Raster {
+                    width: 37,
+                    height,
+                    samples,
+                    adaptive,
+                };
+                for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                    let mut r = Renderer::with_simd(simd).unwrap();
+                    let whole = r.render_indexed(&camera, &index, raster);
+                    let frame = r.prepare(&camera, &index, raster);
+                    let (mut ring, mut seen) = (Vec::new(), Vec::new());
+                    frame
+                        .render_through(&mut ring, &mut |rows: &[u8]| seen.extend_from_slice(rows));
+                    let at = format!("height {height}, {samples} samples, {}", simd.name());
+                    assert_eq!(ring.len(), RING_ROWS.min(height as usize) * 37 * 3, "{at}");
+                    assert!(seen == whole, "{at}: the ring's rows differ");
                 }
             }
         }

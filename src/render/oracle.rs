@@ -58,7 +58,7 @@ pub(super) fn nearest(
         Portable::splat((), d.y),
         Portable::splat((), d.z),
     ];
-    let covers = |k: u32, _: usize| bins.covers(k, i, i, j);
+    let covers = |k: u32, _: usize| bins.covers(k, (i, i), (j, j));
     let [(hit, index, t), _] =
         shading.nearest_packets::<Portable>(&[d, d], bins.at(i, j), covers, [true, false]);
     (hit & 1 == 1).then(|| (index[0] as usize, t.store()[0]))

@@ -14,6 +14,9 @@ pub(super) struct RayTable {
     pub(super) window: DVec2,
     pub(super) raster: Raster,
     pub(super) xs: Vec<f64>,
+    /// At one sample a pixel, the column positions of each packet of [`HALF`] columns × 2 rows:
+    /// columns HALF·c .. HALF·(c + 1) (the last column repeated past the row's end), twice.
+    pub(super) packet_xs: Vec<[f64; LANES]>,
     pub(super) ys: Vec<f64>,
     pub(super) dz: f64,
 }
@@ -23,9 +26,15 @@ impl RayTable {
         let s = raster.samples as usize;
         let size = (raster.width, raster.height);
         let offset = |k: usize| (k / s) as f64 + ((k % s) as f64 + 0.5) / s as f64;
-        let xs = (0..raster.width as usize * s)
+        let xs: Vec<f64> = (0..raster.width as usize * s)
             .map(|k| window_point(window, size, offset(k), 0.0).x - cop_view.x)
             .collect();
+        let packet_xs = match s {
+            1 => (0..xs.len().div_ceil(HALF))
+                .map(|c| std::array::from_fn(|l| xs[(c * HALF + l % HALF).min(xs.len() - 1)]))
+                .collect(),
+            _ => Vec::new(),
+        };
         let ys = (0..raster.height as usize * s)
             .map(|k| window_point(window, size, 0.0, offset(k)).y - cop_view.y)
             .collect();
@@ -34,6 +43,7 @@ impl RayTable {
             window,
             raster,
             xs,
+            packet_xs,
             ys,
             dz: -cop_view.z,
         }
@@ -48,30 +58,32 @@ impl RayTable {
     }
 }
 
-/// The unit directions of the packet of row pixels `at..at + LANES` (column positions `xs`,
-/// the row's `y` and the view plane's `z`, with `yy` = y² and `zz` = z² in every lane),
-/// normalised exactly as `DVec3::normalize` does (v · (1 / √(v·v))). Lanes past the row's end
-/// repeat its last pixel. A plain function, not a closure: a closure is not inlined into the
-/// row function compiled for the instruction set (1.5× the time, measured).
+/// Columns of a packet at one sample a pixel; its lanes 0..HALF are one row, HALF..LANES the
+/// next.
+pub(super) const HALF: usize = LANES / 2;
+
+/// The unit directions of the packet of column c (columns HALF·c .. HALF·(c + 1), the table's
+/// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (a band's are the
+/// same in every packet), normalised exactly as `DVec3::normalize` does (v · (1 / √(v·v))).
+/// A plain function, not a closure: a closure is not inlined into the row function compiled
+/// for the instruction set (1.5× the time, measured).
 #[inline(always)]
-pub(super) fn row_direction<V: Lanes>(
-    xs: &[f64],
-    at: usize,
-    y: f64,
+pub(super) fn band_direction<V: Lanes>(
+    table: &RayTable,
+    c: usize,
+    y: V,
     z: f64,
     yy: V,
     zz: V,
 ) -> [V; 3] {
     let tok = yy.token();
-    let width = xs.len();
-    let x = if at + LANES <= width {
-        V::load(tok, xs[at..at + LANES].try_into().expect("LANES values"))
-    } else {
-        let mut v = [xs[width - 1]; LANES];
-        v[..width - at].copy_from_slice(&xs[at..width]);
-        V::load(tok, &v)
-    };
-    unit(x, V::splat(tok, y), V::splat(tok, z), yy, zz)
+    unit(
+        V::load(tok, &table.packet_xs[c]),
+        y,
+        V::splat(tok, z),
+        yy,
+        zz,
+    )
 }
 
 /// The unit vectors along (x, y, z) per lane, given yy = y² and zz = z² (a row's are the same in

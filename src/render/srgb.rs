@@ -4,6 +4,7 @@
 use std::sync::OnceLock;
 
 use super::lanes::{Lanes, Portable, LANES};
+use super::rays::HALF;
 
 /// Exact sRGB quantisation: the linear value at which each 8-bit level begins.
 pub struct SrgbEncoder {
@@ -93,6 +94,22 @@ impl SrgbEncoder {
     /// values in a bucket that a threshold splits.
     #[inline(always)]
     pub(super) fn encode_into<V: Lanes>(&self, linear: V, rgb: &mut [u8; 3 * LANES], a: usize) {
+        let (upper, lower) = rgb.split_at_mut(3 * HALF);
+        let half = "half a packet";
+        let (upper, lower) = (upper.try_into().expect(half), lower.try_into().expect(half));
+        self.encode_halves(linear, upper, lower, a)
+    }
+
+    /// [`SrgbEncoder::encode_into`] with lanes 0..HALF into `upper` and HALF..LANES into
+    /// `lower`: a packet of two rows, straight into its pixels of each.
+    #[inline(always)]
+    pub(super) fn encode_halves<V: Lanes>(
+        &self,
+        linear: V,
+        upper: &mut [u8; 3 * HALF],
+        lower: &mut [u8; 3 * HALF],
+        a: usize,
+    ) {
         let tok = linear.token();
         let (zero, one) = (V::splat(tok, 0.0), V::splat(tok, 1.0));
         // f64::clamp(0, 1), which keeps a NaN.
@@ -100,16 +117,24 @@ impl SrgbEncoder {
         let x = V::blend(x.gt(one), x, one);
         let bucket = x.mul(V::splat(tok, BUCKETS as f64)).to_i32(BUCKETS as i32);
         let mut any = 0;
-        for l in 0..LANES {
-            let entry = self.buckets[bucket[l] as usize];
-            rgb[3 * l + a] = entry as u8;
-            any |= entry;
+        for l in 0..HALF {
+            let (up, low) = (
+                self.buckets[bucket[l] as usize],
+                self.buckets[bucket[HALF + l] as usize],
+            );
+            upper[3 * l + a] = up as u8;
+            lower[3 * l + a] = low as u8;
+            any |= up | low;
         }
         if any & SPLIT != 0 {
             let x = x.store();
-            for l in 0..LANES {
-                let entry = self.buckets[bucket[l] as usize];
-                rgb[3 * l + a] = self.finish(entry, x[l]);
+            for l in 0..HALF {
+                let (up, low) = (
+                    self.buckets[bucket[l] as usize],
+                    self.buckets[bucket[HALF + l] as usize],
+                );
+                upper[3 * l + a] = self.finish(up, x[l]);
+                lower[3 * l + a] = self.finish(low, x[HALF + l]);
             }
         }
     }

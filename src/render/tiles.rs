@@ -530,12 +530,12 @@ impl TileBins {
         self.bins.cell(i / TILE, j / TILE)
     }
 
-    /// Whether sphere k's projection may cover a pixel of row j in columns i0..=i1.
+    /// Whether sphere k's projection may cover a pixel of rows j0..=j1 in columns i0..=i1.
     #[inline(always)]
-    pub fn covers(&self, k: u32, i0: usize, i1: usize, j: usize) -> bool {
+    pub fn covers(&self, k: u32, (i0, i1): (usize, usize), (j0, j1): (usize, usize)) -> bool {
         let [x0, x1, y0, y1] = self.rects[k as usize].map(u32::from);
-        let (i0, i1, j) = (i0 as u32, i1 as u32, j as u32);
-        i1 >= x0 && i0 <= x1 && j >= y0 && j <= y1
+        let (i0, i1, j0, j1) = (i0 as u32, i1 as u32, j0 as u32, j1 as u32);
+        i1 >= x0 && i0 <= x1 && j1 >= y0 && j0 <= y1
     }
 }
 

@@ -104,13 +104,29 @@ fn stability_catalogue_gives_the_same_bytes_on_every_path() {
 
 #[test]
 fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
-    // Widths that end a row inside the first or the second packet of a pair, or after one
-    // packet, or inside a tile, or a stretch of 256 pixels after an odd number of packets.
+    // Widths that end a row inside the first or the second packet of a column pair, or after
+    // one packet, or inside a tile, or a stretch of 64 columns after an odd number of packets.
     for width in [1, 5, 8, 9, 13, 16, 23, 260, 280, 333] {
         let mut doc = one_sample(example(EXAMPLES[0]), 320);
         doc.raster.width = width;
         doc.raster.height = 24;
         same_bytes_on_every_path(&format!("{} at width {width}", EXAMPLES[0]), &doc);
+    }
+}
+
+#[test]
+fn frames_that_end_inside_a_band_give_the_same_bytes_on_every_path() {
+    // One sample a pixel goes in bands of 4 rows (packets of 4 × 2 pixels): heights that end a
+    // frame inside a band or inside one of its packets, or after a band; widths that end a row
+    // inside a packet.
+    for height in [1, 2, 3, 5, 6, 7, 9, 18, 31] {
+        for width in [7, 30] {
+            let mut doc = one_sample(example(EXAMPLES[0]), 320);
+            doc.raster.width = width;
+            doc.raster.height = height;
+            let what = format!("{} at {width}×{height}", EXAMPLES[0]);
+            same_bytes_on_every_path(&what, &doc);
+        }
     }
 }
 
