@@ -127,7 +127,7 @@ enum Keep {
     /// The whole frame and its key, for a sink that writes them.
     Frames,
     /// Only its hash: the rows being rendered and hashed (a ring of
-    /// [`crate::render::RING_ROWS`]), and no key (hashing every sphere for it costs 40 ms of
+    /// [`crate::render::ring_rows`]), and no key (hashing every sphere for it costs 40 ms of
     /// CPU at a million).
     Hashes,
 }

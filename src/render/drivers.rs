@@ -102,7 +102,7 @@ const STRETCH: usize = 32;
 /// Columns of a stretch.
 const STRETCH_COLUMNS: usize = STRETCH / 2 * HALF;
 
-/// What one row needs: the scene in view coordinates, the ray table and the tiles.
+/// What a row or band needs: the scene in view coordinates, the ray table and the tiles.
 pub struct RowJob<'a> {
     pub ctx: &'a Shading<'a>,
     pub table: &'a RayTable,
@@ -203,7 +203,7 @@ impl RowJob<'_> {
     }
 
     /// Renders row `j` into `row` as linear colours (RGB, three to a pixel), with the
-    /// instruction set `isa`: the values that [`RowJob::row`] quantises, the same on every
+    /// instruction set `isa`: the values that [`RowJob::band`] quantises, the same on every
     /// path.
     pub fn row_linear(&self, isa: Isa, j: usize, row: &mut [f64]) {
         isa.run(Linear { job: self, j, row })

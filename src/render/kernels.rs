@@ -113,7 +113,7 @@ impl Shading<'_> {
     /// The linear colours (r, g and b lanes) for a packet with a hit: the ambient plus each
     /// light facing the point and not blocked, times the sphere's colour, clamped; background
     /// where a lane missed, with the shadow rays of each light cast as one packet
-    /// (the first [`HINTED_LIGHTS`] lights' with the row's `hints`, see [`occluded`]).
+    /// (the first [`HINTED_LIGHTS`] lights' with the row's or band's `hints`, see [`occluded`]).
     #[inline(always)]
     pub(super) fn shade_packet<V: Lanes, const SEEN: bool>(
         &self,

@@ -121,7 +121,7 @@ impl Renderer {
     /// [`Renderer::render_indexed`] into `pixels`, every byte of which is written, whatever it
     /// held: a frame buffer can be reused without the cost of fresh zeroed pages. A buffer of
     /// another length is replaced by a fresh one. `in_order` sees the frame's rows once each, in
-    /// order, as they are finished.
+    /// order, as they are finished, a band of up to [`BAND`] rows at a call.
     pub fn render_indexed_into(
         &mut self,
         camera: &Camera,
@@ -231,12 +231,24 @@ impl Renderer {
     }
 }
 
-/// Rows in the ring of [`PreparedFrame::render_through`]: enough that rendering seldom waits
-/// for the rows ahead to be handed on, few enough to stay in the caches (368 KB at 1920 wide);
-/// whole bands of rows.
+/// Rows in the ring of [`PreparedFrame::render_through`], at least: enough that rendering
+/// seldom waits for the rows ahead to be handed on, few enough to stay in the caches (368 KB
+/// at 1920 wide). With many threads, more ([`ring_rows`]).
 pub const RING_ROWS: usize = 64;
 
+/// Bands in the ring per thread of the pool, at least: a thread waits for a slot only when
+/// the band that held it is not yet handed on, and a band ahead can be slow.
+const RING_BANDS_PER_THREAD: usize = 8;
+
 const _: () = assert!(RING_ROWS.is_multiple_of(BAND));
+
+/// The rows of [`PreparedFrame::render_through`]'s ring for a pool of `threads` and a frame
+/// `height` rows high: whole bands, or the frame if it is shorter.
+pub fn ring_rows(threads: usize, height: u32) -> usize {
+    RING_ROWS
+        .max(RING_BANDS_PER_THREAD * BAND * threads)
+        .min(height as usize)
+}
 
 /// A frame made ready for its rays by [`Renderer::prepare`] or [`Renderer::prepare_times`].
 pub struct PreparedFrame<'a> {
@@ -281,8 +293,8 @@ impl PreparedFrame<'_> {
         self.times.len()
     }
 
-    /// Renders the frame into `pixels` (see [`Renderer::render_indexed_into`]), each row by one
-    /// task into its own slice, so the bytes do not depend on the thread count.
+    /// Renders the frame into `pixels` (see [`Renderer::render_indexed_into`]), each band of
+    /// rows by one task into its own slice, so the bytes do not depend on the thread count.
     pub fn render_into(&self, pixels: &mut Vec<u8>, in_order: &mut (dyn FnMut(&[u8]) + Send)) {
         if pixels.len() != self.raster.frame_bytes() {
             // Fresh zeroed pages (calloc), faulted in by the threads that write the rows, not
@@ -292,19 +304,19 @@ impl PreparedFrame<'_> {
         self.render_rows(pixels, in_order);
     }
 
-    /// Renders the frame's rows through `ring`, a buffer of at most [`RING_ROWS`] rows reused
-    /// from row to row, for a consumer that needs each row only once, in order (`in_order`):
-    /// the frame's pixels are never all in memory at once.
+    /// Renders the frame's rows through `ring`, a buffer of a few whole bands ([`ring_rows`])
+    /// reused from band to band, for a consumer that needs each row only once, in order
+    /// (`in_order`): the frame's pixels are never all in memory at once.
     pub fn render_through(&self, ring: &mut Vec<u8>, in_order: &mut (dyn FnMut(&[u8]) + Send)) {
         let row_bytes = self.raster.width as usize * 3;
-        let bytes = RING_ROWS.min(self.raster.height as usize) * row_bytes;
+        let bytes = ring_rows(rayon::current_num_threads(), self.raster.height) * row_bytes;
         if ring.len() != bytes {
             *ring = vec![0u8; bytes];
         }
         self.render_rows(ring, in_order);
     }
 
-    /// Every row, into `buffer` (the frame, or a ring of whole rows).
+    /// Every row, into `buffer` (the frame, or a ring of whole bands).
     fn render_rows(&self, buffer: &mut [u8], in_order: &mut (dyn FnMut(&[u8]) + Send)) {
         let raster = self.raster;
         let rows = raster.height as usize;
@@ -496,7 +508,7 @@ mod tests {
         }
     }
 
-    /// Through the ring of [`RING_ROWS`] rows, a hash-only run's, the consumer is handed every
+    /// Through the ring of [`ring_rows`], a hash-only run's, the consumer is handed every
     /// row of the frame rendered whole, in order: heights that end inside a band, at the ring's
     /// size and past it, with a band's last rows in the ring's first slot, on every path and
     /// kind of sampling.
@@ -537,7 +549,8 @@ mod tests {
                     frame
                         .render_through(&mut ring, &mut |rows: &[u8]| seen.extend_from_slice(rows));
                     let at = format!("height {height}, {samples} samples, {}", simd.name());
-                    assert_eq!(ring.len(), RING_ROWS.min(height as usize) * 37 * 3, "{at}");
+                    let rows = ring_rows(rayon::current_num_threads(), height);
+                    assert_eq!(ring.len(), rows * 37 * 3, "{at}");
                     assert!(seen == whole, "{at}: the ring's rows differ");
                 }
             }

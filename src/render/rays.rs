@@ -63,8 +63,8 @@ impl RayTable {
 pub(super) const HALF: usize = LANES / 2;
 
 /// The unit directions of the packet of column c (columns HALF·c .. HALF·(c + 1), the table's
-/// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (a band's are the
-/// same in every packet), normalised exactly as `DVec3::normalize` does (v · (1 / √(v·v))).
+/// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (computed once a
+/// band for its upper and its lower packets), normalised exactly as `DVec3::normalize` does (v · (1 / √(v·v))).
 /// A plain function, not a closure: a closure is not inlined into the row function compiled
 /// for the instruction set (1.5× the time, measured).
 #[inline(always)]

@@ -104,8 +104,9 @@ fn stability_catalogue_gives_the_same_bytes_on_every_path() {
 
 #[test]
 fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
-    // Widths that end a row inside the first or the second packet of a column pair, or after
-    // one packet, or inside a tile, or a stretch of 64 columns after an odd number of packets.
+    // Widths that end a row inside a packet (4 columns at one sample a pixel), or after one,
+    // or inside a tile, or inside a stretch of 64 columns; at s×s samples, inside a pair of
+    // packets of a row.
     for width in [1, 5, 8, 9, 13, 16, 23, 260, 280, 333] {
         let mut doc = one_sample(example(EXAMPLES[0]), 320);
         doc.raster.width = width;
@@ -269,6 +270,76 @@ fn tiles_and_shadow_grid_give_the_oracle_bytes() {
             let what = format!("camera {k}, {raster:?}");
             every_path_gives_the_oracle_bytes(&camera, &scene, raster, &what);
         }
+    }
+}
+
+/// A field of small spheres in frames a few rows high and a few columns wide, so that sphere
+/// edges cross the packets of a band's last rows: every path, on pools of 1 and 3 threads,
+/// gives the oracle's bytes whole (`render`) and through the ring of a hash-only run
+/// (`render_through`: short last bands in the ring's first slots).
+#[test]
+fn short_frames_of_small_spheres_give_the_oracle_bytes_whole_and_through_the_ring() {
+    let (lo, size) = (DVec3::new(-6.0, 0.0, -6.0), DVec3::new(12.0, 3.0, 12.0));
+    let spheres = field(11, 400, lo, size, (0.05, 0.3), 1000.0);
+    let scene = Scene {
+        background: DVec3::new(0.1, 0.1, 0.2),
+        ambient: 0.1,
+        lights: vec![Light {
+            direction_world: DVec3::new(-0.6, -1.0, 0.4).normalize(),
+            color: DVec3::splat(0.9),
+            shadows: true,
+        }],
+        spheres,
+    };
+    let camera = Camera {
+        vrp_world: DVec3::new(-9.0, 4.0, -9.0),
+        basis: Basis::from_vpn_vuv(DVec3::new(1.0, -0.3, 1.0), DVec3::Y).unwrap(),
+        cop_view: DVec3::new(0.0, 0.0, -1.2),
+        window: DVec2::new(1.5, 1.0),
+    };
+    let index = SceneIndex::new(&scene);
+    let mut shapes = Vec::new();
+    for width in [5, 67] {
+        for height in [1, 2, 3, 5, 6, 7, 66, 67, 131] {
+            shapes.push((width, height));
+        }
+    }
+    for (width, height) in shapes {
+        let raster = Raster {
+            width,
+            height,
+            samples: 1,
+            adaptive: false,
+        };
+        let slow = crate::reference::render(&camera, &scene, raster);
+        let edges = slow.chunks(3).filter(|p| *p != slow[..3].as_ref()).count();
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                let at = format!("{width}×{height}, {threads} threads, {}", simd.name());
+                let mut r = Renderer::with_simd(simd).unwrap();
+                let (whole, ringed) = pool.install(|| {
+                    let whole = r.render_indexed(&camera, &index, raster);
+                    let mut seen = Vec::new();
+                    let mut ring = vec![0x5a; 5];
+                    r.prepare(&camera, &index, raster)
+                        .render_through(&mut ring, &mut |rows: &[u8]| seen.extend_from_slice(rows));
+                    (whole, seen)
+                });
+                assert!(whole == slow, "{at}: the frame differs from the oracle's");
+                assert!(
+                    ringed == slow,
+                    "{at}: the ring's rows differ from the oracle's"
+                );
+            }
+        }
+        assert!(
+            height < 60 || edges > 100,
+            "{width}×{height}: {edges} pixels not the first's"
+        );
     }
 }
 

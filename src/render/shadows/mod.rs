@@ -339,10 +339,10 @@ impl<'a> FrameShadows<'a> {
 /// No shadow hint (see [`FrameShadows::occluded`]).
 pub(super) const NO_HINT: u32 = u32::MAX;
 
-/// The lights whose shadow packets keep a hint along a row.
+/// The lights whose shadow packets keep a hint along a row or band.
 pub(super) const HINTED_LIGHTS: usize = 4;
 
-/// A row's shadow hints, one per light (the first [`HINTED_LIGHTS`]).
+/// A row's or band's shadow hints, one per light (the first [`HINTED_LIGHTS`]).
 pub(super) type Hints = [u32; HINTED_LIGHTS];
 
 /// Spheres larger than the first of these (16 × the median radius, like a ground sphere) are
