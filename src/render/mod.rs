@@ -508,6 +508,16 @@ mod tests {
         }
     }
 
+    /// A camera 4 units from the origin along −z, a little above it, looking along +z.
+    fn looking_at_the_origin() -> Camera {
+        Camera {
+            vrp_world: DVec3::new(0.0, 0.5, -4.0),
+            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
+            cop_view: DVec3::new(0.0, 0.0, -1.5),
+            window: DVec2::new(1.6, 0.9),
+        }
+    }
+
     /// Through the ring of [`ring_rows`], a hash-only run's, the consumer is handed every
     /// row of the frame rendered whole, in order: heights that end inside a band, at the ring's
     /// size and past it, with a band's last rows in the ring's first slot, on every path and
@@ -526,12 +536,7 @@ mod tests {
                 color: DVec3::new(0.2, 0.7, 0.3),
             },
         ]);
-        let camera = Camera {
-            vrp_world: DVec3::new(0.0, 0.5, -4.0),
-            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
-            cop_view: DVec3::new(0.0, 0.0, -1.5),
-            window: DVec2::new(1.6, 0.9),
-        };
+        let camera = looking_at_the_origin();
         let index = SceneIndex::new(&scene);
         for height in [1, 3, 6, 63, 64, 65, 67, 130] {
             for (samples, adaptive) in [(1, false), (2, true)] {
@@ -566,12 +571,7 @@ mod tests {
             radius: 1.0,
             color: DVec3::new(0.9, 0.4, 0.1),
         }]);
-        let camera = Camera {
-            vrp_world: DVec3::new(0.0, 0.5, -4.0),
-            basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),
-            cop_view: DVec3::new(0.0, 0.0, -1.5),
-            window: DVec2::new(1.6, 0.9),
-        };
+        let camera = looking_at_the_origin();
         let index = SceneIndex::new(&scene);
         for (samples, adaptive) in [(1, false), (3, false), (4, true)] {
             // 261 pixels a row: a stretch, and packets, end inside the row.

@@ -248,6 +248,17 @@ mod tests {
             .unwrap()
     }
 
+    /// What [`rows_in_order`] hands on, band by band, rendering by [`render`] into `buffer`.
+    fn handed_on(pool: &rayon::ThreadPool, buffer: &mut [u8], bands: Bands) -> Vec<Vec<u8>> {
+        let mut seen = Vec::new();
+        pool.install(|| {
+            rows_in_order(buffer, bands, render(bands.row_bytes), &mut |r: &[u8]| {
+                seen.push(r.to_vec())
+            })
+        });
+        seen
+    }
+
     /// Whole bands, handed on once each, in order, the last one short when the rows are not a
     /// whole number of bands.
     #[test]
@@ -257,17 +268,12 @@ mod tests {
             for band in [1, 2, 4] {
                 for (rows, row_bytes) in [(0, 5), (1, 5), (2, 1), (3, 2), (97, 33), (300, 8)] {
                     let mut pixels = vec![0xa5u8; rows * row_bytes];
-                    let mut seen: Vec<Vec<u8>> = Vec::new();
                     let bands = Bands {
                         row_bytes,
                         rows,
                         band,
                     };
-                    pool.install(|| {
-                        rows_in_order(&mut pixels, bands, render(row_bytes), &mut |r: &[u8]| {
-                            seen.push(r.to_vec())
-                        })
-                    });
+                    let seen = handed_on(&pool, &mut pixels, bands);
                     let expected = expected(rows, row_bytes, band);
                     let at = format!("{threads} threads, {rows} rows, bands of {band}");
                     assert_eq!(seen, expected, "{at}");
@@ -285,17 +291,12 @@ mod tests {
                 for slots in [1, 2, 3, 7, 24] {
                     let (rows, row_bytes) = (97, 33);
                     let mut ring = vec![0xa5u8; slots * band * row_bytes];
-                    let mut seen: Vec<Vec<u8>> = Vec::new();
                     let bands = Bands {
                         row_bytes,
                         rows,
                         band,
                     };
-                    pool.install(|| {
-                        rows_in_order(&mut ring, bands, render(row_bytes), &mut |r: &[u8]| {
-                            seen.push(r.to_vec())
-                        })
-                    });
+                    let seen = handed_on(&pool, &mut ring, bands);
                     let expected = expected(rows, row_bytes, band);
                     let at = format!("{threads} threads, {slots} slots of {band} rows");
                     assert_eq!(seen, expected, "{at}");

@@ -273,15 +273,9 @@ fn tiles_and_shadow_grid_give_the_oracle_bytes() {
     }
 }
 
-/// A field of small spheres in frames a few rows high and a few columns wide, so that sphere
-/// edges cross the packets of a band's last rows: every path, on pools of 1 and 3 threads,
-/// gives the oracle's bytes whole (`render`) and through the ring of a hash-only run
-/// (`render_through`: short last bands in the ring's first slots).
-#[test]
-fn short_frames_of_small_spheres_give_the_oracle_bytes_whole_and_through_the_ring() {
-    let (lo, size) = (DVec3::new(-6.0, 0.0, -6.0), DVec3::new(12.0, 3.0, 12.0));
-    let spheres = field(11, 400, lo, size, (0.05, 0.3), 1000.0);
-    let scene = Scene {
+/// `spheres` under one shadowing light from above, as the dense clusters have it.
+fn under_one_light(spheres: Vec<Sphere>) -> Scene {
+    Scene {
         background: DVec3::new(0.1, 0.1, 0.2),
         ambient: 0.1,
         lights: vec![Light {
@@ -290,7 +284,18 @@ fn short_frames_of_small_spheres_give_the_oracle_bytes_whole_and_through_the_rin
             shadows: true,
         }],
         spheres,
-    };
+    }
+}
+
+/// A field of small spheres in frames a few rows high and a few columns wide, so that sphere
+/// edges cross the packets of a band's last rows: every path, on pools of 1 and 3 threads,
+/// gives the oracle's bytes whole (`render`) and through the ring of a hash-only run
+/// (`render_through`: short last bands in the ring's first slots).
+#[test]
+fn short_frames_of_small_spheres_give_the_oracle_bytes_whole_and_through_the_ring() {
+    let (lo, size) = (DVec3::new(-6.0, 0.0, -6.0), DVec3::new(12.0, 3.0, 12.0));
+    let spheres = field(11, 400, lo, size, (0.05, 0.3), 1000.0);
+    let scene = under_one_light(spheres);
     let camera = Camera {
         vrp_world: DVec3::new(-9.0, 4.0, -9.0),
         basis: Basis::from_vpn_vuv(DVec3::new(1.0, -0.3, 1.0), DVec3::Y).unwrap(),
@@ -353,16 +358,7 @@ fn short_frames_of_small_spheres_give_the_oracle_bytes_whole_and_through_the_rin
 fn a_dense_cluster_of_20000_spheres_gives_the_oracle_bytes() {
     let (lo, size) = (DVec3::new(-10.0, 0.0, -10.0), DVec3::new(20.0, 6.0, 20.0));
     let spheres = field(20_000, 20_000, lo, size, (0.05, 0.15), 10_000.0);
-    let scene = Scene {
-        background: DVec3::new(0.1, 0.1, 0.2),
-        ambient: 0.1,
-        lights: vec![Light {
-            direction_world: DVec3::new(-0.6, -1.0, 0.4).normalize(),
-            color: DVec3::splat(0.9),
-            shadows: true,
-        }],
-        spheres,
-    };
+    let scene = under_one_light(spheres);
     let raster = Raster {
         width: 48,
         height: 32,
