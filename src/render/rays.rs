@@ -64,9 +64,9 @@ pub(super) const HALF: usize = LANES / 2;
 
 /// The unit directions of the packet of column c (columns HALF·c .. HALF·(c + 1), the table's
 /// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (computed once a
-/// band for its upper and its lower packets), normalised exactly as `DVec3::normalize` does (v · (1 / √(v·v))).
-/// A plain function, not a closure: a closure is not inlined into the row function compiled
-/// for the instruction set (1.5× the time, measured).
+/// band for its upper and its lower packets), normalised exactly as `DVec3::normalize` does
+/// (v · (1 / √(v·v))). A plain function, not a closure: a closure is not inlined into the row
+/// function compiled for the instruction set (1.5× the time, measured).
 #[inline(always)]
 pub(super) fn band_direction<V: Lanes>(
     table: &RayTable,
@@ -86,8 +86,8 @@ pub(super) fn band_direction<V: Lanes>(
     )
 }
 
-/// The unit vectors along (x, y, z) per lane, given yy = y² and zz = z² (a row's are the same in
-/// every packet), normalised exactly as `DVec3::normalize` does: v · (1 / √((x² + y²) + z²)).
+/// The unit vectors along (x, y, z) per lane, given yy = y² and zz = z² (found once for many
+/// packets), normalised exactly as `DVec3::normalize` does: v · (1 / √((x² + y²) + z²)).
 #[inline(always)]
 pub(super) fn unit<V: Lanes>(x: V, y: V, z: V, yy: V, zz: V) -> [V; 3] {
     let tok = x.token();
