@@ -484,12 +484,14 @@ impl RowJob<'_> {
         let t = self.table;
         let width = t.raster.width as usize;
         let row = |a: usize| j + a.min(rows - 1);
-        // The y of each lane of the upper and lower packets (rows 0, 1 and 2, 3), and y².
-        let ys = [0, 2].map(|a| {
-            let mut y = [t.ys[row(a)]; LANES];
-            y[HALF..].fill(t.ys[row(a + 1)]);
-            V::load(tok, &y)
-        });
+        // The y of each lane of the upper and lower packets (rows 0, 1 and 2, 3), and y². A
+        // loop, not `array::map`, whose closure would run the loads out of line.
+        let mut ys = [V::splat(tok, 0.0); 2];
+        for (h, y) in ys.iter_mut().enumerate() {
+            let mut lanes = [t.ys[row(2 * h)]; LANES];
+            lanes[HALF..].fill(t.ys[row(2 * h + 1)]);
+            *y = V::load(tok, &lanes);
+        }
         let yys = [ys[0].mul(ys[0]), ys[1].mul(ys[1])];
         let (z, zz) = (t.dz, V::splat(tok, t.dz * t.dz));
         // A stretch of the band's unit directions (`band_direction`), computed ahead of its
