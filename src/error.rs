@@ -52,6 +52,116 @@ impl fmt::Display for Problems {
     }
 }
 
+/// Why campath will not write at a path. The command line adds which option named it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Refusal {
+    /// A file stands where a folder goes: the path itself, or a folder above it.
+    NotAFolder(PathBuf),
+    /// A folder stands where a file goes.
+    NotAFile(PathBuf),
+    /// The path is, or lies inside, the golden `NAME.golden` of the shot `NAME.ron`.
+    Golden {
+        /// The golden folder.
+        golden: PathBuf,
+        /// The shot beside it.
+        shot: PathBuf,
+    },
+    /// The path is, or lies inside, a golden the run compares with.
+    InGolden {
+        /// The path.
+        path: PathBuf,
+        /// The golden.
+        golden: PathBuf,
+        /// Whether the path lies inside the golden rather than being it.
+        inside: bool,
+    },
+    /// The folder's `hashes.txt` names campath's renderer and lists frames without keys, as the
+    /// goldens campath writes do (an output folder's frames have keys).
+    GoldenHashes(PathBuf),
+    /// The path lies inside a folder of rendered frames, which would then hold a file or folder
+    /// campath did not write there.
+    InFrames {
+        /// The path.
+        path: PathBuf,
+        /// The folder of rendered frames.
+        frames: PathBuf,
+    },
+    /// The folder holds files campath did not write there (the first three named).
+    Foreign {
+        /// The folder.
+        dir: PathBuf,
+        /// The first few of them.
+        names: Vec<String>,
+    },
+}
+
+impl Refusal {
+    /// The path the refusal is about: the one asked about, or the folder above it that decides.
+    pub fn subject(&self) -> &std::path::Path {
+        match self {
+            Refusal::NotAFolder(p) | Refusal::NotAFile(p) | Refusal::GoldenHashes(p) => p,
+            Refusal::Golden { golden, .. } => golden,
+            Refusal::InGolden { path, .. } | Refusal::InFrames { path, .. } => path,
+            Refusal::Foreign { dir, .. } => dir,
+        }
+    }
+
+    /// Whether the path is, or lies inside, a golden.
+    pub fn is_golden(&self) -> bool {
+        matches!(
+            self,
+            Refusal::Golden { .. } | Refusal::InGolden { .. } | Refusal::GoldenHashes(_)
+        )
+    }
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Refusal::NotAFolder(p) => write!(f, "{} is a file, not a folder", p.display()),
+            Refusal::NotAFile(p) => write!(f, "{} is a folder: name the file to write", p.display()),
+            Refusal::Golden { golden, shot } => {
+                write!(f, "{} is the golden of {}", golden.display(), shot.display())
+            }
+            Refusal::InGolden {
+                path,
+                golden,
+                inside,
+            } => write!(
+                f,
+                "{} {} the golden {}",
+                path.display(),
+                if *inside { "lies inside" } else { "is" },
+                golden.display()
+            ),
+            Refusal::GoldenHashes(p) => write!(
+                f,
+                "{} is a golden: its hashes.txt names campath's renderer and lists frames without keys",
+                p.display()
+            ),
+            Refusal::InFrames { path, frames } => write!(
+                f,
+                "{} lies in {}, which is a folder of rendered frames",
+                path.display(),
+                frames.display()
+            ),
+            Refusal::Foreign { dir, names } => write!(
+                f,
+                "{} holds files campath did not write ({})",
+                dir.display(),
+                names.join(", ")
+            ),
+        }
+    }
+}
+
+impl From<Refusal> for Error {
+    fn from(refusal: Refusal) -> Error {
+        Error::Refused(refusal)
+    }
+}
+
 /// Everything that can go wrong in campath.
 ///
 /// An I/O or encoder failure's cause is part of the message and kept in the variant's `cause`
@@ -134,6 +244,9 @@ pub enum Error {
     /// A request that cannot be met: a path that is a file, a frame past the end (exit 2).
     #[error("{0}")]
     Usage(String),
+    /// A path campath will not write (exit 2); nothing was written.
+    #[error("{0}; nothing was written")]
+    Refused(Refusal),
     /// Another run holds the output folder (or, for a shard, its part of it); see
     /// [`crate::lock`].
     #[error("{} is being written by another campath run ({})", dir.display(), if holders.is_empty() { "its process id is not recorded".to_string() } else { holders.join("; ") })]
@@ -156,6 +269,7 @@ impl Error {
                 | Error::Manifest { .. }
                 | Error::Merge { .. }
                 | Error::Usage(_)
+                | Error::Refused(_)
                 | Error::Busy { .. }
         )
     }

@@ -1,7 +1,9 @@
 //! The frame engine: which frames a run covers, rendering them in order with each frame's
 //! [`FrameKey`], and streaming the pixels to a consumer on its own thread.
 
+use std::fmt;
 use std::ops::Range;
+use std::str::FromStr;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -9,10 +11,50 @@ use crate::animation::Exposure;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::manifest::Shard;
-use crate::output::{FrameHash, FrameHasher};
+use crate::hash::{FrameHash, FrameHasher};
 use crate::render::key::{FrameKey, KeyBase};
 use crate::render::{PreparedFrame, Renderer, SceneIndex};
+
+/// Shard K of N: the frames k with k mod N = K (interleaved, so every shard gets a share of the
+/// slow and the fast parts of an animation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Shard {
+    /// K, 0 ≤ K < N.
+    pub index: u64,
+    /// N ≥ 1.
+    pub count: u64,
+}
+
+impl Shard {
+    /// Whether frame `frame` is this shard's.
+    pub fn contains(&self, frame: u64) -> bool {
+        frame % self.count == self.index
+    }
+}
+
+impl fmt::Display for Shard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl FromStr for Shard {
+    type Err = String;
+
+    /// `K/N` with 0 ≤ K < N.
+    fn from_str(s: &str) -> std::result::Result<Shard, String> {
+        let bad = || format!("{s:?}: expected K/N with 0 ≤ K < N, e.g. 0/4");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count): (u64, u64) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
 
 /// The frames a run covers: a range, optionally one shard of it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -100,7 +142,7 @@ fn key(doc: &Document, base: &KeyBase, exposure: &Exposure) -> FrameKey {
 }
 
 /// Renders the frames of `set` in order and calls `sink` with each frame's key, RGB8 pixels
-/// and hash ([`crate::output::frame_hash`], computed row by row as the rows are rendered);
+/// and hash ([`crate::hash::frame_hash`], computed row by row as the rows are rendered);
 /// frames for which `done` says true are passed over without rendering (`done` is asked ahead:
 /// before a rendered frame reaches `sink`, about the frames up to the next one to render, so it
 /// must not depend on what `sink` did). A frame whose cameras (with motion blur, the time
@@ -380,7 +422,7 @@ pub struct Difference {
 }
 
 /// Renders the frames listed in `expected` (for example a hashes.txt read with
-/// [`crate::manifest::parse_hashes`]) and returns those that differ.
+/// [`crate::output::manifest::parse_hashes`]) and returns those that differ.
 ///
 /// ```
 /// # use std::path::Path;
@@ -388,7 +430,7 @@ pub struct Difference {
 /// #     "(frames: 3, image: (width: 8, height: 4), camera: (vrp: (0.0, 0.0, -4.0), tp: (0.0, 0.0, 0.0)),
 /// #       scene: (spheres: [(center: (0.0, 0.0, 0.0), radius: 1.0)]))").unwrap();
 /// let mut golden = campath::frames::hashes(&doc, 0..3).unwrap();
-/// golden[1].1 = campath::output::FrameHash([0; 32]);
+/// golden[1].1 = campath::FrameHash([0; 32]);
 /// let differ = campath::frames::compare(&doc, &golden).unwrap();
 /// assert_eq!(differ.len(), 1);
 /// assert_eq!(differ[0].frame, 1);
@@ -438,11 +480,45 @@ pub fn compare_each(
     Ok(differ)
 }
 
+/// `1, 4, 7` for a few frames, `1, 4, 7, … (40 in all)` for many.
+pub fn list_frames(frames: &[u64]) -> String {
+    list_first(frames.iter().copied(), frames.len() as u64)
+}
+
+/// [`list_frames`] of `count` frames, which `frames` yields (only the first are taken).
+pub fn list_first(frames: impl Iterator<Item = u64>, count: u64) -> String {
+    const SHOWN: usize = 8;
+    let shown: Vec<String> = frames.take(SHOWN).map(|f| f.to_string()).collect();
+    if count > SHOWN as u64 {
+        format!("{}, … ({count} in all)", shown.join(", "))
+    } else {
+        shown.join(", ")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::frame_hash;
+    use crate::hash::frame_hash;
     use std::path::Path;
+
+    #[test]
+    fn shards_parse_only_when_well_formed() {
+        assert!("3/2".parse::<Shard>().is_err());
+        assert!("0/0".parse::<Shard>().is_err());
+        assert!("1".parse::<Shard>().is_err());
+        assert_eq!("1/4".parse::<Shard>(), Ok(Shard { index: 1, count: 4 }));
+        assert_eq!(Shard { index: 1, count: 4 }.to_string(), "1/4");
+        let set = FrameSet {
+            range: 2..10,
+            shard: Some(Shard { index: 1, count: 4 }),
+        };
+        assert_eq!(
+            (2..10).filter(|k| set.contains(*k)).collect::<Vec<_>>(),
+            [5, 9]
+        );
+        assert_eq!(set.count(), 2);
+    }
 
     /// Frames 0–2 share a camera, 3–5 move, 6–9 keep frame 5's. Taller than the ring of rows.
     const HOLDS: &str = "(frames: 10, fps: 10.0, image: (width: 40, height: 150),

@@ -1,6 +1,6 @@
 //! Golden hashes: what a frame-hash test compares fresh renders with.
 //!
-//! A golden is a `hashes.txt` (the [manifest](crate::manifest) grammar), either alone or in a
+//! A golden is a `hashes.txt` (the [manifest](crate::output::manifest) grammar), either alone or in a
 //! folder beside the golden frames it lists (`frame_NNNN.png`). Campath writes it with a first
 //! line naming its renderer version, so a golden made by a campath whose pictures differ is
 //! reported as such rather than as a broken shot.
@@ -9,12 +9,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::manifest::{Entry, Manifest};
-use crate::output::{frame_of, write_atomic, FrameHash};
+use crate::hash::FrameHash;
+use crate::output::manifest::{Entry, Manifest};
+use crate::output::{frames_in, write_atomic, HASHES};
 use crate::render::key::VERSION;
-
-/// The name of the hashes file inside a golden folder.
-pub const HASHES: &str = "hashes.txt";
 
 /// A golden: frame hashes, where they came from, and the folder of golden frames if any.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -91,19 +89,6 @@ impl Golden {
     pub fn frames(&self) -> BTreeMap<u64, PathBuf> {
         self.dir.as_deref().map(frames_in).unwrap_or_default()
     }
-}
-
-/// The frame files `frame_NNNN.png` in `dir`, by frame (empty when there is no such folder).
-pub fn frames_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
-    std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|e| {
-            let (frame, _) = frame_of(e.file_name().to_str()?)?;
-            Some((frame, e.path()))
-        })
-        .collect()
 }
 
 /// The text of a golden `hashes.txt` for these `(frame, hash)` pairs, naming this campath's

@@ -4,7 +4,7 @@
 //! The pipeline, one module per stage: [`format`](mod@format) (the RON file) → [`document`]
 //! (checked values) → [`keyframes`] (tracks) → [`animation`] (per-frame [`camera`]) →
 //! [`render`] (ray caster over the [`scene`]) → [`frames`] (frames in order, with their keys) →
-//! [`output`], [`manifest`] and [`sequence`] (PNGs, hashes, manifests, an output folder), with
+//! [`output`] (the output folder: PNGs, manifests, locks, who may write where), with
 //! [`export`] for other programs. The `campath` command line is built on top of it; a Rust
 //! program or test that uses the library alone depends on
 //! `campath = { default-features = false }` and pulls in no command-line crate.
@@ -16,8 +16,8 @@
 //! ```
 //! use campath::document::Document;
 //! use campath::frames::{compare, hashes, render_frame};
-//! use campath::manifest::parse_hashes;
-//! use campath::output::frame_hash;
+//! use campath::output::manifest::parse_hashes;
+//! use campath::frame_hash;
 //! use std::path::Path;
 //!
 //! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("animations/zoom.ron");
@@ -48,18 +48,16 @@ pub mod export;
 pub mod format;
 pub mod frames;
 pub mod golden;
-pub mod hash;
+mod hash;
 pub mod keyframes;
-pub mod lock;
-pub mod manifest;
 pub mod mode;
 pub mod motion;
 pub mod output;
 pub mod raster;
 pub mod render;
 pub mod scene;
-pub mod sequence;
 pub mod splitmix;
 pub mod testing;
 
 pub use error::{Error, Result};
+pub use hash::{frame_hash, FrameHash, FrameHasher};

@@ -19,7 +19,7 @@ use glam::DVec3;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
-use crate::manifest::list_frames;
+use crate::frames::list_frames;
 use crate::scene::Sphere;
 
 /// A change this many times the shot's median change is a jump (with the floors below).

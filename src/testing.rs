@@ -11,13 +11,13 @@ use std::path::{Path, PathBuf};
 pub use crate::document::Document;
 pub use crate::frames::{hashes, render_frame};
 pub use crate::golden::Golden;
-pub use crate::output::{frame_hash, FrameHash};
+pub use crate::hash::{frame_hash, FrameHash};
 
 use crate::error::{Error, Result};
+use crate::frames::list_frames;
 use crate::frames::{stream_frames, FrameSet};
-use crate::golden::{self, HASHES};
-use crate::manifest::list_frames;
-use crate::output::{frame_path, png_hash, write_png, Compression};
+use crate::golden;
+use crate::output::{frame_path, png_hash, write_png, Compression, HASHES};
 use crate::render::key::VERSION;
 
 /// The environment variable that makes [`assert_shot`] write the golden instead of comparing.
@@ -221,7 +221,7 @@ impl Shot {
         } else {
             None
         };
-        let golden_frames = golden::frames_in(&dir);
+        let golden_frames = crate::output::frames_in(&dir);
         Ok(Shot {
             path: path.to_path_buf(),
             doc,

@@ -10,6 +10,37 @@ use campath::document::MAX_FRAMES;
 use campath::export::PathFormat;
 use campath::output::Compression;
 
+/// The keyframe file a verb reads.
+#[derive(clap::Args)]
+pub struct Shot {
+    /// The keyframe file (RON; see docs/format.md).
+    pub file: PathBuf,
+}
+
+/// `--quiet`.
+#[derive(clap::Args)]
+pub struct Quiet {
+    /// Print nothing.
+    #[arg(id = "quiet", long = "quiet", short = 'q')]
+    pub on: bool,
+}
+
+/// `--no-wait`.
+#[derive(clap::Args)]
+pub struct NoWait {
+    /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
+    #[arg(id = "no_wait", long = "no-wait")]
+    pub on: bool,
+}
+
+/// `--stats-json`.
+#[derive(clap::Args)]
+pub struct StatsJson {
+    /// Also write the run's numbers (frames, times, peak memory) as JSON to this file.
+    #[arg(id = "stats_json", long = "stats-json", value_name = "FILE")]
+    pub path: Option<PathBuf>,
+}
+
 /// `--frames`: `A..B` (frames A to B − 1), `A..` (A to the end), `..B`, `A..=B` or a single `K`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameSpec {
@@ -135,7 +166,7 @@ fn choice<T: Copy + Send + Sync + 'static, const N: usize>(
 /// `--format`, or the one `--out`'s extension says (CSV when neither says: `--out` without an
 /// extension, or `.txt`); a `--format` that another known extension contradicts is refused, and
 /// so is an extension no format has without `--format` (`.usdc` and `.usdz` are USD's, which
-/// [`super::verbs::path`] refuses with a way to convert).
+/// [`super::path::path`] refuses with a way to convert).
 pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<PathFormat> {
     let by_name = out.and_then(PathFormat::of_extension);
     let ext = out

@@ -1,7 +1,9 @@
 //! The command line's errors: the library's, plus bad options, outside programs and drawing.
 //! Each kind has its exit status.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use campath::output::Refusal;
 
 /// Everything that can go wrong in a `campath` command.
 #[derive(Debug, thiserror::Error)]
@@ -23,6 +25,7 @@ pub enum CliError {
     #[error("{0}")]
     Stopped(String),
     /// A JSON file campath wrote for itself (a run's numbers) does not parse (exit 1).
+    #[cfg(feature = "bench")]
     #[error("{}: not the JSON campath writes: {cause}", path.display())]
     Json {
         path: PathBuf,
@@ -49,6 +52,39 @@ impl CliError {
     /// A write to standard output whose reader went away: not an error for a pipeline.
     pub fn is_broken_pipe(&self) -> bool {
         matches!(self, CliError::Campath(e) if e.is_broken_pipe())
+    }
+
+    /// The library's refusal of a path, in the command line's words: `option` names the path
+    /// (`--out`, `DIR`), and the message says what to do. Other errors pass as they are.
+    pub fn at(self, option: &str, path: &Path) -> CliError {
+        match self {
+            CliError::Campath(campath::Error::Refused(r)) => CliError::refused(option, path, &r),
+            e => e,
+        }
+    }
+
+    /// [`CliError::at`] of one refusal of `path`, which `option` names.
+    pub fn refused(option: &str, path: &Path, refusal: &Refusal) -> CliError {
+        let fix = match refusal {
+            Refusal::NotAFolder(_) => format!("{option} names a folder"),
+            Refusal::NotAFile(_) => format!("{option} names a file"),
+            Refusal::InFrames { .. } => format!("choose {option} outside it"),
+            Refusal::Foreign { .. } => format!("choose another {option} so nothing is clobbered"),
+            // Golden refusals, and any the library adds later.
+            _ => format!(
+                "a golden is written only on approval, `campath test --update`; choose another \
+                 {option}"
+            ),
+        };
+        // An option is named before its path; the path, where a folder above it decides.
+        let mut named = match option.starts_with('-') {
+            true => format!("{option} "),
+            false => String::new(),
+        };
+        if refusal.subject() != path {
+            named += &format!("{}: ", path.display());
+        }
+        CliError::Usage(format!("{named}{refusal}; nothing was written ({fix})"))
     }
 
     /// `tool` could not be started: missing, most likely.

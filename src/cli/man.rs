@@ -26,7 +26,7 @@ out\-of\-range value or a camera that becomes undefined at some frame; an option
 cannot be used; an output folder held by another run under \fB\-\-no\-wait\fR. Nothing is written.
 .TP
 \fB3\fR
-An outside program (ffmpeg for \fBvideo\fR, POV\-Ray for \fBbench\fR) is missing or failed; the
+An outside program (ffmpeg for \fBvideo\fR) is missing or failed; the
 message names its Debian package.
 .TP
 \fB130\fR

@@ -3,16 +3,20 @@
 //! bench). Binary-only: the library never imports clap, indicatif or plotters.
 
 mod args;
+#[cfg(feature = "bench")]
 mod bench;
 mod chart;
 mod error;
 mod failures;
 mod junit;
 mod man;
+mod path;
 mod plot;
 mod preview;
+mod progress;
 mod report;
 mod review;
+mod stats;
 mod suite;
 mod table;
 mod verbs;
@@ -21,15 +25,14 @@ mod video;
 mod watch;
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
-use args::{at_least_one, default_out_dir, FrameSpec};
+use args::{at_least_one, default_out_dir, FrameSpec, NoWait, Shot, StatsJson};
 use campath::document::Document;
-use campath::lock::{Claim, FolderLock};
-use campath::manifest::Shard;
-use campath::sequence::RenderOptions;
+use campath::output::lock::{Claim, FolderLock};
+use campath::output::{check, folder_of, pictures, Use, LOCK};
 use campath::Error;
 pub use error::Result;
 
@@ -47,38 +50,11 @@ pub struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render frames to DIR/frame_NNNN.png and DIR/hashes.txt, keeping the frames still valid.
-    Render {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
-        /// Output folder [default: out/<file stem>/].
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Frames to render: A..B (B excluded), A.., ..B, A..=B or K.
-        #[arg(long)]
-        frames: Option<FrameSpec>,
-        /// PNG compression (the pixels are the same).
-        #[arg(long, value_parser = args::compression(), default_value = "fast")]
-        compression: campath::output::Compression,
-        /// Render only frames k with k mod N = K, into hashes.part-K-of-N.txt (see `merge`).
-        #[arg(long, value_name = "K/N")]
-        shard: Option<Shard>,
-        /// Render every frame again, even those unchanged and complete in the output folder.
-        #[arg(long)]
-        force: bool,
-        /// Print nothing.
-        #[arg(long, short)]
-        quiet: bool,
-        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
-        #[arg(long)]
-        no_wait: bool,
-        /// Also write the run's numbers (frames, times, peak memory) as JSON to this file.
-        #[arg(long, value_name = "FILE")]
-        stats_json: Option<PathBuf>,
-    },
+    Render(verbs::RenderArgs),
     /// Write a contact sheet (preview.png) and an animated GIF (preview.gif) at a small size.
     Preview {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         /// Output folder [default: out/<file stem>/].
         #[arg(long)]
         out: Option<PathBuf>,
@@ -94,8 +70,8 @@ enum Command {
     /// Draw the camera path from above and from the side, with keyframes, targets, frustums
     /// and spheres.
     Plot {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         /// Where the PNG goes [default: out/<file stem>/plot.png].
         #[arg(long)]
         out: Option<PathBuf>,
@@ -108,69 +84,32 @@ enum Command {
     Merge {
         /// The output folder the shards rendered into.
         dir: PathBuf,
-        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
-        #[arg(long)]
-        no_wait: bool,
+        #[command(flatten)]
+        no_wait: NoWait,
     },
     /// Print `<frame> <sha256>` per frame without writing images.
     Hash {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         #[arg(long)]
         frames: Option<FrameSpec>,
         /// Also print the timing summary to standard error.
         #[arg(long)]
         stats: bool,
-        /// Also write the run's numbers as JSON to this file.
-        #[arg(long, value_name = "FILE")]
-        stats_json: Option<PathBuf>,
+        #[command(flatten)]
+        stats_json: StatsJson,
     },
     /// Check every shot (*.ron) under DIR against its golden NAME.golden/hashes.txt beside it;
     /// one line per shot and a summary; exit 1 when any differs or has no golden, 2 when a shot
     /// cannot be checked.
-    Test {
-        /// The folder of shots, searched recursively.
-        #[arg(default_value = "shots")]
-        dir: PathBuf,
-        /// Approve: write the golden of every shot that differs or has none (its hashes.txt,
-        /// and its frames when the golden keeps frames); passing goldens are left untouched.
-        #[arg(long)]
-        update: bool,
-        /// With --update, keep every frame's PNG in the goldens it writes (for review pages),
-        /// not only hashes.txt.
-        #[arg(long, requires = "update")]
-        keep_frames: bool,
-        /// Also write a JUnit XML report: one test suite per shot, one test case per frame.
-        #[arg(long, value_name = "PATH")]
-        junit: Option<PathBuf>,
-        /// Write a review page, DIR/index.html, of every failing frame: golden, new and their
-        /// difference, with a slider and a flip between golden and new.
-        #[arg(long, value_name = "DIR")]
-        review: Option<PathBuf>,
-        /// Shots checked side by side [default: the number of cores]. The bytes do not change.
-        #[arg(long, value_parser = at_least_one)]
-        jobs: Option<u64>,
-    },
+    Test(suite::TestArgs),
     /// Compare fresh renders with golden hashes; exit 1 naming every frame that differs.
-    Verify {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
-        /// A hashes.txt, or a folder of golden frames with their hashes.txt (then each failing
-        /// frame gets a difference image in --save-failures).
-        golden: PathBuf,
-        /// Also write a JUnit XML report, one test case per frame (for CI).
-        #[arg(long, value_name = "PATH")]
-        junit: Option<PathBuf>,
-        /// Save the frames that differ here as PNGs (and, against a folder of golden frames,
-        /// frame_NNNN.diff.png: changed pixels in magenta over the dimmed golden frame).
-        #[arg(long, value_name = "DIR")]
-        save_failures: Option<PathBuf>,
-    },
+    Verify(verify::VerifyArgs),
     /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
     /// whole shot as glTF, a Blender script or an OpenUSD stage.
     Path {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py, .usda), else csv]
         #[arg(long, value_parser = args::path_format())]
         format: Option<campath::export::PathFormat>,
@@ -185,7 +124,8 @@ enum Command {
     },
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check {
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         /// Exit 1 when there are warnings about the motion (jumps, the COP inside a sphere, a
         /// target at the camera, the up vector flipping).
         #[arg(long)]
@@ -193,8 +133,8 @@ enum Command {
     },
     /// Error against run time: every accuracy setting against a 16×16-sample reference.
     Report {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         /// The frame to measure [default: the middle frame].
         #[arg(long)]
         frame: Option<u64>,
@@ -205,7 +145,9 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
-    /// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table.
+    /// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table (a
+    /// developer's tool: built with `--features bench`).
+    #[cfg(feature = "bench")]
     Bench {
         /// Where the scene files and renders go.
         #[arg(long, default_value = "out/bench")]
@@ -233,30 +175,12 @@ enum Command {
     /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
     /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt. Ctrl-C
     /// during the encode removes the partial video (exit 130).
-    Video {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
-        /// The video [default: out/<file stem>/<file stem>.mp4, or .mkv with --lossless].
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Lossless RGB (FFV1 in Matroska): decoded frames hash exactly to hashes.txt.
-        #[arg(long)]
-        lossless: bool,
-        /// H.264 quality: 0 (best, largest) to 51 (worst); 18 looks lossless to most eyes.
-        #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51), conflicts_with = "lossless")]
-        crf: u8,
-        /// Print nothing.
-        #[arg(long, short)]
-        quiet: bool,
-        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
-        #[arg(long)]
-        no_wait: bool,
-    },
+    Video(video::VideoArgs),
     /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
     /// it and reloads its pictures; Ctrl-C stops.
     Watch {
-        /// The keyframe file (RON; see docs/format.md).
-        file: PathBuf,
+        #[command(flatten)]
+        shot: Shot,
         /// Where the preview and its page go [default: out/<file stem>-watch/].
         #[arg(long)]
         out: Option<PathBuf>,
@@ -264,9 +188,8 @@ enum Command {
         /// a width above the file's (which a save may change) gives the file's, and says so.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
         width: Option<u32>,
-        /// If another run is writing the output folder, refuse (exit 2) instead of waiting.
-        #[arg(long)]
-        no_wait: bool,
+        #[command(flatten)]
+        no_wait: NoWait,
     },
     /// Print a shell completion script: `campath completions bash > /etc/bash_completion.d/campath`.
     Completions {
@@ -295,31 +218,9 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
         return Err(error::CliError::Usage(format!("CAMPATH_SIMD: {e}")));
     }
     match cli.command {
-        Command::Render {
-            file,
-            out: dir,
-            frames,
-            compression,
-            shard,
-            force,
-            quiet,
-            no_wait,
-            stats_json,
-        } => verbs::render(
-            verbs::RenderArgs {
-                dir: dir.unwrap_or_else(|| default_out_dir(&file)),
-                file,
-                frames,
-                shard,
-                options: RenderOptions { compression, force },
-                quiet,
-                no_wait,
-                stats_json,
-            },
-            out,
-        )?,
+        Command::Render(a) => verbs::render(a, out)?,
         Command::Preview {
-            file,
+            shot: Shot { file },
             out: dir,
             width,
             count,
@@ -332,8 +233,8 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             doc.check_path()?;
             // As render: a golden or a folder of other files is refused, and a folder is
             // written by one run at a time.
-            campath::sequence::check_folder(&dir)?;
-            let _lock = verbs::with_wait(false, false, |wait| {
+            check(&dir, Use::Frames).map_err(|r| error::CliError::refused("--out", &dir, &r))?;
+            let _lock = progress::with_wait(false, false, |wait| {
                 FolderLock::acquire(&dir, Claim::Whole, wait)
             })?;
             let (png, gif) = preview::write(&doc, &dir, width, count, true)?;
@@ -342,20 +243,19 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                 .map_err(Error::stdout)?;
         }
         Command::Plot {
-            file,
+            shot: Shot { file },
             out: png,
             every,
         } => {
-            let png = png.unwrap_or_else(|| default_out_dir(&file).join("plot.png"));
+            let png = png.unwrap_or_else(|| default_out_dir(&file).join(pictures::PLOT));
             args::check_extension("--out", &png, &["png"], "plot writes PNG")?;
             let doc = Document::load(&file)?;
             args::check_writable(&png)?;
             let every = every.unwrap_or((doc.animation.frames / 8).max(1));
             // Into a folder campath's runs write (one with their lock file), as one of them.
-            let folder = png.parent().filter(|p| !p.as_os_str().is_empty());
-            let folder = folder.unwrap_or(Path::new("."));
-            let _lock = match folder.join(campath::lock::FILE_NAME).is_file() {
-                true => Some(verbs::with_wait(false, false, |wait| {
+            let folder = folder_of(&png);
+            let _lock = match folder.join(LOCK).is_file() {
+                true => Some(progress::with_wait(false, false, |wait| {
                     FolderLock::acquire(folder, Claim::Whole, wait)
                 })?),
                 false => None,
@@ -363,70 +263,40 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             plot::write(&doc, &png, every)?;
             writeln!(out, "wrote {}", png.display()).map_err(Error::stdout)?;
         }
-        Command::Merge { dir, no_wait } => verbs::merge(&dir, no_wait, out)?,
+        Command::Merge { dir, no_wait } => verbs::merge(&dir, no_wait.on, out)?,
         Command::Hash {
-            file,
+            shot: Shot { file },
             frames,
             stats,
             stats_json,
-        } => verbs::hash(&file, frames, stats, stats_json.as_deref())?,
-        Command::Test {
-            dir,
-            update,
-            keep_frames,
-            junit,
-            review,
-            jobs,
-        } => {
-            let jobs = jobs.map_or_else(
-                || std::thread::available_parallelism().map_or(1, usize::from),
-                |j| j as usize,
-            );
-            let args = suite::TestArgs {
-                dir,
-                update,
-                keep_frames,
-                junit,
-                review,
-                jobs,
-            };
-            return suite::run(args, out);
-        }
-        Command::Verify {
-            file,
-            golden,
-            junit,
-            save_failures,
-        } => {
-            let args = verify::VerifyArgs {
-                file,
-                golden,
-                junit,
-                save_failures,
-            };
-            return verify::verify(args, out);
-        }
+        } => verbs::hash(&file, frames, stats, stats_json.path.as_deref())?,
+        Command::Test(a) => return suite::run(a, out),
+        Command::Verify(a) => return verify::verify(a, out),
         Command::Path {
-            file,
+            shot: Shot { file },
             format,
             out: file_out,
             origin,
         } => {
             let format = args::resolve_format(format, file_out.as_deref())?;
             let origin = origin.unwrap_or_default();
-            verbs::path(&file, format, file_out.as_deref(), origin, out)?
+            path::path(&file, format, file_out.as_deref(), origin, out)?
         }
-        Command::Check { file, strict } => return verbs::check(&file, strict, out),
+        Command::Check {
+            shot: Shot { file },
+            strict,
+        } => return verbs::check(&file, strict, out),
         Command::Report {
-            file,
+            shot: Shot { file },
             frame,
             runs,
             plot,
         } => {
-            let plot = plot.unwrap_or_else(|| default_out_dir(&file).join("report.png"));
+            let plot = plot.unwrap_or_else(|| default_out_dir(&file).join(pictures::REPORT));
             args::check_extension("--plot", &plot, &["png"], "the report's plot is PNG")?;
             report::run(&file, frame, runs as usize, &plot, out)?
         }
+        #[cfg(feature = "bench")]
         Command::Bench {
             out: dir,
             pov_frames,
@@ -435,27 +305,9 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             json,
             scaling,
         } => bench::command(&dir, pov_frames, runs as usize, &scenes, json, scaling, out)?,
-        Command::Video {
-            file,
-            out: video,
-            lossless,
-            crf,
-            quiet,
-            no_wait,
-        } => video::run(
-            video::VideoArgs {
-                frames_dir: default_out_dir(&file),
-                file,
-                out: video,
-                lossless,
-                crf,
-                quiet,
-                no_wait,
-            },
-            out,
-        )?,
+        Command::Video(a) => video::run(a, out)?,
         Command::Watch {
-            file,
+            shot: Shot { file },
             out: dir,
             width,
             no_wait,
@@ -465,7 +317,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
                 dir.push("-watch");
                 PathBuf::from(dir)
             });
-            watch::run(&file, &dir, width, no_wait, out)?
+            watch::run(&file, &dir, width, no_wait.on, out)?
         }
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();

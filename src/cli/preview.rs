@@ -92,7 +92,7 @@ pub fn write(
     let sheet_h = rows * row_h + (rows - 1) * GAP;
     let mut sheet = vec![255u8; (sheet_w * sheet_h * 3) as usize];
     // The GIF, encoded as its frames come: its bytes are all it holds.
-    let gif_path = dir.join("preview.gif");
+    let gif_path = dir.join(campath::output::pictures::GIF);
     let mut bytes = Vec::new();
     let mut encoder = match gif {
         true => {
@@ -142,7 +142,7 @@ pub fn write(
         },
     )?;
     drop(encoder);
-    let png = dir.join("preview.png");
+    let png = dir.join(campath::output::pictures::SHEET);
     label_frames(
         &mut sheet,
         (sheet_w, sheet_h),

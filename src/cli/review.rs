@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use super::error::Result;
 use super::failures::PixelDiff;
 use super::junit::escape;
-use campath::output::FrameHash;
+use campath::FrameHash;
 
 /// A differing frame's pictures in the review folder (file names) and hashes.
 pub struct ReviewFrame {

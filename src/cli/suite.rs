@@ -18,14 +18,29 @@ use campath::testing::{golden_dir, Difference, Options, Shot, ShotRun, Verdict};
 use campath::Error;
 
 /// The options of `campath test`.
+#[derive(clap::Args)]
 pub struct TestArgs {
+    /// The folder of shots, searched recursively.
+    #[arg(default_value = "shots")]
     pub dir: PathBuf,
+    /// Approve: write the golden of every shot that differs or has none (its hashes.txt,
+    /// and its frames when the golden keeps frames); passing goldens are left untouched.
+    #[arg(long)]
     pub update: bool,
+    /// With --update, keep every frame's PNG in the goldens it writes (for review pages),
+    /// not only hashes.txt.
+    #[arg(long, requires = "update")]
     pub keep_frames: bool,
+    /// Also write a JUnit XML report: one test suite per shot, one test case per frame.
+    #[arg(long, value_name = "PATH")]
     pub junit: Option<PathBuf>,
+    /// Write a review page, DIR/index.html, of every failing frame: golden, new and their
+    /// difference, with a slider and a flip between golden and new.
+    #[arg(long, value_name = "DIR")]
     pub review: Option<PathBuf>,
-    /// Shots checked side by side.
-    pub jobs: usize,
+    /// Shots checked side by side [default: the number of cores]. The bytes do not change.
+    #[arg(long, value_parser = super::args::at_least_one)]
+    pub jobs: Option<u64>,
 }
 
 /// Every `*.ron` under `dir`, recursively, in name order; golden folders and hidden folders are
@@ -103,15 +118,25 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     }
     let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
     if let Some(path) = &a.junit {
-        failures::outside_goldens(path, "--junit", &goldens)?;
+        campath::output::outside_goldens(path, &goldens)
+            .map_err(|r| CliError::refused("--junit", path, &r))?;
         junit::check_target(path)?;
     }
-    if let Some(dir) = &a.review {
-        if let Some(path) = &a.junit {
-            failures::report_apart(path, dir, "--review")?;
+    // The review folder is this run's until it ends.
+    let _claimed = match &a.review {
+        Some(dir) => {
+            if let Some(path) = &a.junit {
+                failures::report_apart(path, dir, "--review")?;
+            }
+            Some(failures::claim(
+                dir,
+                "--review",
+                &goldens,
+                review::is_review_file,
+            )?)
         }
-        failures::claim(dir, "--review", &goldens, review::is_review_file)?;
-    }
+        None => None,
+    };
 
     // What killed approvals left beside the goldens, cleared a folder at a time (an approval
     // then does not list the folder again for its shot).
@@ -133,7 +158,11 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let mut checked = Vec::with_capacity(shots.len());
     let mut printed = Ok(());
     std::thread::scope(|scope| {
-        for _ in 0..a.jobs.clamp(1, shots.len()) {
+        let jobs = a.jobs.map_or_else(
+            || std::thread::available_parallelism().map_or(1, usize::from),
+            |j| j as usize,
+        );
+        for _ in 0..jobs.clamp(1, shots.len()) {
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(shot) = shots.get(i) else { break };

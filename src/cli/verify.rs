@@ -7,22 +7,30 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::error::Result;
-use super::failures::{self, difference, golden_pixels, is_failure_file, PixelDiff};
+use super::args::Shot;
+use super::error::{CliError, Result};
+use super::failures::{self, difference, golden_pixels, PixelDiff};
 use super::junit;
 use campath::document::Document;
-use campath::frames::{compare_each, Difference};
-use campath::golden::{Golden, HASHES};
-use campath::manifest::{list_first, list_frames};
-use campath::output::{frame_path, pad_width, write_png, Compression};
+use campath::frames::{compare_each, list_first, list_frames, Difference};
+use campath::golden::Golden;
+use campath::output::{frame_path, pad_width, write_png, Compression, HASHES};
 use campath::Error;
 
 /// The options of `campath verify`.
+#[derive(clap::Args)]
 pub struct VerifyArgs {
-    pub file: PathBuf,
-    /// A hashes.txt, or a folder holding one beside its frames.
+    #[command(flatten)]
+    pub shot: Shot,
+    /// A hashes.txt, or a folder of golden frames with their hashes.txt (then each failing
+    /// frame gets a difference image in --save-failures).
     pub golden: PathBuf,
+    /// Also write a JUnit XML report, one test case per frame (for CI).
+    #[arg(long, value_name = "PATH")]
     pub junit: Option<PathBuf>,
+    /// Save the frames that differ here as PNGs (and, against a folder of golden frames,
+    /// frame_NNNN.diff.png: changed pixels in magenta over the dimmed golden frame).
+    #[arg(long, value_name = "DIR")]
     pub save_failures: Option<PathBuf>,
 }
 
@@ -41,20 +49,26 @@ pub fn golden_folders(golden: &Golden) -> Vec<PathBuf> {
 }
 
 pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
-    let doc = Document::load(&a.file)?;
+    let doc = Document::load(&a.shot.file)?;
     let golden = Golden::load(&a.golden)?;
     // Every refusal comes before anything is written or removed.
     let goldens = golden_folders(&golden);
     if let Some(path) = &a.junit {
-        failures::outside_goldens(path, "--junit", &goldens)?;
+        campath::output::outside_goldens(path, &goldens)
+            .map_err(|r| CliError::refused("--junit", path, &r))?;
         junit::check_target(path)?;
     }
-    if let Some(dir) = &a.save_failures {
-        if let Some(path) = &a.junit {
-            failures::report_apart(path, dir, "--save-failures")?;
+    // The folder of failure pictures is this run's until it ends.
+    let _claimed = match &a.save_failures {
+        Some(dir) => {
+            if let Some(path) = &a.junit {
+                failures::report_apart(path, dir, "--save-failures")?;
+            }
+            let ours = campath::output::is_failure_picture;
+            Some(failures::claim(dir, "--save-failures", &goldens, ours)?)
         }
-        failures::claim(dir, "--save-failures", &goldens, is_failure_file)?;
-    }
+        None => None,
+    };
     let total = doc.animation.frames;
     let size = (doc.raster.width, doc.raster.height);
     let golden_frames = golden.frames();
@@ -116,7 +130,7 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
             .map_err(Error::stdout)?;
     }
     if let Some(path) = &a.junit {
-        let mut suite = junit::Suite::new(&a.file.display().to_string());
+        let mut suite = junit::Suite::new(&a.shot.file.display().to_string());
         for (frame, hash) in &golden.hashes {
             let failure = differ.iter().find(|d| d.frame == *frame).map(|d| {
                 let got = d

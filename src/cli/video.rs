@@ -13,28 +13,35 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use super::args::{default_out_dir, NoWait, Quiet, Shot};
 use super::error::{CliError, Result};
-use super::verbs::Progress;
+use super::progress::Progress;
 use campath::document::Document;
 use campath::frames::FrameSet;
-use campath::manifest::Manifest;
-use campath::output::{frame_hash, frame_path, resolved};
-use campath::sequence::{self, Event, RenderOptions};
-use campath::Error;
+use campath::output::sequence::{self, Event, RenderOptions};
+use campath::output::{
+    check, folder_of, frame_path, resolved, tmp_path, video_path, within, Refusal, Use, HASHES,
+};
+use campath::{frame_hash, Error, FrameHash};
 
 /// The options of `campath video`.
+#[derive(clap::Args)]
 pub struct VideoArgs {
-    pub file: PathBuf,
-    /// The render folder the frames go into first.
-    pub frames_dir: PathBuf,
-    /// The video [default: the render folder's `<stem>.mp4`, or `.mkv` with `lossless`].
+    #[command(flatten)]
+    pub shot: Shot,
+    /// The video [default: out/<file stem>/<file stem>.mp4, or .mkv with --lossless].
+    #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Lossless RGB (FFV1 in Matroska): decoded frames hash exactly to hashes.txt.
+    #[arg(long)]
     pub lossless: bool,
-    /// H.264 constant rate factor, 0 (best) to 51.
+    /// H.264 quality: 0 (best, largest) to 51 (worst); 18 looks lossless to most eyes.
+    #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=51), conflicts_with = "lossless")]
     pub crf: u8,
-    pub quiet: bool,
-    /// Refuse instead of waiting when another run writes the render folder.
-    pub no_wait: bool,
+    #[command(flatten)]
+    pub quiet: Quiet,
+    #[command(flatten)]
+    pub no_wait: NoWait,
 }
 
 fn ffmpeg_missing(e: std::io::Error) -> CliError {
@@ -43,6 +50,10 @@ fn ffmpeg_missing(e: std::io::Error) -> CliError {
 
 pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     let started = Instant::now();
+    let file = &a.shot.file;
+    // The render folder the frames go into first.
+    let frames_dir = &default_out_dir(file);
+    let (quiet, no_wait) = (a.quiet.on, a.no_wait.on);
     // Before anything else: a video name that says the container, and is not a folder.
     if let Some(video) = &a.out {
         if video.is_dir() {
@@ -51,11 +62,8 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
                 video.display()
             )));
         }
-        if let Some(why) = video.parent().and_then(campath::sequence::golden_of) {
-            return Err(CliError::Usage(format!(
-                "--out {}: {why}; nothing was written (choose another path)",
-                video.display()
-            )));
+        if let Err(r) = campath::output::golden_of(folder_of(video)) {
+            return Err(CliError::refused("--out", video, &r));
         }
         if a.lossless {
             let what = "--lossless writes FFV1 in Matroska";
@@ -65,43 +73,46 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
             super::args::check_extension("--out", video, &["mp4"], what)?;
         }
     }
-    let doc = Document::load(&a.file)?;
+    let doc = Document::load(file)?;
     // Matroska stamps frames in milliseconds: above 1000 fps two frames would share a time.
     if a.lossless && doc.animation.fps > 1000.0 {
         return Err(CliError::Usage(format!(
             "{}: --lossless writes Matroska, whose timestamps are milliseconds, so it holds at \
              most 1000 fps, not {}; nothing was written",
-            a.file.display(),
+            file.display(),
             doc.animation.fps
         )));
     }
     let ext = if a.lossless { "mkv" } else { "mp4" };
-    let own = sequence::video_path(&a.frames_dir, &a.file, ext);
+    let own = video_path(frames_dir, file, ext);
     let video = a.out.clone().unwrap_or_else(|| own.clone());
     // In the frames folder a video has the file's name, the one a run that changes the frames
     // removes; any other goes outside it (a folder made inside it would be a file campath did
     // not write there).
-    let parent = video.parent().filter(|p| !p.as_os_str().is_empty());
-    let parent = parent.unwrap_or(Path::new("."));
-    if super::failures::within(parent, &a.frames_dir) && resolved(&video) != resolved(&own) {
+    let parent = folder_of(&video);
+    if within(parent, frames_dir) && resolved(&video) != resolved(&own) {
         return Err(CliError::Usage(format!(
             "--out {}: in the frames folder {} the video is {}; put another name outside it; \
              nothing was written",
             video.display(),
-            a.frames_dir.display(),
+            frames_dir.display(),
             own.display()
         )));
     }
     // Nor in another render's frames folder: there it would pass for that render's video.
-    if !super::failures::within(parent, &a.frames_dir) {
-        if let Some(theirs) = sequence::frames_folder_of(parent) {
-            return Err(CliError::Usage(format!(
-                "--out {}: {} is the frames folder of another render, where a video would pass \
-                 for its own; nothing was written (put it outside, or leave out --out for {})",
-                video.display(),
-                theirs.display(),
-                own.display()
-            )));
+    if !within(parent, frames_dir) {
+        match check(&video, Use::File) {
+            Err(Refusal::InFrames { frames: theirs, .. }) => {
+                return Err(CliError::Usage(format!(
+                    "--out {}: {} is the frames folder of another render, where a video would \
+                     pass for its own; nothing was written (put it outside, or leave out --out \
+                     for {})",
+                    video.display(),
+                    theirs.display(),
+                    own.display()
+                )))
+            }
+            refused => refused.map_err(|r| CliError::refused("--out", &video, &r))?,
         }
     }
     // Before rendering anything: is there an ffmpeg to hand the frames to?
@@ -112,28 +123,25 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .map_err(ffmpeg_missing)?;
 
     let total = doc.animation.frames;
-    let mut progress = Progress::new(a.quiet);
+    let mut progress = Progress::new(quiet);
     let set = FrameSet::all(0..total);
     let options = RenderOptions::default();
     // Held until the video is written: the frames are read back for ffmpeg.
-    let lock = super::verbs::with_wait(a.no_wait, a.quiet, |wait| {
-        sequence::lock(&doc, &a.frames_dir, &set, wait)
+    let lock = super::progress::with_wait(no_wait, quiet, |wait| {
+        sequence::lock(&doc, frames_dir, &set, wait)
     })?;
     // Before rendering: that the video can be written where it goes.
     super::args::check_writable(&video)?;
-    sequence::render(&doc, &lock, &set, options, &mut |e| progress.event(e))?;
+    let summary = sequence::render(&doc, &lock, &set, options, &mut |e| progress.event(e))?;
     progress.finish();
 
-    let manifest_path = a.frames_dir.join("hashes.txt");
-    let manifest = Manifest::read_lenient(&manifest_path);
-    let hashes: std::collections::BTreeMap<u64, campath::output::FrameHash> = manifest
+    let hashes: std::collections::BTreeMap<u64, FrameHash> = summary
+        .manifest
         .entries
         .into_iter()
         .map(|e| (e.frame, e.hash))
         .collect();
-    let mut tmp = video.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
+    let tmp = tmp_path(&video);
     // As a `file:` URL: a name that begins with `-` is not an option to ffmpeg.
     let mut url = std::ffi::OsString::from("file:");
     url.push(&tmp);
@@ -141,7 +149,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     // ffmpeg, and the temporary video is removed once ffmpeg has ended. ffmpeg, in the same
     // process group, stops on a Ctrl-C of its own. (Another signal ends campath as before; the
     // next render that changes the frames removes what it left.)
-    let stop = super::verbs::ctrl_c_flag()?;
+    let stop = super::progress::ctrl_c_flag()?;
     let mut child = Command::new("ffmpeg")
         .args(ffmpeg_args(&doc, a.lossless, a.crf))
         .arg(url)
@@ -151,16 +159,9 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .spawn()
         .map_err(ffmpeg_missing)?;
     let mut stdin = child.stdin.take().expect("piped");
-    let mut progress = Progress::new(a.quiet);
+    let mut progress = Progress::new(quiet);
     progress.begin(total, 0, "encode");
-    let fed = feed(
-        &a.frames_dir,
-        total,
-        &hashes,
-        &mut stdin,
-        &mut progress,
-        &stop,
-    );
+    let fed = feed(frames_dir, total, &hashes, &mut stdin, &mut progress, &stop);
     drop(stdin);
     progress.finish();
     let result = child.wait_with_output().map_err(ffmpeg_missing)?;
@@ -177,7 +178,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         return Err(e);
     }
     std::fs::rename(&tmp, &video).map_err(Error::write(&video))?;
-    if !a.quiet {
+    if !quiet {
         let (w, h) = (doc.raster.width, doc.raster.height);
         let what = if a.lossless {
             "FFV1 lossless RGB".to_string()
@@ -281,7 +282,7 @@ fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
 fn feed(
     dir: &Path,
     total: u64,
-    hashes: &std::collections::BTreeMap<u64, campath::output::FrameHash>,
+    hashes: &std::collections::BTreeMap<u64, FrameHash>,
     stdin: &mut impl Write,
     progress: &mut Progress,
     stop: &AtomicBool,
@@ -297,7 +298,7 @@ fn feed(
             .into_raw();
         if hashes.get(&frame) != Some(&frame_hash(&pixels)) {
             return Err(Error::Manifest {
-                path: dir.join("hashes.txt"),
+                path: dir.join(HASHES),
                 message: format!("frame {frame}: {} does not match its hash", path.display()),
             }
             .into());

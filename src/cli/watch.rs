@@ -28,17 +28,10 @@ use super::error::{CliError, Result};
 use super::{plot, preview};
 use campath::document::Document;
 use campath::frames::render_frame;
-use campath::output::{write_atomic, write_png_atomic, Compression};
+use campath::output::lock::{Claim, FolderLock};
+use campath::output::pictures::{FRAMES, PAGE, PLOT, SHEET, STATUS};
+use campath::output::{check, write_atomic, write_png_atomic, Compression, Use};
 use campath::Error;
-
-/// The pictures a run writes, and removes when it starts.
-const PICTURES: [&str; 5] = [
-    "first.png",
-    "middle.png",
-    "last.png",
-    "preview.png",
-    "plot.png",
-];
 
 /// What the page reads from `status.js`.
 #[derive(serde::Serialize)]
@@ -81,9 +74,9 @@ pub fn run(
     }
     // The folder is this watch's until it stops; as render's, it holds nothing campath does not
     // write there, and is not a golden.
-    campath::sequence::check_folder(dir)?;
-    let lock = super::verbs::with_wait(no_wait, false, |wait| {
-        campath::lock::FolderLock::acquire(dir, campath::lock::Claim::Whole, wait)
+    check(dir, Use::Frames).map_err(|r| CliError::refused("--out", dir, &r))?;
+    let lock = super::progress::with_wait(no_wait, false, |wait| {
+        FolderLock::acquire(dir, Claim::Whole, wait)
     })?;
     let started = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -93,16 +86,16 @@ pub fn run(
         .file_name()
         .map(|n| n.to_os_string())
         .unwrap_or_default();
-    write_atomic(&dir.join("preview.html"), page(&name.to_string_lossy()))?;
+    write_atomic(&dir.join(PAGE), page(&name.to_string_lossy()))?;
 
-    let stop = super::verbs::ctrl_c_flag()?;
+    let stop = super::progress::ctrl_c_flag()?;
     let (tx, rx) = mpsc::channel();
     let mut watcher = notify::recommended_watcher(tx).map_err(|e| watch_error(file, e))?;
     watcher
         .watch(&folder, RecursiveMode::NonRecursive)
         .map_err(|e| watch_error(file, e))?;
 
-    let page = dir.join("preview.html");
+    let page = dir.join(PAGE);
     writeln!(out, "watching {}; open {}", file.display(), page.display()).map_err(Error::stdout)?;
     let mut status = Status {
         run,
@@ -114,7 +107,7 @@ pub fn run(
         stopped: false,
     };
     // The last run's pictures go, and the page hears of it, before this run's first.
-    for picture in PICTURES {
+    for picture in FRAMES.into_iter().chain([SHEET, PLOT]) {
         campath::output::remove_if_there(&dir.join(picture))?;
     }
     write_status(dir, &status)?;
@@ -172,7 +165,7 @@ pub fn run(
 
 /// The number of the last run that wrote the folder's `status.js`, or 0.
 fn last_run(dir: &Path) -> u64 {
-    let text = std::fs::read_to_string(dir.join("status.js")).unwrap_or_default();
+    let text = std::fs::read_to_string(dir.join(STATUS)).unwrap_or_default();
     let json = text
         .trim()
         .strip_prefix("window.campathStatus = ")
@@ -289,7 +282,7 @@ fn update(
 fn write_status(dir: &Path, status: &Status) -> Result<()> {
     let json = serde_json::to_string(status).expect("plain values serialise");
     let text = format!("window.campathStatus = {json};\n");
-    Ok(write_atomic(&dir.join("status.js"), &text)?)
+    Ok(write_atomic(&dir.join(STATUS), &text)?)
 }
 
 /// The preview of the file as it is now; returns the frames shown as first, middle and last,
@@ -300,21 +293,16 @@ fn render(file: &Path, dir: &Path, width: Option<u32>) -> Result<([u64; 3], u32)
     let frames = doc.animation.frames;
     let width = width.unwrap_or(240).clamp(1, doc.raster.width);
     preview::write(&doc, dir, width, frames.min(12), false)?;
-    plot::write(&doc, &dir.join("plot.png"), (frames / 8).max(1))?;
+    plot::write(&doc, &dir.join(PLOT), (frames / 8).max(1))?;
     let small = Document {
         raster: preview::small_raster(&doc, width),
         ..doc.clone()
     };
     let shown = [0, (frames - 1) / 2, frames - 1];
-    for (name, frame) in ["first", "middle", "last"].iter().zip(shown) {
+    for (name, frame) in FRAMES.iter().zip(shown) {
         let pixels = render_frame(&small, frame)?;
         let size = (small.raster.width, small.raster.height);
-        write_png_atomic(
-            &dir.join(format!("{name}.png")),
-            &pixels,
-            size,
-            Compression::Fast,
-        )?;
+        write_png_atomic(&dir.join(name), &pixels, size, Compression::Fast)?;
     }
     Ok((shown, width))
 }

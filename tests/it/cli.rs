@@ -748,8 +748,16 @@ fn distort_names_the_frames_whose_cop_chan_drops() {
 fn completions_and_the_manual_come_from_the_clap_definitions() {
     let tmp = tempfile::tempdir().unwrap();
     let verbs = [
-        "render", "merge", "preview", "plot", "hash", "verify", "path", "check", "report", "bench",
+        "render", "merge", "preview", "plot", "hash", "verify", "path", "check", "report",
     ];
+    // `bench` is a developer's tool, in the binary only with `--features bench`.
+    let bench = campath(tmp.path(), &["bench", "--help"], &[]);
+    assert_eq!(
+        bench.status.success(),
+        cfg!(feature = "bench"),
+        "{}",
+        stderr(&bench)
+    );
     for shell in ["bash", "zsh", "fish", "powershell"] {
         let o = campath(tmp.path(), &["completions", shell], &[]);
         assert!(o.status.success(), "{shell}: {}", stderr(&o));

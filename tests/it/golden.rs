@@ -10,9 +10,9 @@
 //! as current: the update refuses changed hashes under the recorded version.
 
 use crate::common::{example, root, EXAMPLES};
+use campath::frame_hash;
 use campath::frames::{for_each_frame, FrameSet};
-use campath::manifest::parse_hashes;
-use campath::output::frame_hash;
+use campath::output::manifest::parse_hashes;
 use campath::render::key::VERSION;
 
 fn hashes(name: &str, one_sample: bool) -> String {

@@ -99,7 +99,7 @@ fn assert_whole_render_of(tmp: &Path, file: &str, folder: &str, frames: usize) {
         let (frame, hash) = line.split_once(' ').unwrap();
         let png = dir.join(format!("frame_{:04}.png", frame.parse::<u64>().unwrap()));
         let raw = image::open(&png).unwrap().to_rgb8().into_raw();
-        assert_eq!(campath::output::frame_hash(&raw), hash, "{}", png.display());
+        assert_eq!(campath::frame_hash(&raw), hash, "{}", png.display());
     }
     for e in std::fs::read_dir(&dir).unwrap().flatten() {
         let name = e.file_name().to_string_lossy().into_owned();

@@ -2,6 +2,7 @@
 //! `common` holds the helpers they share.
 
 mod architecture;
+#[cfg(feature = "bench")]
 mod bench;
 mod blender;
 mod cli;

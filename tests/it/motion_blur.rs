@@ -7,9 +7,9 @@ use std::path::Path;
 use crate::common::{campath, stderr, stdout};
 use campath::document::Document;
 use campath::frames::{for_each_frame, keys, FrameSet};
-use campath::lock::Wait;
+use campath::output::lock::Wait;
+use campath::output::sequence::{lock, render, RenderOptions};
 use campath::render::{Renderer, SceneIndex, Simd};
-use campath::sequence::{lock, render, RenderOptions};
 
 /// A moving shot: the camera flies past on a spline, turns to follow a moving target and
 /// zooms, over spheres with shadows. `{image}` is the image section's extra fields, `{fps}` and

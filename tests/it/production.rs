@@ -52,7 +52,7 @@ fn assert_consistent(dir: &Path) {
             .unwrap_or_else(|e| panic!("{} listed but unreadable: {e}", png.display()))
             .to_rgb8()
             .into_raw();
-        assert_eq!(campath::output::frame_hash(&raw), hash, "frame {frame}");
+        assert_eq!(campath::frame_hash(&raw), hash, "frame {frame}");
     }
     assert!(pngs <= 48);
 }
@@ -509,14 +509,14 @@ fn absurd_requests_are_refused_before_allocating() {
 }
 
 /// The frame hash of the 60×34 tile at `(x0, y0)` of a contact sheet.
-fn tile_hash(sheet: &image::RgbImage, (x0, y0): (u32, u32)) -> campath::output::FrameHash {
+fn tile_hash(sheet: &image::RgbImage, (x0, y0): (u32, u32)) -> campath::FrameHash {
     let mut tile = Vec::new();
     for y in y0..y0 + 34 {
         for x in x0..x0 + 60 {
             tile.extend(sheet.get_pixel(x, y).0);
         }
     }
-    campath::output::frame_hash(&tile)
+    campath::frame_hash(&tile)
 }
 
 /// Every frame of a GIF, decoded.

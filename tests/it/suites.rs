@@ -245,7 +245,7 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     for (frame, hash) in &fresh {
         let png = golden_b.join(format!("frame_{frame:04}.png"));
         let pixels = image::open(&png).unwrap().to_rgb8().into_raw();
-        assert_eq!(&campath::output::frame_hash(&pixels), hash, "frame {frame}");
+        assert_eq!(&campath::frame_hash(&pixels), hash, "frame {frame}");
     }
     assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
 }
@@ -396,7 +396,7 @@ fn verify_never_harms_a_golden() {
         );
     }
     assert_eq!(snapshot(&t.join("golden")), before);
-    // A passing verify clears the earlier failures: only campath's mark is left.
+    // A passing verify clears the earlier failures: only campath's lock file, its mark, is left.
     std::fs::write(t.join("s.ron"), shot(4, "0.9")).unwrap();
     let o = campath(
         t,
@@ -409,7 +409,7 @@ fn verify_never_harms_a_golden() {
         .flatten()
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(left, [".campath-failures"]);
+    assert_eq!(left, ["campath.lock"]);
 }
 
 #[test]

@@ -8,7 +8,7 @@ use std::process::Command;
 use crate::common::{
     campath, ffmpeg_lacks_encoder, frame_lines, have_part, have_tool, root, stderr,
 };
-use campath::output::frame_hash;
+use campath::frame_hash;
 
 /// The zoom example at 96×54 (odd-free) or 95×53 (odd sides, which H.264 pads).
 fn example(dir: &Path, size: &str) -> String {

@@ -6,7 +6,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use crate::cli::error::{CliError, Result};
-use crate::cli::verbs::Stats;
+use crate::cli::stats::Stats;
 use campath::Error;
 
 /// A campath command timed in its own processes: the numbers of its median run, and the wall

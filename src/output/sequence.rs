@@ -7,22 +7,21 @@
 //! different file rendered into the same folder, or a campath whose pictures differ.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fs::OpenOptions;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
+use super::files::{png_hash, remove_if_there as remove, tmp_path, write_atomic, write_png_atomic};
+use super::lock::{Claim, FolderLock, Wait};
+use super::manifest::{Entry, Manifest, PartHeader, Writer};
+use super::{
+    check, frame_of, frame_path, manifest_name, pad_width, parts_in, videos, Compression, Use,
+    BEFORE_SHARDS, HASHES,
+};
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::frames::{keys, stream_frames, FrameSet, Timing};
-use crate::lock::{Claim, FolderLock, Wait};
-use crate::manifest::{self, Entry, Manifest, PartHeader};
-use crate::output::{
-    frame_of, frame_path, is_desktop_clutter, is_ours, pad_width, png_hash,
-    remove_if_there as remove, resolved, write_atomic, write_png_atomic, Compression,
-};
+use crate::frames::{keys, list_frames, stream_frames, FrameSet, Timing};
 
 /// Why frames of the run were rendered rather than kept.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -48,6 +47,12 @@ pub struct RenderSummary {
     pub reasons: Reasons,
     /// Stale frame files removed (from another file or version, or past the animation's end).
     pub removed: u64,
+    /// The videos of the folder's frames removed because frames changed (`STEM.mp4`,
+    /// `STEM.mkv`).
+    pub videos_removed: Vec<PathBuf>,
+    /// The manifest as the run left it: every frame of the run, and those outside it still
+    /// valid (a whole run's).
+    pub manifest: Manifest,
 }
 
 /// How a render reports progress, called from the writer thread.
@@ -93,9 +98,9 @@ struct Plan {
 /// apart from them those of the hashes.txt a shard moved aside. hashes.txt is read before the
 /// file a shard renames it to, so a shard renaming it meanwhile hides neither.
 fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
-    let whole = Manifest::read_lenient(&dir.join(manifest::file_name(None)));
-    let aside = Manifest::read_lenient(&dir.join(manifest::BEFORE_SHARDS));
-    let parts = manifest::parts_in(dir).unwrap_or_default().into_values();
+    let whole = Manifest::read_lenient(&dir.join(HASHES));
+    let aside = Manifest::read_lenient(&dir.join(BEFORE_SHARDS));
+    let parts = parts_in(dir).unwrap_or_default().into_values();
     let mut out: BTreeMap<u64, Vec<Entry>> = BTreeMap::new();
     for e in whole
         .entries
@@ -212,115 +217,17 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     })
 }
 
-/// Refuses a path that is not a folder, a golden folder, or a folder that holds anything
-/// campath does not write there.
-pub fn check_folder(dir: &Path) -> Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(Error::Usage(format!(
-            "{} is a file, not a folder: --out names the folder the frames go into",
-            dir.display()
-        )));
-    }
-    if let Some(why) = golden_of(dir) {
-        return Err(Error::Usage(format!(
-            "{why}, written only on approval (`campath test --update`); nothing was written \
-             (choose another folder than {})",
-            dir.display()
-        )));
-    }
-    // Nor inside another folder of rendered frames: that one would then hold a folder campath
-    // did not write there, and its next render would refuse it.
-    if let Some(outer) = resolved(dir).parent().and_then(frames_folder_of) {
-        return Err(Error::Usage(format!(
-            "{} lies inside {}, a folder of rendered frames; nothing was written (choose a \
-             folder outside it)",
-            dir.display(),
-            outer.display()
-        )));
-    }
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Ok(());
-    };
-    let foreign: Vec<String> = entries
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| !is_ours(n) && !is_desktop_clutter(n))
-        .take(3)
-        .collect();
-    if foreign.is_empty() {
-        Ok(())
-    } else {
-        Err(Error::Usage(format!(
-            "{} holds files campath did not write ({}); choose another --out so nothing is clobbered",
-            dir.display(),
-            foreign.join(", ")
-        )))
-    }
-}
-
-/// Why writing at `path` would write into a golden, if it would: `path` (as it resolves, links
-/// and `..` followed) is or lies inside a shot's golden (`NAME.golden` beside `NAME.ron`), or is
-/// a folder whose `hashes.txt` names campath's renderer and lists frames without keys, as the
-/// goldens campath writes do (an output folder's frames have keys; one from before frame keys
-/// names no renderer, and is rendered again).
-pub fn golden_of(path: &Path) -> Option<String> {
-    let real = resolved(path);
-    // The folders on the way as written, too: a golden may itself be a link (`NAME.golden` to
-    // where the frames are kept).
-    let written = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    for folder in real.ancestors().chain(written.ancestors()) {
-        if folder.extension().is_some_and(|e| e == "golden") {
-            let ron = folder.with_extension("ron");
-            if ron.is_file() {
-                return Some(format!(
-                    "{} is the golden of {}",
-                    folder.display(),
-                    ron.display()
-                ));
-            }
-        }
-    }
-    manifest::written_as_golden(&real.join(manifest::file_name(None))).then(|| {
-        format!(
-            "{} is a golden: its hashes.txt names campath's renderer and lists frames without keys",
-            path.display()
-        )
-    })
-}
-
-/// The folder of rendered frames that `path` (as it resolves) is or lies inside, if any: the
-/// nearest on the way up that holds campath's lock file, or a manifest that begins as
-/// campath's do (`# campath`; someone's `hashes.txt` of checksums is not one).
-pub fn frames_folder_of(path: &Path) -> Option<PathBuf> {
-    resolved(path)
-        .ancestors()
-        .find(|dir| {
-            dir.join(crate::lock::FILE_NAME).is_file()
-                || manifest::begins_as_campaths(&dir.join(manifest::file_name(None)))
-                || manifest::begins_as_campaths(&dir.join(manifest::BEFORE_SHARDS))
-        })
-        .map(Path::to_path_buf)
-}
-
-/// The video `campath video` writes for the keyframe file `file` into its frames folder `dir`:
-/// `STEM.mp4`, or `STEM.mkv` (lossless), the stem as it is.
-pub fn video_path(dir: &Path, file: &Path, ext: &str) -> PathBuf {
-    let mut name = file.file_stem().unwrap_or("video".as_ref()).to_os_string();
-    name.push(format!(".{ext}"));
-    dir.join(name)
-}
-
 /// Removes the records this run would make false: the frame files of the run's frames that it
 /// renders again (so a run stopped on the way leaves no old picture under a frame's name); a
-/// shard moves hashes.txt aside to [`manifest::BEFORE_SHARDS`] (`merge` writes hashes.txt
+/// shard moves hashes.txt aside to [`BEFORE_SHARDS`] (`merge` writes hashes.txt
 /// again; the shards still to run keep their frames by it); a whole run removes the part files,
 /// that file, and the frame files of no current frame. Returns the number of frame files of no
 /// current frame removed.
 fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
     if set.shard.is_some() {
         // First: hashes.txt never lists a frame whose picture is gone.
-        let whole = dir.join(manifest::file_name(None));
-        match std::fs::rename(&whole, dir.join(manifest::BEFORE_SHARDS)) {
+        let whole = dir.join(HASHES);
+        match std::fs::rename(&whole, dir.join(BEFORE_SHARDS)) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
                 return Err(Error::write(&whole)(e))
             }
@@ -333,10 +240,10 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
     if set.shard.is_some() {
         return Ok(0);
     }
-    for path in manifest::parts_in(dir)?.values() {
+    for path in parts_in(dir)?.values() {
         remove(path)?;
     }
-    remove(&dir.join(manifest::BEFORE_SHARDS))?;
+    remove(&dir.join(BEFORE_SHARDS))?;
     let mut removed = 0;
     for path in &plan.stale {
         removed += u64::from(remove(path)?);
@@ -344,12 +251,12 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
     Ok(removed)
 }
 
-/// Takes the lock of the output folder `dir` for a render of `set` (see [`crate::lock`]), after
-/// checking what can be checked without writing: that `dir` holds nothing campath did not
-/// write, and that every frame's camera is defined. So a refused file or folder leaves nothing
-/// behind, not even the folder.
+/// Takes the lock of the output folder `dir` for a render of `set` (see [`super::lock`]), after
+/// checking what can be checked without writing: that `dir` may be written ([`check`]), and
+/// that every frame's camera is defined. So a refused file or folder leaves nothing behind, not
+/// even the folder.
 pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<FolderLock> {
-    check_folder(dir)?;
+    check(dir, Use::Frames)?;
     doc.check_path()?;
     FolderLock::acquire(dir, Claim::of(set.shard), wait)
 }
@@ -388,18 +295,21 @@ pub fn render(
             lock.claim()
         )));
     }
-    check_folder(dir)?;
+    check(dir, Use::Frames)?;
     let plan = plan(doc, dir, set, options.force)?;
     // The video `video` makes in the folder is made of its frames: a run that changes any
     // removes it first, and what a stopped encode of it left.
+    let mut videos_removed = Vec::new();
     if set.count() > plan.kept.len() as u64 || !plan.stale.is_empty() {
-        for ext in ["mp4", "mkv", "mp4.tmp", "mkv.tmp"] {
-            remove(&video_path(dir, &doc.path, ext))?;
+        for video in videos(dir, &doc.path) {
+            remove(&tmp_path(&video))?;
+            if remove(&video)? {
+                videos_removed.push(video);
+            }
         }
     }
     let total = doc.animation.frames;
-    let manifest_path = dir.join(manifest::file_name(set.shard));
-    let mut manifest = Manifest::new(
+    let manifest = Manifest::new(
         set.shard.map(|shard| PartHeader {
             shard,
             range: set.range.clone(),
@@ -410,12 +320,8 @@ pub fn render(
     );
     // The manifest first, of the pictures that stay: a run stopped at any point after it leaves
     // every kept frame recorded, before the records it replaces and the stale pictures go.
-    write_atomic(&manifest_path, manifest.text())?;
+    let mut manifest = Writer::create(dir.join(manifest_name(set.shard)), manifest)?;
     let removed = remove_stale_records(dir, set, &plan)?;
-    let mut file = OpenOptions::new()
-        .append(true)
-        .open(&manifest_path)
-        .map_err(Error::write(&manifest_path))?;
     let kept: BTreeSet<u64> = plan.kept.iter().map(|e| e.frame).collect();
     progress(Event::Start {
         frames: set.count(),
@@ -433,28 +339,16 @@ pub fn render(
                 size,
                 options.compression,
             )?;
-            let entry = Entry {
+            manifest.append(Entry {
                 frame,
                 hash,
                 key: Some(key.clone()),
-            };
-            // The whole line in one write: `writeln!` would write it piece by piece, and a
-            // run killed between two pieces would leave a torn line behind.
-            let line = format!("{entry}\n");
-            file.write_all(line.as_bytes())
-                .map_err(Error::write(&manifest_path))?;
+            })?;
             progress(Event::Written(frame));
             Ok(())
         },
     )?;
-    // The final manifest: sorted, one line per frame, and complete.
-    let mut entries = BTreeMap::new();
-    for e in Manifest::read_lenient(&manifest_path).entries {
-        entries.insert(e.frame, e);
-    }
-    manifest.entries = entries.into_values().collect();
-    manifest.complete = set.shard.is_some();
-    write_atomic(&manifest_path, manifest.text())?;
+    let manifest = manifest.finish(set.shard.is_some())?;
     // The whole run, checking the frames on disk included.
     timing.wall_secs = started.elapsed().as_secs_f64();
     Ok(RenderSummary {
@@ -462,10 +356,12 @@ pub fn render(
         kept: kept.len() as u64,
         reasons: plan.reasons,
         removed,
+        videos_removed,
+        manifest,
     })
 }
 
-/// Merges the part files in `dir` into `dir/hashes.txt` (see [`manifest::merge`]), after
+/// Merges the part files in `dir` into `dir/hashes.txt` (see [`super::merge::merge`]), after
 /// checking that every listed frame's PNG decodes to its recorded hash (in parallel); returns
 /// the number of frames. Writes nothing when the parts do not make a whole, true sequence.
 ///
@@ -479,8 +375,7 @@ pub fn merge(lock: &FolderLock) -> Result<u64> {
             lock.claim()
         )));
     }
-    let (text, total) = manifest::merge(dir, |frame, total| frame_path(dir, frame, total))?;
-    let merged = Manifest::parse(&dir.join(manifest::file_name(None)), &text)?;
+    let (merged, total) = super::merge::merge(dir, |frame, total| frame_path(dir, frame, total))?;
     let mut damaged: Vec<u64> = merged
         .entries
         .par_iter()
@@ -494,11 +389,11 @@ pub fn merge(lock: &FolderLock) -> Result<u64> {
             problems: vec![format!(
                 "frame(s) {} do not decode to their recorded hashes (damaged or overwritten since): \
                  run their shards again",
-                manifest::list_frames(&damaged)
+                list_frames(&damaged)
             )],
         });
     }
-    write_atomic(&dir.join(manifest::file_name(None)), &text)?;
-    remove(&dir.join(manifest::BEFORE_SHARDS))?;
+    write_atomic(&dir.join(HASHES), merged.text())?;
+    remove(&dir.join(BEFORE_SHARDS))?;
     Ok(merged.entries.len() as u64)
 }

@@ -1,36 +1,10 @@
-//! The frame sink: frame hashes, PNG files written atomically, and the output folder's names.
-//!
-//! The frame hash is the SHA-256 of the frame's raw 8-bit RGB pixels, row-major, top row first:
-//! anyone can recompute it from the PNG with any image library.
+//! Files written whole or not at all, and PNG files. Imports nothing above it.
 
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-pub use crate::hash::{frame_hash, FrameHash, FrameHasher};
-use crate::manifest;
-
-/// Digits of zero padding for frame numbers: enough for `frames − 1`, at least 4.
-pub fn pad_width(frames: u64) -> usize {
-    frames.saturating_sub(1).to_string().len().max(4)
-}
-
-/// `dir/frame_0042.png`, padded for `frames` frames.
-pub fn frame_path(dir: &Path, frame: u64, frames: u64) -> PathBuf {
-    dir.join(format!(
-        "frame_{frame:0width$}.png",
-        width = pad_width(frames)
-    ))
-}
-
-/// The frame a file name `frame_NNNN.png` holds, if it is one.
-pub fn frame_of(name: &str) -> Option<(u64, usize)> {
-    let digits = name.strip_prefix("frame_")?.strip_suffix(".png")?;
-    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    Some((digits.parse().ok()?, digits.len()))
-}
+use crate::hash::FrameHash;
 
 /// PNG compression: a trade of encoding time against file size. The pixels are the same.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -78,9 +52,8 @@ pub fn write_png(
 ) -> Result<()> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
-    // Fast: the Paeth filter on every row instead of trying each filter per row. Measured on
-    // 1080p frames of the bench scenes: 8.2 against 11.8 ms (cluster, 701 against 705 KB) and
-    // 3.7 against 4.6 ms (fly-through, 320 against 321 KB).
+    // Fast: the Paeth filter on every row, not a trial of each filter per row, which costs
+    // more time than it saves bytes (docs/performance.md).
     let (level, filter) = match compression {
         Compression::Fast => (CompressionType::Fast, FilterType::Paeth),
         Compression::Default => (CompressionType::Default, FilterType::Adaptive),
@@ -112,11 +85,11 @@ pub fn write_png_atomic(
 /// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.
 pub fn png_hash(path: &Path) -> Option<FrameHash> {
     let img = image::open(path).ok()?.to_rgb8();
-    Some(frame_hash(img.as_raw()))
+    Some(FrameHash::of(img.as_raw()))
 }
 
 /// Where a file is written before it is renamed into place: `NAME.tmp` beside it.
-fn tmp_path(path: &Path) -> PathBuf {
+pub fn tmp_path(path: &Path) -> PathBuf {
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".tmp");
     path.with_file_name(name)
@@ -202,55 +175,4 @@ pub fn resolved(path: &Path) -> PathBuf {
         }
     }
     out
-}
-
-/// Whether a file of this name is one a desktop leaves in any folder it shows (Finder's
-/// `.DS_Store` and `._NAME`, Windows Explorer's `Thumbs.db` and `desktop.ini`, KDE's
-/// `.directory`): an output folder may hold them, though campath does not write them.
-pub fn is_desktop_clutter(name: &str) -> bool {
-    [".DS_Store", "Thumbs.db", "desktop.ini", ".directory"].contains(&name)
-        || name.starts_with("._")
-}
-
-/// Whether campath writes files of this name into an output folder.
-pub fn is_ours(name: &str) -> bool {
-    let base = name.strip_suffix(".tmp").unwrap_or(name);
-    frame_of(base).is_some()
-        || crate::lock::is_lock_file(base)
-        || manifest::part_of(base).is_some()
-        || base.ends_with(".mp4")
-        || base.ends_with(".mkv")
-        || [
-            "hashes.txt",
-            manifest::BEFORE_SHARDS,
-            "report.png",
-            "preview.png",
-            "preview.gif",
-            "plot.png",
-            "preview.html",
-            "status.js",
-            "first.png",
-            "middle.png",
-            "last.png",
-        ]
-        .contains(&base)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn padding_fits_the_frame_count() {
-        assert_eq!(pad_width(1), 4);
-        assert_eq!(pad_width(10_000), 4);
-        assert_eq!(pad_width(10_001), 5);
-        assert_eq!(
-            frame_path(Path::new("o"), 7, 96),
-            Path::new("o/frame_0007.png")
-        );
-        assert_eq!(frame_of("frame_00012.png"), Some((12, 5)));
-        assert_eq!(frame_of("frame_.png"), None);
-        assert_eq!(frame_of("frame_12.png.tmp"), None);
-    }
 }

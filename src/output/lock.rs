@@ -23,15 +23,14 @@ use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 
+use super::{Refusal, LOCK as FILE_NAME};
 use crate::error::{Error, Result};
-use crate::manifest::Shard;
+use crate::frames::Shard;
 
-/// The folder's lock file, as it appears in the folder.
-pub const FILE_NAME: &str = "campath.lock";
 const GATE: &str = "campath.gate.lock";
 
 /// Whether campath writes a lock file of this name into an output folder.
-pub fn is_lock_file(name: &str) -> bool {
+pub(crate) fn is_lock_file(name: &str) -> bool {
     name.starts_with("campath.") && name.ends_with(".lock")
 }
 
@@ -249,10 +248,7 @@ impl FolderLock {
     /// Refuses a `dir` that is a file. The lock files it leaves are named `campath.*.lock`.
     pub fn acquire(dir: &Path, claim: Claim, mut wait: Wait) -> Result<FolderLock> {
         if dir.exists() && !dir.is_dir() {
-            return Err(Error::Usage(format!(
-                "{} is a file, not a folder: --out names the folder the frames go into",
-                dir.display()
-            )));
+            return Err(Refusal::NotAFolder(dir.to_path_buf()).into());
         }
         std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
         let path = dir.join(FILE_NAME);

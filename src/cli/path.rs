@@ -1,0 +1,141 @@
+//! `campath path`: the evaluated camera per frame, or the whole shot for another program, and
+//! the warnings of formats that keep places in f32.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::error::{CliError, Result};
+use campath::document::Document;
+use campath::export::PathFormat;
+use campath::output::Use;
+
+/// `campath path`: the evaluated camera per frame (or the whole shot as glTF) on standard
+/// output, or into `file_out` (binary glTF when it ends in `.glb`).
+pub fn path(
+    file: &Path,
+    format: PathFormat,
+    file_out: Option<&Path>,
+    origin: glam::DVec3,
+    out: &mut dyn Write,
+) -> Result<()> {
+    // Not into a golden or a folder of rendered frames: the next render there would refuse
+    // the folder for holding a file campath did not write.
+    if let Some(target) = file_out {
+        campath::output::check(target, Use::File)
+            .map_err(|r| CliError::refused("--out", target, &r))?;
+    }
+    if format == PathFormat::Usd {
+        if let Some(ext) = file_out.and_then(|p| p.extension()) {
+            if !ext.eq_ignore_ascii_case("usda") && !ext.eq_ignore_ascii_case("usd") {
+                return Err(CliError::Usage(format!(
+                    "campath writes USD's text form: name the file .usda (or .usd), not .{}; \
+                     OpenUSD converts it, e.g. in Python: pxr.Sdf.Layer.FindOrOpen(\"shot.usda\").Export(\"shot.usdc\")",
+                    ext.to_string_lossy()
+                )));
+            }
+        }
+    }
+    let doc = Document::load(file)?;
+    let frames = doc.animation.frames;
+    let glb =
+        file_out.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")));
+    // Before anything is written: places that f32 cannot hold are refused, and a reader that
+    // keeps f32 (glTF, Blender, Blender's USD importer) is warned of rounding.
+    if matches!(
+        format,
+        PathFormat::Gltf | PathFormat::Blender | PathFormat::Usd
+    ) {
+        let f32_file = format != PathFormat::Usd;
+        if let Some(place) = f32_file
+            .then(|| campath::export::past_f32(&doc, origin))
+            .flatten()
+        {
+            return Err(CliError::Usage(format!(
+                "{place} lies past f32's range (±3.4e38){}, which {} keeps; nothing was written",
+                if origin == glam::DVec3::ZERO {
+                    String::new()
+                } else {
+                    " relative to --origin".to_string()
+                },
+                format.title()
+            )));
+        }
+        f32_warning(&doc, format, origin)?;
+    } else if origin != glam::DVec3::ZERO {
+        eprintln!(
+            "campath: note: {} has no place to record --origin: its places are relative to \
+             ({}, {}, {}) without saying so",
+            format.title(),
+            origin.x,
+            origin.y,
+            origin.z
+        );
+    }
+    let dropped = match file_out {
+        Some(path) => {
+            super::args::create_parent(path)?;
+            campath::output::write_atomic_with(path, |file| {
+                campath::export::write_path(&doc, format, glb, origin, file)
+            })?
+        }
+        None => campath::export::write_path(&doc, format, glb, origin, out)?,
+    };
+    if dropped.off_axis > 0 {
+        let (off_axis, first, last) = (dropped.off_axis, dropped.first, dropped.last);
+        let which = match format {
+            PathFormat::Chan => format!(
+                ", campath frames {first}..={last} (.chan frames {}..={}),",
+                first + 1,
+                last + 1
+            ),
+            _ => String::new(),
+        };
+        eprintln!(
+            "campath: note: {} has no place for an off-axis COP (distort): {off_axis} of {frames} \
+             frame(s){which} are written as if the COP were on the VPN, so their pictures are \
+             centred; csv, json, blender and usd keep the COP",
+            format.title()
+        );
+    }
+    Ok(())
+}
+
+/// Warns when glTF or Blender (or Blender's USD importer), keeping places in f32, would move
+/// the camera's picture by a quarter of a pixel or more (a shot far from the origin), and
+/// names an origin that keeps it near zero.
+fn f32_warning(doc: &Document, format: PathFormat, origin: glam::DVec3) -> Result<()> {
+    const MOST_PX: f64 = 0.25;
+    let Some(shift) = campath::export::f32_shift(doc, origin)? else {
+        return Ok(());
+    };
+    if shift.px < MOST_PX {
+        return Ok(());
+    }
+    let m = shift.middle;
+    let better = campath::export::f32_shift(doc, m)?.map_or(0.0, |s| s.px);
+    let hint = if better < MOST_PX {
+        format!(
+            "--origin {},{},{} (the middle of the camera's path) writes every place relative to \
+             it (about {better:.1e} px)",
+            m.x, m.y, m.z
+        )
+    } else {
+        "the camera's path is too long for f32 at this scale: write the shot in parts, each \
+         with an --origin near it, or read the USD with OpenUSD, which keeps f64"
+            .to_string()
+    };
+    let keeps = match format {
+        PathFormat::Usd => "USD keeps f64, but Blender's USD importer keeps places in f32",
+        _ => "keeps places in f32",
+    };
+    let title = match format {
+        PathFormat::Usd => String::new(),
+        _ => format!("{} ", format.title()),
+    };
+    eprintln!(
+        "campath: warning: {title}{keeps}: this far from the origin, rounding moves the camera \
+         by {:.1e} at frame {}, about {:.1} px on the nearest sphere; {hint}",
+        shift.units, shift.frame, shift.px
+    );
+    Ok(())
+}

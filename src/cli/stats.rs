@@ -1,0 +1,113 @@
+//! A run's numbers: the line people read after a run, and `--stats-json` for other programs
+//! (`campath bench` reads it).
+
+use std::path::Path;
+
+use super::error::{CliError, Result};
+use campath::frames::Timing;
+use campath::output::Use;
+
+/// A run's numbers, for other programs (`--stats-json`; `campath bench` reads them).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Stats {
+    /// Frames rendered (or held) and delivered.
+    pub frames: u64,
+    /// Frames already valid on disk (render only).
+    pub kept: u64,
+    pub wall_secs: f64,
+    pub wall_ms_per_frame: f64,
+    pub median_render_ms: f64,
+    /// Peak resident memory of the process, where the platform tells.
+    pub peak_memory_mb: Option<f64>,
+    /// From the process's start to the first frame delivered: loading, checking, indexing the
+    /// scene and rendering one frame.
+    pub first_frame_ms: Option<f64>,
+    /// The most spheres any rendered frame had inside its view.
+    #[serde(default)]
+    pub max_in_view: usize,
+}
+
+impl Stats {
+    pub fn of(t: &Timing, kept: u64) -> Stats {
+        Stats {
+            frames: t.frames,
+            kept,
+            wall_secs: t.wall_secs,
+            wall_ms_per_frame: t.wall_secs * 1e3 / t.frames.max(1) as f64,
+            median_render_ms: t.median_render_secs() * 1e3,
+            peak_memory_mb: peak_memory_mb(),
+            first_frame_ms: t
+                .first_frame_at
+                .map(|at| (at - super::started()).as_secs_f64() * 1e3),
+            max_in_view: t.max_in_view,
+        }
+    }
+
+    /// Refuses (exit 2, before any work) a `--stats-json` path that is a folder, lies under a
+    /// file, in a golden or in the run's output folder `out` (whose files are the frames and
+    /// their manifests only), or is a file other than run statistics campath wrote: it never
+    /// overwrites a keyframe file, a golden's hashes or anything else.
+    pub fn check_target(path: Option<&Path>, out: Option<&Path>) -> Result<()> {
+        let Some(path) = path else { return Ok(()) };
+        let refuse = |why: String| {
+            Err(CliError::Usage(format!(
+                "--stats-json {}: {why}; nothing was done (choose another path)",
+                path.display()
+            )))
+        };
+        if let Some(dir) = out.filter(|dir| campath::output::within(path, dir)) {
+            return refuse(format!("it is in the --out folder {}", dir.display()));
+        }
+        campath::output::check(path, Use::File)
+            .map_err(|r| CliError::refused("--stats-json", path, &r))?;
+        super::args::report_target("--stats-json", path, "run statistics", |b| {
+            serde_json::from_slice::<Stats>(b).is_ok()
+        })
+    }
+
+    pub fn write(&self, path: Option<&Path>) -> Result<()> {
+        let Some(path) = path else { return Ok(()) };
+        super::args::create_parent(path)?;
+        let text = serde_json::to_string_pretty(self).expect("plain numbers serialise");
+        Ok(campath::output::write_atomic(path, &text)?)
+    }
+}
+
+/// The process's peak resident memory in MB, where the platform tells (Linux's VmHWM).
+pub fn peak_memory_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// One line for people, e.g. `rendered 96 frame(s) of 640×360 to out/x in …`: frames, wall
+/// time, median render time, held frames and peak memory. `detail` follows the frame count.
+pub fn timing_line(verb: &str, detail: &str, t: &Timing) -> String {
+    let mut line = format!(
+        "{verb} {} frame(s){detail} in {:.2} s",
+        t.frames, t.wall_secs
+    );
+    let mut notes = Vec::new();
+    if t.frames > 0 {
+        notes.push(format!(
+            "{:.1} ms/frame wall, median render {:.1} ms/frame",
+            t.wall_secs * 1e3 / t.frames as f64,
+            t.median_render_secs() * 1e3
+        ));
+    }
+    if let Some(at) = t.first_frame_at {
+        let ms = (at - super::started()).as_secs_f64() * 1e3;
+        notes.push(format!("first frame after {ms:.0} ms"));
+    }
+    if t.held > 0 {
+        notes.push(format!("{} held (same camera as the frame before)", t.held));
+    }
+    if let Some(mb) = peak_memory_mb() {
+        notes.push(format!("peak memory {mb:.0} MB"));
+    }
+    if !notes.is_empty() {
+        line += &format!(" ({})", notes.join(", "));
+    }
+    line
+}
