@@ -1,4 +1,7 @@
-//! The CSV form: a header `x,y,z,radius` or `x,y,z,radius,r,g,b`, then a sphere a line.
+//! The CSV form: a header `x,y,z,radius` or `x,y,z,radius,r,g,b`, then a sphere a line. A line
+//! is split at its commas, each field trimmed; a line that does not read so and holds a `"` is
+//! read again as CSV with quotes (RFC 4180), by the csv crate. Since no field with a `"` is a
+//! number or a header name, a line without quotes reads as it always did.
 
 use std::io::BufRead;
 
@@ -35,7 +38,12 @@ pub(super) fn csv_from<T>(
             .to_string(),
         _ => header,
     };
-    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let record;
+    let mut names: Vec<&str> = header.split(',').map(str::trim).collect();
+    if header.contains('"') {
+        record = with_quotes(&header).map_err(|e| FileProblem::at(Location::Line(n), e))?;
+        names = record.iter().map(str::trim).collect();
+    }
     let colours = match names.as_slice() {
         ["x", "y", "z", "radius"] => false,
         ["x", "y", "z", "radius", "r", "g", "b"] => true,
@@ -54,33 +62,9 @@ pub(super) fn csv_from<T>(
             ));
         }
     };
-    let fields = names.len();
-    let parse = |line: &str, _: &mut Vec<f64>| -> Result<SphereSpec, String> {
-        let mut words = [""; 7];
-        let mut got = 0;
-        for (k, field) in line.split(',').enumerate() {
-            if let Some(word) = words.get_mut(k) {
-                *word = field.trim();
-            }
-            got = k + 1;
-        }
-        if got != fields {
-            return Err(format!(
-                "expected {fields} fields ({}), got {got}",
-                CSV_NAMES[..fields].join(",")
-            ));
-        }
-        let mut values = [0.0; 7];
-        for (k, (value, word)) in values.iter_mut().zip(words).take(fields).enumerate() {
-            *value = text_f64(word)
-                .ok_or_else(|| format!("{}: not a number: {}", CSV_NAMES[k], quoted(word)))?;
-        }
-        let [x, y, z, radius, r, g, b] = values;
-        Ok(SphereSpec {
-            center: (x, y, z),
-            radius,
-            color: colours.then_some((r, g, b)),
-        })
+    let parse = |line: &str, _: &mut Vec<f64>| match sphere(line.split(','), colours) {
+        Err(_) if line.contains('"') => sphere(with_quotes(line)?.iter(), colours),
+        read => read,
     };
     let first = n + 1;
     listing.first_line = Some(first);
@@ -113,4 +97,54 @@ pub(super) fn csv_from<T>(
         listing.lines = Vec::new();
     }
     ended.map(|_| ())
+}
+
+/// The sphere of a line's fields (trimmed here), with colours or without.
+fn sphere<'a>(line: impl Iterator<Item = &'a str>, colours: bool) -> Result<SphereSpec, String> {
+    let fields = if colours { 7 } else { 4 };
+    let mut words = [""; 7];
+    let mut got = 0;
+    for (k, field) in line.enumerate() {
+        if let Some(word) = words.get_mut(k) {
+            *word = field.trim();
+        }
+        got = k + 1;
+    }
+    if got != fields {
+        return Err(format!(
+            "expected {fields} fields ({}), got {got}",
+            CSV_NAMES[..fields].join(",")
+        ));
+    }
+    let mut values = [0.0; 7];
+    for (k, (value, word)) in values.iter_mut().zip(words).take(fields).enumerate() {
+        *value = text_f64(word).ok_or_else(|| {
+            let hint = match word.starts_with('"') {
+                true => " (a quoted field starts with its quote: no space before it)",
+                false => "",
+            };
+            format!("{}: not a number: {}{hint}", CSV_NAMES[k], quoted(word))
+        })?;
+    }
+    let [x, y, z, radius, r, g, b] = values;
+    Ok(SphereSpec {
+        center: (x, y, z),
+        radius,
+        color: colours.then_some((r, g, b)),
+    })
+}
+
+/// A line's fields read as CSV with quotes: a field in quotes may hold commas, and `""` stands
+/// for a quote in it. A line's quotes are closed on it: a sphere is a line.
+fn with_quotes(line: &str) -> Result<csv::StringRecord, String> {
+    if line.matches('"').count() % 2 == 1 {
+        return Err("a quote is not closed: close it on the same line".to_string());
+    }
+    let mut record = csv::StringRecord::new();
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(line.as_bytes());
+    reader.read_record(&mut record).map_err(|e| e.to_string())?;
+    Ok(record)
 }

@@ -73,6 +73,30 @@ fn csv_with_and_without_colours() {
     }
 }
 
+/// Quoted fields read as CSV reads them: a quoted header and numbers give the spheres the same
+/// file gives unquoted; a comma inside quotes is in its field; a quote not closed on its line,
+/// or a space before a quote, is named with what to do.
+#[test]
+fn csv_quoted_fields() {
+    let plain = csv(b"x,y,z,radius,r,g,b\n1.5,2,3,0.5,0,0.5,1\n").unwrap();
+    let quoted = csv(b"\"x\",\"y\",z,\" radius\",r,g,\"b\"\r\n\"1.5\",2,\"3\",0.5,0,\"0.5\",1\n");
+    assert_eq!(quoted.unwrap(), plain);
+    for (text, want) in [
+        (&b"x,y,z,radius\n\"1,5\",2,3,4\n"[..], "x: not a number: \"1,5\""),
+        (
+            b"x,y,z,radius\n1, \"2\",3,4\n",
+            "y: not a number: \"\\\"2\\\"\" (a quoted field starts with its quote: no space before it)",
+        ),
+        (b"x,y,z,radius\n\"1,2,3,4\n", "a quote is not closed: close it on the same line"),
+        (b"x,y,z,radius\n\"1\",2,3\n", "expected 4 fields (x,y,z,radius), got 3"),
+    ] {
+        let e = csv(text).unwrap_err();
+        assert_eq!((e.at, e.message.as_str()), (Some(Location::Line(2)), want));
+    }
+    let e = csv(b"\"x,y\",z,radius\n").unwrap_err();
+    assert!(e.message.starts_with("the header must be"), "{e:?}");
+}
+
 fn header(format: &str, props: &str, n: usize) -> Vec<u8> {
     format!(
         "ply\nformat {format} 1.0\ncomment made by a test\nelement vertex {n}\n{props}end_header\n"
