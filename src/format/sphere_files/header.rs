@@ -1,6 +1,6 @@
 //! The header lines of a text: PLY's, and CSV's first; each at most [`HEADER_LINE_BYTES`].
 
-use std::io::{self, BufRead, Read};
+use std::io::{BufRead, Read};
 
 use super::listing::{FileProblem, Location};
 
@@ -73,7 +73,7 @@ impl HeaderLines {
             && !self.raw.contains(&b'\r')
         {
             if !ended {
-                skip_line(file).map_err(FileProblem::io)?;
+                file.skip_until(b'\n').map_err(FileProblem::io)?;
             }
             self.raw.truncate(HEADER_LINE_BYTES);
         }
@@ -89,26 +89,6 @@ impl HeaderLines {
         }
         let line = String::from_utf8_lossy(&self.raw);
         Ok(Some((self.line, line.trim().to_string())))
-    }
-}
-
-/// Reads past the rest of a line and its line end: whether there was one.
-pub(super) fn skip_line(file: &mut dyn BufRead) -> io::Result<bool> {
-    loop {
-        let buf = file.fill_buf()?;
-        if buf.is_empty() {
-            return Ok(false);
-        }
-        match buf.iter().position(|&b| b == b'\n') {
-            Some(k) => {
-                file.consume(k + 1);
-                return Ok(true);
-            }
-            None => {
-                let n = buf.len();
-                file.consume(n);
-            }
-        }
     }
 }
 

@@ -1,22 +1,14 @@
 //! Sphere files: spheres kept outside the keyframe file, as PLY (ASCII or binary little-endian)
-//! or CSV, the forms particle systems, point clouds and molecule tools write.
-//!
-//! - **PLY**: `element vertex N` with `x`, `y`, `z` and `radius` (any numeric type), and
-//!   optionally `red`, `green`, `blue`: `uchar` 0–255 (divided by 255) or `float`/`double` 0–1.
-//!   Other properties and elements are read past. An ASCII value is read as its declared type
-//!   (a `float` rounded to f32, as a binary body holds it), so ASCII and binary give the same
-//!   spheres. A header line is at most 4,096 bytes (a `comment` or `obj_info` line is read past).
-//! - **CSV**: a header `x,y,z,radius` or `x,y,z,radius,r,g,b` (colours 0–1), then one sphere a
-//!   line; blank lines are skipped.
+//! or CSV, the forms particle systems, point clouds and molecule tools write; docs/format.md
+//! says what each may hold.
 //!
 //! Numbers are read exactly: a `double` in PLY, or a number in CSV (the value `f64::from_str`
 //! gives, as RON reads its floats), gives the same bits as the same number in RON. Nothing is
-//! checked here beyond the form: each sphere is handed, with its index, to the caller's `make` as it is read
-//! ([`crate::document`] checks it there), so a file's spheres are never held twice. A body
-//! passes through blocks of [`BLOCK_BYTES`] (`crate::format::blocks`), never held whole: a binary
-//! PLY's vertices parsed on the rayon pool straight into the caller's vector, in file order; a
-//! text body's lines (CSV, ASCII PLY) cut into pieces parsed on the pool, handed over in file
-//! order.
+//! checked here beyond the form: each sphere is handed, with its index, to the caller's `make`
+//! as it is read ([`crate::document`] checks it there), so a file's spheres are never held
+//! twice. A body passes through blocks of [`BLOCK_BYTES`] (`crate::format::blocks`), never held
+//! whole: a binary PLY's vertices parsed on the rayon pool straight into the caller's vector,
+//! a text body's lines (CSV, ASCII PLY) in pieces on the pool, both handed over in file order.
 
 use std::fs::File;
 use std::io::{BufReader, Read};
@@ -67,24 +59,5 @@ pub fn read<T: Send>(
                 ))
             }
         }
-    })
-}
-
-/// The CSV form, appending `make(i, sphere)` to `out` for each sphere.
-pub fn csv<T>(bytes: &[u8], out: &mut Vec<T>, make: impl Fn(usize, &SphereSpec) -> T) -> Listing {
-    listed(out, |out, listing| {
-        csv::csv_from(bytes, out, &make, listing)
-    })
-}
-
-/// The PLY form, appending `make(i, sphere)` to `out` for each vertex (on the rayon pool when
-/// the body is binary).
-pub fn ply<T: Send>(
-    bytes: &[u8],
-    out: &mut Vec<T>,
-    make: impl Fn(usize, &SphereSpec) -> T + Sync,
-) -> Listing {
-    listed(out, |out, listing| {
-        ply_body::ply_from(bytes, bytes.len() as u64, out, &make, listing)
     })
 }

@@ -55,7 +55,7 @@ pub(super) fn ply_from<T: Send>(
         }
         None => listed_vertices(&mut file, v, columns, out, make),
     }?;
-    if *last && fill(&mut file, &mut [0])? > 0 {
+    if *last && !file.fill_buf().map_err(FileProblem::io)?.is_empty() {
         return Err(FileProblem::whole(format!(
             "the body goes on past the header's vertex count ({}): is the count right?",
             v.count
@@ -123,20 +123,6 @@ fn exact(body: &mut impl Read, buf: &mut [u8]) -> Result<Option<()>, FileProblem
         Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Ok(None),
         Err(e) => Err(FileProblem::io(e)),
     }
-}
-
-/// Fills as much of `buf` as the body holds: how many bytes that is.
-fn fill(body: &mut impl Read, buf: &mut [u8]) -> Result<usize, FileProblem> {
-    let mut got = 0;
-    while got < buf.len() {
-        match body.read(&mut buf[got..]) {
-            Ok(0) => break,
-            Ok(n) => got += n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(FileProblem::io(e)),
-        }
-    }
-    Ok(got)
 }
 
 /// The truncation of vertex `i` of `count`.

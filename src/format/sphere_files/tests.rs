@@ -6,6 +6,25 @@ use super::*;
 use crate::error::PROBLEMS_SHOWN;
 use crate::format::Triple;
 
+/// The CSV form of `bytes`, appending `make(i, sphere)` to `out` for each sphere.
+fn read_csv<T>(bytes: &[u8], out: &mut Vec<T>, make: impl Fn(usize, &SphereSpec) -> T) -> Listing {
+    listed(out, |out, listing| {
+        csv::csv_from(bytes, out, &make, listing)
+    })
+}
+
+/// The PLY form of `bytes`, appending `make(i, sphere)` to `out` for each vertex.
+fn read_ply<T: Send>(
+    bytes: &[u8],
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T + Sync,
+) -> Listing {
+    let len = bytes.len() as u64;
+    listed(out, |out, listing| {
+        ply_body::ply_from(bytes, len, out, &make, listing)
+    })
+}
+
 /// A file's spheres as read, and its listing; or its first problem.
 type Read = Result<(Vec<SphereSpec>, Listing), FileProblem>;
 
@@ -19,13 +38,13 @@ fn first(out: Vec<SphereSpec>, listing: Listing) -> Read {
 
 fn csv(bytes: &[u8]) -> Read {
     let mut out = Vec::new();
-    let listing = super::csv(bytes, &mut out, |_, s| s.clone());
+    let listing = read_csv(bytes, &mut out, |_, s| s.clone());
     first(out, listing)
 }
 
 fn ply(bytes: &[u8]) -> Read {
     let mut out = Vec::new();
-    let listing = super::ply(bytes, &mut out, |_, s| s.clone());
+    let listing = read_ply(bytes, &mut out, |_, s| s.clone());
     first(out, listing)
 }
 
@@ -180,7 +199,7 @@ fn binary_blocks_keep_file_order_and_name_the_cut_vertex() {
         }
     }
     let mut out = Vec::new();
-    let listing = super::ply(&bin, &mut out, |i, s| (i, s.clone()));
+    let listing = read_ply(&bin, &mut out, |i, s| (i, s.clone()));
     assert_eq!(listing.problems, []);
     assert_eq!((listing.count, out.len()), (n, n));
     for (k, (i, s)) in out.iter().enumerate() {
@@ -452,7 +471,7 @@ fn text_blocks_keep_file_order_and_name_the_first_bad_line() {
 fn every_bad_row_is_named_and_the_rest_still_read() {
     let mut out = Vec::new();
     let text = b"x,y,z,radius\n0,0,0,1\nfoo,0,0,1\n\n0,0,0,2\n0,0\n\xe9\n0,0,0,3\n";
-    let listing = super::csv(text, &mut out, |_, s| s.radius);
+    let listing = read_csv(text, &mut out, |_, s| s.radius);
     assert_eq!(out, [1.0, 2.0, 3.0]);
     assert_eq!(
         (1..3).map(|i| listing.location(i)).collect::<Vec<_>>(),
@@ -475,7 +494,7 @@ fn every_bad_row_is_named_and_the_rest_still_read() {
     let mut ascii = header("ascii", xyzr, 5);
     ascii.extend(b"0 0 0 1\n0 0 zz 1\n0 0 0 2\n0 0\n0 0 0 3\n");
     let mut out = Vec::new();
-    let listing = super::ply(&ascii, &mut out, |i, s| (i, s.radius));
+    let listing = read_ply(&ascii, &mut out, |i, s| (i, s.radius));
     assert_eq!(out, [(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0), (4, 3.0)]);
     assert_eq!(listing.location(4), Location::Vertex(4));
     assert_eq!(
@@ -597,7 +616,7 @@ fn ambiguous_headers_and_stray_data_are_refused() {
     let mut rows = String::from("x,y,z,radius\n");
     (0..250).for_each(|i| rows.push_str(&format!("{i};0;0;1\n")));
     let mut out = Vec::new();
-    let listing = super::csv(rows.as_bytes(), &mut out, |_, s| s.radius);
+    let listing = read_csv(rows.as_bytes(), &mut out, |_, s| s.radius);
     let named = problems(listing);
     assert_eq!(named.len(), PROBLEMS_SHOWN);
     assert_eq!(named[98].1, Some(Location::Line(100)));
