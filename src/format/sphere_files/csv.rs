@@ -63,7 +63,7 @@ pub(super) fn csv_from<T>(
         }
     };
     let parse = |line: &str, _: &mut Vec<f64>| match sphere(line.split(','), colours) {
-        Err(_) if line.contains('"') => sphere(with_quotes(line)?.iter(), colours),
+        Err(_) if line.contains('"') => requoted(line, colours),
         read => read,
     };
     let first = n + 1;
@@ -100,6 +100,7 @@ pub(super) fn csv_from<T>(
 }
 
 /// The sphere of a line's fields (trimmed here), with colours or without.
+#[inline(always)]
 fn sphere<'a>(line: impl Iterator<Item = &'a str>, colours: bool) -> Result<SphereSpec, String> {
     let fields = if colours { 7 } else { 4 };
     let mut words = [""; 7];
@@ -132,6 +133,12 @@ fn sphere<'a>(line: impl Iterator<Item = &'a str>, colours: bool) -> Result<Sphe
         radius,
         color: colours.then_some((r, g, b)),
     })
+}
+
+/// The sphere of a line that holds a quote, read as CSV with quotes.
+#[cold]
+fn requoted(line: &str, colours: bool) -> Result<SphereSpec, String> {
+    sphere(with_quotes(line)?.iter(), colours)
 }
 
 /// A line's fields read as CSV with quotes: a field in quotes may hold commas, and `""` stands
