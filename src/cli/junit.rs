@@ -113,11 +113,70 @@ pub fn write(path: &Path, name: &str, suites: &[Suite]) -> Result<()> {
     Ok(campath::output::write_atomic(path, text(name, suites))?)
 }
 
-/// Escapes text for an XML attribute or element.
+/// Escapes text for an XML attribute or element (or HTML). What XML 1.0 cannot hold at all (the
+/// control characters other than tab, LF and CR, and U+FFFE, U+FFFF; a Rust string has no
+/// surrogates) is written as its Rust escape, `\u{1b}`; tab, LF and CR as character references,
+/// which a parser keeps as they are in an attribute too; `& < > " '` as entities.
 pub fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-        .replace('\'', "&apos;")
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            '\t' | '\n' | '\r' => {
+                let _ = write!(out, "&#{};", u32::from(c));
+            }
+            '\0'..='\u{1f}' | '\u{fffe}' | '\u{ffff}' => {
+                let _ = write!(out, "{}", c.escape_unicode());
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every character XML cannot hold comes out as its Rust escape, and the legal text around
+    /// it, markup characters and line ends included, is what a parser reads back, in an
+    /// attribute and in an element.
+    #[test]
+    fn escaped_text_is_xml_that_reads_back() {
+        let message = "a\u{1}b\u{1b}[31mred\u{fffe}\u{ffff}]]><&\"' x\ty\r\nz\u{10ffff}\u{d7ff}";
+        let legal = "a\\u{1}b\\u{1b}[31mred\\u{fffe}\\u{ffff}]]><&\"' x\ty\r\nz\u{10ffff}\u{d7ff}";
+        let mut suite = Suite::new(message);
+        suite.case("frame 0", Some(message.to_string()));
+        let xml = text("campath test", &[suite]);
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let failure = doc
+            .descendants()
+            .find(|n| n.has_tag_name("failure"))
+            .unwrap();
+        assert_eq!(failure.attribute("message"), Some(legal));
+        assert_eq!(failure.text(), Some(legal));
+        let suite = doc
+            .descendants()
+            .find(|n| n.has_tag_name("testsuite"))
+            .unwrap();
+        assert_eq!(suite.attribute("name"), Some(legal));
+        // Each character outside XML's, one at a time, in a document of its own.
+        for c in (0..0x20u32)
+            .chain([0xfffe, 0xffff])
+            .filter_map(char::from_u32)
+        {
+            let xml = format!("<a b=\"{0}\">{0}</a>", escape(&c.to_string()));
+            let doc = roxmltree::Document::parse(&xml).unwrap();
+            let want = match c {
+                '\t' | '\n' | '\r' => c.to_string(),
+                _ => c.escape_unicode().to_string(),
+            };
+            assert_eq!(doc.root_element().attribute("b"), Some(want.as_str()));
+            assert_eq!(doc.root_element().text(), Some(want.as_str()));
+        }
+    }
 }

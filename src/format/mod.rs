@@ -4,6 +4,7 @@
 
 use serde::Deserialize;
 
+mod blocks;
 mod pieces;
 mod quick;
 pub mod sphere_files;

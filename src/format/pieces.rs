@@ -9,19 +9,20 @@
 //! piece RON rejects gives `None`, and the caller parses the whole text, so every error is
 //! reported exactly as before, at its line and column.
 //!
-//! A long file is read a block at a time ([`read`]), its pieces parsed as the blocks arrive,
-//! so that its text is never held whole; the scan ([`Scan`]) is the same either way.
+//! A long file is read a block at a time ([`read`], through [`Blocks`], as sphere files are),
+//! its pieces parsed as the blocks arrive, so that its text is never held whole; the scan
+//! ([`Scan`]) is the same either way.
 
 use rayon::prelude::*;
 
+use super::blocks::{self, Blocks};
 use super::{options, quick, FileSpec, SphereSpec};
 
 /// A list shorter than two pieces is not split.
 pub const PIECE_BYTES: usize = 32 * 1024;
 
-/// The most a block of [`read`] holds: two such blocks are the text in memory at once. Blocks
-/// of 4 MB (as a PLY body's) fault in 6 MB more of fresh pages, and the 100,000-sphere file
-/// took 2.5% more CPU to render.
+/// The most a block of [`read`] holds (1 MiB): two such blocks are the text in memory at once.
+/// A sphere file's 4 MiB blocks would fault in 6 MB more of fresh pages here.
 pub const BLOCK_BYTES: usize = 1 << 20;
 
 /// The file, when its `spheres` list is at least two pieces long and every part parses.
@@ -123,19 +124,17 @@ pub fn read(
     piece_bytes: usize,
     block_bytes: usize,
 ) -> Option<FileSpec> {
-    use std::io::Read;
     let mut size = block_bytes.min(FIRST_BLOCK);
-    // The next block appended to `into`, and whether the file ended in it (a read fell short).
-    let mut more = |into: &mut Vec<u8>| {
+    // The size of the next block: each twice the last, up to `block_bytes`.
+    let mut grow = || {
         let want = size;
         size = (size * 2).min(block_bytes);
-        let n = file.by_ref().take(want as u64).read_to_end(into).ok()?;
-        Some(n < want)
+        want
     };
     // The text up to the list's `[` (as `parse` sees it: after a byte-order mark).
     let mut head = Vec::new();
     let (open, bom, end) = loop {
-        let end = more(&mut head)?;
+        let end = blocks::read(file, &mut head, grow()).ok()?;
         let bom = if head.starts_with(b"\xef\xbb\xbf") {
             3
         } else {
@@ -149,12 +148,11 @@ pub fn read(
         }
     };
     let mut scan = Scan::new(open, piece_bytes);
-    // `a` holds the text from byte `base` on: the first piece not yet parsed, and what has
-    // been read past it; `b` takes the next block after the piece that it cuts through.
-    let mut a = head.split_off(bom + open + 1);
+    // The block holds the text from byte `base` on: the first piece not yet parsed, and what
+    // has been read past it; the next block starts at the piece that it cuts through.
+    let mut blocks = Blocks::new(file, head.split_off(bom + open + 1), end);
     let (mut base, mut start) = (open + 1, open + 1);
-    let mut scanned = scan.feed(&a, base, end);
-    let mut b = Vec::new();
+    let mut scanned = scan.feed(&blocks.this, base, end);
     let mut spheres: Vec<SphereSpec> = Vec::new();
     // The block before's spheres, and how far into the list they reach.
     let mut parsed_before: Option<(Vec<Vec<SphereSpec>>, usize)> = None;
@@ -177,32 +175,26 @@ pub fn read(
         };
         // This block's pieces on the pool; beside them, the block before's spheres appended,
         // and the next block read after the piece that runs on into it, and scanned.
-        let parse_pieces = || {
+        let parse_pieces = |a: &[u8]| {
             bounds
                 .par_iter()
                 .map(|&(from, to)| piece(std::str::from_utf8(&a[from..to]).ok()?))
                 .collect::<Option<Vec<_>>>()
         };
         let before = parsed_before.take();
-        let append_and_read_on = || {
+        let append_and_scan = |b: &[u8], end| {
             if let Some((parsed, read)) = before {
                 append(&mut spheres, parsed, read, len as usize);
             }
-            if close.is_some() {
-                return None;
-            }
-            b.clear();
-            b.extend_from_slice(&a[start - base..]);
-            let end = more(&mut b)?;
-            Some(scan.feed(&b, start, end))
+            close.is_none().then(|| scan.feed(b, start, end))
         };
-        let (next, parsed) = rayon::join(append_and_read_on, parse_pieces);
+        let want = close.is_none().then(&mut grow);
+        let (next, parsed) = blocks.turn(start - base, want, parse_pieces, append_and_scan);
         parsed_before = Some((parsed?, start - open));
         if let Some(close) = close {
             break close;
         }
-        scanned = next?;
-        std::mem::swap(&mut a, &mut b);
+        scanned = next.ok()??;
         base = start;
     };
     if let Some((parsed, read)) = parsed_before {
@@ -211,10 +203,12 @@ pub fn read(
     if pieces < 2 {
         return None;
     }
-    // The text without the list's elements, as `parse` gives RON.
+    // The text without the list's elements, as `parse` gives RON: the rest of the block after
+    // the list (the next block starts where its last piece did), and the rest of the file.
     let mut rest = head;
     rest.drain(..bom);
-    rest.extend_from_slice(&a[close - base..]);
+    rest.extend_from_slice(&blocks.this[close - start..]);
+    drop(blocks);
     file.read_to_end(&mut rest).ok()?;
     let rest = String::from_utf8(rest).ok()?;
     finish(options().from_str::<FileSpec>(&rest).ok()?, spheres, &rest)
