@@ -30,6 +30,7 @@ pub struct Basis {
 
 /// Why a camera could not be formed.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum CameraError {
     /// VPN is zero, or not finite.
     ZeroVpn,

@@ -168,6 +168,7 @@ impl From<Refusal> for Error {
 /// (match on it for the [`std::io::ErrorKind`]); `source()` does not return it again, so a
 /// printer of the error chain says it once.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// A file could not be read (exit 1).
     #[error("{}: cannot read: {cause}", path.display())]
@@ -248,7 +249,7 @@ pub enum Error {
     #[error("{0}; nothing was written")]
     Refused(Refusal),
     /// Another run holds the output folder (or, for a shard, its part of it); see
-    /// [`crate::lock`].
+    /// `output::lock`.
     #[error("{} is being written by another campath run ({})", dir.display(), if holders.is_empty() { "its process id is not recorded".to_string() } else { holders.join("; ") })]
     Busy {
         /// The output folder.

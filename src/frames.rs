@@ -1,5 +1,5 @@
 //! The frame engine: which frames a run covers, rendering them in order with each frame's
-//! [`FrameKey`], and streaming the pixels to a consumer on its own thread.
+//! `FrameKey`, and streaming the pixels to a consumer on its own thread.
 
 use std::fmt;
 use std::ops::Range;
@@ -12,7 +12,7 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::hash::{FrameHash, FrameHasher};
-use crate::render::key::{FrameKey, KeyBase};
+use crate::key::{FrameKey, KeyBase};
 use crate::render::{PreparedFrame, Renderer, SceneIndex};
 
 /// Shard K of N: the frames k with k mod N = K (interleaved, so every shard gets a share of the
@@ -347,7 +347,7 @@ pub fn stream_frames(
         let rendered = for_each_frame(doc, set, done, |frame, key, pixels, hash| {
             // A failed send means the consumer stopped on an error: stop rendering too; the
             // consumer's error is the one reported.
-            tx.send((frame, key.clone(), Arc::clone(pixels), hash))
+            tx.send((frame, *key, Arc::clone(pixels), hash))
                 .map_err(|_| Error::Usage("the frame consumer stopped".into()))
         });
         drop(tx);

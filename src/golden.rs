@@ -1,6 +1,6 @@
 //! Golden hashes: what a frame-hash test compares fresh renders with.
 //!
-//! A golden is a `hashes.txt` (the [manifest](crate::output::manifest) grammar), either alone or in a
+//! A golden is a `hashes.txt` (the manifest grammar), either alone or in a
 //! folder beside the golden frames it lists (`frame_NNNN.png`). Campath writes it with a first
 //! line naming its renderer version, so a golden made by a campath whose pictures differ is
 //! reported as such rather than as a broken shot.
@@ -10,9 +10,10 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::hash::FrameHash;
+use crate::key::VERSION;
+pub use crate::output::manifest::parse_hashes;
 use crate::output::manifest::{Entry, Manifest};
 use crate::output::{frames_in, write_atomic, HASHES};
-use crate::render::key::VERSION;
 
 /// A golden: frame hashes, where they came from, and the folder of golden frames if any.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -1,10 +1,10 @@
 //! campath: animates the general UVN camera of the lecture notes from a RON keyframe file and
 //! ray casts each frame against spheres.
 //!
-//! The pipeline, one module per stage: [`format`](mod@format) (the RON file) → [`document`]
-//! (checked values) → [`keyframes`] (tracks) → [`animation`] (per-frame [`camera`]) →
-//! [`render`] (ray caster over the [`scene`]) → [`frames`] (frames in order, with their keys) →
-//! [`output`] (the output folder: PNGs, manifests, locks, who may write where), with
+//! The pipeline, one module per stage: `format` (the RON file) → [`document`]
+//! (checked values) → `keyframes` (tracks) → [`animation`] (per-frame [`camera`]) →
+//! `render` (ray caster over the [`scene`]) → [`frames`] (frames in order, with their keys) →
+//! `output` (the output folder: PNGs, manifests, locks, who may write where), with
 //! [`export`] for other programs. The `campath` command line is built on top of it; a Rust
 //! program or test that uses the library alone depends on
 //! `campath = { default-features = false }` and pulls in no command-line crate.
@@ -16,7 +16,7 @@
 //! ```
 //! use campath::document::Document;
 //! use campath::frames::{compare, hashes, render_frame};
-//! use campath::output::manifest::parse_hashes;
+//! use campath::golden::parse_hashes;
 //! use campath::frame_hash;
 //! use std::path::Path;
 //!
@@ -40,24 +40,53 @@
 
 #![deny(missing_docs)]
 
+// The public surface: a shot's document, its cameras, its frames and their hashes, goldens and
+// frame-hash tests, and the exports. The rest is the crate's own.
 pub mod animation;
 pub mod camera;
 pub mod document;
-pub mod error;
 pub mod export;
-pub mod format;
 pub mod frames;
 pub mod golden;
-mod hash;
-pub mod keyframes;
-pub mod mode;
-pub mod motion;
-pub mod output;
 pub mod raster;
-pub mod render;
 pub mod scene;
-pub mod splitmix;
 pub mod testing;
 
-pub use error::{Error, Result};
+pub(crate) mod error;
+pub(crate) mod format;
+mod hash;
+pub(crate) mod key;
+pub(crate) mod keyframes;
+pub(crate) mod mode;
+pub(crate) mod motion;
+pub(crate) mod output;
+pub(crate) mod render;
+pub(crate) mod splitmix;
+
+#[cfg(feature = "cli")]
+mod cli;
+
+pub use error::{Error, Problem, Problems, Refusal, Result};
 pub use hash::{frame_hash, FrameHash, FrameHasher};
+pub use key::VERSION as RENDERER_VERSION;
+
+/// The `campath` command line (feature `cli`): what the binary runs.
+#[cfg(feature = "cli")]
+#[doc(hidden)]
+pub fn run_cli() -> std::process::ExitCode {
+    cli::main()
+}
+
+/// What campath's own integration tests reach below the public surface: the renderer's paths,
+/// the output folder, the generated scenes. Not an API: it changes with any release.
+#[doc(hidden)]
+pub mod internals {
+    pub use crate::error::PROBLEMS_SHOWN;
+    pub use crate::format::sphere_files::BLOCK_BYTES;
+    pub use crate::motion::warnings;
+    pub use crate::output::lock::Wait;
+    pub use crate::output::manifest::parse_hashes;
+    pub use crate::output::sequence::{lock, render, Event, RenderOptions, RenderSummary};
+    pub use crate::render::{srgb_decode, srgb_encoder, Renderer, SceneIndex, Simd};
+    pub use crate::splitmix::SplitMix;
+}

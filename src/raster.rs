@@ -1,5 +1,5 @@
 //! The raster: image size and sampling, and their limits. Checked by [`crate::document`], used by
-//! [`crate::render`].
+//! `render`.
 
 /// Largest image side in pixels.
 pub const MAX_SIDE: u32 = 16_384;

@@ -17,8 +17,8 @@ use crate::error::{Error, Result};
 use crate::frames::list_frames;
 use crate::frames::{stream_frames, FrameSet};
 use crate::golden;
+use crate::key::VERSION;
 use crate::output::{frame_path, png_hash, write_png, Compression, HASHES};
-use crate::render::key::VERSION;
 
 /// The environment variable that makes [`assert_shot`] write the golden instead of comparing.
 pub const UPDATE_VAR: &str = "CAMPATH_UPDATE";
@@ -35,6 +35,7 @@ pub use crate::frames::Difference;
 
 /// How a shot compares with its golden.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Verdict {
     /// Every frame renders to its golden hash (and the golden's frames, if it keeps them, are
     /// the pictures its hashes name).

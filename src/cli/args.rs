@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use super::error::{CliError, Result};
-use campath::document::MAX_FRAMES;
-use campath::export::PathFormat;
-use campath::output::Compression;
+use crate::document::MAX_FRAMES;
+use crate::export::PathFormat;
+use crate::output::Compression;
 
 /// The keyframe file a verb reads.
 #[derive(clap::Args)]
@@ -251,7 +251,7 @@ pub fn create_parent(file: &Path) -> Result<()> {
     no_file_above(file)?;
     match file.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => {
-            std::fs::create_dir_all(dir).map_err(|e| campath::Error::write(dir)(e).into())
+            std::fs::create_dir_all(dir).map_err(|e| crate::Error::write(dir)(e).into())
         }
         _ => Ok(()),
     }
@@ -286,7 +286,7 @@ pub fn check_writable(file: &Path) -> Result<()> {
     create_parent(file)?;
     let mut probe = file.as_os_str().to_owned();
     probe.push(".tmp");
-    let failed = |e| CliError::from(campath::Error::write(file)(e));
+    let failed = |e| CliError::from(crate::Error::write(file)(e));
     std::fs::write(&probe, b"").map_err(failed)?;
     std::fs::remove_file(&probe).map_err(failed)
 }

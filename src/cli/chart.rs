@@ -5,7 +5,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::error::{CliError, Result};
-use campath::output::{write_png, Compression};
+use crate::output::{write_png, Compression};
 
 /// DejaVu Sans (free licence: src/cli/fonts/DejaVuSans-LICENSE.txt), built in so that charts need
 /// no system font.

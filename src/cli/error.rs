@@ -3,13 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
-use campath::output::Refusal;
+use crate::output::Refusal;
 
 /// Everything that can go wrong in a `campath` command.
 #[derive(Debug, thiserror::Error)]
 pub enum CliError {
     #[error(transparent)]
-    Campath(#[from] campath::Error),
+    Campath(#[from] crate::Error),
     /// An option value that cannot be used (exit 2).
     #[error("{0}")]
     Usage(String),
@@ -58,7 +58,7 @@ impl CliError {
     /// (`--out`, `DIR`), and the message says what to do. Other errors pass as they are.
     pub fn at(self, option: &str, path: &Path) -> CliError {
         match self {
-            CliError::Campath(campath::Error::Refused(r)) => CliError::refused(option, path, &r),
+            CliError::Campath(crate::Error::Refused(r)) => CliError::refused(option, path, &r),
             e => e,
         }
     }

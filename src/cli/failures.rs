@@ -1,12 +1,12 @@
 //! The folders where `verify --save-failures` and `test --review` put pictures of failures,
-//! claimed before anything renders (see [`campath::output::claim_pictures`]), and the pictures:
+//! claimed before anything renders (see [`crate::output::claim_pictures`]), and the pictures:
 //! difference images and pixel counts.
 
 use std::path::{Path, PathBuf};
 
 use super::error::{CliError, Result};
-use campath::output::lock::FolderLock;
-use campath::output::within;
+use crate::output::lock::FolderLock;
+use crate::output::within;
 
 /// Refuses a `--junit` report at `report` that is, or lies inside, the folder `dir` claimed
 /// by `option`: the folder is the run's pictures only, and a report there would be refused as
@@ -24,7 +24,7 @@ pub fn report_apart(report: &Path, dir: &Path, option: &str) -> Result<()> {
 }
 
 /// Claims `dir`, named by `option`, for the run's pictures of failures
-/// ([`campath::output::claim_pictures`]), waiting for another run that holds it.
+/// ([`crate::output::claim_pictures`]), waiting for another run that holds it.
 pub fn claim(
     dir: &Path,
     option: &str,
@@ -32,7 +32,7 @@ pub fn claim(
     ours: impl Fn(&str) -> bool,
 ) -> Result<FolderLock> {
     super::progress::with_wait(false, false, |wait| {
-        campath::output::claim_pictures(dir, goldens, ours, wait)
+        crate::output::claim_pictures(dir, goldens, ours, wait)
     })
     .map_err(|e| e.at(option, dir))
 }

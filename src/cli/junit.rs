@@ -108,9 +108,9 @@ pub fn check_target(path: &Path) -> Result<()> {
 /// Writes the report to `path` (through a temporary file and a rename).
 pub fn write(path: &Path, name: &str, suites: &[Suite]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(campath::Error::write(parent))?;
+        std::fs::create_dir_all(parent).map_err(crate::Error::write(parent))?;
     }
-    Ok(campath::output::write_atomic(path, text(name, suites))?)
+    Ok(crate::output::write_atomic(path, text(name, suites))?)
 }
 
 /// Escapes text for an XML attribute or element (or HTML). What XML 1.0 cannot hold at all (the

@@ -9,7 +9,7 @@ use clap::CommandFactory;
 use clap_mangen::Man;
 
 use super::error::Result;
-use campath::Error;
+use crate::Error;
 
 /// What the clap definitions do not say: exit status, environment and the file.
 const TAIL: &str = r#".SH "EXIT STATUS"
@@ -114,7 +114,7 @@ pub fn write_pages(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
     let path = dir.join("campath.1");
     let mut text = Vec::new();
     page(&mut text)?;
-    campath::output::write_atomic(&path, &text)?;
+    crate::output::write_atomic(&path, &text)?;
     written.insert(0, path);
     Ok(written)
 }

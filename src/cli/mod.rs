@@ -26,14 +26,16 @@ mod watch;
 
 use std::io::Write;
 use std::path::PathBuf;
+use std::process::ExitCode;
 
+use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 
+use crate::document::Document;
+use crate::output::lock::{Claim, FolderLock};
+use crate::output::{check, folder_of, pictures, Use, LOCK};
+use crate::Error;
 use args::{at_least_one, default_out_dir, FrameSpec, NoWait, Shot, StatsJson};
-use campath::document::Document;
-use campath::output::lock::{Claim, FolderLock};
-use campath::output::{check, folder_of, pictures, Use, LOCK};
-use campath::Error;
 pub use error::Result;
 
 #[derive(Parser)]
@@ -112,7 +114,7 @@ enum Command {
         shot: Shot,
         /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py, .usda), else csv]
         #[arg(long, value_parser = args::path_format())]
-        format: Option<campath::export::PathFormat>,
+        format: Option<crate::export::PathFormat>,
         /// Write to this file instead of standard output (glTF: binary when it ends in .glb; USD:
         /// .usda or .usd).
         #[arg(long)]
@@ -214,7 +216,7 @@ pub fn started() -> std::time::Instant {
 }
 
 pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
-    if let Some(Err(e)) = campath::render::Simd::from_env() {
+    if let Some(Err(e)) = crate::render::Simd::from_env() {
         return Err(error::CliError::Usage(format!("CAMPATH_SIMD: {e}")));
     }
     match cli.command {
@@ -334,4 +336,55 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
         }
     }
     Ok(true)
+}
+
+/// The `campath` command: parses the arguments, runs the command, prints the error chain, and
+/// exits 2 on bad input, 3 when an outside program is missing or failed, 130 when Ctrl-C stops
+/// `video`'s encode, 1 on other failures.
+pub fn main() -> ExitCode {
+    started();
+    let parsed = match Cli::try_parse() {
+        Ok(parsed) => parsed,
+        Err(e) => return option_error(e),
+    };
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match run(parsed, &mut out) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
+        // The reader of standard output went away (`campath path … | head`): end quietly.
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
+        Err(e) => {
+            let _ = out.flush();
+            eprintln!("campath: error: {e}");
+            let mut source = std::error::Error::source(&e);
+            while let Some(s) = source {
+                eprintln!("  caused by: {s}");
+                source = s.source();
+            }
+            ExitCode::from(e.exit_status())
+        }
+    }
+}
+
+/// Help and version go to standard output (exit 0), and the help for a missing command to
+/// standard error (exit 2); a bad option is printed in campath's own style, `campath: error: …`,
+/// with clap's hint, and exits 2, like any other bad input.
+fn option_error(e: clap::Error) -> ExitCode {
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        // `campath` alone: the help, on standard error, as a usage error.
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            return ExitCode::from(2);
+        }
+        _ => {}
+    }
+    let text = e.render().to_string();
+    let text = text.strip_prefix("error: ").unwrap_or(&text);
+    eprintln!("campath: error: {}", text.trim_end());
+    ExitCode::from(2)
 }

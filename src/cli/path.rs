@@ -5,9 +5,9 @@ use std::io::Write;
 use std::path::Path;
 
 use super::error::{CliError, Result};
-use campath::document::Document;
-use campath::export::PathFormat;
-use campath::output::Use;
+use crate::document::Document;
+use crate::export::PathFormat;
+use crate::output::Use;
 
 /// `campath path`: the evaluated camera per frame (or the whole shot as glTF) on standard
 /// output, or into `file_out` (binary glTF when it ends in `.glb`).
@@ -21,7 +21,7 @@ pub fn path(
     // Not into a golden or a folder of rendered frames: the next render there would refuse
     // the folder for holding a file campath did not write.
     if let Some(target) = file_out {
-        campath::output::check(target, Use::File)
+        crate::output::check(target, Use::File)
             .map_err(|r| CliError::refused("--out", target, &r))?;
     }
     if format == PathFormat::Usd {
@@ -47,7 +47,7 @@ pub fn path(
     ) {
         let f32_file = format != PathFormat::Usd;
         if let Some(place) = f32_file
-            .then(|| campath::export::past_f32(&doc, origin))
+            .then(|| crate::export::past_f32(&doc, origin))
             .flatten()
         {
             return Err(CliError::Usage(format!(
@@ -74,11 +74,11 @@ pub fn path(
     let dropped = match file_out {
         Some(path) => {
             super::args::create_parent(path)?;
-            campath::output::write_atomic_with(path, |file| {
-                campath::export::write_path(&doc, format, glb, origin, file)
+            crate::output::write_atomic_with(path, |file| {
+                crate::export::write_path(&doc, format, glb, origin, file)
             })?
         }
-        None => campath::export::write_path(&doc, format, glb, origin, out)?,
+        None => crate::export::write_path(&doc, format, glb, origin, out)?,
     };
     if dropped.off_axis > 0 {
         let (off_axis, first, last) = (dropped.off_axis, dropped.first, dropped.last);
@@ -105,14 +105,14 @@ pub fn path(
 /// names an origin that keeps it near zero.
 fn f32_warning(doc: &Document, format: PathFormat, origin: glam::DVec3) -> Result<()> {
     const MOST_PX: f64 = 0.25;
-    let Some(shift) = campath::export::f32_shift(doc, origin)? else {
+    let Some(shift) = crate::export::f32_shift(doc, origin)? else {
         return Ok(());
     };
     if shift.px < MOST_PX {
         return Ok(());
     }
     let m = shift.middle;
-    let better = campath::export::f32_shift(doc, m)?.map_or(0.0, |s| s.px);
+    let better = crate::export::f32_shift(doc, m)?.map_or(0.0, |s| s.px);
     let hint = if better < MOST_PX {
         format!(
             "--origin {},{},{} (the middle of the camera's path) writes every place relative to \

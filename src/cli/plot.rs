@@ -19,10 +19,10 @@ use plotters::prelude::*;
 
 use super::chart::{draw_error, draw_png};
 use super::error::Result;
-use campath::animation::Pointing;
-use campath::camera::Camera;
-use campath::document::Document;
-use campath::scene::Sphere;
+use crate::animation::Pointing;
+use crate::camera::Camera;
+use crate::document::Document;
+use crate::scene::Sphere;
 
 type Chart<'a, 'b> =
     ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;

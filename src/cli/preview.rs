@@ -4,11 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use super::error::{CliError, Result};
-use campath::document::Document;
-use campath::frames::{for_each_frame, FrameSet};
-use campath::output::{write_png_atomic, Compression};
-use campath::render::Raster;
-use campath::Error;
+use crate::document::Document;
+use crate::frames::{for_each_frame, FrameSet};
+use crate::output::{write_png_atomic, Compression};
+use crate::render::Raster;
+use crate::Error;
 
 /// Columns of the contact sheet.
 pub const COLUMNS: u32 = 4;
@@ -92,7 +92,7 @@ pub fn write(
     let sheet_h = rows * row_h + (rows - 1) * GAP;
     let mut sheet = vec![255u8; (sheet_w * sheet_h * 3) as usize];
     // The GIF, encoded as its frames come: its bytes are all it holds.
-    let gif_path = dir.join(campath::output::pictures::GIF);
+    let gif_path = dir.join(crate::output::pictures::GIF);
     let mut bytes = Vec::new();
     let mut encoder = match gif {
         true => {
@@ -142,7 +142,7 @@ pub fn write(
         },
     )?;
     drop(encoder);
-    let png = dir.join(campath::output::pictures::SHEET);
+    let png = dir.join(crate::output::pictures::SHEET);
     label_frames(
         &mut sheet,
         (sheet_w, sheet_h),
@@ -156,7 +156,7 @@ pub fn write(
     }
     // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
     let gif = gif_path;
-    campath::output::write_atomic(&gif, &bytes)?;
+    crate::output::write_atomic(&gif, &bytes)?;
     Ok((png, Some(gif)))
 }
 

@@ -4,9 +4,9 @@
 use std::io::IsTerminal;
 
 use super::error::{CliError, Result};
-use campath::output::lock::Wait;
-use campath::output::sequence::Event;
-use campath::Error;
+use crate::output::lock::Wait;
+use crate::output::sequence::Event;
+use crate::Error;
 
 /// How `render` (and `video`) report progress on standard error.
 pub enum Progress {
@@ -151,7 +151,7 @@ pub fn ctrl_c_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
 pub fn with_wait<T>(
     no_wait: bool,
     quiet: bool,
-    f: impl FnOnce(Wait) -> campath::Result<T>,
+    f: impl FnOnce(Wait) -> crate::Result<T>,
 ) -> Result<T> {
     if no_wait {
         return f(Wait::No).map_err(|e| match e {

@@ -12,12 +12,12 @@ use std::time::Instant;
 use super::chart::{draw_error, draw_png};
 use super::error::{CliError, Result};
 use super::table::Table;
-use campath::camera::Camera;
-use campath::document::Document;
-use campath::frames::median;
-use campath::raster::{MotionBlur, MAX_TIME_SAMPLES};
-use campath::render::{srgb_decode, Raster, Renderer, SceneIndex, Simd};
-use campath::scene::Scene;
+use crate::camera::Camera;
+use crate::document::Document;
+use crate::frames::median;
+use crate::raster::{MotionBlur, MAX_TIME_SAMPLES};
+use crate::render::{srgb_decode, Raster, Renderer, SceneIndex, Simd};
+use crate::scene::Scene;
 
 /// Samples per side of the reference.
 pub const REFERENCE_SAMPLES: u32 = 16;
@@ -529,7 +529,7 @@ pub const PATH_REFERENCE_SAMPLES: u32 = 1 << 16;
 /// Arc-length table resolution against accuracy and time, for the file's Observer path; None
 /// when the file has no Observer track.
 pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
-    use campath::keyframes::{PathTrack, Track, UniformSpeed};
+    use crate::keyframes::{PathTrack, Track, UniformSpeed};
     let keys = doc.animation.observer.as_ref()?.keys().to_vec();
     if keys.len() < 2 {
         return None;
@@ -642,7 +642,7 @@ pub fn run(
     if let Some((_, _, m)) = &motion {
         rows.extend(m.iter().cloned());
     }
-    let stdout = campath::Error::stdout;
+    let stdout = crate::Error::stdout;
     writeln!(out, "Renderer, frame {frame} of {}:\n", file.display()).map_err(stdout)?;
     write!(out, "{}", renderer_table(&rows)).map_err(stdout)?;
     match &motion {

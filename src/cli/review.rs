@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use super::error::Result;
 use super::failures::PixelDiff;
 use super::junit::escape;
-use campath::FrameHash;
+use crate::FrameHash;
 
 /// A differing frame's pictures in the review folder (file names) and hashes.
 pub struct ReviewFrame {
@@ -123,7 +123,7 @@ pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> 
     }
     let _ = write!(html, "<script>{SCRIPT}</script>\n</body></html>\n");
     let page = dir.join("index.html");
-    campath::output::write_atomic(&page, &html)?;
+    crate::output::write_atomic(&page, &html)?;
     Ok(page)
 }
 

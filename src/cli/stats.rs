@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use super::error::{CliError, Result};
-use campath::frames::Timing;
-use campath::output::Use;
+use crate::frames::Timing;
+use crate::output::Use;
 
 /// A run's numbers, for other programs (`--stats-json`; `campath bench` reads them).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -55,10 +55,10 @@ impl Stats {
                 path.display()
             )))
         };
-        if let Some(dir) = out.filter(|dir| campath::output::within(path, dir)) {
+        if let Some(dir) = out.filter(|dir| crate::output::within(path, dir)) {
             return refuse(format!("it is in the --out folder {}", dir.display()));
         }
-        campath::output::check(path, Use::File)
+        crate::output::check(path, Use::File)
             .map_err(|r| CliError::refused("--stats-json", path, &r))?;
         super::args::report_target("--stats-json", path, "run statistics", |b| {
             serde_json::from_slice::<Stats>(b).is_ok()
@@ -69,7 +69,7 @@ impl Stats {
         let Some(path) = path else { return Ok(()) };
         super::args::create_parent(path)?;
         let text = serde_json::to_string_pretty(self).expect("plain numbers serialise");
-        Ok(campath::output::write_atomic(path, &text)?)
+        Ok(crate::output::write_atomic(path, &text)?)
     }
 }
 

@@ -12,10 +12,10 @@ use super::error::{CliError, Result};
 use super::failures::{self, difference, golden_pixels};
 use super::junit;
 use super::review::{self, ReviewFrame, ReviewShot};
-use campath::output::{write_png, Compression};
-use campath::render::key::VERSION;
-use campath::testing::{golden_dir, Difference, Options, Shot, ShotRun, Verdict};
-use campath::Error;
+use crate::key::VERSION;
+use crate::output::{write_png, Compression};
+use crate::testing::{golden_dir, Difference, Options, Shot, ShotRun, Verdict};
+use crate::Error;
 
 /// The options of `campath test`.
 #[derive(clap::Args)]
@@ -74,7 +74,7 @@ pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut goldens: BTreeMap<PathBuf, (PathBuf, PathBuf)> = BTreeMap::new();
     let mut kept = Vec::new();
     for shot in found {
-        let golden = campath::output::resolved(&golden_dir(&shot));
+        let golden = crate::output::resolved(&golden_dir(&shot));
         let file = shot.canonicalize().unwrap_or_else(|_| shot.clone());
         match goldens.get(&golden) {
             None => {
@@ -118,7 +118,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     }
     let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
     if let Some(path) = &a.junit {
-        campath::output::outside_goldens(path, &goldens)
+        crate::output::outside_goldens(path, &goldens)
             .map_err(|r| CliError::refused("--junit", path, &r))?;
         junit::check_target(path)?;
     }
@@ -143,7 +143,7 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let folders: std::collections::BTreeSet<&Path> =
         shots.iter().filter_map(|s| s.parent()).collect();
     for folder in folders {
-        campath::testing::clear_left_approvals(folder);
+        crate::testing::clear_left_approvals(folder);
     }
 
     // Shots run side by side; their lines are printed in shot order as soon as each is known.

@@ -8,13 +8,13 @@ use super::args::{default_out_dir, FrameSpec, NoWait, Quiet, Shot, StatsJson};
 use super::error::{CliError, Result};
 use super::progress::{with_wait, Progress};
 use super::stats::{timing_line, Stats};
-use campath::document::Document;
-use campath::frames::FrameSet;
-use campath::frames::Shard;
-use campath::output::lock::{Claim, FolderLock};
-use campath::output::sequence::{self, RenderOptions, RenderSummary};
-use campath::output::{Compression, Use, HASHES};
-use campath::Error;
+use crate::document::Document;
+use crate::frames::FrameSet;
+use crate::frames::Shard;
+use crate::output::lock::{Claim, FolderLock};
+use crate::output::sequence::{self, RenderOptions, RenderSummary};
+use crate::output::{Compression, Use, HASHES};
+use crate::Error;
 
 /// The options of `campath render`.
 #[derive(clap::Args)]
@@ -122,7 +122,7 @@ pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
         )));
     }
     // As render: a golden or a folder of other files is refused before the lock is taken.
-    campath::output::check(dir, Use::Frames).map_err(|r| CliError::refused("DIR", dir, &r))?;
+    crate::output::check(dir, Use::Frames).map_err(|r| CliError::refused("DIR", dir, &r))?;
     let lock = with_wait(no_wait, false, |wait| {
         FolderLock::acquire(dir, Claim::Whole, wait)
     })?;
@@ -146,7 +146,7 @@ pub fn hash(
     let doc = Document::load(file)?;
     let range = FrameSpec::resolve(frames, doc.animation.frames)?;
     let mut lines = std::io::BufWriter::new(std::io::stdout());
-    let timing = campath::frames::hash_frames(&doc, range, |frame, hash| {
+    let timing = crate::frames::hash_frames(&doc, range, |frame, hash| {
         writeln!(lines, "{frame} {hash}").map_err(Error::stdout)
     })?;
     lines.flush().map_err(Error::stdout)?;
@@ -189,7 +189,7 @@ pub fn check(file: &Path, strict: bool, out: &mut dyn Write) -> Result<bool> {
         )
         .map_err(Error::stdout)?;
     }
-    let warnings = campath::motion::warnings(&doc)?;
+    let warnings = crate::motion::warnings(&doc)?;
     for w in &warnings {
         writeln!(out, "warning: {w}").map_err(Error::stdout)?;
     }

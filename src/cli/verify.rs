@@ -11,11 +11,11 @@ use super::args::Shot;
 use super::error::{CliError, Result};
 use super::failures::{self, difference, golden_pixels, PixelDiff};
 use super::junit;
-use campath::document::Document;
-use campath::frames::{compare_each, list_first, list_frames, Difference};
-use campath::golden::Golden;
-use campath::output::{frame_path, pad_width, write_png, Compression, HASHES};
-use campath::Error;
+use crate::document::Document;
+use crate::frames::{compare_each, list_first, list_frames, Difference};
+use crate::golden::Golden;
+use crate::output::{frame_path, pad_width, write_png, Compression, HASHES};
+use crate::Error;
 
 /// The options of `campath verify`.
 #[derive(clap::Args)]
@@ -54,7 +54,7 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
     // Every refusal comes before anything is written or removed.
     let goldens = golden_folders(&golden);
     if let Some(path) = &a.junit {
-        campath::output::outside_goldens(path, &goldens)
+        crate::output::outside_goldens(path, &goldens)
             .map_err(|r| CliError::refused("--junit", path, &r))?;
         junit::check_target(path)?;
     }
@@ -64,7 +64,7 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
             if let Some(path) = &a.junit {
                 failures::report_apart(path, dir, "--save-failures")?;
             }
-            let ours = campath::output::is_failure_picture;
+            let ours = crate::output::is_failure_picture;
             Some(failures::claim(dir, "--save-failures", &goldens, ours)?)
         }
         None => None,
@@ -126,7 +126,7 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         writeln!(out, "{note}").map_err(Error::stdout)?;
     }
     if let (Some(r), false) = (golden.other_renderer(), differ.is_empty()) {
-        writeln!(out, "{}", campath::testing::renderer_note(&golden.path, r))
+        writeln!(out, "{}", crate::testing::renderer_note(&golden.path, r))
             .map_err(Error::stdout)?;
     }
     if let Some(path) = &a.junit {

@@ -16,13 +16,13 @@ use std::time::Instant;
 use super::args::{default_out_dir, NoWait, Quiet, Shot};
 use super::error::{CliError, Result};
 use super::progress::Progress;
-use campath::document::Document;
-use campath::frames::FrameSet;
-use campath::output::sequence::{self, Event, RenderOptions};
-use campath::output::{
+use crate::document::Document;
+use crate::frames::FrameSet;
+use crate::output::sequence::{self, Event, RenderOptions};
+use crate::output::{
     check, folder_of, frame_path, resolved, tmp_path, video_path, within, Refusal, Use, HASHES,
 };
-use campath::{frame_hash, Error, FrameHash};
+use crate::{frame_hash, Error, FrameHash};
 
 /// The options of `campath video`.
 #[derive(clap::Args)]
@@ -62,7 +62,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
                 video.display()
             )));
         }
-        if let Err(r) = campath::output::golden_of(folder_of(video)) {
+        if let Err(r) = crate::output::golden_of(folder_of(video)) {
             return Err(CliError::refused("--out", video, &r));
         }
         if a.lossless {

@@ -26,12 +26,12 @@ use notify::{EventKind, RecursiveMode, Watcher};
 
 use super::error::{CliError, Result};
 use super::{plot, preview};
-use campath::document::Document;
-use campath::frames::render_frame;
-use campath::output::lock::{Claim, FolderLock};
-use campath::output::pictures::{FRAMES, PAGE, PLOT, SHEET, STATUS};
-use campath::output::{check, write_atomic, write_png_atomic, Compression, Use};
-use campath::Error;
+use crate::document::Document;
+use crate::frames::render_frame;
+use crate::output::lock::{Claim, FolderLock};
+use crate::output::pictures::{FRAMES, PAGE, PLOT, SHEET, STATUS};
+use crate::output::{check, write_atomic, write_png_atomic, Compression, Use};
+use crate::Error;
 
 /// What the page reads from `status.js`.
 #[derive(serde::Serialize)]
@@ -108,7 +108,7 @@ pub fn run(
     };
     // The last run's pictures go, and the page hears of it, before this run's first.
     for picture in FRAMES.into_iter().chain([SHEET, PLOT]) {
-        campath::output::remove_if_there(&dir.join(picture))?;
+        crate::output::remove_if_there(&dir.join(picture))?;
     }
     write_status(dir, &status)?;
     let mut seen = stamp(file);

@@ -1,4 +1,4 @@
-//! A checked keyframe file: [`crate::format`]'s raw types turned into domain types, with every
+//! A checked keyframe file: `format`'s raw types turned into domain types, with every
 //! problem collected and named by its field. Nothing past this module sees an unchecked value.
 
 mod camera;
@@ -82,7 +82,7 @@ impl Document {
     }
 
     /// Checks a parsed file; the sphere files it names are read relative to `path`'s folder.
-    /// Problems are listed in the order of the file's sections ([`FileSpec::order`]; the
+    /// Problems are listed in the order of the file's sections (`FileSpec::order`; the
     /// checker's order within a section and where it is unknown).
     pub fn from_spec(path: &Path, spec: FileSpec) -> Result<Document> {
         let mut c = Checker::default();

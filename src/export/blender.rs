@@ -17,7 +17,7 @@
 //! switch, shutter and time steps where it has them. Blender moves the camera linearly between
 //! the keys of consecutive frames, so its sub-frame camera follows the chord of campath's path;
 //! the camera is also keyed where the first frame's shutter opens and the last's closes.
-//! The clipping range clips nothing campath draws ([`clipping_range`]).
+//! The clipping range clips nothing campath draws (`clipping_range`).
 
 use std::fmt::Write as _;
 
@@ -36,8 +36,8 @@ const SENSOR_MM: f64 = 36.0;
 /// shorter one to that silently (a 176° field of view would become 173.6°).
 const SHORTEST_LENS_MM: f64 = 2.0;
 
-/// The sensor width for cameras `cams`: [`SENSOR_MM`], or wider where a frame's lens would be
-/// shorter than [`SHORTEST_LENS_MM`] on it. The lens shift is in units of the sensor's width,
+/// The sensor width for cameras `cams`: `SENSOR_MM`, or wider where a frame's lens would be
+/// shorter than `SHORTEST_LENS_MM` on it. The lens shift is in units of the sensor's width,
 /// so it does not change with it.
 pub fn sensor_mm(cams: impl IntoIterator<Item = Camera>) -> f64 {
     cams.into_iter()

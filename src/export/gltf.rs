@@ -6,7 +6,7 @@
 //!   sampled LINEAR at the frame times t = k / fps. Its `yfov` is the window's height seen from
 //!   the COP and its aspect the window's; a Zoom track animates `yfov` through
 //!   `KHR_animation_pointer` (used, not required). An off-axis COP has no place in glTF. Its
-//!   `znear` is the USD export's near ([`clipping_range`]), its far infinite: nothing campath
+//!   `znear` is the USD export's near (`clipping_range`), its far infinite: nothing campath
 //!   draws is clipped.
 //! - Spheres share one unit sphere's geometry; each is a node scaled by its radius, with a mesh
 //!   that pairs the shared geometry with its own colour.

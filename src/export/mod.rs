@@ -18,6 +18,7 @@ use crate::scene::Sphere;
 
 /// What the camera is exported as (`campath path --format`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum PathFormat {
     /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
     #[default]
@@ -284,8 +285,8 @@ pub struct F32Shift {
 /// The most that keeping the camera's place in f32 (glTF, Blender) moves its picture, in
 /// pixels: over the frames, the distance from the COP (relative to `origin`) to its nearest
 /// f32, seen from the nearest depth a sphere can show at (each camera's least gap times the
-/// cosine of its widest angle, as [`clipping_range`] finds it), at every time a reader keys
-/// ([`keyed_cameras`]: with motion blur also the shutter's ends). An estimate: the spheres'
+/// cosine of its widest angle, as `clipping_range` finds it), at every time a reader keys
+/// (`keyed_cameras`: with motion blur also the shutter's ends). An estimate: the spheres'
 /// own places are rounded too, and a reader's f32 arithmetic adds to it. None without
 /// spheres.
 pub fn f32_shift(doc: &Document, origin: DVec3) -> Result<Option<F32Shift>> {

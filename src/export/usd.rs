@@ -17,7 +17,7 @@
 //!   the frame: −S/2 and S/2 for the shutter S centred on the frame (left out without blur:
 //!   USD's default 0, 0 is no blur); the camera then has a time sample where the first frame's
 //!   shutter opens and where the last frame's closes too. `clippingRange` clips nothing campath
-//!   draws ([`clipping_range`]).
+//!   draws (`clipping_range`).
 //! - **Image.** A `UsdRender.Settings` prim carries the image size; a window whose aspect differs
 //!   from the image's becomes its pixel aspect.
 //! - **Scene.** Each sphere is a `UsdGeom.Sphere` with its radius and colour

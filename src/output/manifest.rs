@@ -32,7 +32,7 @@ use crate::document::MAX_FRAMES;
 use crate::error::{Error, Result};
 use crate::frames::Shard;
 use crate::hash::FrameHash;
-use crate::render::key::{FrameKey, VERSION};
+use crate::key::{FrameKey, VERSION};
 
 /// One frame line.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -66,7 +66,7 @@ pub struct PartHeader {
     pub frames: u64,
     /// SHA-256 of every frame's key in order: equal exactly when the shards rendered the same
     /// file with the same campath.
-    pub sequence: String,
+    pub sequence: FrameHash,
 }
 
 impl fmt::Display for PartHeader {
@@ -92,7 +92,7 @@ impl PartHeader {
             shard: fields.get("part")?.parse().ok()?,
             range: a.parse().ok()?..b.parse().ok()?,
             frames: fields.get("frames")?.parse().ok()?,
-            sequence: is_hex64(fields.get("sequence")?)?.to_string(),
+            sequence: fields.get("sequence")?.parse().ok()?,
         })
     }
 }
@@ -122,10 +122,6 @@ pub struct Manifest {
     pub entries: Vec<Entry>,
     /// A part file whose shard finished all its frames.
     pub complete: bool,
-}
-
-fn is_hex64(s: &str) -> Option<&str> {
-    (s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit())).then_some(s)
 }
 
 /// The text after an editor's byte order mark, if it begins with one: every reader of a manifest
@@ -189,7 +185,7 @@ fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
         .ok_or("bad hash")?;
     let key = match parts.next() {
         None => None,
-        Some(k) => Some(FrameKey(is_hex64(k).ok_or("bad key")?.to_ascii_lowercase())),
+        Some(k) => Some(FrameKey(k.parse().map_err(|_| "bad key")?)),
     };
     if parts.next().is_some() {
         return Err("extra text");
@@ -373,7 +369,7 @@ mod tests {
         let m = Manifest::parse(Path::new("g"), &text).unwrap();
         assert_eq!(m.entries.len(), 2);
         assert_eq!(m.entries[0].key, None);
-        assert_eq!(m.entries[1].key, Some(FrameKey(k.clone())));
+        assert_eq!(m.entries[1].key, Some(FrameKey(k.parse().unwrap())));
         assert_eq!(m.text(), format!("0 {h}\n12 {h} {k}\n"));
         for junk in [
             "x abc",
@@ -449,7 +445,7 @@ mod tests {
             shard: Shard { index: 1, count: 3 },
             range: 2..40,
             frames: 96,
-            sequence: "0f".repeat(32),
+            sequence: "0f".repeat(32).parse().unwrap(),
         };
         let m = Manifest {
             complete: true,

@@ -160,8 +160,8 @@ fn read_part(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::key::{FrameKey, VERSION};
     use crate::output::manifest::Entry;
-    use crate::render::key::{FrameKey, VERSION};
 
     /// Writes part K of 2 over frames 0..4 with the given sequence key and frames.
     fn part(dir: &Path, k: u64, sequence: &str, frames: &[u64], complete: bool) {
@@ -171,14 +171,14 @@ mod tests {
                 shard: Shard { index: k, count: 2 },
                 range: 0..4,
                 frames: 4,
-                sequence: sequence.into(),
+                sequence: sequence.parse().unwrap(),
             }),
             entries: frames
                 .iter()
                 .map(|f| Entry {
                     frame: *f,
                     hash: "a".repeat(64).parse().unwrap(),
-                    key: Some(FrameKey("b".repeat(64))),
+                    key: Some(FrameKey("b".repeat(64).parse().unwrap())),
                 })
                 .collect(),
             complete,

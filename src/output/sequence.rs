@@ -2,7 +2,7 @@
 //! is now, rendering the rest, and keeping the folder's manifests true.
 //!
 //! A frame on disk is kept only when a manifest records it with the frame's current
-//! [`FrameKey`](crate::render::key::FrameKey) and its PNG decodes to the recorded pixel hash; every
+//! [`FrameKey`](crate::key::FrameKey) and its PNG decodes to the recorded pixel hash; every
 //! other frame of the run is rendered again. So no frame survives an edit of the file, a
 //! different file rendered into the same folder, or a campath whose pictures differ.
 
@@ -22,6 +22,7 @@ use super::{
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::frames::{keys, list_frames, stream_frames, FrameSet, Timing};
+use crate::hash::FrameHash;
 
 /// Why frames of the run were rendered rather than kept.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -81,7 +82,7 @@ pub struct RenderOptions {
 /// The frames of a run, sorted into kept and to render, before anything is written.
 struct Plan {
     /// SHA-256 of every frame's key in order.
-    sequence: String,
+    sequence: FrameHash,
     /// Frames of the run that are valid on disk.
     kept: Vec<Entry>,
     /// Frames outside the run that are recorded with their current key (whole runs only).
@@ -161,7 +162,7 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     let mut unsure = Vec::new();
     for item in keys(doc) {
         let (frame, key) = item?;
-        sequence.update(key.0.as_bytes());
+        sequence.update(key.to_string().as_bytes());
         let is_current = |e: &&Entry| e.key.as_ref() == Some(&key);
         let records: Vec<&Entry> = (recorded.get(&frame).into_iter().flatten())
             .chain(aside.get(&frame))
@@ -208,7 +209,7 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
         .map(|&frame| frame_path(dir, frame, total))
         .collect();
     Ok(Plan {
-        sequence: format!("{:x}", sequence.finalize()),
+        sequence: FrameHash(sequence.finalize().into()),
         kept,
         outside,
         stale,
@@ -251,8 +252,8 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
     Ok(removed)
 }
 
-/// Takes the lock of the output folder `dir` for a render of `set` (see [`super::lock`]), after
-/// checking what can be checked without writing: that `dir` may be written ([`check`]), and
+/// Takes the lock of the output folder `dir` for a render of `set` (see `output::lock`), after
+/// checking what can be checked without writing: that `dir` may be written (`output::check`), and
 /// that every frame's camera is defined. So a refused file or folder leaves nothing behind, not
 /// even the folder.
 pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<FolderLock> {
@@ -314,7 +315,7 @@ pub fn render(
             shard,
             range: set.range.clone(),
             frames: total,
-            sequence: plan.sequence.clone(),
+            sequence: plan.sequence,
         }),
         plan.kept.iter().chain(&plan.outside).cloned().collect(),
     );
@@ -342,7 +343,7 @@ pub fn render(
             manifest.append(Entry {
                 frame,
                 hash,
-                key: Some(key.clone()),
+                key: Some(*key),
             })?;
             progress(Event::Written(frame));
             Ok(())

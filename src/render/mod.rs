@@ -26,7 +26,6 @@ use crate::scene::{Scene, Sphere};
 mod bins;
 mod drivers;
 mod kernels;
-pub mod key;
 mod lanes;
 #[cfg(test)]
 mod oracle;
@@ -42,7 +41,7 @@ mod view;
 mod world;
 
 pub use simd::Simd;
-pub use srgb::{srgb_decode, srgb_encoder, SrgbEncoder};
+pub use srgb::{srgb_decode, srgb_encoder};
 pub use world::SceneIndex;
 
 use drivers::{RowJob, BAND};

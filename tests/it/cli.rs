@@ -557,7 +557,7 @@ fn report_prints_both_tables_and_writes_the_plot() {
     assert_eq!(rmse("samples 1, f64, scalar path"), rmse("samples 1"));
     let baseline = format!(
         "samples 1, f64, {} path",
-        campath::render::Simd::Baseline.name()
+        campath::internals::Simd::Baseline.name()
     );
     assert_eq!(rmse(&baseline), rmse("samples 1"));
     let plot = image::open(tmp.path().join("plot.png")).unwrap();

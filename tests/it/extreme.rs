@@ -8,7 +8,7 @@ use std::path::Path;
 use campath::camera::Camera;
 use campath::document::Document;
 use campath::frames::hashes;
-use campath::render::Renderer;
+use campath::internals::Renderer;
 use campath::Error;
 use glam::DVec3;
 
@@ -79,7 +79,7 @@ fn reference_ids(doc: &Document, cam: &Camera) -> Vec<usize> {
 /// campath's picture of a flat scene, as sphere ids by colour (each sphere has its own).
 fn our_ids(doc: &Document, cam: &Camera) -> Vec<usize> {
     let pixels = Renderer::new().render(cam, &doc.scene, doc.raster);
-    let enc = campath::render::srgb_encoder();
+    let enc = campath::internals::srgb_encoder();
     let colors: Vec<[u8; 3]> = doc
         .scene
         .spheres

@@ -5,15 +5,15 @@
 //!
 //! Regenerate after an intended change of the pictures with
 //! `UPDATE_GOLDEN=1 cargo test --test it golden::`, look at the frames, and commit tests/golden/.
-//! New pictures need a new renderer version (`campath::render::key::VERSION`, recorded in
+//! New pictures need a new renderer version (`campath::RENDERER_VERSION`, recorded in
 //! tests/golden/render_version.txt), so that frames rendered by an older campath are never kept
 //! as current: the update refuses changed hashes under the recorded version.
 
 use crate::common::{example, root, EXAMPLES};
 use campath::frame_hash;
 use campath::frames::{for_each_frame, FrameSet};
-use campath::output::manifest::parse_hashes;
-use campath::render::key::VERSION;
+use campath::internals::parse_hashes;
+use campath::RENDERER_VERSION as VERSION;
 
 fn hashes(name: &str, one_sample: bool) -> String {
     let mut doc = example(name);
@@ -62,7 +62,7 @@ fn examples_match_their_golden_hashes() {
             assert!(
                 old.is_empty() || old == got || recorded < VERSION,
                 "{name}: the pictures changed under renderer version {recorded}: \
-                 bump campath::render::key::VERSION, then update again"
+                 bump campath::RENDERER_VERSION, then update again"
             );
             std::fs::write(&path, &got).unwrap();
             std::fs::write(&version_path, format!("{VERSION}\n")).unwrap();

@@ -6,8 +6,8 @@ use std::path::Path;
 use crate::common::{frame_stamps, root, EXAMPLES};
 use campath::document::Document;
 use campath::frames::FrameSet;
-use campath::output::lock::Wait;
-use campath::output::sequence::{lock, render, RenderOptions, RenderSummary};
+use campath::internals::Wait;
+use campath::internals::{lock, render, RenderOptions, RenderSummary};
 
 /// An example at 64×36, so that every frame of every example renders quickly.
 fn small_example(name: &str) -> String {
@@ -146,7 +146,7 @@ fn an_edited_file_leaves_no_old_picture_while_it_renders() {
         let lock = lock(&doc, &dir, &set, Wait::No).unwrap();
         let mut seen = None;
         let summary = render(&doc, &lock, &set, RenderOptions::default(), &mut |e| {
-            if let (campath::output::sequence::Event::Written(frame), None) = (e, &seen) {
+            if let (campath::internals::Event::Written(frame), None) = (e, &seen) {
                 seen = Some((frame, frame_stamps(&dir)));
             }
         })

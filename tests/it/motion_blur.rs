@@ -7,9 +7,9 @@ use std::path::Path;
 use crate::common::{campath, stderr, stdout};
 use campath::document::Document;
 use campath::frames::{for_each_frame, keys, FrameSet};
-use campath::output::lock::Wait;
-use campath::output::sequence::{lock, render, RenderOptions};
-use campath::render::{Renderer, SceneIndex, Simd};
+use campath::internals::Wait;
+use campath::internals::{lock, render, RenderOptions};
+use campath::internals::{Renderer, SceneIndex, Simd};
 
 /// A moving shot: the camera flies past on a spline, turns to follow a moving target and
 /// zooms, over spheres with shadows. `{image}` is the image section's extra fields, `{fps}` and
@@ -238,7 +238,7 @@ fn the_key_changes_with_the_setting() {
         .iter()
         .map(|s| {
             keys(&shot(24.0, 4, s))
-                .map(|k| k.unwrap().1 .0)
+                .map(|k| k.unwrap().1.to_string())
                 .collect::<Vec<_>>()
         })
         .collect();
@@ -256,7 +256,7 @@ fn the_key_changes_with_the_setting() {
         .replace("{frames}", "4")
         .replace("{image}", "");
     let absent = Document::from_str(Path::new("moving.ron"), &absent).unwrap();
-    let plain: Vec<String> = keys(&absent).map(|k| k.unwrap().1 .0).collect();
+    let plain: Vec<String> = keys(&absent).map(|k| k.unwrap().1.to_string()).collect();
     assert_eq!(plain, all[0]);
     // Rendered into a folder without blur, then with: every frame again.
     let tmp = tempfile::tempdir().unwrap();

@@ -12,7 +12,7 @@ use std::process::Command;
 
 use campath::document::Document;
 use campath::export::povray::Finish;
-use campath::render::Renderer;
+use campath::internals::Renderer;
 use glam::DVec3;
 
 const COLORS: [(f64, f64, f64); 7] = [
@@ -26,7 +26,7 @@ const COLORS: [(f64, f64, f64); 7] = [
 ];
 
 /// Fixed-seed cameras: the same on every run.
-struct Rng(campath::splitmix::SplitMix);
+struct Rng(campath::internals::SplitMix);
 
 impl Rng {
     fn next(&mut self) -> f64 {
@@ -84,7 +84,7 @@ fn projection_matches_povray_on_random_cameras() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
-    let mut rng = Rng(campath::splitmix::SplitMix(0x00C0_FFEE));
+    let mut rng = Rng(campath::internals::SplitMix(0x00C0_FFEE));
     let (w, h) = (160u32, 120u32);
     let (mut same, mut total) = (0usize, 0usize);
     for case in 0..24 {

@@ -178,7 +178,7 @@ fn three_shards_merge_into_a_single_runs_manifest() {
     assert_eq!(frame_lines(&part).len(), 16);
     assert!(part.starts_with(&format!(
         "# campath renderer {}\n# campath part=1/3 range=0..48 frames=48 sequence=",
-        campath::render::key::VERSION
+        campath::RENDERER_VERSION
     )));
     assert!(part.ends_with("# complete\n"));
     assert!(frame_lines(&part).iter().all(|l| l
@@ -554,7 +554,7 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
     }
     // The first tile is frame 0 rendered at 60×34 with one sample.
     let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
-    doc.raster = campath::render::Raster {
+    doc.raster = campath::raster::Raster {
         width: 60,
         height: 34, // 135 · 60 / 240 = 33.75, rounded
         samples: 1,

@@ -10,7 +10,8 @@
 use glam::DVec3;
 
 use campath::camera::{window_point, Camera};
-use campath::render::{srgb_decode, Raster};
+use campath::internals::srgb_decode;
+use campath::raster::Raster;
 use campath::scene::{Scene, Sphere};
 
 /// A sphere moved into view coordinates (VRP subtracted first, as the camera does it).

@@ -8,7 +8,8 @@ use std::path::Path;
 use crate::common::{example, root, EXAMPLES};
 use campath::camera::{Basis, Camera};
 use campath::document::Document;
-use campath::render::{Raster, Renderer, SceneIndex, Simd};
+use campath::internals::{Renderer, SceneIndex, Simd};
+use campath::raster::Raster;
 use campath::scene::{Light, Scene, Sphere};
 use glam::{DVec2, DVec3};
 
@@ -168,7 +169,7 @@ fn field(
     (r0, dr): (f64, f64),
     ground: f64,
 ) -> Vec<Sphere> {
-    let mut gen = campath::splitmix::SplitMix(seed);
+    let mut gen = campath::internals::SplitMix(seed);
     let mut spheres: Vec<Sphere> = (0..n)
         .map(|_| {
             let mut r = || gen.unit();

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::common::{campath, stderr, stdout};
-use campath::splitmix::SplitMix;
+use campath::internals::SplitMix;
 
 /// A sphere: centre, radius and colour as bytes (0–255).
 type S = ([f64; 3], f64, [u8; 3]);
@@ -165,7 +165,7 @@ fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
     let tmp = tempfile::tempdir().unwrap();
     let t = tmp.path();
     // Three blocks of vertices of 4 doubles and 3 bytes.
-    let n = 2 * campath::format::sphere_files::BLOCK_BYTES / 35 + 1000;
+    let n = 2 * campath::internals::BLOCK_BYTES / 35 + 1000;
     let mut all = spheres(n);
     all[7].1 = 0.0;
     all[n / 2].0[0] = f64::NAN;
@@ -270,7 +270,7 @@ fn many_bad_spheres_are_named_first_and_counted() {
         .lines()
         .filter(|l| l.contains("bad.csv: line "))
         .collect();
-    assert_eq!(named.len(), campath::error::PROBLEMS_SHOWN, "{err}");
+    assert_eq!(named.len(), campath::internals::PROBLEMS_SHOWN, "{err}");
     assert!(named[0].contains("bad.csv: line 2): radius"), "{err}");
     assert!(named[99].contains("bad.csv: line 101): radius"), "{err}");
     assert!(err.trim_end().ends_with("… and 150 more"), "{err}");

@@ -98,7 +98,7 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
         assert!(
             text.starts_with(&format!(
                 "# campath renderer {}\n",
-                campath::render::key::VERSION
+                campath::RENDERER_VERSION
             )),
             "{text}"
         );
@@ -269,7 +269,7 @@ fn a_golden_from_another_renderer_says_so_and_a_bad_shot_does_not_stop_the_other
     std::fs::write(
         &c,
         text.replace(
-            &format!("renderer {}", campath::render::key::VERSION),
+            &format!("renderer {}", campath::RENDERER_VERSION),
             "renderer 0",
         ),
     )
@@ -283,7 +283,7 @@ fn a_golden_from_another_renderer_says_so_and_a_bad_shot_does_not_stop_the_other
     assert!(
         out.contains(&format!(
             "shots/a.ron: golden made by renderer 0, this campath is renderer {}",
-            campath::render::key::VERSION
+            campath::RENDERER_VERSION
         )) && out.contains("1 of 4 frame(s) differ: 1"),
         "{out}"
     );
@@ -628,7 +628,7 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     let path = t.join("shots/sub/c.golden/hashes.txt");
     let text = std::fs::read_to_string(&path).unwrap();
     let newer = text.replacen(
-        &format!("renderer {}", campath::render::key::VERSION),
+        &format!("renderer {}", campath::RENDERER_VERSION),
         "renderer 99",
         1,
     );

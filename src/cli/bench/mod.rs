@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 
 use super::error::{CliError, Result};
 use super::table::Table;
-use campath::document::Document;
-use campath::Error;
+use crate::document::Document;
+use crate::Error;
 pub use scenes::{scaling_scenes, scene_files, scene_ron, scenes, BenchScene, Layout};
 use timing::{run_campath, Run};
 

@@ -6,9 +6,9 @@ use std::time::Instant;
 
 use super::BenchScene;
 use crate::cli::error::{CliError, Result};
-use campath::document::Document;
-use campath::export::povray::{scene, Finish};
-use campath::Error;
+use crate::document::Document;
+use crate::export::povray::{scene, Finish};
+use crate::Error;
 
 /// Fails, naming the Debian package, when POV-Ray cannot be run.
 pub fn check() -> Result<()> {

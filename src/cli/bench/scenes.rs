@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use campath::splitmix::SplitMix;
+use crate::splitmix::SplitMix;
 
 /// One benchmark scene.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -425,7 +425,7 @@ pub fn scaling_scenes() -> Vec<BenchScene> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use campath::document::Document;
+    use crate::document::Document;
 
     /// A scene's spheres from its binary PLY are the spheres of its inline RON, bit for bit.
     #[test]

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use crate::cli::error::{CliError, Result};
 use crate::cli::stats::Stats;
-use campath::Error;
+use crate::Error;
 
 /// A campath command timed in its own processes: the numbers of its median run, and the wall
 /// time of that whole process.

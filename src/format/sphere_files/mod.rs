@@ -26,7 +26,7 @@ mod tests;
 mod text;
 
 use listing::listed;
-pub use listing::{FileProblem, Listing, Location};
+pub use listing::{FileProblem, Listing};
 
 /// The most bytes of a sphere file's body read at a time (a binary PLY's: whole vertices, at
 /// least one): a million spheres' 56 MB pass through 4 MiB.

@@ -5,6 +5,7 @@ use super::text::{text_f32, text_f64};
 use super::*;
 use crate::error::PROBLEMS_SHOWN;
 use crate::format::Triple;
+use listing::Location;
 
 /// The CSV form of `bytes`, appending `make(i, sphere)` to `out` for each sphere.
 fn read_csv<T>(bytes: &[u8], out: &mut Vec<T>, make: impl Fn(usize, &SphereSpec) -> T) -> Listing {

@@ -12,6 +12,7 @@ use glam::{DVec2, DVec3};
 use sha2::{Digest, Sha256};
 
 use crate::camera::{Basis, Camera};
+use crate::hash::FrameHash;
 use crate::raster::{MotionBlur, Raster};
 use crate::scene::{Light, Scene, Sphere};
 
@@ -20,13 +21,14 @@ use crate::scene::{Light, Scene, Sphere};
 /// are never taken for current ones.
 pub const VERSION: u32 = 1;
 
-/// The key of one frame: lower-case hex SHA-256 of the renderer version, raster, scene and camera.
-#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct FrameKey(pub String);
+/// The key of one frame: the SHA-256 of the renderer version, raster, scene and camera, written
+/// as 64 lower-case hex digits. The same digest type as a frame's hash, keyed apart.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FrameKey(pub FrameHash);
 
 impl std::fmt::Display for FrameKey {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+        self.0.fmt(f)
     }
 }
 
@@ -95,7 +97,7 @@ impl KeyBase {
     pub fn key(&self, camera: &Camera) -> FrameKey {
         let mut h = Feed(self.0.clone());
         h.camera(camera);
-        FrameKey(format!("{:x}", h.0.finalize()))
+        FrameKey(FrameHash(h.0.finalize().into()))
     }
 
     /// The key of a frame with motion blur `blur`, seen through `camera` at the frame's time
@@ -114,7 +116,7 @@ impl KeyBase {
         for c in times {
             h.camera(c);
         }
-        FrameKey(format!("{:x}", h.0.finalize()))
+        FrameKey(FrameHash(h.0.finalize().into()))
     }
 }
 
@@ -224,7 +226,10 @@ mod tests {
             f(&mut bytes, x);
         }
         let want = format!("{:x}", Sha256::digest(&bytes));
-        assert_eq!(KeyBase::new(&scene(), RASTER).key(&camera()).0, want);
+        assert_eq!(
+            KeyBase::new(&scene(), RASTER).key(&camera()).to_string(),
+            want
+        );
     }
 
     #[test]
@@ -275,7 +280,7 @@ mod tests {
         bytes.camera(&moved);
         let want = format!("{:x}", bytes.0.finalize());
         let key = base.key_blurred(&cam, blur, &times);
-        assert_eq!(key.0, want);
+        assert_eq!(key.to_string(), want);
         assert_ne!(key, base.key(&cam));
         let other = |b: MotionBlur, t: &[Camera]| base.key_blurred(&cam, b, t);
         let wider = MotionBlur {
