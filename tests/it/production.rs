@@ -24,18 +24,31 @@ fn setup() -> tempfile::TempDir {
     tmp
 }
 
+/// [`LONG`] at `size` (`width: W, height: H`).
+fn sized(size: &str) -> String {
+    let text = LONG.replace("width: 240, height: 135", size);
+    assert_ne!(text, LONG);
+    text
+}
+
 /// [`LONG`] at 64×36, for the tests that kill no render part-way: what they check does not
 /// depend on the size.
 fn small() -> String {
-    let text = LONG.replace("width: 240, height: 135", "width: 64, height: 36");
-    assert_ne!(text, LONG);
-    text
+    sized("width: 64, height: 36")
 }
 
 /// A folder with [`small`] as `long.ron`.
 fn setup_small() -> tempfile::TempDir {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("long.ron"), small()).unwrap();
+    tmp
+}
+
+/// A folder with [`LONG`] at 160×90 as `long.ron`, for the tests that kill a render part-way:
+/// they wait for frames to be listed before they kill, so frames need only take a moment.
+fn setup_killable() -> tempfile::TempDir {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("long.ron"), sized("width: 160, height: 90")).unwrap();
     tmp
 }
 
@@ -74,7 +87,7 @@ fn assert_consistent(dir: &Path) {
 
 #[test]
 fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
-    let tmp = setup();
+    let tmp = setup_killable();
     let whole = campath(
         tmp.path(),
         &["render", "long.ron", "--out", "whole", "--quiet"],
@@ -385,7 +398,7 @@ fn manifest_parts(dir: &Path) -> Vec<String> {
 
 #[test]
 fn merge_refuses_while_a_killed_shard_is_unfinished() {
-    let tmp = setup();
+    let tmp = setup_killable();
     let single = campath(
         tmp.path(),
         &["render", "long.ron", "--out", "single", "--quiet"],
