@@ -101,11 +101,7 @@ fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
     assert_eq!((png.width(), png.height()), (40, 36));
 
     // Ctrl-C ends it with status 0.
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
+    ctrl_c(&child);
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(0));
     let said = String::from_utf8_lossy(&o.stdout);
@@ -162,12 +158,18 @@ fn watch(dir: &Path, file: &str) -> std::process::Child {
         .unwrap()
 }
 
-fn interrupt(child: &mut std::process::Child) {
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+/// Sends `child` SIGINT, as Ctrl-C does, through the shell's own `kill` (a machine with only
+/// Rust may have no `kill` program).
+fn ctrl_c(child: &std::process::Child) {
+    let kill = Command::new("sh")
+        .args(["-c", &format!("kill -INT {}", child.id())])
         .status()
         .unwrap();
     assert!(kill.success());
+}
+
+fn interrupt(child: &mut std::process::Child) {
+    ctrl_c(child);
     assert_eq!(child.wait().unwrap().code(), Some(0));
 }
 
