@@ -4,7 +4,7 @@
 
 use serde_json::Value;
 
-use crate::common::{campath, have_tool, stderr, stdout};
+use crate::common::{campath, need_tool, stderr, stdout};
 
 /// The median of `runs` (the lower middle of an even count), as bench keeps it.
 fn median(runs: &[Value]) -> f64 {
@@ -14,10 +14,9 @@ fn median(runs: &[Value]) -> f64 {
 }
 
 #[test]
+#[ignore = "needs povray"]
 fn bench_times_campath_over_several_runs_and_povray_once() {
-    if !have_tool("povray", "povray") {
-        return;
-    }
+    need_tool("povray", "povray");
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("bench");
     let args = [

@@ -11,7 +11,7 @@ use campath::document::Document;
 use glam::DVec3;
 
 use crate::common::{
-    blender_lacks_module, campath, export_edge_shots, have_part, have_tool, reach_of_views, root,
+    blender_lacks_module, campath, export_edge_shots, need_part, need_tool, reach_of_views, root,
     shutter_ends, stderr, EXAMPLES,
 };
 
@@ -51,13 +51,12 @@ for job in jobs:
 "#;
 
 #[test]
+#[ignore = "needs blender with numpy"]
 fn blender_sees_what_campath_renders() {
     // Debian's blender does not pull in NumPy, which its glTF importer needs.
-    if !have_part("blender", "blender", |b| {
+    need_part("blender", "blender", |b| {
         blender_lacks_module(b, "numpy", "python3-numpy")
-    }) {
-        return;
-    }
+    });
     let tmp = tempfile::tempdir().unwrap();
     // Every example, and the observer at 640×480 (another aspect than the 16:9 film back that
     // Blender's .chan importer assumes).
@@ -359,10 +358,9 @@ for job in jobs:
 /// the first frame's shutter opens and the last's closes (the motion-blur example, and one frame
 /// that zooms and shifts in its shutter), there as campath's.
 #[test]
+#[ignore = "needs blender"]
 fn blender_keeps_wide_far_near_and_blurred_cameras() {
-    if !have_tool("blender", "blender") {
-        return;
-    }
+    need_tool("blender", "blender");
     let tmp = tempfile::tempdir().unwrap();
     let shots = export_edge_shots(tmp.path(), "py");
     let jobs = edge_jobs(tmp.path(), &shots);
@@ -372,10 +370,9 @@ fn blender_keeps_wide_far_near_and_blurred_cameras() {
 
 /// The same in Blender 5 (PyPI's bpy), whose actions keep their F-curves in slots.
 #[test]
+#[ignore = "needs Python with bpy (CAMPATH_PYTHON)"]
 fn blender_5_builds_the_same_cameras_from_the_script() {
-    if !crate::usd::have_module("bpy", "bpy") {
-        return;
-    }
+    crate::usd::need_module("bpy", "bpy");
     let tmp = tempfile::tempdir().unwrap();
     let shots = export_edge_shots(tmp.path(), "py");
     let jobs = edge_jobs(tmp.path(), &shots);

@@ -1,6 +1,5 @@
 //! Helpers shared by the integration tests.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -57,50 +56,30 @@ pub fn frame_lines(text: &str) -> Vec<&str> {
     text.lines().filter(|l| !l.starts_with('#')).collect()
 }
 
-/// Whether an outside program the test needs is on PATH. When it is missing, `cargo test` skips
-/// the check with a printed reason; with `CAMPATH_REQUIRE_TOOLS=1` (set by `.ci/run`) a missing
-/// program fails the test instead.
-pub fn have_tool(program: &str, package: &str) -> bool {
+/// Fails the test unless the outside program `program` is on PATH. A test that needs one is
+/// marked `#[ignore = "needs PROGRAM"]`, so `cargo test` lists it as ignored with that reason;
+/// `cargo test -- --include-ignored` (`.ci/run`, which installs the programs) runs it, and there
+/// a missing program fails it.
+pub fn need_tool(program: &str, package: &str) {
     let found = Command::new(program)
         .arg("--version")
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .status()
         .is_ok();
-    if !found {
-        skip(&format!(
-            "{program} is not on PATH (Debian package {package})"
-        ));
-    }
-    found
-}
-
-/// Whether the outside program `program` (on PATH) has a part the test needs, as `probe` says:
-/// `probe` runs it and returns why the part is missing, if it is. A missing part is skipped or
-/// required like a missing program ([`have_tool`]).
-pub fn have_part(program: &str, package: &str, probe: impl Fn(&str) -> Option<String>) -> bool {
-    if !have_tool(program, package) {
-        return false;
-    }
-    match probe(program) {
-        None => true,
-        Some(why) => {
-            skip(&why);
-            false
-        }
-    }
-}
-
-/// Prints why an outside-program check is skipped, past the test harness's capture; with
-/// `CAMPATH_REQUIRE_TOOLS=1` fails the test instead.
-pub fn skip(why: &str) {
-    if std::env::var_os("CAMPATH_REQUIRE_TOOLS").is_some_and(|v| v == "1") {
-        panic!("{why}, and CAMPATH_REQUIRE_TOOLS=1 makes this check mandatory");
-    }
-    let _ = writeln!(
-        std::io::stderr(),
-        "skipped: {why}; .ci/run installs it and makes this check mandatory"
+    assert!(
+        found,
+        "{program} is not on PATH (Debian package {package}); .ci/run installs it"
     );
+}
+
+/// [`need_tool`], and fails the test unless `program` has the part the test needs, as `probe`
+/// says: `probe` runs it and returns why the part is missing, if it is.
+pub fn need_part(program: &str, package: &str, probe: impl Fn(&str) -> Option<String>) {
+    need_tool(program, package);
+    if let Some(why) = probe(program) {
+        panic!("{why}; .ci/run installs it");
+    }
 }
 
 /// Why `blender` (a path or a name on PATH) cannot import the Python module `module` into its

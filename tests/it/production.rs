@@ -24,6 +24,34 @@ fn setup() -> tempfile::TempDir {
     tmp
 }
 
+/// [`LONG`] at `size` (`width: W, height: H`).
+fn sized(size: &str) -> String {
+    let text = LONG.replace("width: 240, height: 135", size);
+    assert_ne!(text, LONG);
+    text
+}
+
+/// [`LONG`] at 64×36, for the tests that kill no render part-way: what they check does not
+/// depend on the size.
+fn small() -> String {
+    sized("width: 64, height: 36")
+}
+
+/// A folder with [`small`] as `long.ron`.
+fn setup_small() -> tempfile::TempDir {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("long.ron"), small()).unwrap();
+    tmp
+}
+
+/// A folder with [`LONG`] at 160×90 as `long.ron`, for the tests that kill a render part-way:
+/// they wait for frames to be listed before they kill, so frames need only take a moment.
+fn setup_killable() -> tempfile::TempDir {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("long.ron"), sized("width: 160, height: 90")).unwrap();
+    tmp
+}
+
 fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_default()
 }
@@ -59,7 +87,7 @@ fn assert_consistent(dir: &Path) {
 
 #[test]
 fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
-    let tmp = setup();
+    let tmp = setup_killable();
     let whole = campath(
         tmp.path(),
         &["render", "long.ron", "--out", "whole", "--quiet"],
@@ -123,7 +151,7 @@ fn a_killed_render_leaves_whole_frames_and_resumes_to_the_same_hashes() {
 
 #[test]
 fn a_damaged_frame_is_rendered_again() {
-    let tmp = setup();
+    let tmp = setup_small();
     let args = [
         "render", "long.ron", "--out", "o", "--frames", "0..4", "--quiet",
     ];
@@ -161,7 +189,7 @@ fn shard(tmp: &Path, k: u64) -> Command {
 
 #[test]
 fn three_shards_merge_into_a_single_runs_manifest() {
-    let tmp = setup();
+    let tmp = setup_small();
     let single = campath(
         tmp.path(),
         &["render", "long.ron", "--out", "single", "--quiet"],
@@ -235,7 +263,7 @@ fn keys_of(manifest: &str) -> BTreeMap<String, String> {
 
 #[test]
 fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
-    let tmp = setup();
+    let tmp = setup_small();
     let farm = tmp.path().join("farm");
     let single = |out: &str| {
         let run = campath(
@@ -247,12 +275,13 @@ fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
         read(&tmp.path().join(out).join("hashes.txt"))
     };
     let before = single("farm");
+    let long = small();
     // A key after the last: the frames of the last segment change, the others keep their keys.
-    let edited = LONG.replace(
+    let edited = long.replace(
         "(t: 2.0, value: (0.0, 2.0, 6.0))",
         "(t: 2.0, value: (0.0, 2.0, 6.0)), (t: 3.0, value: (-3.0, 2.0, 6.0))",
     );
-    assert_ne!(edited, LONG);
+    assert_ne!(edited, long);
     std::fs::write(tmp.path().join("long.ron"), &edited).unwrap();
     let after = single("single");
     let (old_keys, new_keys) = (keys_of(&before), keys_of(&after));
@@ -297,7 +326,7 @@ fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
     // Back to the first file in one shard of two, then forward again in a run of one frame:
     // what the shard moved aside names the edited file's pictures, which the shard replaced;
     // none of them is listed as current, and the folder holds no picture it does not list.
-    std::fs::write(tmp.path().join("long.ron"), LONG).unwrap();
+    std::fs::write(tmp.path().join("long.ron"), &long).unwrap();
     let half = campath(
         tmp.path(),
         &[
@@ -330,7 +359,7 @@ fn shards_on_a_finished_folder_render_only_the_frames_an_edit_changed() {
 /// every picture are still there, and the next run keeps every frame it did not render.
 #[test]
 fn a_whole_run_that_cannot_write_its_manifest_removes_nothing() {
-    let tmp = setup();
+    let tmp = setup_small();
     for k in 0..3 {
         assert!(shard(tmp.path(), k).status().unwrap().success());
     }
@@ -369,7 +398,7 @@ fn manifest_parts(dir: &Path) -> Vec<String> {
 
 #[test]
 fn merge_refuses_while_a_killed_shard_is_unfinished() {
-    let tmp = setup();
+    let tmp = setup_killable();
     let single = campath(
         tmp.path(),
         &["render", "long.ron", "--out", "single", "--quiet"],
@@ -422,7 +451,7 @@ fn merge_refuses_while_a_killed_shard_is_unfinished() {
 
 #[test]
 fn progress_lines_off_a_terminal_and_quiet_prints_nothing() {
-    let tmp = setup();
+    let tmp = setup_small();
     // Off a terminal: a line at the start, one every few seconds, one at the end (so a CI log
     // of 48 frames holds a handful of lines, not 48).
     let started = std::time::Instant::now();
@@ -473,7 +502,7 @@ fn progress_lines_off_a_terminal_and_quiet_prints_nothing() {
 
 #[test]
 fn a_folder_with_other_files_is_never_clobbered() {
-    let tmp = setup();
+    let tmp = setup_small();
     std::fs::create_dir(tmp.path().join("mine")).unwrap();
     std::fs::write(tmp.path().join("mine/notes.txt"), "keep").unwrap();
     let o = campath(tmp.path(), &["render", "long.ron", "--out", "mine"], &[]);

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::process::Command;
 
 use crate::common::{
-    campath, ffmpeg_lacks_encoder, frame_lines, have_part, have_tool, root, stderr,
+    campath, ffmpeg_lacks_encoder, frame_lines, need_part, need_tool, root, stderr,
 };
 use campath::frame_hash;
 
@@ -22,10 +22,9 @@ fn example(dir: &Path, size: &str) -> String {
 }
 
 #[test]
+#[ignore = "needs ffmpeg"]
 fn the_lossless_video_decodes_to_the_frames_of_hashes_txt() {
-    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "ffv1")) {
-        return;
-    }
+    need_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "ffv1"));
     let tmp = tempfile::tempdir().unwrap();
     let f = example(tmp.path(), "width: 96, height: 54");
     let o = campath(tmp.path(), &["video", &f, "--lossless", "--quiet"], &[]);
@@ -60,12 +59,10 @@ fn the_lossless_video_decodes_to_the_frames_of_hashes_txt() {
 }
 
 #[test]
+#[ignore = "needs ffmpeg"]
 fn the_default_mp4_has_the_right_frames_rate_and_duration() {
-    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"))
-        || !have_tool("ffprobe", "ffmpeg")
-    {
-        return;
-    }
+    need_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"));
+    need_tool("ffprobe", "ffmpeg");
     let tmp = tempfile::tempdir().unwrap();
     let f = example(tmp.path(), "width: 95, height: 53");
     // A name that begins with `-` is a file to ffmpeg, not an option.
@@ -158,10 +155,9 @@ fn without_ffmpeg_the_error_names_the_package() {
 }
 
 #[test]
+#[ignore = "needs ffmpeg"]
 fn a_killed_encode_leaves_no_video_under_its_final_name() {
-    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264")) {
-        return;
-    }
+    need_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"));
     let tmp = tempfile::tempdir().unwrap();
     // One sample a pixel: a quick render (this test also runs unoptimised), then an encode that
     // lasts well past the moment ffmpeg opens its output.
@@ -251,10 +247,9 @@ fn a_killed_encode_leaves_no_video_under_its_final_name() {
 /// is refused before anything is made), and `--lossless` above 1000 fps (Matroska's millisecond
 /// timestamps) is refused.
 #[test]
+#[ignore = "needs ffmpeg"]
 fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
-    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264")) {
-        return;
-    }
+    need_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"));
     let tmp = tempfile::tempdir().unwrap();
     let f = example(tmp.path(), "width: 32, height: 18");
     let run = |args: &[&str]| campath(tmp.path(), args, &[]);
@@ -310,9 +305,9 @@ fn a_video_never_outlives_its_frames_and_never_clutters_their_folder() {
 
 /// A video goes into its own frames folder or outside any: `--out` in another render's frames
 /// folder (or a folder inside it) is refused before anything is rendered, as a video there
-/// would pass for that render's own. An NTSC rate is stored as its exact fraction.
+/// would pass for that render's own.
 #[test]
-fn a_video_stays_out_of_other_renders_and_keeps_ntsc_rates_exact() {
+fn a_video_stays_out_of_other_renders() {
     let tmp = tempfile::tempdir().unwrap();
     let f = example(tmp.path(), "width: 16, height: 10");
     let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
@@ -340,12 +335,18 @@ fn a_video_stays_out_of_other_renders_and_keeps_ntsc_rates_exact() {
     }
     assert_eq!(listing(), before);
     assert!(!tmp.path().join("out/zoom").exists(), "nothing rendered");
+}
 
-    if !have_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"))
-        || !have_tool("ffprobe", "ffmpeg")
-    {
-        return;
-    }
+/// An NTSC rate is stored as its exact fraction.
+#[test]
+#[ignore = "needs ffmpeg"]
+fn ntsc_rates_are_stored_as_their_exact_fractions() {
+    need_part("ffmpeg", "ffmpeg", |f| ffmpeg_lacks_encoder(f, "libx264"));
+    need_tool("ffprobe", "ffmpeg");
+    let tmp = tempfile::tempdir().unwrap();
+    let f = example(tmp.path(), "width: 16, height: 10");
+    let text = std::fs::read_to_string(tmp.path().join(&f)).unwrap();
+    let run = |args: &[&str]| campath(tmp.path(), args, &[]);
     for (fps, want) in [
         ("23.976", "24000/1001"),
         ("29.97", "30000/1001"),
