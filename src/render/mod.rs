@@ -30,12 +30,12 @@ pub mod key;
 mod lanes;
 #[cfg(test)]
 mod oracle;
-mod radix;
 mod rays;
 mod rows;
 mod shadows;
 mod shutter;
 mod simd;
+mod sort;
 mod srgb;
 mod tiles;
 mod view;

@@ -9,10 +9,9 @@ use rayon::prelude::*;
 
 use super::bins::Bins;
 use super::lanes::{ForLanes, Lanes, LANES};
-use super::radix::{index_bits, sort_by_high_bits};
 use super::rays::RayTable;
 use super::simd::Isa;
-pub use super::view::PARALLEL;
+use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
 use super::view::{Ranks, Reach, ViewColumns};
 use crate::raster::Raster;
 
@@ -474,9 +473,9 @@ impl TileBins {
             // is more.
             let sorted: Vec<[u16; 4]> = order.par_iter().map(|&k| rects[k as usize]).collect();
             let chunk = n.div_ceil(4).max(PARALLEL);
-            Bins::build_in_chunks(dims, &order, chunk, |i| cells(sorted[i]))
+            Bins::build(dims, &order, chunk, |i| cells(sorted[i]))
         } else {
-            Bins::build_in_order(dims, order.iter().map(|&k| k as usize), |k| cells(rects[k]))
+            Bins::build(dims, &order, n, |i| cells(rects[order[i] as usize]))
         };
         drop(order);
         let id = |k: u32| ranks.scene_index(spheres.id[k as usize] as u32);
