@@ -39,6 +39,7 @@
 //! ```
 
 #![deny(missing_docs)]
+#![deny(unsafe_code, clippy::undocumented_unsafe_blocks)]
 
 pub mod animation;
 pub mod camera;

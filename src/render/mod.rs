@@ -27,6 +27,7 @@ mod bins;
 mod drivers;
 mod kernels;
 pub mod key;
+#[allow(unsafe_code)]
 mod lanes;
 #[cfg(test)]
 mod oracle;
@@ -34,6 +35,7 @@ mod rays;
 mod rows;
 mod shadows;
 mod shutter;
+#[allow(unsafe_code)]
 mod simd;
 mod sort;
 mod srgb;
