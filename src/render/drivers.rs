@@ -6,16 +6,14 @@
 //! renders (motion blur) and quantises once: the same drivers either way.
 //!
 //! A packet of 4 × 2 pixels, not 8 × 1, meets fewer spheres at once where spheres are a few
-//! pixels wide: on the dense 100,000-sphere cluster's frame 0 a packet sees 1.34 spheres
-//! (background counted as one) against 1.53, one sphere 74% of the time against 61%; its
-//! search tests fewer spheres, its shading reads one or two spheres' fields more often, its
-//! shadow rays start closer together.
+//! pixels wide (docs/performance.md): its search tests fewer spheres, its shading reads one or
+//! two spheres' fields more often, its shadow rays start closer together.
 //!
 //! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
 //! a band is taken a stretch at a time and stage by stage: every packet's directions, then
 //! every packet's nearest hit (the two packets of a column of 4 × 4 pixels together), then
 //! every colour, then every sRGB level. Each stage is a short loop over independent packets,
-//! which the CPU overlaps; taken packet by packet, the same work ran 15–20% slower.
+//! which the CPU overlaps.
 
 use super::kernels::{Found, Shading};
 use super::lanes::{ForLanes, Lanes, LANES};
@@ -485,9 +483,8 @@ impl RowJob<'_> {
         // packets: independent square roots and divisions, out of each packet's chain of
         // dependent work. The first stretch's are computed here, each next stretch's in this
         // stretch's last stage, column by column as its slots are freed: that stage reads
-        // tables and stores bytes, and leaves the divider idle (1–2% less CPU time on the
-        // dense cluster, 2–3% on fly1000, than in a loop of their own). Packet 2c is column
-        // c's upper packet, 2c + 1 its lower.
+        // tables and stores bytes, and leaves the divider idle. Packet 2c is column c's upper
+        // packet, 2c + 1 its lower.
         let columns = width.div_ceil(HALF);
         let mut dirs = [[V::splat(tok, 0.0); 3]; STRETCH];
         for c in 0..columns.min(STRETCH / 2) {

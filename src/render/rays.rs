@@ -66,7 +66,7 @@ pub(super) const HALF: usize = LANES / 2;
 /// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (computed once a
 /// band for its upper and its lower packets), normalised exactly as `DVec3::normalize` does
 /// (v · (1 / √(v·v))). A plain function, not a closure: a closure is not inlined into the row
-/// function compiled for the instruction set (1.5× the time, measured).
+/// function compiled for the instruction set.
 #[inline(always)]
 pub(super) fn band_direction<V: Lanes>(
     table: &RayTable,

@@ -13,8 +13,7 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 
 /// Items (spheres, keys) a task takes on the rayon pool, and the fewest from which a step goes
-/// to the pool at all: below, waking the pool costs more than it saves (6% of fly1000's CPU
-/// time).
+/// to the pool at all: below, waking the pool costs more than it saves.
 pub const PARALLEL: usize = 1 << 14;
 
 /// A value the sort moves: written by one task into a slot of a shared buffer, as an atomic

@@ -508,8 +508,7 @@ impl TileBins {
                 for &(bound, w_id, w) in &*keyed {
                     let at = items[..n].partition_point(|&k| {
                         // The scene index read only when the distances tie (a random read
-                        // saved at each step of every tile's search: 0.4 ms of frame 0's
-                        // preparation at 100,000 spheres).
+                        // saved at each step of every tile's search).
                         let d = spheres.min_dist[k as usize].total_cmp(&bound);
                         d.then_with(|| id(k).cmp(&w_id)).is_lt()
                     });

@@ -45,10 +45,10 @@ impl Node {
 /// The renderer numbers the spheres by their *rank*. In a scene of at most [`CURVE_COPY_MAX`]
 /// spheres, the index holds a copy of them along the hierarchy's Morton curve, and a rank is a
 /// place on it: a frame's reads of the spheres (into view coordinates, for shadow rays, for
-/// colours) then fall near each other in memory, not all over the scene (dense100000 in
-/// 0.96× the time). In a larger scene the copy would cost too much memory, and a rank is the
-/// scene index. Where the scene's order decides (which
-/// of two equally near spheres a ray sees), [`Ranks::scene_index`] gives it back.
+/// colours) then fall near each other in memory, not all over the scene. In a larger scene the
+/// copy would cost too much memory, and a rank is the scene index. Where the scene's order
+/// decides (which of two equally near spheres a ray sees), [`Ranks::scene_index`] gives it
+/// back.
 pub struct SceneIndex<'a> {
     /// The scene indexed.
     pub scene: &'a Scene,

@@ -192,8 +192,7 @@ impl ShadowGrid {
         };
         // A quarter of the discs a task (at least PARALLEL), each task counting its own over the
         // whole grid, when the tasks' counts (a grid's worth of u32 each) take no more room
-        // than the discs: each disc is read twice, not twice per band of rows (on 2 cores,
-        // dense100000's grid 2.7 -> 1.8 ms, the PLY million's 38 -> 30 ms). A grid of many
+        // than the discs: each disc is read twice, not twice per band of rows. A grid of many
         // more cells than discs (small discs far apart) in bands.
         let chunk = count.div_ceil(4).max(PARALLEL);
         let bins = if dims.0 * dims.1 * count.div_ceil(chunk) <= count {
@@ -379,13 +378,12 @@ const MEDIAN_SAMPLE: usize = 1 << 16;
 /// disc into a hundred cells (98 M items at 1 M spheres); cells are widened until the median
 /// disc covers at most 2 × 2 of them, cells as wide as its diameter (4.1 M items at 1 M
 /// spheres, 16 MB). Finer cells list fewer spheres each, but a packet's lanes spread over more
-/// of them: with 4 × 4 (16.7 M items) twelve frames of the 1 M cluster took 10% more CPU,
-/// with 3 × 3 5% more, and with cells of two diameters 17% more.
+/// of them (docs/performance.md).
 const CELLS_A_DISC: f64 = 4.0;
 
 /// Cells over an `extent` holding `count` discs: about eight cells per disc, at most 4096 a side
-/// (fewer spheres to test per shadow ray than with two, which measured 4% slower on fly1000; a
-/// shadow packet whose lanes span a few cells walks them once).
+/// (fewer spheres to test per shadow ray than with two; a shadow packet whose lanes span a few
+/// cells walks them once).
 /// Cells are no smaller than makes a disc of the `median` radius cover [`CELLS_A_DISC`] of them
 /// (about (2r / cell + 1)² cells).
 /// Returns the cell counts and 1 / cell size.
