@@ -58,6 +58,9 @@ impl RayTable {
     }
 }
 
+/// Side in pixels of a screen tile (`tiles/`), inside which a row's pixels are cast together.
+pub const TILE: usize = 16;
+
 /// Columns of a packet at one sample a pixel; its lanes 0..HALF are one row, HALF..LANES the
 /// next.
 pub(super) const HALF: usize = LANES / 2;
