@@ -39,6 +39,7 @@
 //! ```
 
 #![deny(missing_docs)]
+#![deny(unsafe_code, clippy::undocumented_unsafe_blocks)]
 
 // The public surface: a shot's document, its cameras, its frames and their hashes, goldens and
 // frame-hash tests, and the exports. The rest is the crate's own.

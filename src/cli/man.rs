@@ -34,8 +34,8 @@ message names its Debian package.
 .SH ENVIRONMENT
 .TP
 \fBCAMPATH_SIMD\fR
-The instruction path of the renderer: scalar, sse2, avx2 or avx512 (default: the widest the CPU
-runs). Every path gives the same bytes.
+The instruction path of the renderer: sse2 (also named scalar), avx2 or avx512 (default: the
+widest the CPU runs). Every path gives the same bytes.
 .TP
 \fBCAMPATH_PROGRESS_SECS\fR
 Seconds between progress lines when standard error is not a terminal (default 5; 0: a line per

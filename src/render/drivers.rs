@@ -2,20 +2,18 @@
 //! [`BAND`] rows at a time in packets of 4 columns × 2 rows, a stretch of columns at a time; at
 //! s×s samples a row at a time in groups of pixels, adaptively corners first — each kind of
 //! work a [`ForLanes`] that `Isa::run` (simd.rs) runs compiled for the instruction set. Rows
-//! end as 8-bit sRGB levels ([`RowJob::band`]) or as linear colours ([`RowJob::row_linear`])
-//! for a frame that averages several renders (motion blur) and quantises once.
+//! end as 8-bit sRGB levels or as linear colours ([`Pixel`]) for a frame that averages several
+//! renders (motion blur) and quantises once: the same drivers either way.
 //!
 //! A packet of 4 × 2 pixels, not 8 × 1, meets fewer spheres at once where spheres are a few
-//! pixels wide: on the dense 100,000-sphere cluster's frame 0 a packet sees 1.34 spheres
-//! (background counted as one) against 1.53, one sphere 74% of the time against 61%; its
-//! search tests fewer spheres, its shading reads one or two spheres' fields more often, its
-//! shadow rays start closer together.
+//! pixels wide (docs/performance.md): its search tests fewer spheres, its shading reads one or
+//! two spheres' fields more often, its shadow rays start closer together.
 //!
 //! A packet's work is a long chain of dependent square roots, divisions and table lookups, so
 //! a band is taken a stretch at a time and stage by stage: every packet's directions, then
 //! every packet's nearest hit (the two packets of a column of 4 × 4 pixels together), then
 //! every colour, then every sRGB level. Each stage is a short loop over independent packets,
-//! which the CPU overlaps; taken packet by packet, the same work ran 15–20% slower.
+//! which the CPU overlaps.
 
 use super::kernels::{Found, Shading};
 use super::lanes::{ForLanes, Lanes, LANES};
@@ -66,18 +64,39 @@ fn sample(s: usize, p: usize, k: usize) -> Sample {
     ((p * s + k % s) as u16, (k / s) as u16)
 }
 
-/// What a row's pixels end as: 8-bit sRGB levels (`u8`), or linear colours (`f64`), three to
-/// a pixel either way.
-trait Pixel: Copy {
+/// What a row's pixels end as: 8-bit sRGB levels (`u8`), or linear colours (`f64`) for a
+/// frame that averages several renders (motion blur), three to a pixel either way.
+pub trait Pixel: Copy + Default {
     /// Up to [`LANES`] pixels' linear colours (a lane per pixel, an array per channel) into
     /// `out`, as many pixels as it holds.
     fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [Self]);
+
+    /// A band's packet: lanes 0..4 into `upper`, 4..8 into `lower` (a packet's worth of
+    /// pixels, or fewer at a row's end), its colours `color` unless it hit nothing.
+    fn put_packet<V: Lanes>(
+        job: &RowJob,
+        found: &Found<V>,
+        color: &[V; 3],
+        upper: &mut [Self],
+        lower: &mut [Self],
+    );
 }
 
 impl Pixel for u8 {
     #[inline(always)]
     fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
         job.encode_pixels::<V>(tok, linear, out)
+    }
+
+    #[inline(always)]
+    fn put_packet<V: Lanes>(
+        job: &RowJob,
+        found: &Found<V>,
+        color: &[V; 3],
+        upper: &mut [u8],
+        lower: &mut [u8],
+    ) {
+        job.put_levels::<V>(found, color, upper, lower)
     }
 }
 
@@ -87,6 +106,28 @@ impl Pixel for f64 {
         for (p, px) in out.chunks_exact_mut(3).enumerate() {
             for a in 0..3 {
                 px[a] = linear[a][p];
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn put_packet<V: Lanes>(
+        job: &RowJob,
+        found: &Found<V>,
+        color: &[V; 3],
+        upper: &mut [f64],
+        lower: &mut [f64],
+    ) {
+        let linear = if found.0 == 0 {
+            job.ctx.background.to_array().map(|c| [c; LANES])
+        } else {
+            [color[0].store(), color[1].store(), color[2].store()]
+        };
+        for (half, out) in [upper, lower].into_iter().enumerate() {
+            for (l, px) in out.chunks_exact_mut(3).enumerate() {
+                for a in 0..3 {
+                    px[a] = linear[a][half * HALF + l];
+                }
             }
         }
     }
@@ -117,57 +158,38 @@ pub struct RowJob<'a> {
 }
 
 /// Row `j` of a job, or the rows of a band from row `j`, to be written into `row`.
-struct RowWork<'r, 'a> {
+struct RowWork<'r, 'a, P> {
     job: &'r RowJob<'a>,
     j: usize,
-    row: &'r mut [u8],
+    row: &'r mut [P],
 }
 
 /// A band at one sample a pixel.
-struct OneSample<'r, 'a>(RowWork<'r, 'a>);
+struct OneSample<'r, 'a, P>(RowWork<'r, 'a, P>);
 
 /// A row at several samples a pixel.
-struct Several<'r, 'a>(RowWork<'r, 'a>);
+struct Several<'r, 'a, P>(RowWork<'r, 'a, P>);
 
-impl ForLanes for OneSample<'_, '_> {
+impl<P: Pixel> ForLanes for OneSample<'_, '_, P> {
     type Output = ();
 
     #[inline(always)]
     fn run<V: Lanes>(self, tok: V::Token) {
         let RowWork { job, j, row } = self.0;
-        job.band_packets::<V>(tok, j, row)
+        job.band_packets::<V, P>(tok, j, row)
     }
 }
 
-impl ForLanes for Several<'_, '_> {
+impl<P: Pixel> ForLanes for Several<'_, '_, P> {
     type Output = ();
 
     #[inline(always)]
     fn run<V: Lanes>(self, tok: V::Token) {
         let RowWork { job, j, row } = self.0;
-        job.row_several::<V>(tok, j, row)
-    }
-}
-
-/// A row as linear colours, at any sampling (motion blur's time samples).
-struct Linear<'r, 'a> {
-    job: &'r RowJob<'a>,
-    j: usize,
-    row: &'r mut [f64],
-}
-
-impl ForLanes for Linear<'_, '_> {
-    type Output = ();
-
-    #[inline(always)]
-    fn run<V: Lanes>(self, tok: V::Token) {
-        let Linear { job, j, row } = self;
-        if job.samples == 1 {
-            job.row_one_linear::<V>(tok, j, row)
-        } else if job.adaptive {
-            job.row_adaptive::<V, f64>(tok, j, row)
+        if job.adaptive {
+            job.row_adaptive::<V, P>(tok, j, row)
         } else {
-            job.row_samples::<V, f64>(tok, j, row)
+            job.row_samples::<V, P>(tok, j, row)
         }
     }
 }
@@ -178,12 +200,13 @@ const _: () = assert!(
 );
 
 impl RowJob<'_> {
-    /// Renders the rows of a band from row `j` into `band` (RGB8; [`BAND`] rows, or fewer at
-    /// the frame's end) in packets, with the instruction set `isa`, which proves that the CPU
-    /// runs it. One sample a pixel and several are each a work of their own, so that on the
-    /// x86 paths each is a function of its own and the single-sample loop keeps its registers
-    /// and layout.
-    pub fn band(&self, isa: Isa, j: usize, band: &mut [u8]) {
+    /// Renders the rows of a band from row `j` into `band` ([`BAND`] rows, or fewer at the
+    /// frame's end; RGB8, or linear colours, the values that the levels quantise, the same on
+    /// every path) in packets, with the instruction set `isa`, which proves that the CPU runs
+    /// it. One sample a pixel and several are each a work of their own, so that on the x86
+    /// paths each is a function of its own and the single-sample loop keeps its registers and
+    /// layout.
+    pub fn band<P: Pixel>(&self, isa: Isa, j: usize, band: &mut [P]) {
         if self.samples == 1 {
             isa.run(OneSample(RowWork {
                 job: self,
@@ -198,44 +221,6 @@ impl RowJob<'_> {
                     j: j + r,
                     row,
                 }))
-            }
-        }
-    }
-
-    /// Renders row `j` into `row` as linear colours (RGB, three to a pixel), with the
-    /// instruction set `isa`: the values that [`RowJob::band`] quantises, the same on every
-    /// path.
-    pub fn row_linear(&self, isa: Isa, j: usize, row: &mut [f64]) {
-        isa.run(Linear { job: self, j, row })
-    }
-
-    /// A row of several samples a pixel, adaptive or not.
-    #[inline(always)]
-    fn row_several<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [u8]) {
-        if self.adaptive {
-            self.row_adaptive::<V, u8>(tok, j, row)
-        } else {
-            self.row_samples::<V, u8>(tok, j, row)
-        }
-    }
-
-    /// Row `j` at one sample a pixel as linear colours: a tile's pixels cast together
-    /// ([`RowJob::cast`]), with the directions, hits and colours of [`RowJob::band_packets`].
-    #[inline(always)]
-    fn row_one_linear<V: Lanes>(&self, tok: V::Token, j: usize, row: &mut [f64]) {
-        let list: Vec<Sample> = (0..TILE).map(|p| sample(1, p, 0)).collect();
-        let mut colors = [[0.0; 3]; TILE];
-        let mut stages = Stages::<V>::new(tok);
-        for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
-            let pixels = out.len() / 3;
-            let span = Span {
-                row: j,
-                first: g * TILE,
-                pixels,
-            };
-            self.cast::<V, false>(span, &list[..pixels], &mut stages, &mut colors, &mut []);
-            for (px, c) in out.chunks_exact_mut(3).zip(&colors) {
-                px.copy_from_slice(c);
             }
         }
     }
@@ -463,14 +448,14 @@ impl RowJob<'_> {
     /// at the frame's end fewer, cast as a whole band whose missing rows repeat the last (and
     /// are not kept), as a row's last packet repeats its last pixel.
     #[inline(always)]
-    fn band_packets<V: Lanes>(&self, tok: V::Token, j: usize, band: &mut [u8]) {
+    fn band_packets<V: Lanes, P: Pixel>(&self, tok: V::Token, j: usize, band: &mut [P]) {
         let row_bytes = 3 * self.table.raster.width as usize;
         let rows = band.len() / row_bytes;
         if rows == BAND {
-            self.whole_band::<V>(tok, j, rows, band)
+            self.whole_band::<V, P>(tok, j, rows, band)
         } else {
-            let mut whole = vec![0u8; BAND * row_bytes];
-            self.whole_band::<V>(tok, j, rows, &mut whole);
+            let mut whole = vec![P::default(); BAND * row_bytes];
+            self.whole_band::<V, P>(tok, j, rows, &mut whole);
             band.copy_from_slice(&whole[..band.len()]);
         }
     }
@@ -480,7 +465,7 @@ impl RowJob<'_> {
     /// packets of a column (4 × 4 pixels) are searched together: they share its tile's
     /// candidates, and their chains of dependent work interleave.
     #[inline(always)]
-    fn whole_band<V: Lanes>(&self, tok: V::Token, j: usize, rows: usize, band: &mut [u8]) {
+    fn whole_band<V: Lanes, P: Pixel>(&self, tok: V::Token, j: usize, rows: usize, band: &mut [P]) {
         let t = self.table;
         let width = t.raster.width as usize;
         let row = |a: usize| j + a.min(rows - 1);
@@ -498,9 +483,8 @@ impl RowJob<'_> {
         // packets: independent square roots and divisions, out of each packet's chain of
         // dependent work. The first stretch's are computed here, each next stretch's in this
         // stretch's last stage, column by column as its slots are freed: that stage reads
-        // tables and stores bytes, and leaves the divider idle (1–2% less CPU time on the
-        // dense cluster, 2–3% on fly1000, than in a loop of their own). Packet 2c is column
-        // c's upper packet, 2c + 1 its lower.
+        // tables and stores bytes, and leaves the divider idle. Packet 2c is column c's upper
+        // packet, 2c + 1 its lower.
         let columns = width.div_ceil(HALF);
         let mut dirs = [[V::splat(tok, 0.0); 3]; STRETCH];
         for c in 0..columns.min(STRETCH / 2) {
@@ -562,8 +546,8 @@ impl RowJob<'_> {
                         dirs[2 * c + h] = band_direction(t, column, ys[h], z, yys[h], zz);
                     }
                 }
-                self.put_levels::<V>(&founds[2 * c], &colors[2 * c], o0, o1);
-                self.put_levels::<V>(&founds[2 * c + 1], &colors[2 * c + 1], o2, o3);
+                P::put_packet::<V>(self, &founds[2 * c], &colors[2 * c], o0, o1);
+                P::put_packet::<V>(self, &founds[2 * c + 1], &colors[2 * c + 1], o2, o3);
             }
         }
     }

@@ -26,15 +26,17 @@ use crate::scene::{Scene, Sphere};
 mod bins;
 mod drivers;
 mod kernels;
+#[allow(unsafe_code)]
 mod lanes;
 #[cfg(test)]
 mod oracle;
-mod radix;
 mod rays;
 mod rows;
 mod shadows;
 mod shutter;
+#[allow(unsafe_code)]
 mod simd;
+mod sort;
 mod srgb;
 mod tiles;
 mod view;
@@ -347,11 +349,7 @@ impl PreparedFrame<'_> {
             let render = |j, band: &mut [u8]| job.band(isa, j, band);
             rows_in_order(buffer, bands, render, in_order);
         } else {
-            let render = |j, band: &mut [u8]| {
-                for (r, row) in band.chunks_mut(width * 3).enumerate() {
-                    shutter::mean_row(isa, &jobs, j + r, row)
-                }
-            };
+            let render = |j, band: &mut [u8]| shutter::mean_band(isa, &jobs, j, band);
             rows_in_order(buffer, bands, render, in_order);
         }
     }

@@ -58,6 +58,9 @@ impl RayTable {
     }
 }
 
+/// Side in pixels of a screen tile (`tiles/`), inside which a row's pixels are cast together.
+pub const TILE: usize = 16;
+
 /// Columns of a packet at one sample a pixel; its lanes 0..HALF are one row, HALF..LANES the
 /// next.
 pub(super) const HALF: usize = LANES / 2;
@@ -66,7 +69,7 @@ pub(super) const HALF: usize = LANES / 2;
 /// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (computed once a
 /// band for its upper and its lower packets), normalised exactly as `DVec3::normalize` does
 /// (v · (1 / √(v·v))). A plain function, not a closure: a closure is not inlined into the row
-/// function compiled for the instruction set (1.5× the time, measured).
+/// function compiled for the instruction set.
 #[inline(always)]
 pub(super) fn band_direction<V: Lanes>(
     table: &RayTable,

@@ -1,7 +1,7 @@
 //! Motion blur's rows: the mean, in linear light, of a frame's renders at its time samples,
 //! quantised to 8-bit sRGB once.
 //!
-//! Each row is one task's, and its time samples are added in their order (time order), then
+//! Each band of rows is one task's, and its time samples are added in their order (time order), then
 //! divided by their number: the bytes do not depend on the thread count, and since every
 //! instruction path gives the same linear colours, not on the path either.
 
@@ -9,22 +9,23 @@ use super::drivers::RowJob;
 use super::lanes::{Lanes, Portable, LANES};
 use super::simd::Isa;
 
-/// Row `j` of a frame averaged over `jobs` (one per time sample, in time order) into `row`,
-/// RGB8: each time sample's linear colours (its full pixel pattern: s×s samples, adaptive
-/// included), summed in order, divided by their number, then the exact sRGB level of the mean
-/// (the encoder's packets on the portable lanes: the same levels as one value at a time).
-pub fn mean_row(isa: Isa, jobs: &[RowJob], j: usize, row: &mut [u8]) {
-    let mut sum = vec![0.0; row.len()];
-    let mut linear = vec![0.0; row.len()];
+/// The band of rows from `j` of a frame averaged over `jobs` (one per time sample, in time
+/// order) into `band`, RGB8: each time sample's linear colours (its full pixel pattern: s×s
+/// samples, adaptive included), summed in order, divided by their number, then the exact sRGB
+/// level of the mean (the encoder's packets on the portable lanes: the same levels as one value
+/// at a time).
+pub fn mean_band(isa: Isa, jobs: &[RowJob], j: usize, band: &mut [u8]) {
+    let mut sum = vec![0.0; band.len()];
+    let mut linear = vec![0.0; band.len()];
     for job in jobs {
-        job.row_linear(isa, j, &mut linear);
+        job.band(isa, j, &mut linear);
         for (s, l) in sum.iter_mut().zip(&linear) {
             *s += l;
         }
     }
     let n = jobs.len() as f64;
     let encode = jobs[0].encode;
-    for (means, out) in sum.chunks(3 * LANES).zip(row.chunks_mut(3 * LANES)) {
+    for (means, out) in sum.chunks(3 * LANES).zip(band.chunks_mut(3 * LANES)) {
         let mut rgb = [0u8; 3 * LANES];
         for a in 0..3 {
             let mut channel = [0.0; LANES];

@@ -2,29 +2,28 @@
 //! each path's instruction set comes with its proof ([`Isa`]), made by feature detection.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{same_features, Token};
+use super::lanes::Token;
 use super::lanes::{ForLanes, Portable};
 
-/// The instruction paths beside the portable ones, one line each, slowest first: the `Simd`
+/// The instruction paths beside the portable one, one line each, slowest first: the `Simd`
 /// variant (with its documentation), its `CAMPATH_SIMD` name, the targets it exists on, its
-/// token and `Lanes` form in `lanes/`, the `#[target_feature]` its functions are compiled with
-/// (the token's `FEATURES`, checked), and the name of those functions (for profiles). From this
-/// list come `Simd`, `Isa`, the detection and the dispatch (`Isa::run`): adding an instruction
-/// set is a file of `lanes/` and a line here (ARCHITECTURE.md).
+/// token and `Lanes` form in `lanes/`, the features its functions are compiled with (every one
+/// the form's intrinsics need, and what those imply to the compiler), and the name of those
+/// functions (for profiles). From this list come `Simd`, `Isa`, the detection (of exactly those
+/// features, so the token proves what the functions use) and the dispatch (`Isa::run`): adding
+/// an instruction set is a file of `lanes/` and a line here (ARCHITECTURE.md).
 macro_rules! instruction_paths {
     ($(
         $(#[doc = $doc:literal])*
-        $variant:ident = $name:literal, cfg($cfg:meta), $token:ident, $form:ident, $feature:literal,
-        $rows:ident;
+        $variant:ident = $name:literal, cfg($cfg:meta), $token:ident, $form:ident,
+        [$($feature:tt),+], $rows:ident;
     )*) => {
         /// How the renderer casts its rays. Every choice gives the same bytes; they differ in
         /// speed.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
         pub enum Simd {
-            /// The packet code on plain arrays of lanes (`Portable`), the form every target
-            /// runs; on x86-64 the same code as `Baseline`.
-            Scalar,
-            /// Packets with the target's baseline vectors (SSE2 on x86-64).
+            /// Packets on plain arrays of lanes (`Portable`), which the compiler vectorises for
+            /// the target's baseline (SSE2 on x86-64): every CPU runs it.
             Baseline,
             $($(#[doc = $doc])* $variant,)*
         }
@@ -40,17 +39,21 @@ macro_rules! instruction_paths {
 
         impl Simd {
             /// Every path, slowest first.
-            pub const ALL: [Simd; 2 + <[&str]>::len(&[$($name),*])] =
-                [Simd::Scalar, Simd::Baseline, $(Simd::$variant),*];
+            pub const ALL: [Simd; 1 + <[&str]>::len(&[$($name),*])] =
+                [Simd::Baseline, $(Simd::$variant),*];
 
             /// The path's instruction set, with the proof that this CPU runs it; None when it
             /// does not.
             pub(super) fn isa(self) -> Option<Isa> {
                 match self {
-                    Simd::Scalar | Simd::Baseline => Some(Isa::Portable),
+                    Simd::Baseline => Some(Isa::Portable),
                     $(Simd::$variant => {
                         #[cfg($cfg)]
-                        let isa = <super::lanes::$token as Token>::detect().map(Isa::$variant);
+                        let isa = ($(std::arch::is_x86_feature_detected!($feature))&&+).then(|| {
+                            // SAFETY: the CPU runs every feature of the path's list, just
+                            // detected.
+                            Isa::$variant(unsafe { super::lanes::$token::new_unchecked() })
+                        });
                         #[cfg(not($cfg))]
                         let isa = None;
                         isa
@@ -61,7 +64,6 @@ macro_rules! instruction_paths {
             /// The path's name, as `CAMPATH_SIMD` takes it.
             pub fn name(self) -> &'static str {
                 match self {
-                    Simd::Scalar => "scalar",
                     Simd::Baseline if cfg!(target_arch = "x86_64") => "sse2",
                     Simd::Baseline => "baseline",
                     $(Simd::$variant => $name,)*
@@ -78,18 +80,13 @@ macro_rules! instruction_paths {
                     Isa::Portable => work.run::<Portable>(()),
                     $(#[cfg($cfg)]
                     Isa::$variant(t) => {
-                        // The features compiled for are the ones the token's detection found.
-                        const _: () = assert!(same_features(
-                            <super::lanes::$token as Token>::FEATURES,
-                            $feature
-                        ));
-                        #[target_feature(enable = $feature)]
+                        $(#[target_feature(enable = $feature)])+
                         fn $rows<W: ForLanes>(t: super::lanes::$token, work: W) -> W::Output {
                             work.run::<super::lanes::$form>(t)
                         }
-                        // SAFETY: `t` proves that the CPU runs `$feature`: only detection
-                        // makes a token (`Token`'s contract), and the assertion above ties
-                        // the two lists of features together.
+                        // SAFETY: `t` proves that the CPU runs the features `$rows` is
+                        // compiled with: only the detection above makes a token, from the
+                        // same list.
                         unsafe { $rows(t, work) }
                     })*
                 }
@@ -100,9 +97,10 @@ macro_rules! instruction_paths {
 
 instruction_paths! {
     /// Packets compiled for AVX2.
-    Avx2 = "avx2", cfg(target_arch = "x86_64"), Avx2, Ymm2, "avx2", rows_avx2;
+    Avx2 = "avx2", cfg(target_arch = "x86_64"), Avx2, Ymm2, ["avx2", "avx", "sse4.1"], rows_avx2;
     /// Packets compiled for AVX-512F.
-    Avx512 = "avx512", cfg(target_arch = "x86_64"), Avx512, Zmm, "avx512f", rows_avx512;
+    Avx512 = "avx512", cfg(target_arch = "x86_64"), Avx512, Zmm,
+        ["avx512f", "avx2", "fma", "f16c"], rows_avx512;
 }
 
 impl Simd {
@@ -117,11 +115,12 @@ impl Simd {
             .iter()
             .rev()
             .find(|s| s.supported())
-            .unwrap_or(&Simd::Scalar)
+            .unwrap_or(&Simd::Baseline)
     }
 
-    /// The path named by the environment variable `CAMPATH_SIMD` (`scalar`, `sse2`, `avx2`,
-    /// `avx512`) when this CPU runs it, otherwise the fastest. The choice never changes the
+    /// The path named by the environment variable `CAMPATH_SIMD` (`sse2`, `avx2`, `avx512`;
+    /// `scalar`, an older name of the baseline path) when this CPU runs it, otherwise the
+    /// fastest. The choice never changes the
     /// bytes; it is there to check exactly that, and to measure each path.
     pub fn detect() -> Simd {
         match Simd::from_env() {
@@ -147,10 +146,11 @@ impl Simd {
 impl std::str::FromStr for Simd {
     type Err = String;
 
+    /// A path's name, or `scalar`, the baseline path's older name.
     fn from_str(s: &str) -> Result<Simd, String> {
         Simd::ALL
             .into_iter()
-            .find(|p| p.name() == s)
+            .find(|p| p.name() == s || (s == "scalar" && *p == Simd::Baseline))
             .ok_or_else(|| {
                 let names: Vec<&str> = Simd::ALL.iter().map(|p| p.name()).collect();
                 format!(

@@ -5,6 +5,7 @@ use rayon::prelude::*;
 
 use super::lanes::prefetch;
 use super::shadows::FrameShadows;
+use super::sort::PARALLEL;
 use crate::camera::Camera;
 use crate::scene::Sphere;
 
@@ -66,11 +67,6 @@ impl ViewSphere {
 pub(super) fn c_of(f: DVec3, radius: f64) -> f64 {
     f.length_squared() - radius * radius
 }
-
-/// Frames with at least this many spheres in view prepare them on the rayon pool (in chunks of
-/// this many); smaller ones on the thread preparing the frame, where waking the pool costs more
-/// than it saves (6% of fly1000's CPU time).
-pub const PARALLEL: usize = 1 << 14;
 
 /// What the screen tiles read of a view sphere: where it lies from the COP, and its size.
 #[derive(Debug, Clone, Copy)]

@@ -10,8 +10,8 @@
 use glam::{DVec2, DVec3};
 
 use super::lanes::prefetch;
-use super::radix::{index_bits, sort_by_high_bits};
-use super::shadows::{big_radius, f32_up, ShadowGrid};
+use super::shadows::{big_radius, f32_down, f32_up, ShadowGrid};
+use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::scene::{Scene, Sphere};
@@ -45,10 +45,10 @@ impl Node {
 /// The renderer numbers the spheres by their *rank*. In a scene of at most `CURVE_COPY_MAX`
 /// spheres, the index holds a copy of them along the hierarchy's Morton curve, and a rank is a
 /// place on it: a frame's reads of the spheres (into view coordinates, for shadow rays, for
-/// colours) then fall near each other in memory, not all over the scene (dense100000 in
-/// 0.96× the time). In a larger scene the copy would cost too much memory, and a rank is the
-/// scene index. Where the scene's order decides (which
-/// of two equally near spheres a ray sees), `Ranks::scene_index` gives it back.
+/// colours) then fall near each other in memory, not all over the scene. In a larger scene the
+/// copy would cost too much memory, and a rank is the scene index. Where the scene's order
+/// decides (which of two equally near spheres a ray sees), `Ranks::scene_index` gives it
+/// back.
 pub struct SceneIndex<'a> {
     /// The scene indexed.
     pub scene: &'a Scene,
@@ -93,7 +93,7 @@ impl<'a> SceneIndex<'a> {
             let scene_index = curve_order(&scene.spheres);
             let copy: Vec<Sphere> = scene_index
                 .par_iter()
-                .with_min_len(CHUNK)
+                .with_min_len(PARALLEL)
                 .map(|&k| scene.spheres[k as usize])
                 .collect();
             let order: Vec<u32> = (0..copy.len() as u32).collect();
@@ -186,16 +186,6 @@ impl<'a> SceneIndex<'a> {
 /// Subtrees of at least this many spheres build their two halves in parallel.
 const PARALLEL_BUILD: usize = 1 << 16;
 
-/// `x` rounded down to an f32 (towards −∞): never above `x` (and up: [`f32_up`]).
-fn f32_down(x: f64) -> f32 {
-    let f = x as f32;
-    if f as f64 > x {
-        f.next_down()
-    } else {
-        f
-    }
-}
-
 /// The most bits per axis of a Morton code.
 const MORTON_BITS: u32 = 21;
 
@@ -228,7 +218,7 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
     let none = || (DVec3::INFINITY, DVec3::NEG_INFINITY);
     let (clo, chi) = spheres
         .par_iter()
-        .with_min_len(CHUNK)
+        .with_min_len(PARALLEL)
         .filter(|s| s.radius <= big)
         .fold(none, |(lo, hi), s| {
             (lo.min(s.center_world), hi.max(s.center_world))
@@ -239,7 +229,7 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
     let inv = if scale > 0.0 { last / scale } else { 0.0 };
     let keys: Vec<u64> = spheres
         .par_iter()
-        .with_min_len(CHUNK)
+        .with_min_len(PARALLEL)
         .enumerate()
         .map(|(k, s)| {
             // Clamped as floats (a big sphere's, and NaN from an empty box, to the edge).
@@ -253,13 +243,10 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
     let mask = (1u64 << low) - 1;
     sort_by_high_bits(keys, low)
         .par_iter()
-        .with_min_len(CHUNK)
+        .with_min_len(PARALLEL)
         .map(|&key| (key & mask) as u32)
         .collect()
 }
-
-/// Spheres a task of the curve's keys, or of the copy along it, takes on the pool.
-const CHUNK: usize = 1 << 14;
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
 /// split at the median position, level after level.

@@ -1,7 +1,7 @@
 //! Golden frame hashes for every example in animations/: the first, middle and last frame of
 //! each, rendered at 96×54 so the test stays fast, with the file's own samples
 //! (`<name>.txt`, cast one ray at a time) and with one sample per pixel (`<name>.1spp.txt`,
-//! cast in packets on every instruction path but `scalar`).
+//! cast in packets).
 //!
 //! Regenerate after an intended change of the pictures with
 //! `UPDATE_GOLDEN=1 cargo test --test it golden::`, look at the frames, and commit tests/golden/.

@@ -6,19 +6,17 @@ use std::arch::x86_64::*;
 use super::contract::sealed::Sealed;
 use super::contract::{InBounds, Lanes, Token, LANES};
 
-/// Proof that this CPU runs AVX2: made only by [`Token::detect`].
+/// Proof that this CPU runs AVX2 and what this file's intrinsics need with it (AVX, SSE4.1):
+/// made only by [`Token::new_unchecked`], which the detection calls.
 #[derive(Debug, Clone, Copy)]
 pub struct Avx2(());
 
 impl Sealed for Avx2 {}
 
-// SAFETY: `detect` makes the only Avx2 there is, and only when the CPU runs AVX2.
+// SAFETY: `new_unchecked` makes the only Avx2 there is.
 unsafe impl Token for Avx2 {
-    const FEATURES: &'static str = "avx2";
-
-    #[inline]
-    fn detect() -> Option<Avx2> {
-        std::arch::is_x86_feature_detected!("avx2").then_some(Avx2(()))
+    unsafe fn new_unchecked() -> Avx2 {
+        Avx2(())
     }
 }
 

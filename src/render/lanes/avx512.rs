@@ -6,24 +6,18 @@ use std::arch::x86_64::*;
 use super::contract::sealed::Sealed;
 use super::contract::{InBounds, Lanes, Token, LANES};
 
-/// Proof that this CPU runs AVX-512F: made only by [`Token::detect`].
+/// Proof that this CPU runs AVX-512F and what `avx512f` implies to the compiler (AVX2, FMA,
+/// F16C: a virtual machine may hide one): made only by [`Token::new_unchecked`], which the
+/// detection calls.
 #[derive(Debug, Clone, Copy)]
 pub struct Avx512(());
 
 impl Sealed for Avx512 {}
 
-// SAFETY: `detect` makes the only Avx512 there is, and only when the CPU runs AVX-512F and
-// what `avx512f` implies to the compiler (AVX2, FMA, F16C: a virtual machine may hide one).
+// SAFETY: `new_unchecked` makes the only Avx512 there is.
 unsafe impl Token for Avx512 {
-    const FEATURES: &'static str = "avx512f";
-
-    #[inline]
-    fn detect() -> Option<Avx512> {
-        (std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("f16c"))
-        .then_some(Avx512(()))
+    unsafe fn new_unchecked() -> Avx512 {
+        Avx512(())
     }
 }
 

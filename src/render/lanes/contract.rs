@@ -2,46 +2,27 @@
 //! `lanes/` states; the checked gather indices; the work written once for every form.
 
 /// Seals [`Lanes`] and [`Token`]: only the forms in `lanes/` implement them, so no other code
-/// can make a token without detection or give a form a false `index_store`.
+/// can make a token or give a form a false `index_store`.
 pub(in crate::render::lanes) mod sealed {
     pub trait Sealed {}
 }
 
-/// The proof that this CPU runs an instruction set: a value exists only where `detect` found
-/// the set.
+/// The proof that this CPU runs an instruction set: a value exists only where the detection
+/// (`instruction_paths!`, simd.rs) found every feature of the set's list, the list its
+/// functions are compiled with.
 ///
 /// # Safety
 ///
-/// `detect` returns a token only when the CPU runs every feature of `FEATURES` (the names
-/// `#[target_feature(enable = …)]` takes) and every feature those imply, and a token is made
-/// nowhere else. The dispatch (`Isa::run`) compiles its functions with exactly `FEATURES`
-/// (checked at compile time) and calls them on the strength of a token.
+/// `new_unchecked` is the only maker of a token (no other constructor, no public field).
 // Only the x86 forms have tokens to prove.
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(in crate::render) unsafe trait Token: Copy + sealed::Sealed {
-    /// The features, as `#[target_feature(enable = …)]` names them.
-    const FEATURES: &'static str;
-
-    /// The token, when this CPU runs the features.
-    fn detect() -> Option<Self>;
-}
-
-/// Whether two feature lists are the same text: the dispatch's compile-time check that it
-/// enables what the token's detection found.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(in crate::render) const fn same_features(a: &str, b: &str) -> bool {
-    let (a, b) = (a.as_bytes(), b.as_bytes());
-    if a.len() != b.len() {
-        return false;
-    }
-    let mut i = 0;
-    while i < a.len() {
-        if a[i] != b[i] {
-            return false;
-        }
-        i += 1;
-    }
-    true
+    /// The token, without a check.
+    ///
+    /// # Safety
+    ///
+    /// The CPU runs every feature of the token's list in `instruction_paths!`.
+    unsafe fn new_unchecked() -> Self;
 }
 
 /// Rays per packet: a whole AVX-512 register, two AVX2 ones or four SSE2 ones of f64. Divides

@@ -12,7 +12,8 @@
 //! # Safety, by construction
 //!
 //! The x86 forms run instructions that not every x86-64 CPU has. Each holds a token (`Avx2`,
-//! `Avx512`: [`Token`], an unsafe trait) that only feature detection makes (`Token::detect`),
+//! `Avx512`: [`Token`], an unsafe trait) that only feature detection makes (`instruction_paths!`
+//! in simd.rs, from the list the functions are compiled with),
 //! and a value of a form can be made only from its token (`Lanes::splat`, `load`, `index`) or
 //! from another value of it, so holding a `Zmm` proves that the CPU runs AVX-512F, and a `Ymm2`
 //! AVX2. That is the whole contract of the trait's methods: safe to call wherever a value of the
@@ -30,9 +31,9 @@
 //! Each form is a file (`portable.rs`, `avx2.rs`, `avx512.rs`), declared below.
 
 mod contract;
-pub(super) use contract::{dot, splat3, ForLanes, InBounds, Lanes, LANES};
 #[cfg(target_arch = "x86_64")]
-pub(super) use contract::{same_features, Token};
+pub(super) use contract::Token;
+pub(super) use contract::{dot, splat3, ForLanes, InBounds, Lanes, LANES};
 
 mod portable;
 pub(super) use portable::Portable;

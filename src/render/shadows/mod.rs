@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use super::bins::{Bins, CellRect};
 use super::lanes::prefetch;
-use super::radix::sort_by_high_bits;
+use super::sort::{sort_by_high_bits, PARALLEL};
 
 use crate::camera::Camera;
 use crate::scene::Sphere;
@@ -98,7 +98,7 @@ impl ShadowGrid {
         let none = || (0.0, DVec2::INFINITY, DVec2::NEG_INFINITY, 0usize);
         let (extent, lo, hi, count) = spheres
             .par_iter()
-            .with_min_len(CHUNK)
+            .with_min_len(PARALLEL)
             .fold(none, |(extent, lo, hi, n), s| {
                 let extent = f64::max(extent, s.center_world.abs().max_element() + s.radius);
                 if s.radius > big {
@@ -116,7 +116,7 @@ impl ShadowGrid {
                 origin: DVec2::ZERO,
                 inv_cell: 0.0,
                 dims: (0, 0),
-                bins: Bins::build((0, 0), 0, |_| None),
+                bins: Bins::empty(),
                 always,
                 extent,
                 to_light,
@@ -129,13 +129,13 @@ impl ShadowGrid {
             origin: lo,
             inv_cell,
             dims,
-            bins: Bins::build((0, 0), 0, |_| None),
+            bins: Bins::empty(),
             always,
             extent,
             to_light,
             discs: spheres
                 .par_iter()
-                .with_min_len(CHUNK)
+                .with_min_len(PARALLEL)
                 .map(|s| {
                     let top = s.center_world.dot(to_light) + s.radius;
                     Disc::new(project(s.center_world) - lo, s.radius, top)
@@ -150,7 +150,7 @@ impl ShadowGrid {
         // in sequence, not the spheres at random.
         let cells: Vec<u64> = spheres
             .par_iter()
-            .with_min_len(CHUNK)
+            .with_min_len(PARALLEL)
             .map(|s| {
                 if s.radius > big {
                     return u64::MAX;
@@ -165,7 +165,7 @@ impl ShadowGrid {
             .par_iter()
             .zip(&grid.discs)
             .enumerate()
-            .with_min_len(CHUNK)
+            .with_min_len(PARALLEL)
             .map(|(k, (&cells, &Disc { top, .. }))| match cells {
                 // Not binned: a binned disc's cells are each below 4096, never all ones.
                 u64::MAX => u64::MAX,
@@ -176,13 +176,13 @@ impl ShadowGrid {
         keys.truncate(count);
         let order: Vec<u32> = keys
             .par_iter()
-            .with_min_len(CHUNK)
+            .with_min_len(PARALLEL)
             .map(|&key| key as u32)
             .collect();
         drop(keys);
         let sorted: Vec<u64> = order
             .par_iter()
-            .with_min_len(CHUNK)
+            .with_min_len(PARALLEL)
             .map(|&k| cells[k as usize])
             .collect();
         drop(cells);
@@ -190,14 +190,13 @@ impl ShadowGrid {
             let field = |shift: u32| (sorted[i] >> shift) as u16 as usize;
             Some((field(48), field(32), field(16), field(0)))
         };
-        // A quarter of the discs a task (at least CHUNK), each task counting its own over the
+        // A quarter of the discs a task (at least PARALLEL), each task counting its own over the
         // whole grid, when the tasks' counts (a grid's worth of u32 each) take no more room
-        // than the discs: each disc is read twice, not twice per band of rows (on 2 cores,
-        // dense100000's grid 2.7 -> 1.8 ms, the PLY million's 38 -> 30 ms). A grid of many
+        // than the discs: each disc is read twice, not twice per band of rows. A grid of many
         // more cells than discs (small discs far apart) in bands.
-        let chunk = count.div_ceil(4).max(CHUNK);
+        let chunk = count.div_ceil(4).max(PARALLEL);
         let bins = if dims.0 * dims.1 * count.div_ceil(chunk) <= count {
-            Bins::build_in_chunks(dims, &order, chunk, rect_at)
+            Bins::build(dims, &order, chunk, rect_at)
         } else {
             Bins::build_in_bands(dims, &order, rect_at)
         };
@@ -223,6 +222,16 @@ pub(super) fn f32_up(v: f64) -> f32 {
     let rounded = v as f32;
     if (rounded as f64) < v {
         rounded.next_up()
+    } else {
+        rounded
+    }
+}
+
+/// `v` rounded down to an f32 (towards −∞): never above `v`. The hierarchy's boxes.
+pub(super) fn f32_down(v: f64) -> f32 {
+    let rounded = v as f32;
+    if rounded as f64 > v {
+        rounded.next_down()
     } else {
         rounded
     }
@@ -364,21 +373,17 @@ pub(super) fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
 /// The most radii [`big_radius`] takes the median of.
 const MEDIAN_SAMPLE: usize = 1 << 16;
 
-/// Spheres a task of the grid's build takes on the rayon pool.
-const CHUNK: usize = 1 << 14;
-
 /// The most cells a disc of the median radius may cover: a grid fine enough for eight cells a
 /// disc over the whole extent would, in a dense cluster whose discs overlap many deep, bin each
 /// disc into a hundred cells (98 M items at 1 M spheres); cells are widened until the median
 /// disc covers at most 2 × 2 of them, cells as wide as its diameter (4.1 M items at 1 M
 /// spheres, 16 MB). Finer cells list fewer spheres each, but a packet's lanes spread over more
-/// of them: with 4 × 4 (16.7 M items) twelve frames of the 1 M cluster took 10% more CPU,
-/// with 3 × 3 5% more, and with cells of two diameters 17% more.
+/// of them (docs/performance.md).
 const CELLS_A_DISC: f64 = 4.0;
 
 /// Cells over an `extent` holding `count` discs: about eight cells per disc, at most 4096 a side
-/// (fewer spheres to test per shadow ray than with two, which measured 4% slower on fly1000; a
-/// shadow packet whose lanes span a few cells walks them once).
+/// (fewer spheres to test per shadow ray than with two; a shadow packet whose lanes span a few
+/// cells walks them once).
 /// Cells are no smaller than makes a disc of the `median` radius cover [`CELLS_A_DISC`] of them
 /// (about (2r / cell + 1)² cells).
 /// Returns the cell counts and 1 / cell size.

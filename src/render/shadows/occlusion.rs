@@ -187,8 +187,8 @@ fn walk<V: Lanes>(
     (blocked, last)
 }
 
-/// How many entries of a cell ahead `walk` asks for a sphere (4 measured no better than 2:
-/// the walk mostly stops within a few entries).
+/// How many entries of a cell ahead `walk` asks for a sphere (the walk mostly stops within a
+/// few entries).
 const BLOCKER_AHEAD: usize = 2;
 
 /// The most grid cells that a shadow packet walks for all its lanes together.
