@@ -21,9 +21,7 @@
 //! use std::path::Path;
 //!
 //! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("animations/zoom.ron");
-//! let mut doc = Document::load(&file)?;
-//! doc.raster.width = 64; // smaller, for a quick test
-//! doc.raster.height = 36;
+//! let doc = Document::load(&file)?.resized(64, 36)?; // smaller, for a quick test
 //!
 //! let camera = doc.camera(12)?;
 //! assert!(camera.cop_view.z < 0.0);

@@ -1,8 +1,23 @@
 //! The file's `image` section: size and sampling.
 
 use super::Checker;
+use crate::error::Problem;
 use crate::format;
 use crate::raster::{MotionBlur, Raster, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE, MAX_TIME_SAMPLES};
+
+/// The problems an image size and sampling would have as the file's `image`.
+pub(super) fn raster_problems(raster: Raster) -> Vec<Problem> {
+    let spec = format::ImageSpec {
+        width: Some(raster.width.into()),
+        height: Some(raster.height.into()),
+        samples: Some(raster.samples.into()),
+        adaptive: Some(raster.adaptive),
+        motion_blur: None,
+    };
+    let mut checker = Checker::default();
+    checker.raster(&spec);
+    checker.problems
+}
 
 impl Checker {
     pub(super) fn raster(&mut self, image: &format::ImageSpec) -> Option<Raster> {

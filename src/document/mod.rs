@@ -25,17 +25,17 @@ pub const MAX_FRAMES: u64 = 10_000_000;
 #[derive(Debug, Clone)]
 pub struct Document {
     /// Where it was read from, for messages.
-    pub path: PathBuf,
+    pub(crate) path: PathBuf,
     /// Image size and sampling.
-    pub raster: Raster,
+    pub(crate) raster: Raster,
     /// Shutter motion blur (`image.motion_blur`), if any.
-    pub motion_blur: Option<MotionBlur>,
+    pub(crate) motion_blur: Option<MotionBlur>,
     /// The camera and its tracks, with the frame count and rate.
-    pub animation: Animation,
+    pub(crate) animation: Animation,
     /// The spheres and lights.
-    pub scene: Scene,
+    pub(crate) scene: Scene,
     /// The sphere files the scene names, in order, with how many spheres each gave.
-    pub sphere_files: Vec<SphereFile>,
+    pub(crate) sphere_files: Vec<SphereFile>,
 }
 
 /// A sphere file of the scene and how many spheres it gave.
@@ -52,6 +52,60 @@ pub struct SphereFile {
 }
 
 impl Document {
+    /// Where it was read from, for messages.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Image size and sampling.
+    pub fn raster(&self) -> &Raster {
+        &self.raster
+    }
+
+    /// Shutter motion blur (`image.motion_blur`), if any.
+    pub fn motion_blur(&self) -> Option<MotionBlur> {
+        self.motion_blur
+    }
+
+    /// The camera and its tracks, with the frame count and rate.
+    pub fn animation(&self) -> &Animation {
+        &self.animation
+    }
+
+    /// The spheres and lights.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The sphere files the scene names, in order, with how many spheres each gave.
+    pub fn sphere_files(&self) -> &[SphereFile] {
+        &self.sphere_files
+    }
+
+    /// The same shot rendered at `width` × `height` pixels (a smaller frame for a quick test),
+    /// checked as the file's `image` is: refused, naming the field, outside the limits.
+    pub fn resized(self, width: u32, height: u32) -> Result<Document> {
+        let raster = Raster {
+            width,
+            height,
+            ..self.raster
+        };
+        self.with_raster(raster)
+    }
+
+    /// The same shot with another image size and sampling, checked as the file's `image` is.
+    pub fn with_raster(mut self, raster: Raster) -> Result<Document> {
+        let problems = image::raster_problems(raster);
+        if !problems.is_empty() {
+            return Err(Error::Invalid {
+                path: self.path,
+                problems: Problems(problems),
+            });
+        }
+        self.raster = raster;
+        Ok(self)
+    }
+
     /// Where the scene's sphere `i` (the inline spheres first, then each file's, as the renderer
     /// counts them) is written: `scene.spheres[3]`, or `scene.sphere_files[0] (cloud.ply:
     /// vertex 3)`.

@@ -107,7 +107,7 @@ fn blender_sees_what_campath_renders() {
         let doc = doc_of(name);
         // Blender's points are where the files put them: relative to the origin.
         let points: Vec<[f64; 3]> = doc
-            .scene
+            .scene()
             .spheres
             .iter()
             .filter(|s| s.radius < 50.0)
@@ -131,7 +131,7 @@ fn blender_sees_what_campath_renders() {
         )
         .unwrap();
         let blur = &result["blur"];
-        match doc.motion_blur {
+        match doc.motion_blur() {
             Some(b) => {
                 assert_eq!(blur["use"], true, "{name}: {blur}");
                 let shutter = blur["shutter"].as_f64().unwrap();
@@ -143,7 +143,7 @@ fn blender_sees_what_campath_renders() {
             }
             None => assert_eq!(blur["use"], false, "{name}: {blur}"),
         }
-        let (w, h) = (doc.raster.width as f64, doc.raster.height as f64);
+        let (w, h) = (doc.raster().width as f64, doc.raster().height as f64);
         let mut worst = (0.0f64, 0.0f64);
         let mut compared = 0;
         for (k, item) in doc.cameras().enumerate() {

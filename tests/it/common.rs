@@ -236,7 +236,7 @@ pub fn reach_of_views(doc: &Document) -> (f64, f64) {
     for item in doc.cameras() {
         let cam = item.unwrap().1;
         let (c, half) = (cam.cop_view, cam.window * 0.5);
-        for s in &doc.scene.spheres {
+        for s in &doc.scene().spheres {
             furthest = furthest.max((cam.cop_world() - s.center_world).length() + s.radius);
             for i in 0..POINTS {
                 let y = 1.0 - 2.0 * (i as f64 + 0.5) / POINTS as f64;
@@ -260,7 +260,7 @@ pub fn reach_of_views(doc: &Document) -> (f64, f64) {
     assert!(
         least.is_finite(),
         "{}: no sphere in view",
-        doc.path.display()
+        doc.path().display()
     );
     (least, furthest)
 }
@@ -268,10 +268,10 @@ pub fn reach_of_views(doc: &Document) -> (f64, f64) {
 /// With motion blur, campath's camera where the first frame's shutter opens and where the last
 /// frame's closes, with those times in frames (−S/2 and N − 1 + S/2); none without.
 pub fn shutter_ends(doc: &Document) -> Vec<(f64, campath::camera::Camera)> {
-    let Some(blur) = doc.motion_blur else {
+    let Some(blur) = doc.motion_blur() else {
         return Vec::new();
     };
-    let a = &doc.animation;
+    let a = doc.animation();
     let last = a.frames - 1;
     [
         (0, -blur.shutter / 2.0),

@@ -6,9 +6,7 @@ use campath::frames::hashes;
 
 #[test]
 fn same_hashes_with_one_two_and_three_threads_in_process() {
-    let mut doc = example("flythrough");
-    doc.raster.width = 160;
-    doc.raster.height = 90;
+    let doc = example("flythrough").resized(160, 90).unwrap();
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -41,7 +41,7 @@ fn cameras(doc: &Document) -> Vec<Camera> {
 // geometric hit test |L × d| ≤ r. Returns per pixel 0 for background or 1 + sphere index.
 
 fn reference_ids(doc: &Document, cam: &Camera) -> Vec<usize> {
-    let (w, h) = (doc.raster.width as usize, doc.raster.height as usize);
+    let (w, h) = (doc.raster().width as usize, doc.raster().height as usize);
     let b = cam.basis;
     let c = cam.cop_view;
     let cop_rel = b.u * c.x + b.v * c.y + b.n * c.z;
@@ -52,7 +52,7 @@ fn reference_ids(doc: &Document, cam: &Camera) -> Vec<usize> {
             let y = cam.window.y / 2.0 - (j as f64 + 0.5) / h as f64 * cam.window.y;
             let d = (b.u * x + b.v * y - cop_rel).normalize();
             let mut best = (0usize, f64::INFINITY);
-            for (k, s) in doc.scene.spheres.iter().enumerate() {
+            for (k, s) in doc.scene().spheres.iter().enumerate() {
                 let l = (s.center_world - cam.vrp_world) - cop_rel;
                 let d2 = l.cross(d).length_squared();
                 let r2 = s.radius * s.radius;
@@ -78,10 +78,10 @@ fn reference_ids(doc: &Document, cam: &Camera) -> Vec<usize> {
 
 /// campath's picture of a flat scene, as sphere ids by colour (each sphere has its own).
 fn our_ids(doc: &Document, cam: &Camera) -> Vec<usize> {
-    let pixels = Renderer::new().render(cam, &doc.scene, doc.raster);
+    let pixels = Renderer::new().render(cam, doc.scene(), *doc.raster());
     let enc = campath::internals::srgb_encoder();
     let colors: Vec<[u8; 3]> = doc
-        .scene
+        .scene()
         .spheres
         .iter()
         .map(|s| {
@@ -105,7 +105,7 @@ fn disagreement(name: &str) -> f64 {
     let cam = cameras(&doc)[0];
     let ours = our_ids(&doc, &cam);
     let theirs = reference_ids(&doc, &cam);
-    for k in 1..=doc.scene.spheres.len() {
+    for k in 1..=doc.scene().spheres.len() {
         assert!(
             theirs.contains(&k),
             "{name}: sphere {} is not in view; the case would be vacuous",
@@ -148,7 +148,7 @@ fn naive_quadratic_fails_where_the_stable_form_holds() {
     // The textbook discriminant b² − c on the tiny sphere, from a COP 1e4 further back: the
     // terms are ~1e16 and r² = 1e-6 drowns. Shows the case is stiff for a naive caster.
     let doc = load("tiny_sphere.ron");
-    let s = doc.scene.spheres[0];
+    let s = doc.scene().spheres[0];
     let origin = DVec3::new(0.0, 0.0, -1e8); // the camera pulled far back along −n
     let l = s.center_world - origin;
     let d = l.normalize();
@@ -168,9 +168,9 @@ fn naive_quadratic_fails_where_the_stable_form_holds() {
 fn grazing_rays_on_a_huge_sphere_do_not_speckle() {
     let doc = load("huge_sphere_lit.ron");
     let cam = cameras(&doc)[0];
-    let pixels = Renderer::new().render(&cam, &doc.scene, doc.raster);
+    let pixels = Renderer::new().render(&cam, doc.scene(), *doc.raster());
     let ids = reference_ids(&doc, &cam);
-    let (w, h) = (doc.raster.width as usize, doc.raster.height as usize);
+    let (w, h) = (doc.raster().width as usize, doc.raster().height as usize);
     let lum = |i: usize, j: usize| pixels[(j * w + i) * 3] as i32;
     // A speckle: a ground pixel more than 8 levels off all four ground neighbours.
     let mut speckles = 0;
@@ -227,7 +227,7 @@ fn render_text(text: &str) -> Vec<Vec<u8>> {
     let mut r = Renderer::new();
     cameras(&doc)
         .iter()
-        .map(|c| r.render(c, &doc.scene, doc.raster))
+        .map(|c| r.render(c, doc.scene(), *doc.raster()))
         .collect()
 }
 
@@ -308,7 +308,7 @@ fn naive_f32_world_space_loses_the_small_sphere_far_away() {
     // off by more than its radius at 1e6; campath's camera-relative f64 keeps it to 1e-9.
     let at = |offset: f64| {
         let doc = Document::from_str(Path::new("far.ron"), &far_scene(offset)).unwrap();
-        (cameras(&doc)[1], doc.scene.spheres[3])
+        (cameras(&doc)[1], doc.scene().spheres[3])
     };
     let (cam0, s0) = at(0.0);
     let exact = cam0.point_to_view(s0.center_world);
@@ -356,7 +356,8 @@ fn naive_flip(doc: &Document) -> f64 {
     let naive: Vec<Camera> = cameras(doc)
         .into_iter()
         .filter_map(|c| {
-            let basis = campath::camera::Basis::from_vpn_vuv(c.basis.n, doc.animation.vuv).ok()?;
+            let basis =
+                campath::camera::Basis::from_vpn_vuv(c.basis.n, doc.animation().vuv).ok()?;
             Some(Camera { basis, ..c })
         })
         .collect();
@@ -375,7 +376,7 @@ fn up_vector_carries_on_over_the_pole() {
         // The case passes through the pole exactly.
         assert!(
             cams.iter()
-                .any(|c| c.basis.n.cross(doc.animation.vuv).length() < 1e-12),
+                .any(|c| c.basis.n.cross(doc.animation().vuv).length() < 1e-12),
             "{name}"
         );
         let mut worst: f64 = 0.0;
@@ -472,7 +473,7 @@ fn with_interpolation(name: &str, interp: &str) -> Document {
 fn stiff_zoom_keys_overshoot_only_without_monotone() {
     let keys = [(0.0, -1.0), (1.0, -1.0), (1.000001, -5.0), (2.0, -5.0)];
     let zoom = |d: &Document| {
-        let a = d.animation.clone();
+        let a = d.animation().clone();
         move |t: f64| a.camera_at(t, None).map(|c| c.cop_view.z).unwrap()
     };
     let mono = overshoot(&keys, zoom(&load("stiff_keys.ron")));
@@ -488,9 +489,9 @@ fn stiff_zoom_keys_overshoot_only_without_monotone() {
     assert!((cr - expect).abs() < 1e-3, "{cr} vs {expect}");
     // The frames never see a NaN, and the keys are hit.
     let d = load("stiff_keys.ron");
-    assert_eq!(d.animation.camera_at(1.0, None).unwrap().cop_view.z, -1.0);
+    assert_eq!(d.animation().camera_at(1.0, None).unwrap().cop_view.z, -1.0);
     assert_eq!(
-        d.animation.camera_at(1.000001, None).unwrap().cop_view.z,
+        d.animation().camera_at(1.000001, None).unwrap().cop_view.z,
         -5.0
     );
     d.check_path().unwrap();
@@ -511,7 +512,7 @@ fn uneven_keys_overshoot_only_without_monotone() {
         for axis in 0..2 {
             let keys: Vec<(f64, f64)> =
                 times.iter().zip(&pos).map(|(t, p)| (*t, p[axis])).collect();
-            let a = d.animation.clone();
+            let a = d.animation().clone();
             worst = worst.max(overshoot(&keys, move |t| {
                 a.camera_at(t, None).unwrap().vrp_world[axis]
             }));
@@ -562,7 +563,7 @@ fn centripetal_path_never_loops_within_a_segment() {
             let pts: Vec<(f64, f64)> = (0..=400)
                 .map(|k| {
                     let p = d
-                        .animation
+                        .animation()
                         .camera_at(seg as f64 + k as f64 / 400.0, None)
                         .unwrap()
                         .vrp_world;
@@ -581,7 +582,7 @@ fn centripetal_path_never_loops_within_a_segment() {
     // Keys are hit exactly.
     let d = load("loop_path.ron");
     assert_eq!(
-        d.animation.camera_at(2.0, None).unwrap().vrp_world,
+        d.animation().camera_at(2.0, None).unwrap().vrp_world,
         DVec3::new(1.0, 0.0, 0.0)
     );
 }
@@ -609,7 +610,7 @@ fn opposite_vpn_keys_turn_about_v() {
         assert!(c.basis.n.dot(v0).abs() < 1e-12);
     }
     // Halfway, the camera looks along the first frame's u (it turns right).
-    let mid = d.animation.camera_at(0.5, None).unwrap().basis.n;
+    let mid = d.animation().camera_at(0.5, None).unwrap().basis.n;
     assert!((mid - u0).length() < 1e-12, "{mid} vs {u0}");
     assert!((cams[24].basis.n - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12);
 }
@@ -653,7 +654,7 @@ fn catalogue_hashes() -> String {
     let mut out = String::new();
     for name in PROJECTIONS.iter().chain(&ALSO_RENDERED) {
         let d = load(name);
-        for (frame, hash) in hashes(&d, 0..d.animation.frames.min(3)).unwrap() {
+        for (frame, hash) in hashes(&d, 0..d.animation().frames.min(3)).unwrap() {
             out += &format!("{name} {frame} {hash}\n");
         }
     }

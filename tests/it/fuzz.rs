@@ -21,7 +21,7 @@ fn config(cases: u32) -> Config {
 /// Loads `text` as `fuzz.ron`; when it checks, evaluates the path of small animations too.
 fn load_once(text: &str) -> campath::Result<Document> {
     let doc = Document::from_str(Path::new("fuzz.ron"), text)?;
-    if doc.animation.frames <= 10_000 {
+    if doc.animation().frames <= 10_000 {
         doc.check_path()?;
     }
     Ok(doc)

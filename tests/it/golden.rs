@@ -16,13 +16,15 @@ use campath::internals::parse_hashes;
 use campath::RENDERER_VERSION as VERSION;
 
 fn hashes(name: &str, one_sample: bool) -> String {
-    let mut doc = example(name);
-    doc.raster.width = 96;
-    doc.raster.height = 54;
+    let mut doc = example(name).resized(96, 54).unwrap();
     if one_sample {
-        doc.raster.samples = 1;
+        let raster = campath::raster::Raster {
+            samples: 1,
+            ..*doc.raster()
+        };
+        doc = doc.with_raster(raster).unwrap();
     }
-    let last = doc.animation.frames - 1;
+    let last = doc.animation().frames - 1;
     let mut out = String::new();
     for k in [0, last / 2, last] {
         for_each_frame(

@@ -33,7 +33,7 @@ fn load(text: &str) -> Document {
 
 fn render_into(text: &str, dir: &Path) -> RenderSummary {
     let doc = load(text);
-    let set = FrameSet::all(0..doc.animation.frames);
+    let set = FrameSet::all(0..doc.animation().frames);
     let lock = lock(&doc, dir, &set, Wait::No).unwrap();
     render(&doc, &lock, &set, RenderOptions::default(), &mut |_| {}).unwrap()
 }
@@ -90,9 +90,9 @@ fn every_edit_rerenders_exactly_the_frames_it_touched() {
             // when its camera (and with motion blur every time sample's) is bit-for-bit the
             // same and the scene, raster and motion blur did not change.
             let (old, new) = (load(&text), load(&edited));
-            let same_world = old.scene == new.scene
-                && old.raster == new.raster
-                && old.motion_blur == new.motion_blur;
+            let same_world = old.scene() == new.scene()
+                && old.raster() == new.raster()
+                && old.motion_blur() == new.motion_blur();
             let cameras = |d: &Document| d.exposures().map(|c| c.unwrap().1).collect::<Vec<_>>();
             let untouched: Vec<bool> = cameras(&old)
                 .iter()
@@ -134,7 +134,7 @@ fn another_file_rendered_into_the_same_folder_replaces_every_frame() {
         render_into(&text, &fresh);
         let read = |d: &Path| std::fs::read_to_string(d.join("hashes.txt")).unwrap();
         assert_eq!(read(&dir), read(&fresh), "{name}");
-        let frames = load(&text).animation.frames;
+        let frames = load(&text).animation().frames;
         assert_eq!(summary.kept, 0, "{name}");
         assert_eq!(frame_stamps(&dir).len() as u64, frames, "{name}");
         std::fs::remove_dir_all(&fresh).unwrap();
@@ -153,7 +153,7 @@ fn an_edited_file_leaves_no_old_picture_while_it_renders() {
     for (what, edited) in edits(&text) {
         let before = frame_stamps(&dir);
         let doc = load(&edited);
-        let set = FrameSet::all(0..doc.animation.frames);
+        let set = FrameSet::all(0..doc.animation().frames);
         let lock = lock(&doc, &dir, &set, Wait::No).unwrap();
         let mut seen = None;
         let summary = render(&doc, &lock, &set, RenderOptions::default(), &mut |e| {

@@ -66,7 +66,7 @@ fn observer_hits_keys_and_follows_catmull_rom_between() {
         .into_iter()
         .enumerate()
     {
-        let cam = d.animation.camera_at(t, None).unwrap();
+        let cam = d.animation().camera_at(t, None).unwrap();
         let expect = if t >= 3.0 {
             p[3]
         } else {
@@ -81,16 +81,16 @@ fn observer_hits_keys_and_follows_catmull_rom_between() {
     // Exactly at the keys, bit for bit.
     for (i, key) in p.iter().enumerate() {
         assert_eq!(
-            d.animation.camera_at(i as f64, None).unwrap().vrp_world,
+            d.animation().camera_at(i as f64, None).unwrap().vrp_world,
             *key
         );
     }
     // Held before the first key and after the last.
-    assert_eq!(d.animation.camera_at(-5.0, None).unwrap().vrp_world, p[0]);
-    assert_eq!(d.animation.camera_at(50.0, None).unwrap().vrp_world, p[3]);
+    assert_eq!(d.animation().camera_at(-5.0, None).unwrap().vrp_world, p[0]);
+    assert_eq!(d.animation().camera_at(50.0, None).unwrap().vrp_world, p[3]);
     // The pointing stays the notes' basis of the fixed VPN.
     let (u, v, n) = notes_basis(DVec3::Z, DVec3::Y);
-    let b = d.animation.camera_at(0.7, None).unwrap().basis;
+    let b = d.animation().camera_at(0.7, None).unwrap().basis;
     assert!(close(b.u, u, EPS) && close(b.v, v, EPS) && close(b.n, n, EPS));
 }
 
@@ -102,7 +102,7 @@ fn interpolation_kinds_between_two_keys() {
             "vpn: (0.0, 0.0, 1.0)",
             &format!("Observer(keys: [(t: 0.0, value: (0.0, 0.0, 0.0)), (t: 2.0, value: (10.0, 0.0, 0.0))], interpolation: {interp})"),
         ));
-        d.animation.camera_at(t, None).unwrap().vrp_world.x
+        d.animation().camera_at(t, None).unwrap().vrp_world.x
     };
     assert_eq!(at("Step", 1.99), 0.0);
     assert_eq!(at("Step", 2.0), 10.0);
@@ -121,8 +121,8 @@ fn per_key_interpolation_overrides_the_track() {
         "vpn: (0.0, 0.0, 1.0)",
         "Observer(keys: [(t: 0.0, value: (0.0, 0.0, 0.0), interpolation: Step), (t: 1.0, value: (1.0, 0.0, 0.0)), (t: 2.0, value: (3.0, 0.0, 0.0))], interpolation: Linear)",
     ));
-    assert_eq!(d.animation.camera_at(0.9, None).unwrap().vrp_world.x, 0.0);
-    assert!((d.animation.camera_at(1.5, None).unwrap().vrp_world.x - 2.0).abs() < EPS);
+    assert_eq!(d.animation().camera_at(0.9, None).unwrap().vrp_world.x, 0.0);
+    assert!((d.animation().camera_at(1.5, None).unwrap().vrp_world.x - 2.0).abs() < EPS);
 }
 
 #[test]
@@ -131,7 +131,7 @@ fn look_around_moves_on_the_great_circle() {
         "vrp: (1.0, 2.0, 3.0)",
         "LookAround(keys: [(t: 0.0, value: (0.0, 0.0, 5.0)), (t: 1.0, value: (-2.0, 0.0, 0.0)), (t: 2.0, value: (0.0, 3.0, -3.0))], interpolation: Linear)",
     ));
-    let a = &d.animation;
+    let a = &d.animation();
     // At the keys: the normalised key directions (lengths do not matter).
     let keys = [DVec3::Z, -DVec3::X, DVec3::new(0.0, 1.0, -1.0).normalize()];
     for (i, k) in keys.iter().enumerate() {
@@ -167,7 +167,7 @@ fn track_points_at_the_target_from_the_moving_vrp() {
          Track(keys: [(t: 0.0, value: (0.0, 0.0, 0.0)), (t: 4.0, value: (4.0, 0.0, 4.0))], interpolation: Linear)",
     ));
     for t in [0.0, 1.0, 2.5, 4.0] {
-        let cam = d.animation.camera_at(t, None).unwrap();
+        let cam = d.animation().camera_at(t, None).unwrap();
         let vrp = DVec3::new(0.0, 2.0, -10.0) + DVec3::new(8.0, 0.0, 8.0) * (t / 4.0);
         let tp = DVec3::new(4.0, 0.0, 4.0) * (t / 4.0);
         let (u, v, n) = notes_basis(tp - vrp, DVec3::Y);
@@ -183,7 +183,7 @@ fn track_points_at_the_target_from_the_moving_vrp() {
 #[test]
 fn static_target_point_is_look_at() {
     let d = doc(&file("vrp: (3.0, 4.0, 5.0), tp: (0.0, 0.0, 0.0)", ""));
-    let cam = d.animation.camera_at(0.0, None).unwrap();
+    let cam = d.animation().camera_at(0.0, None).unwrap();
     let (u, v, n) = notes_basis(-DVec3::new(3.0, 4.0, 5.0), DVec3::Y);
     assert!(close(cam.basis.n, n, EPS) && close(cam.basis.u, u, EPS) && close(cam.basis.v, v, EPS));
 }
@@ -196,7 +196,7 @@ fn zoom_moves_the_cop_along_vpn_and_distort_across_it() {
          Distort(keys: [(t: 0.0, value: (0.0, 0.0)), (t: 2.0, value: (0.8, -0.4))], interpolation: Linear)",
     ));
     for t in [0.0, 0.5, 1.0, 2.0] {
-        let cam = d.animation.camera_at(t, None).unwrap();
+        let cam = d.animation().camera_at(t, None).unwrap();
         let s = t / 2.0;
         let cop = DVec3::new(0.8 * s, -0.4 * s, -1.0 - 2.0 * s);
         assert!(close(cam.cop_view, cop, 1e-15), "t = {t}: {}", cam.cop_view);
@@ -222,9 +222,9 @@ fn frame_times_are_k_over_fps() {
 #[test]
 fn frames_default_to_reaching_the_last_key() {
     let d = doc("(fps: 10.0, camera: (vpn: (0.0, 0.0, 1.0)), animate: [Zoom(keys: [(t: 0.0, value: -1.0), (t: 2.5, value: -2.0)])])");
-    assert_eq!(d.animation.frames, 26);
+    assert_eq!(d.animation().frames, 26);
     let d = doc("(camera: (vpn: (0.0, 0.0, 1.0)))");
-    assert_eq!(d.animation.frames, 1);
+    assert_eq!(d.animation().frames, 1);
 }
 
 #[test]
@@ -254,7 +254,7 @@ fn uniform_speed_moves_at_constant_speed_along_the_same_path() {
         &format!("Observer(keys: {keys}, interpolation: Linear, speed: Uniform, arc_samples: 8)"),
     ));
     for t in [0.0, 0.05, 0.5, 1.0, 1.7, 2.0, 3.0] {
-        let x = d.animation.camera_at(t, None).unwrap().vrp_world.x;
+        let x = d.animation().camera_at(t, None).unwrap().vrp_world.x;
         let expect = 5.0 * t.min(2.0);
         assert!((x - expect).abs() < 1e-12, "t = {t}: {x} vs {expect}");
     }

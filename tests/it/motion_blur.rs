@@ -190,7 +190,7 @@ fn blurred_frames_are_the_same_on_every_thread_count_and_path() {
             FRAMES,
             &format!("{image}, motion_blur: (shutter: 0.8, samples: 5)"),
         );
-        let index = SceneIndex::new(&doc.scene);
+        let index = SceneIndex::new(doc.scene());
         for frame in [0, 6] {
             let exposure = doc.exposure(frame).unwrap();
             assert_eq!(exposure.renders().len(), 5);
@@ -204,7 +204,7 @@ fn blurred_frames_are_the_same_on_every_thread_count_and_path() {
                     let pixels = pool.install(|| {
                         let mut r = Renderer::with_simd(simd).unwrap();
                         let mut pixels = Vec::new();
-                        r.prepare_times(exposure.renders(), &index, doc.raster)
+                        r.prepare_times(exposure.renders(), &index, *doc.raster())
                             .render_into(&mut pixels, &mut |_| {});
                         pixels
                     });

@@ -130,7 +130,7 @@ fn projection_matches_povray_on_random_cameras() {
         );
         let doc = Document::from_str(Path::new("random.ron"), &ron).unwrap();
         let cam = doc.cameras().next().unwrap().unwrap().1;
-        let ours = Renderer::new().render(&cam, &doc.scene, doc.raster);
+        let ours = Renderer::new().render(&cam, doc.scene(), *doc.raster());
 
         let pov = campath::export::povray::scene(&doc, Finish::Flat).unwrap();
         let theirs = povray(tmp.path(), &pov, w, h);

@@ -582,13 +582,16 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         assert!(dark > 5, "no frame number under the tile at ({x0}, {y0})");
     }
     // The first tile is frame 0 rendered at 60×34 with one sample.
-    let mut doc = campath::document::Document::load(&tmp.path().join("long.ron")).unwrap();
-    doc.raster = campath::raster::Raster {
+    let small = campath::raster::Raster {
         width: 60,
         height: 34, // 135 · 60 / 240 = 33.75, rounded
         samples: 1,
         adaptive: false,
     };
+    let doc = campath::document::Document::load(&tmp.path().join("long.ron"))
+        .unwrap()
+        .with_raster(small)
+        .unwrap();
     let frame0 = campath::frames::hashes(&doc, 0..1).unwrap();
     assert_eq!(tile_hash(&sheet, (0, 0)), frame0[0].1);
     // The GIF holds every frame of the 48.
@@ -628,10 +631,7 @@ fn preview_writes_a_contact_sheet_of_small_renders_and_a_gif() {
         .unwrap()
         .to_rgb8();
     let fast = campath::document::Document::load(&tmp.path().join("fast.ron")).unwrap();
-    doc = campath::document::Document {
-        raster: doc.raster,
-        ..fast
-    };
+    let doc = fast.with_raster(small).unwrap();
     let last = campath::frames::hashes(&doc, 47..48).unwrap();
     // The sixth tile: second row, second column.
     assert_eq!(tile_hash(&sheet, (60 + 2, 34 + 16 + 2)), last[0].1);

@@ -16,16 +16,16 @@ use glam::{DVec2, DVec3};
 /// Frames 0, middle and last of `doc` through every path this CPU runs, each against the oracle;
 /// the number of frames compared.
 fn same_bytes_on_every_path(name: &str, doc: &Document) -> usize {
-    let last = doc.animation.frames - 1;
+    let last = doc.animation().frames - 1;
     let mut compared = 0;
     for frame in [0, last / 2, last] {
         let camera = doc.camera(frame).unwrap();
-        let reference = crate::reference::render(&camera, &doc.scene, doc.raster);
+        let reference = crate::reference::render(&camera, doc.scene(), *doc.raster());
         for simd in Simd::ALL {
             let Some(mut r) = Renderer::with_simd(simd) else {
                 continue;
             };
-            let pixels = r.render(&camera, &doc.scene, doc.raster);
+            let pixels = r.render(&camera, doc.scene(), *doc.raster());
             let differ = pixels
                 .chunks(3)
                 .zip(reference.chunks(3))
@@ -48,14 +48,17 @@ fn same_bytes_on_every_path(name: &str, doc: &Document) -> usize {
 /// the oracle's every-sphere-every-ray casts take most of `cargo test`'s time.
 const WIDTH: u32 = if cfg!(debug_assertions) { 160 } else { 320 };
 
-fn one_sample(mut doc: Document, max_width: u32) -> Document {
-    doc.raster.samples = 1;
-    doc.raster.adaptive = false;
-    if doc.raster.width > max_width {
-        doc.raster.height = (doc.raster.height * max_width / doc.raster.width).max(1);
-        doc.raster.width = max_width;
+fn one_sample(doc: Document, max_width: u32) -> Document {
+    let mut raster = Raster {
+        samples: 1,
+        adaptive: false,
+        ..*doc.raster()
+    };
+    if raster.width > max_width {
+        raster.height = (raster.height * max_width / raster.width).max(1);
+        raster.width = max_width;
     }
-    doc
+    doc.with_raster(raster).unwrap()
 }
 
 #[test]
@@ -115,9 +118,9 @@ fn rows_that_end_inside_a_packet_give_the_same_bytes_on_every_path() {
     // or inside a tile, or inside a stretch of 64 columns; at s×s samples, inside a pair of
     // packets of a row.
     for width in [1, 5, 8, 9, 13, 16, 23, 260, 280, 333] {
-        let mut doc = one_sample(example(EXAMPLES[0]), 320);
-        doc.raster.width = width;
-        doc.raster.height = 24;
+        let doc = one_sample(example(EXAMPLES[0]), 320)
+            .resized(width, 24)
+            .unwrap();
         same_bytes_on_every_path(&format!("{} at width {width}", EXAMPLES[0]), &doc);
     }
 }
@@ -129,9 +132,9 @@ fn frames_that_end_inside_a_band_give_the_same_bytes_on_every_path() {
     // inside a packet.
     for height in [1, 2, 3, 5, 6, 7, 9, 18, 31] {
         for width in [7, 30] {
-            let mut doc = one_sample(example(EXAMPLES[0]), 320);
-            doc.raster.width = width;
-            doc.raster.height = height;
+            let doc = one_sample(example(EXAMPLES[0]), 320)
+                .resized(width, height)
+                .unwrap();
             let what = format!("{} at {width}×{height}", EXAMPLES[0]);
             same_bytes_on_every_path(&what, &doc);
         }
@@ -156,9 +159,13 @@ fn several_samples_a_pixel_give_the_same_bytes_on_every_path() {
         (EXAMPLES[2], 16, 6),
     ] {
         for adaptive in [false, true] {
-            let mut doc = one_sample(example(name), width);
-            doc.raster.samples = samples;
-            doc.raster.adaptive = adaptive;
+            let doc = one_sample(example(name), width);
+            let raster = Raster {
+                samples,
+                adaptive,
+                ..*doc.raster()
+            };
+            let doc = doc.with_raster(raster).unwrap();
             let how = if adaptive { ", adaptive" } else { "" };
             same_bytes_on_every_path(&format!("{name} at {samples}×{samples}{how}"), &doc);
         }

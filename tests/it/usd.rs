@@ -124,7 +124,7 @@ impl Shots {
 
 /// Test points: each small sphere's centre, and points a unit away from it.
 fn points(doc: &Document) -> Vec<DVec3> {
-    doc.scene
+    doc.scene()
         .spheres
         .iter()
         .filter(|s| s.radius < 50.0)
@@ -263,9 +263,9 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
         let units = r["units"].as_str().unwrap();
         assert!(units.contains("tenths of a scene unit"), "{name}: {units}");
         assert_eq!(r["upAxis"], "Y", "{name}");
-        assert_eq!(r["timeCodesPerSecond"], doc.animation.fps, "{name}");
-        assert_eq!(r["framesPerSecond"], doc.animation.fps, "{name}");
-        let frames = doc.animation.frames;
+        assert_eq!(r["timeCodesPerSecond"], doc.animation().fps, "{name}");
+        assert_eq!(r["framesPerSecond"], doc.animation().fps, "{name}");
+        let frames = doc.animation().frames;
         assert_eq!(
             r["timeCodes"],
             serde_json::json!([0.0, (frames - 1) as f64]),
@@ -273,13 +273,13 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
         );
         assert_eq!(r["cameras"], 1, "{name}");
         // The shutter, in time codes about the frame's: centred, S wide; USD's 0, 0 without.
-        let shutter = match doc.motion_blur {
+        let shutter = match doc.motion_blur() {
             Some(b) => [-b.shutter / 2.0, b.shutter / 2.0],
             None => [0.0, 0.0],
         };
         assert_eq!(r["shutter"], serde_json::json!(shutter), "{name}");
         // A sample per frame, and with blur where the shutter opens and closes.
-        let keyed = frames + 2 * doc.motion_blur.is_some() as u64;
+        let keyed = frames + 2 * doc.motion_blur().is_some() as u64;
         for attr in [
             "xformOp:translate",
             "xformOp:orient",
@@ -290,7 +290,7 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
             assert_eq!(r["samples"][attr], keyed, "{name}: {attr}");
         }
 
-        let size = (doc.raster.width as f64, doc.raster.height as f64);
+        let size = (doc.raster().width as f64, doc.raster().height as f64);
         let pts = points(&doc);
         let (mut worst, mut compared) = (0.0f64, 0);
         for (k, item) in doc.cameras().enumerate() {
@@ -335,8 +335,8 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
         );
 
         let spheres = r["spheres"].as_array().unwrap();
-        assert_eq!(spheres.len(), doc.scene.spheres.len(), "{name}");
-        for (got, want) in spheres.iter().zip(&doc.scene.spheres) {
+        assert_eq!(spheres.len(), doc.scene().spheres.len(), "{name}");
+        for (got, want) in spheres.iter().zip(&doc.scene().spheres) {
             assert!(
                 close3(vec3(&got["centre"]), want.center_world, 1e-12),
                 "{name}: {got}"
@@ -348,8 +348,8 @@ fn openusd_opens_every_stage_and_its_camera_projects_like_campath() {
             );
         }
         let lights = r["lights"].as_array().unwrap();
-        assert_eq!(lights.len(), doc.scene.lights.len(), "{name}");
-        for (got, want) in lights.iter().zip(&doc.scene.lights) {
+        assert_eq!(lights.len(), doc.scene().lights.len(), "{name}");
+        for (got, want) in lights.iter().zip(&doc.scene().lights) {
             assert!(
                 close3(vec3(&got["direction"]), want.direction_world, 1e-9),
                 "{name}: {got}"
@@ -513,10 +513,10 @@ fn blender_imports_every_stage_and_its_camera_projects_like_campath() {
                 .iter()
                 .map(|p| to_blender(*p).to_array())
                 .collect();
-            let (w, h) = (doc.raster.width, doc.raster.height);
-            let window = doc.animation.window;
+            let (w, h) = (doc.raster().width, doc.raster().height);
+            let window = doc.animation().window;
             serde_json::json!({
-                "usda": shots.usda(name), "points": pts, "frames": doc.animation.frames,
+                "usda": shots.usda(name), "points": pts, "frames": doc.animation().frames,
                 "size": [w, h],
                 "pixel_aspect": (window.x / window.y) / (w as f64 / h as f64),
                 "out": shots.dir().join(format!("{name}.blender.json")),
@@ -526,7 +526,7 @@ fn blender_imports_every_stage_and_its_camera_projects_like_campath() {
     let results = shots.run(BLENDER, &jobs, "blender");
     for (name, r) in shots.names.iter().zip(&results) {
         let doc = shots.doc(name);
-        let frames = doc.animation.frames as i64;
+        let frames = doc.animation().frames as i64;
         assert_eq!(r["cameras"], 1, "{name}");
         assert_eq!(
             r["frame_range"],
@@ -534,7 +534,7 @@ fn blender_imports_every_stage_and_its_camera_projects_like_campath() {
             "{name}"
         );
         assert_eq!(r["constraints"], serde_json::json!(["TRANSFORM_CACHE"]));
-        let size = (doc.raster.width as f64, doc.raster.height as f64);
+        let size = (doc.raster().width as f64, doc.raster().height as f64);
         let pts = points(&doc);
         let (mut worst, mut worst_pose, mut compared) = (0.0f64, 0.0f64, 0);
         for (k, item) in doc.cameras().enumerate() {
@@ -582,9 +582,9 @@ fn blender_imports_every_stage_and_its_camera_projects_like_campath() {
         }
         // The spheres, tessellated: every vertex on the sphere, the colour kept.
         let spheres = r["spheres"].as_array().unwrap();
-        assert_eq!(spheres.len(), doc.scene.spheres.len(), "{name}");
+        assert_eq!(spheres.len(), doc.scene().spheres.len(), "{name}");
         let mut worst_sphere = 0.0f64;
-        for (i, want) in doc.scene.spheres.iter().enumerate() {
+        for (i, want) in doc.scene().spheres.iter().enumerate() {
             let got = spheres
                 .iter()
                 .find(|s| s["name"] == format!("sphere_{i}"))
@@ -603,8 +603,8 @@ fn blender_imports_every_stage_and_its_camera_projects_like_campath() {
             );
         }
         let suns = r["suns"].as_array().unwrap();
-        assert_eq!(suns.len(), doc.scene.lights.len(), "{name}");
-        for (got, want) in suns.iter().zip(&doc.scene.lights) {
+        assert_eq!(suns.len(), doc.scene().lights.len(), "{name}");
+        for (got, want) in suns.iter().zip(&doc.scene().lights) {
             let d = to_blender(want.direction_world);
             assert!(close3(vec3(&got["direction"]), d, 1e-6), "{name}: {got}");
         }
