@@ -338,8 +338,12 @@ pub fn claim_pictures(
         .into());
     }
     let lock = lock::FolderLock::acquire(dir, lock::Claim::Whole, wait)?;
-    for e in entries.iter().filter(|e| name(e) != LOCK) {
-        remove_if_there(&e.path())?;
+    // Listed again under the lock: a run this one waited for may have written more since.
+    for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
+        let n = name(&e);
+        if n == OLD_FAILURES_MARK || (n != LOCK && ours(&n)) {
+            remove_if_there(&e.path())?;
+        }
     }
     Ok(lock)
 }
