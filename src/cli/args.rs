@@ -284,8 +284,8 @@ pub fn check_writable(file: &Path) -> Result<()> {
         )));
     }
     create_parent(file)?;
-    let mut probe = file.as_os_str().to_owned();
-    probe.push(".tmp");
+    // The name the file is written under before it is renamed into place.
+    let probe = crate::output::tmp_path(file);
     let failed = |e| CliError::from(crate::Error::write(file)(e));
     std::fs::write(&probe, b"").map_err(failed)?;
     std::fs::remove_file(&probe).map_err(failed)
