@@ -319,16 +319,16 @@ pub(crate) struct Writer {
 
 impl Writer {
     /// Writes `manifest` at `path` (through a temporary file) and opens it to append to.
-    pub(crate) fn create(path: PathBuf, manifest: Manifest) -> Result<Writer> {
+    pub(crate) fn create(path: PathBuf, mut manifest: Manifest) -> Result<Writer> {
         write_atomic(&path, manifest.text())?;
         let file = File::options()
             .append(true)
             .open(&path)
             .map_err(Error::write(&path))?;
-        let entries = manifest
-            .entries
-            .iter()
-            .map(|e| (e.frame, e.clone()))
+        // The frame lines are kept once, by frame, until `finish` writes them back.
+        let entries = std::mem::take(&mut manifest.entries)
+            .into_iter()
+            .map(|e| (e.frame, e))
             .collect();
         Ok(Writer {
             path,
