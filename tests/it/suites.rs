@@ -70,6 +70,16 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, (Vec<u8>, u64, i64, i64)> {
     out
 }
 
+/// The frames whose fresh hash differs from the golden's, the lists in frame order.
+fn differing(fresh: &[(u64, String)], golden: &[(u64, String)]) -> Vec<u64> {
+    fresh
+        .iter()
+        .zip(golden)
+        .filter(|(f, g)| f != g)
+        .map(|(f, _)| f.0)
+        .collect()
+}
+
 #[test]
 fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot() {
     let tmp = tempfile::tempdir().unwrap();
@@ -124,12 +134,7 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     std::fs::write(t.join("shots/b.ron"), shot(5, "0.6")).unwrap();
     let fresh = hashed(t, "shots/b.ron");
     let golden = parse(&std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap());
-    let failing: Vec<u64> = fresh
-        .iter()
-        .zip(&golden)
-        .filter(|(f, g)| f != g)
-        .map(|(f, _)| f.0)
-        .collect();
+    let failing = differing(&fresh, &golden);
     assert!(!failing.is_empty());
     let before_a = snapshot(&t.join("shots/a.golden"));
     let before_c = snapshot(&t.join("shots/sub/c.golden"));
@@ -218,12 +223,7 @@ fn the_review_page_shows_every_picture_and_the_differences_in_chromium() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let golden = parse(&std::fs::read_to_string(t.join("shots/b.golden/hashes.txt")).unwrap());
     std::fs::write(t.join("shots/b.ron"), shot(5, "0.6")).unwrap();
-    let failing: Vec<u64> = hashed(t, "shots/b.ron")
-        .iter()
-        .zip(&golden)
-        .filter(|(f, g)| f != g)
-        .map(|(f, _)| f.0)
-        .collect();
+    let failing = differing(&hashed(t, "shots/b.ron"), &golden);
     assert!(!failing.is_empty());
     let o = campath(t, &["test", "--review", "review"], &[]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
