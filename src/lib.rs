@@ -77,9 +77,11 @@ pub fn run_cli() -> std::process::ExitCode {
 }
 
 /// What campath's own integration tests reach below the public surface: the renderer's paths,
-/// the output folder, the generated scenes. Not an API: it changes with any release.
+/// the output folder, the generated scenes; and what the peers benchmark reads of the command line. Not an API: it changes with any release.
 #[doc(hidden)]
 pub mod internals {
+    #[cfg(feature = "cli")]
+    pub use crate::cli::{stats::Stats, table::Table};
     pub use crate::error::PROBLEMS_SHOWN;
     pub use crate::format::sphere_files::BLOCK_BYTES;
     pub use crate::motion::warnings;

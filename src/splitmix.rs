@@ -1,4 +1,4 @@
-//! A fixed-seed pseudo-random stream for generated scenes (`campath bench`) and tests: the same
+//! A fixed-seed pseudo-random stream for generated scenes (the peers benchmark) and tests: the same
 //! numbers on every run and machine, never seeded from entropy.
 
 /// SplitMix64 (Steele, Lea and Flood, 2014): a fixed-seed generator for generated scenes and

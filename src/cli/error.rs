@@ -24,13 +24,6 @@ pub enum CliError {
     /// Stopped by Ctrl-C, what the run wrote removed (exit 130).
     #[error("{0}")]
     Stopped(String),
-    /// A JSON file campath wrote for itself (a run's numbers) does not parse (exit 1).
-    #[cfg(feature = "bench")]
-    #[error("{}: not the JSON campath writes: {cause}", path.display())]
-    Json {
-        path: PathBuf,
-        cause: serde_json::Error,
-    },
     /// A chart could not be drawn (exit 1).
     #[error("{}: cannot draw the chart: {message}", path.display())]
     Draw { path: PathBuf, message: String },

@@ -3,8 +3,6 @@
 //! bench). Binary-only: the library never imports clap, indicatif or plotters.
 
 mod args;
-#[cfg(feature = "bench")]
-mod bench;
 mod chart;
 mod error;
 mod failures;
@@ -16,9 +14,9 @@ mod preview;
 mod progress;
 mod report;
 mod review;
-mod stats;
+pub(crate) mod stats;
 mod suite;
-mod table;
+pub(crate) mod table;
 mod verbs;
 mod verify;
 mod video;
@@ -28,7 +26,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::error::ErrorKind;
+use clap::error::{ContextKind, ErrorKind};
 use clap::{Parser, Subcommand};
 
 use crate::document::Document;
@@ -146,33 +144,6 @@ enum Command {
         /// Where the log-log plot goes [default: out/<file stem>/report.png].
         #[arg(long)]
         plot: Option<PathBuf>,
-    },
-    /// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table (a
-    /// developer's tool: built with `--features bench`).
-    #[cfg(feature = "bench")]
-    Bench {
-        /// Where the scene files and renders go.
-        #[arg(long, default_value = "out/bench")]
-        out: PathBuf,
-        /// Frames POV-Ray renders per scene, and campath with it, from frame 0 (0 skips
-        /// POV-Ray; campath then renders every frame).
-        #[arg(long, default_value_t = 8)]
-        pov_frames: u64,
-        /// Timed campath processes per scene and output (the median is reported); POV-Ray,
-        /// seconds to minutes a scene, runs once.
-        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=100))]
-        runs: u64,
-        /// Only these scenes (of the table, or with --scaling of the scaling scenes),
-        /// comma-separated [default: all].
-        #[arg(long, value_delimiter = ',')]
-        scenes: Vec<String>,
-        /// Print the rows as JSON instead of a table.
-        #[arg(long)]
-        json: bool,
-        /// Instead of the POV-Ray table, time the scaling scenes (100 to 1,000,000 spheres;
-        /// 720p to 4K), hash-only.
-        #[arg(long)]
-        scaling: bool,
     },
     /// Render the sequence (keeping the frames still valid) and encode it with ffmpeg: H.264 MP4,
     /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt. Ctrl-C
@@ -298,15 +269,6 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
             args::check_extension("--plot", &plot, &["png"], "the report's plot is PNG")?;
             report::run(&file, frame, runs as usize, &plot, out)?
         }
-        #[cfg(feature = "bench")]
-        Command::Bench {
-            out: dir,
-            pov_frames,
-            runs,
-            scenes,
-            json,
-            scaling,
-        } => bench::command(&dir, pov_frames, runs as usize, &scenes, json, scaling, out)?,
         Command::Video(a) => video::run(a, out)?,
         Command::Watch {
             shot: Shot { file },
@@ -379,6 +341,19 @@ fn option_error(e: clap::Error) -> ExitCode {
         // `campath` alone: the help, on standard error, as a usage error.
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             let _ = e.print();
+            return ExitCode::from(2);
+        }
+        // The benchmark against POV-Ray left the binary: say where it went.
+        ErrorKind::InvalidSubcommand
+            if e.get(ContextKind::InvalidSubcommand)
+                .map(|v| v.to_string())
+                .as_deref()
+                == Some("bench") =>
+        {
+            eprintln!(
+                "campath: error: `campath bench` is now a benchmark of campath's source tree: \
+                 cargo bench --features bench --bench peers"
+            );
             return ExitCode::from(2);
         }
         _ => {}

@@ -1,5 +1,5 @@
 //! A run's numbers: the line people read after a run, and `--stats-json` for other programs
-//! (`campath bench` reads it).
+//! (the peers benchmark reads it).
 
 use std::path::Path;
 
@@ -7,15 +7,18 @@ use super::error::{CliError, Result};
 use crate::frames::Timing;
 use crate::output::Use;
 
-/// A run's numbers, for other programs (`--stats-json`; `campath bench` reads them).
+/// A run's numbers, for other programs (`--stats-json`; the peers benchmark reads them).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
     /// Frames rendered (or held) and delivered.
     pub frames: u64,
     /// Frames already valid on disk (render only).
     pub kept: u64,
+    /// Wall-clock seconds for the whole run, output included.
     pub wall_secs: f64,
+    /// `wall_secs` over the frames, in ms.
     pub wall_ms_per_frame: f64,
+    /// The median of the frames' render times, in ms.
     pub median_render_ms: f64,
     /// Peak resident memory of the process, where the platform tells.
     pub peak_memory_mb: Option<f64>,
@@ -28,6 +31,7 @@ pub struct Stats {
 }
 
 impl Stats {
+    /// The numbers of a run's timing, with its frames kept on disk.
     pub fn of(t: &Timing, kept: u64) -> Stats {
         Stats {
             frames: t.frames,
@@ -65,6 +69,7 @@ impl Stats {
         })
     }
 
+    /// Writes the numbers as JSON to `path`, if one is given.
     pub fn write(&self, path: Option<&Path>) -> Result<()> {
         let Some(path) = path else { return Ok(()) };
         super::args::create_parent(path)?;

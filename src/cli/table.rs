@@ -8,6 +8,7 @@ pub struct Table {
 }
 
 impl Table {
+    /// A table of these column headers and no rows.
     pub fn new(header: &[&str]) -> Table {
         Table {
             header: header.iter().map(|h| h.to_string()).collect(),

@@ -1,10 +1,15 @@
-//! `campath bench` against the real POV-Ray: one frame of the small scene, campath timed over
-//! several processes, and the JSON's numbers checked against each other and against the files
-//! both programs wrote. `.ci/run` installs povray.
+//! The peers benchmark (benches/peers) against the real POV-Ray: one frame of the small scene,
+//! campath timed over several processes, and the JSON's numbers checked against each other and
+//! against the files both programs wrote. `.ci/run` installs povray. The benchmark's own unit
+//! tests run here too.
 
 use serde_json::Value;
 
-use crate::common::{campath, need_tool, stderr, stdout};
+use crate::common::need_tool;
+
+#[path = "../../benches/peers/bench/mod.rs"]
+#[allow(dead_code)]
+mod peers;
 
 /// The median of `runs` (the lower middle of an even count), as bench keeps it.
 fn median(runs: &[Value]) -> f64 {
@@ -19,24 +24,10 @@ fn bench_times_campath_over_several_runs_and_povray_once() {
     need_tool("povray", "povray");
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("bench");
-    let args = [
-        "bench",
-        "--pov-frames",
-        "1",
-        "--runs",
-        "4",
-        "--scenes",
-        "small",
-        "--json",
-        "--out",
-    ];
-    let o = campath(
-        tmp.path(),
-        &[&args[..], &[out.to_str().unwrap()]].concat(),
-        &[],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let json: Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let mut printed = Vec::new();
+    let scenes = ["small".to_string()];
+    peers::command(&out, 1, 4, &scenes, true, false, &mut printed).unwrap();
+    let json: Value = serde_json::from_slice(&printed).unwrap();
     assert_eq!(json["runs"], 4);
     let rows = json["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 1);

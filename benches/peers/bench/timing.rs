@@ -5,9 +5,9 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use crate::cli::error::{CliError, Result};
-use crate::cli::stats::Stats;
-use crate::Error;
+use super::{BenchError, Result};
+use campath::internals::Stats;
+use campath::Error;
 
 /// A campath command timed in its own processes: the numbers of its median run, and the wall
 /// time of that whole process.
@@ -50,29 +50,30 @@ fn median_run(mut all: Vec<(f64, Stats)>) -> Run {
 
 /// One timed campath process: its wall ms per frame and the numbers it wrote.
 fn run_campath_once(args: &[&str], stats: &Path) -> Result<(f64, Stats)> {
-    let exe = std::env::current_exe().map_err(|e| CliError::missing("campath", "campath", e))?;
     // A run that wrote no numbers must not pass off an earlier run's as its own.
     if stats.exists() {
         std::fs::remove_file(stats).map_err(Error::write(stats.to_path_buf()))?;
     }
     let started = Instant::now();
-    let out = Command::new(exe)
+    let out = Command::new(env!("CARGO_BIN_EXE_campath"))
         .args(args)
         .arg("--stats-json")
         .arg(stats)
         .stdout(std::process::Stdio::null())
         .output()
-        .map_err(|e| CliError::missing("campath", "campath", e))?;
+        .map_err(|e| BenchError::Tool {
+            tool: "campath",
+            message: format!("cannot run {} ({e})", env!("CARGO_BIN_EXE_campath")),
+        })?;
     let secs = started.elapsed().as_secs_f64();
     if !out.status.success() {
-        return Err(CliError::Tool {
+        return Err(BenchError::Tool {
             tool: "campath",
-            package: "campath",
             message: format!("{args:?} failed: {}", String::from_utf8_lossy(&out.stderr)),
         });
     }
     let text = std::fs::read_to_string(stats).map_err(Error::read(stats))?;
-    let stats: Stats = serde_json::from_str(&text).map_err(|cause| CliError::Json {
+    let stats: Stats = serde_json::from_str(&text).map_err(|cause| BenchError::Json {
         path: stats.to_path_buf(),
         cause,
     })?;

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::splitmix::SplitMix;
+use campath::internals::SplitMix;
 
 /// One benchmark scene.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -425,7 +425,7 @@ pub fn scaling_scenes() -> Vec<BenchScene> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::document::Document;
+    use campath::document::Document;
 
     /// A scene's spheres from its binary PLY are the spheres of its inline RON, bit for bit.
     #[test]
@@ -444,7 +444,7 @@ mod tests {
         .unwrap();
         let from_ply = Document::from_str(&tmp.path().join("a.ron"), &files.ron).unwrap();
         let inline = Document::from_str(&tmp.path().join("b.ron"), &scene_ron(&s)).unwrap();
-        assert_eq!(from_ply.scene, inline.scene);
-        assert_eq!(from_ply.scene.spheres.len(), 301);
+        assert_eq!(from_ply.scene(), inline.scene());
+        assert_eq!(from_ply.scene().spheres.len(), 301);
     }
 }

@@ -5,17 +5,17 @@ use std::process::Command;
 use std::time::Instant;
 
 use super::BenchScene;
-use crate::cli::error::{CliError, Result};
-use crate::document::Document;
-use crate::export::povray::{scene, Finish};
-use crate::Error;
+use super::{BenchError, Result};
+use campath::document::Document;
+use campath::export::povray::{scene, Finish};
+use campath::Error;
 
 /// Fails, naming the Debian package, when POV-Ray cannot be run.
 pub fn check() -> Result<()> {
     Command::new("povray")
         .arg("--version")
         .output()
-        .map_err(|e| CliError::missing("povray", "povray", e))?;
+        .map_err(|e| BenchError::missing("povray", "povray", e))?;
     Ok(())
 }
 
@@ -47,11 +47,10 @@ pub fn time(dir: &Path, s: &BenchScene, doc: &Document, frames: u64) -> Result<f
         ])
         .args(aa.split(' '))
         .output()
-        .map_err(|e| CliError::missing("povray", "povray", e))?;
+        .map_err(|e| BenchError::missing("povray", "povray", e))?;
     if !status.status.success() {
-        return Err(CliError::Tool {
+        return Err(BenchError::Tool {
             tool: "povray",
-            package: "povray",
             message: format!("failed: {}", String::from_utf8_lossy(&status.stderr)),
         });
     }

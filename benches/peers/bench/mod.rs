@@ -1,4 +1,4 @@
-//! `campath bench`: generated fly-through scenes, timed in campath (PNG and hash-only output,
+//! The peers benchmark: generated fly-through scenes, timed in campath (PNG and hash-only output,
 //! each in its own process so peak memory is its own) and in POV-Ray 3.7's animation mode on
 //! the same scene and camera, in the same run.
 //!
@@ -11,13 +11,51 @@ mod timing;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
-use super::error::{CliError, Result};
-use super::table::Table;
-use crate::document::Document;
-use crate::Error;
+use campath::document::Document;
+use campath::internals::Table;
+use campath::Error;
 pub use scenes::{scaling_scenes, scene_files, scene_ron, scenes, BenchScene, Layout};
 use timing::{run_campath, Run};
+
+/// What stops a bench run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Campath(#[from] Error),
+    /// An option value that cannot be used (exit 2).
+    #[error("{0}")]
+    Usage(String),
+    /// An outside program (POV-Ray, or campath itself) is missing or failed (exit 3).
+    #[error("{tool}: {message}")]
+    Tool { tool: &'static str, message: String },
+    /// A run's numbers (`--stats-json`) do not parse (exit 1).
+    #[error("{}: not the JSON campath writes: {cause}", path.display())]
+    Json {
+        path: PathBuf,
+        cause: serde_json::Error,
+    },
+}
+
+impl BenchError {
+    /// `tool` could not be started: missing, most likely.
+    fn missing(tool: &'static str, package: &'static str, cause: std::io::Error) -> BenchError {
+        let message = format!("cannot run it ({cause}); install the Debian package {package}");
+        BenchError::Tool { tool, message }
+    }
+
+    /// 2 for a bad option, 3 for an outside program, 1 for the rest.
+    pub fn exit_code(&self) -> ExitCode {
+        ExitCode::from(match self {
+            BenchError::Usage(_) => 2,
+            BenchError::Tool { .. } => 3,
+            _ => 1,
+        })
+    }
+}
+
+pub type Result<T, E = BenchError> = std::result::Result<T, E>;
 
 /// The cores and the CPU features that matter here (SHA extensions, AVX2, AVX-512F), from
 /// std's run-time detection, as the renderer's instruction paths detect them.
@@ -297,7 +335,7 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
     t
 }
 
-/// `campath bench`: the chosen scenes (all when `names` is empty), as a table or as JSON.
+/// The chosen scenes (all when `names` is empty), as a table or as JSON.
 pub fn command(
     dir: &Path,
     pov_frames: u64,
@@ -311,7 +349,7 @@ pub fn command(
     let all = if scaling { scaling_scenes() } else { scenes() };
     if let Some(unknown) = names.iter().find(|n| !all.iter().any(|s| s.name == **n)) {
         let known: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
-        return Err(CliError::Usage(format!(
+        return Err(BenchError::Usage(format!(
             "--scenes: {unknown:?} is not a bench scene (the scenes are {})",
             known.join(", ")
         )));

@@ -1,0 +1,65 @@
+//! `cargo bench --features bench --bench peers -- [OPTIONS]`: campath timed against POV-Ray
+//! 3.7 on generated fly-through scenes, whole processes each. A developer's tool, not part of
+//! the `campath` binary; docs/performance.md keeps its tables.
+// The unit tests of `bench` run in the `it` test crate (tests/it/bench.rs), which includes the
+// module; this target only compiles them.
+#![cfg_attr(test, allow(unused))]
+
+mod bench;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+/// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table.
+#[derive(Parser)]
+#[command(name = "peers")]
+struct Args {
+    /// Where the scene files and renders go.
+    #[arg(long, default_value = "out/bench")]
+    out: PathBuf,
+    /// Frames POV-Ray renders per scene, and campath with it, from frame 0 (0 skips POV-Ray;
+    /// campath then renders every frame).
+    #[arg(long, default_value_t = 8)]
+    pov_frames: u64,
+    /// Timed campath processes per scene and output (the median is reported); POV-Ray,
+    /// seconds to minutes a scene, runs once.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=100))]
+    runs: u64,
+    /// Only these scenes (of the table, or with --scaling of the scaling scenes),
+    /// comma-separated [default: all].
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Print the rows as JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Instead of the POV-Ray table, time the scaling scenes (100 to 1,000,000 spheres; 720p
+    /// to 4K), hash-only.
+    #[arg(long)]
+    scaling: bool,
+    /// Passed by `cargo bench` to every bench target; ignored.
+    #[arg(long, hide = true)]
+    bench: bool,
+}
+
+fn main() -> ExitCode {
+    let a = Args::parse();
+    let out = &mut std::io::stdout().lock();
+    let runs = a.runs as usize;
+    match bench::command(
+        &a.out,
+        a.pov_frames,
+        runs,
+        &a.scenes,
+        a.json,
+        a.scaling,
+        out,
+    ) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("peers: error: {e}");
+            e.exit_code()
+        }
+    }
+}
