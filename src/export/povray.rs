@@ -1,5 +1,5 @@
 //! The shot as a POV-Ray 3.7 scene: the independent renderer that campath's projection is
-//! cross-checked against (`tests/it/povray.rs`) and benchmarked against (`benches/peers`).
+//! cross-checked against (`tests/it/povray.rs`) and benchmarked against (`tests/peers`).
 //!
 //! Every frame's camera is given as explicit vectors, indexed by POV-Ray's `frame_number` in
 //! animation mode (`+KFI1 +KFFn`; a single frame is frame 0): `location` = the COP in world,

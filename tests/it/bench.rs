@@ -1,4 +1,4 @@
-//! The peers benchmark (benches/peers) against the real POV-Ray: one frame of the small scene,
+//! The peers benchmark (tests/peers) against the real POV-Ray: one frame of the small scene,
 //! campath timed over several processes, and the JSON's numbers checked against each other and
 //! against the files both programs wrote. `.ci/run` installs povray. The benchmark's own unit
 //! tests run here too.
@@ -7,7 +7,7 @@ use serde_json::Value;
 
 use crate::common::need_tool;
 
-#[path = "../../benches/peers/bench/mod.rs"]
+#[path = "../peers/bench/mod.rs"]
 #[allow(dead_code)]
 mod peers;
 
