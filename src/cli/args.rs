@@ -284,11 +284,9 @@ pub fn check_writable(file: &Path) -> Result<()> {
         )));
     }
     create_parent(file)?;
-    // The name the file is written under before it is renamed into place.
-    let probe = crate::output::tmp_path(file);
-    let failed = |e| CliError::from(crate::Error::write(file)(e));
-    std::fs::write(&probe, b"").map_err(failed)?;
-    std::fs::remove_file(&probe).map_err(failed)
+    // A file beside it, as it is written before it is renamed into place (removed on drop).
+    crate::output::temp_beside(file)?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -39,7 +39,7 @@ pub fn file_name(index: usize, frame: u64, what: &str) -> String {
 
 /// The files `--review` writes: `index.html` and [`file_name`]s.
 pub fn is_review_file(name: &str) -> bool {
-    let name = name.strip_suffix(".tmp").unwrap_or(name);
+    let name = crate::output::final_name(name);
     if name == "index.html" {
         return true;
     }

@@ -20,7 +20,8 @@ use crate::document::Document;
 use crate::frames::FrameSet;
 use crate::output::sequence::{self, Event, RenderOptions};
 use crate::output::{
-    check, folder_of, frame_path, resolved, tmp_path, video_path, within, Refusal, Use, HASHES,
+    check, folder_of, frame_path, persist, resolved, temp_beside, video_path, within, Refusal, Use,
+    HASHES,
 };
 use crate::{frame_hash, Error, FrameHash};
 
@@ -141,10 +142,11 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .into_iter()
         .map(|e| (e.frame, e.hash))
         .collect();
-    let tmp = tmp_path(&video);
+    // ffmpeg writes over a temporary file of its own, removed unless renamed into place.
+    let tmp = temp_beside(&video)?;
     // As a `file:` URL: a name that begins with `-` is not an option to ffmpeg.
     let mut url = std::ffi::OsString::from("file:");
-    url.push(&tmp);
+    url.push(tmp.path());
     // Ctrl-C from here on stops the encode and removes what it wrote: the frames stop going to
     // ffmpeg, and the temporary video is removed once ffmpeg has ended. ffmpeg, in the same
     // process group, stops on a Ctrl-C of its own. (Another signal ends campath as before; the
@@ -166,18 +168,15 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     progress.finish();
     let result = child.wait_with_output().map_err(ffmpeg_missing)?;
     if stop.load(Ordering::SeqCst) {
-        let _ = std::fs::remove_file(&tmp);
+        drop(tmp);
         return Err(CliError::Stopped(format!(
             "the encode of {} was stopped; the partial video was removed",
             video.display()
         )));
     }
     // ffmpeg's own failure explains a pipe it stopped reading.
-    if let Err(e) = encoder_status(&result).and(fed) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e);
-    }
-    std::fs::rename(&tmp, &video).map_err(Error::write(&video))?;
+    encoder_status(&result).and(fed)?;
+    persist(tmp, &video)?;
     if !quiet {
         let (w, h) = (doc.raster.width, doc.raster.height);
         let what = if a.lossless {

@@ -73,13 +73,9 @@ pub fn write_png_atomic(
     size: (u32, u32),
     compression: Compression,
 ) -> Result<()> {
-    let tmp = tmp_path(path);
-    let written = write_png(&tmp, pixels, size, compression)
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(Error::write(path)));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written
+    let tmp = temp_beside(path)?;
+    write_png(tmp.path(), pixels, size, compression)?;
+    persist(tmp, path)
 }
 
 /// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.
@@ -88,23 +84,77 @@ pub fn png_hash(path: &Path) -> Option<FrameHash> {
     Some(FrameHash::of(img.as_raw()))
 }
 
-/// Where a file is written before it is renamed into place: `NAME.tmp` beside it.
-pub fn tmp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    path.with_file_name(name)
+/// A new empty file beside `path` under a temporary name of its own, `.NAME.XXXXXX.tmp`, so
+/// that two writers of one path never share one; [`persist`] renames it into place, and
+/// dropped unrenamed it is removed. Its permissions are a plain new file's.
+pub fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
+    let mut prefix = std::ffi::OsString::from(".");
+    prefix.push(path.file_name().unwrap_or_default());
+    prefix.push(".");
+    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(TMP);
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder
+        .tempfile_in(folder.unwrap_or(Path::new(".")))
+        .map_err(Error::write(path))
+}
+
+/// Renames a [`temp_beside`] file into place at `path`.
+pub fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
+    tmp.persist(path)
+        .map(drop)
+        .map_err(|e| Error::write(path)(e.error))
+}
+
+/// The ending of a file written under a temporary name.
+const TMP: &str = ".tmp";
+
+/// The name a temporary file stands for: `NAME` of `.NAME.XXXXXX.tmp`, or of an earlier
+/// campath's `NAME.tmp`; None for a name that is not a temporary one.
+pub fn temp_of(name: &str) -> Option<&str> {
+    let stem = name.strip_suffix(TMP)?;
+    let unique = stem
+        .strip_prefix('.')
+        .and_then(|s| s.rsplit_once('.'))
+        .filter(|(_, random)| {
+            random.len() == 6 && random.bytes().all(|b| b.is_ascii_alphanumeric())
+        });
+    Some(unique.map_or(stem, |(name, _)| name))
+}
+
+/// The final name of a file campath may have left under a temporary name: [`temp_of`], or the
+/// name itself.
+pub fn final_name(name: &str) -> &str {
+    temp_of(name).unwrap_or(name)
+}
+
+/// Removes what writes of `path` left under temporary names: whether any was there.
+pub fn remove_temps_of(path: &Path) -> Result<bool> {
+    let name = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default();
+    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let Ok(entries) = std::fs::read_dir(folder.unwrap_or(Path::new("."))) else {
+        return Ok(false);
+    };
+    let mut removed = false;
+    for e in entries.flatten() {
+        if e.file_name().to_str().and_then(temp_of) == Some(name) {
+            removed |= remove_if_there(&e.path())?;
+        }
+    }
+    Ok(removed)
 }
 
 /// Writes `bytes` (text or not) to `path` through a temporary file and a rename; on a
 /// failure the temporary file is removed.
 pub fn write_atomic(path: &Path, bytes: impl AsRef<[u8]>) -> Result<()> {
-    let tmp = tmp_path(path);
-    let err = Error::write(path);
-    let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written.map_err(err)
+    write_atomic_with(path, |out| {
+        out.write_all(bytes.as_ref()).map_err(Error::stdout)
+    })
 }
 
 /// Writes `path` through a temporary file and a rename, as `write` streams into it (buffered):
@@ -115,27 +165,16 @@ pub fn write_atomic_with<T>(
     path: &Path,
     write: impl FnOnce(&mut dyn std::io::Write) -> Result<T>,
 ) -> Result<T> {
-    let tmp = tmp_path(path);
-    let result = std::fs::File::create(&tmp)
-        .map_err(Error::write(path))
-        .and_then(|file| {
-            let mut out = std::io::BufWriter::new(file);
-            let value = write(&mut out).map_err(|e| match e {
-                Error::Write { path: p, cause } if p.as_os_str() == "<stdout>" => {
-                    Error::write(path)(cause)
-                }
-                e => e,
-            })?;
-            out.into_inner()
-                .map_err(|e| e.into_error())
-                .and_then(|_| std::fs::rename(&tmp, path))
-                .map_err(Error::write(path))?;
-            Ok(value)
-        });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    let mut tmp = temp_beside(path)?;
+    let mut out = BufWriter::new(tmp.as_file_mut());
+    let value = write(&mut out).map_err(|e| match e {
+        Error::Write { path: p, cause } if p.as_os_str() == "<stdout>" => Error::write(path)(cause),
+        e => e,
+    })?;
+    out.into_inner()
+        .map_err(|e| Error::write(path)(e.into_error()))?;
+    persist(tmp, path)?;
+    Ok(value)
 }
 
 /// Removes the file at `path` if there is one: whether there was.
@@ -175,4 +214,74 @@ pub fn resolved(path: &Path) -> PathBuf {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A temporary name stands for its file, this campath's form and an earlier one's; other
+    /// names stand for none.
+    #[test]
+    fn a_temporary_name_gives_back_its_file() {
+        assert_eq!(
+            temp_of(".frame_0001.png.aZ09xy.tmp"),
+            Some("frame_0001.png")
+        );
+        assert_eq!(temp_of(".hashes.txt.000000.tmp"), Some("hashes.txt"));
+        assert_eq!(temp_of("frame_0001.png.tmp"), Some("frame_0001.png"));
+        assert_eq!(temp_of("frame_0001.png"), None);
+        assert_eq!(final_name("frame_0001.png"), "frame_0001.png");
+        // Not six letters and digits: the older form, a dot-file's name.
+        assert_eq!(temp_of(".a.b-c.tmp"), Some(".a.b-c"));
+    }
+
+    /// Two writers of one path each write their own temporary file: the file is one writer's
+    /// bytes whole, and nothing is left beside it.
+    #[test]
+    fn writes_of_one_path_do_not_share_a_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        let (a, b) = (temp_beside(&path).unwrap(), temp_beside(&path).unwrap());
+        assert_ne!(a.path(), b.path());
+        let name = a.path().file_name().unwrap().to_str().unwrap().to_string();
+        assert_eq!(temp_of(&name), Some("a.txt"), "{name}");
+        std::fs::write(a.path(), "first").unwrap();
+        std::fs::write(b.path(), "second").unwrap();
+        persist(a, &path).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "first");
+        drop(b);
+        write_atomic(&path, "third").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "third");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 1);
+    }
+
+    /// A file written whole has a plain new file's permissions, not a temporary file's 0600.
+    #[cfg(unix)]
+    #[test]
+    fn a_file_written_whole_has_a_new_files_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let (plain, whole) = (dir.path().join("plain"), dir.path().join("whole"));
+        std::fs::write(&plain, "x").unwrap();
+        write_atomic(&whole, "x").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&whole), mode(&plain));
+    }
+
+    /// What writes of a file left under temporary names is removed, and nothing else.
+    #[test]
+    fn the_temporary_files_of_a_path_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let video = dir.path().join("zoom.mp4");
+        let left = temp_beside(&video).unwrap().keep().unwrap().1;
+        std::fs::write(dir.path().join("zoom.mp4.tmp"), "").unwrap();
+        std::fs::write(dir.path().join("other.mp4.tmp"), "").unwrap();
+        assert!(remove_temps_of(&video).unwrap());
+        assert!(!left.exists());
+        assert!(!dir.path().join("zoom.mp4.tmp").exists());
+        assert!(dir.path().join("other.mp4.tmp").exists());
+        assert!(!remove_temps_of(&video).unwrap());
+    }
 }

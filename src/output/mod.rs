@@ -26,8 +26,8 @@ mod merge;
 pub mod sequence;
 
 pub use files::{
-    png_hash, remove_if_there, resolved, tmp_path, write_atomic, write_atomic_with, write_png,
-    write_png_atomic, Compression,
+    final_name, persist, png_hash, remove_if_there, resolved, temp_beside, write_atomic,
+    write_atomic_with, write_png, write_png_atomic, Compression,
 };
 
 /// The manifest of a whole run, and the hashes file of a golden.
@@ -108,7 +108,7 @@ pub fn frames_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
 /// A failure picture: `frame_NNNN.png` (the new frame) or `frame_NNNN.diff.png` (its
 /// difference from the golden).
 pub fn is_failure_picture(name: &str) -> bool {
-    let name = name.strip_suffix(".tmp").unwrap_or(name);
+    let name = final_name(name);
     frame_of(name).is_some()
         || name
             .strip_suffix(".diff.png")
@@ -168,7 +168,7 @@ fn is_desktop_clutter(name: &str) -> bool {
 
 /// Whether campath writes files of this name into an output folder.
 fn is_ours(name: &str) -> bool {
-    let base = name.strip_suffix(".tmp").unwrap_or(name);
+    let base = final_name(name);
     frame_of(base).is_some()
         || lock::is_lock_file(base)
         || part_of(base).is_some()

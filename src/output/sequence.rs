@@ -12,7 +12,9 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
-use super::files::{png_hash, remove_if_there as remove, tmp_path, write_atomic, write_png_atomic};
+use super::files::{
+    png_hash, remove_if_there as remove, remove_temps_of, write_atomic, write_png_atomic,
+};
 use super::lock::{Claim, FolderLock, Wait};
 use super::manifest::{Entry, Manifest, PartHeader, Writer};
 use super::{
@@ -303,7 +305,7 @@ pub fn render(
     let mut videos_removed = Vec::new();
     if set.count() > plan.kept.len() as u64 || !plan.stale.is_empty() {
         for video in videos(dir, &doc.path) {
-            remove(&tmp_path(&video))?;
+            remove_temps_of(&video)?;
             if remove(&video)? {
                 videos_removed.push(video);
             }

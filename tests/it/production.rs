@@ -365,8 +365,8 @@ fn a_whole_run_that_cannot_write_its_manifest_removes_nothing() {
     }
     let farm = tmp.path().join("farm");
     let stamps = frame_stamps(&farm);
-    // hashes.txt cannot be written: its temporary name is a folder.
-    std::fs::create_dir(farm.join("hashes.txt.tmp")).unwrap();
+    // hashes.txt cannot be renamed into place: a folder has its name.
+    std::fs::create_dir(farm.join("hashes.txt")).unwrap();
     let one = |dir: &Path| {
         campath(
             dir,
@@ -378,7 +378,7 @@ fn a_whole_run_that_cannot_write_its_manifest_removes_nothing() {
     assert_eq!(failed.status.code(), Some(1), "{}", stderr(&failed));
     assert_eq!(manifest_parts(&farm).len(), 3);
     assert_eq!(frame_stamps(&farm), stamps);
-    std::fs::remove_dir(farm.join("hashes.txt.tmp")).unwrap();
+    std::fs::remove_dir(farm.join("hashes.txt")).unwrap();
     let again = one(tmp.path());
     assert!(again.status.success(), "{}", stderr(&again));
     assert!(!stdout(&again).contains("stale"), "{}", stdout(&again));
