@@ -20,8 +20,7 @@ use crate::document::Document;
 use crate::frames::FrameSet;
 use crate::output::sequence::{self, Event, RenderOptions};
 use crate::output::{
-    check, folder_of, frame_path, persist, resolved, temp_beside, video_path, within, Refusal, Use,
-    HASHES,
+    check, folder_of, frame_path, resolved, temp_beside, video_path, within, Refusal, Use, HASHES,
 };
 use crate::{frame_hash, Error, FrameHash};
 
@@ -176,7 +175,8 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     }
     // ffmpeg's own failure explains a pipe it stopped reading.
     encoder_status(&result).and(fed)?;
-    persist(tmp, &video)?;
+    tmp.persist(&video)
+        .map_err(|e| Error::write(&video)(e.error))?;
     if !quiet {
         let (w, h) = (doc.raster.width, doc.raster.height);
         let what = if a.lossless {

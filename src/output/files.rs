@@ -47,6 +47,31 @@ impl std::str::FromStr for Compression {
 pub fn write_png(
     path: &Path,
     pixels: &[u8],
+    size: (u32, u32),
+    compression: Compression,
+) -> Result<()> {
+    let file = std::fs::File::create(path).map_err(Error::write(path))?;
+    encode_png(path, file, pixels, size, compression)
+}
+
+/// Writes a PNG under a temporary name beside `path` and renames it into place, so a render
+/// killed at any moment leaves no partial PNG under a final name.
+pub fn write_png_atomic(
+    path: &Path,
+    pixels: &[u8],
+    size: (u32, u32),
+    compression: Compression,
+) -> Result<()> {
+    through_temp(path, |file| {
+        encode_png(path, file, pixels, size, compression)
+    })
+}
+
+/// Encodes the PNG of `path` into `file`.
+fn encode_png(
+    path: &Path,
+    file: impl std::io::Write,
+    pixels: &[u8],
     (width, height): (u32, u32),
     compression: Compression,
 ) -> Result<()> {
@@ -59,23 +84,9 @@ pub fn write_png(
         Compression::Default => (CompressionType::Default, FilterType::Adaptive),
         Compression::Best => (CompressionType::Best, FilterType::Adaptive),
     };
-    let file = std::fs::File::create(path).map_err(Error::write(path))?;
     PngEncoder::new_with_quality(BufWriter::new(file), level, filter)
         .write_image(pixels, width, height, image::ExtendedColorType::Rgb8)
         .map_err(Error::encode(path))
-}
-
-/// Writes a PNG under a temporary name beside `path` and renames it into place, so a render
-/// killed at any moment leaves no partial PNG under a final name.
-pub fn write_png_atomic(
-    path: &Path,
-    pixels: &[u8],
-    size: (u32, u32),
-    compression: Compression,
-) -> Result<()> {
-    let tmp = temp_beside(path)?;
-    write_png(tmp.path(), pixels, size, compression)?;
-    persist(tmp, path)
 }
 
 /// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.
@@ -85,7 +96,7 @@ pub fn png_hash(path: &Path) -> Option<FrameHash> {
 }
 
 /// A new empty file beside `path` under a temporary name of its own, `.NAME.XXXXXX.tmp`, so
-/// that two writers of one path never share one; [`persist`] renames it into place, and
+/// that two writers of one path never share one; renamed into place by `persist`, and
 /// dropped unrenamed it is removed. Its permissions are a plain new file's.
 pub fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let mut prefix = std::ffi::OsString::from(".");
@@ -101,11 +112,13 @@ pub fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
         .map_err(Error::write(path))
 }
 
-/// Renames a [`temp_beside`] file into place at `path`.
-pub fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
-    tmp.persist(path)
-        .map(drop)
-        .map_err(|e| Error::write(path)(e.error))
+/// Writes `path` through a [`temp_beside`] file that `fill` writes, renamed into place: the
+/// file appears whole or not at all, and on any failure the temporary file is removed.
+fn through_temp<T>(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<T>) -> Result<T> {
+    let mut tmp = temp_beside(path)?;
+    let value = fill(tmp.as_file_mut())?;
+    tmp.persist(path).map_err(|e| Error::write(path)(e.error))?;
+    Ok(value)
 }
 
 /// The ending of a file written under a temporary name.
@@ -165,16 +178,18 @@ pub fn write_atomic_with<T>(
     path: &Path,
     write: impl FnOnce(&mut dyn std::io::Write) -> Result<T>,
 ) -> Result<T> {
-    let mut tmp = temp_beside(path)?;
-    let mut out = BufWriter::new(tmp.as_file_mut());
-    let value = write(&mut out).map_err(|e| match e {
-        Error::Write { path: p, cause } if p.as_os_str() == "<stdout>" => Error::write(path)(cause),
-        e => e,
-    })?;
-    out.into_inner()
-        .map_err(|e| Error::write(path)(e.into_error()))?;
-    persist(tmp, path)?;
-    Ok(value)
+    through_temp(path, |file| {
+        let mut out = BufWriter::new(file);
+        let value = write(&mut out).map_err(|e| match e {
+            Error::Write { path: p, cause } if p.as_os_str() == "<stdout>" => {
+                Error::write(path)(cause)
+            }
+            e => e,
+        })?;
+        out.into_inner()
+            .map_err(|e| Error::write(path)(e.into_error()))?;
+        Ok(value)
+    })
 }
 
 /// Removes the file at `path` if there is one: whether there was.
@@ -248,7 +263,7 @@ mod tests {
         assert_eq!(temp_of(&name), Some("a.txt"), "{name}");
         std::fs::write(a.path(), "first").unwrap();
         std::fs::write(b.path(), "second").unwrap();
-        persist(a, &path).unwrap();
+        a.persist(&path).unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "first");
         drop(b);
         write_atomic(&path, "third").unwrap();

@@ -22,7 +22,7 @@ pub(crate) fn merge(
         dir: dir.to_path_buf(),
         problems,
     };
-    let parts = parts_in(dir)?;
+    let parts = parts_in(dir).map_err(Error::read(dir))?;
     let n = shard_count(&parts).map_err(|p| refuse(vec![p]))?;
     let mut problems = Vec::new();
     let mut reference: Option<(String, PartHeader)> = None;

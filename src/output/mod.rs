@@ -26,8 +26,8 @@ mod merge;
 pub mod sequence;
 
 pub use files::{
-    final_name, persist, png_hash, remove_if_there, resolved, temp_beside, write_atomic,
-    write_atomic_with, write_png, write_png_atomic, Compression,
+    final_name, png_hash, remove_if_there, resolved, temp_beside, write_atomic, write_atomic_with,
+    write_png, write_png_atomic, Compression,
 };
 
 /// The manifest of a whole run, and the hashes file of a golden.
@@ -137,9 +137,8 @@ pub(crate) fn part_of(name: &str) -> Option<Shard> {
 }
 
 /// The part files in `dir`, by shard.
-pub(crate) fn parts_in(dir: &Path) -> Result<BTreeMap<Shard, PathBuf>> {
-    let entries = std::fs::read_dir(dir).map_err(Error::read(dir.to_path_buf()))?;
-    Ok(entries
+pub(crate) fn parts_in(dir: &Path) -> std::io::Result<BTreeMap<Shard, PathBuf>> {
+    Ok(std::fs::read_dir(dir)?
         .flatten()
         .filter_map(|e| Some((part_of(e.file_name().to_str()?)?, e.path())))
         .collect())

@@ -243,7 +243,7 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
     if set.shard.is_some() {
         return Ok(0);
     }
-    for path in parts_in(dir)?.values() {
+    for path in parts_in(dir).map_err(Error::read(dir))?.values() {
         remove(path)?;
     }
     remove(&dir.join(BEFORE_SHARDS))?;
