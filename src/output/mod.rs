@@ -228,16 +228,7 @@ pub fn check(path: &Path, usage: Use) -> std::result::Result<(), Refusal> {
     }
     match usage {
         Use::Frames => {
-            if path.exists() && !path.is_dir() {
-                return Err(Refusal::NotAFolder(path.to_path_buf()));
-            }
-            golden_of(path)?;
-            if let Some(frames) = resolved(path).parent().and_then(frames_folder_of) {
-                return Err(Refusal::InFrames {
-                    path: path.to_path_buf(),
-                    frames,
-                });
-            }
+            a_folder_of_its_own(path)?;
             let Ok(entries) = std::fs::read_dir(path) else {
                 return Ok(());
             };
@@ -272,6 +263,22 @@ pub fn check(path: &Path, usage: Use) -> std::result::Result<(), Refusal> {
     }
 }
 
+/// Refuses `path` as a folder campath fills: a file, a golden or a folder in one, or a folder
+/// inside a folder of rendered frames.
+fn a_folder_of_its_own(path: &Path) -> std::result::Result<(), Refusal> {
+    if path.exists() && !path.is_dir() {
+        return Err(Refusal::NotAFolder(path.to_path_buf()));
+    }
+    golden_of(path)?;
+    match resolved(path).parent().and_then(frames_folder_of) {
+        Some(frames) => Err(Refusal::InFrames {
+            path: path.to_path_buf(),
+            frames,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Refuses `path` when it is, or lies inside, one of `goldens` (as they resolve): the goldens a
 /// run compares with, wherever they are.
 pub fn outside_goldens(path: &Path, goldens: &[PathBuf]) -> std::result::Result<(), Refusal> {
@@ -298,17 +305,7 @@ pub fn claim_pictures(
     wait: lock::Wait,
 ) -> Result<lock::FolderLock> {
     outside_goldens(dir, goldens)?;
-    if dir.exists() && !dir.is_dir() {
-        return Err(Refusal::NotAFolder(dir.to_path_buf()).into());
-    }
-    golden_of(dir)?;
-    if let Some(frames) = resolved(dir).parent().and_then(frames_folder_of) {
-        return Err(Refusal::InFrames {
-            path: dir.to_path_buf(),
-            frames,
-        }
-        .into());
-    }
+    a_folder_of_its_own(dir)?;
     let entries: Vec<_> = match std::fs::read_dir(dir) {
         Ok(entries) => entries.flatten().collect(),
         Err(_) => Vec::new(),
