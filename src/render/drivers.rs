@@ -59,6 +59,17 @@ impl<V: Lanes> Stages<V> {
 /// pixel's, and its line in `ys` past the pixel row's first.
 type Sample = (u16, u16);
 
+/// The average of a pixel's s² sample colours, summed in order.
+fn average(samples: impl Iterator<Item = [f64; 3]>, s2: usize) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for c in samples {
+        for a in 0..3 {
+            sum[a] += c[a];
+        }
+    }
+    sum.map(|v| v / s2 as f64)
+}
+
 /// Sample k (row-major in the s×s grid) of pixel p of a group.
 fn sample(s: usize, p: usize, k: usize) -> Sample {
     ((p * s + k % s) as u16, (k / s) as u16)
@@ -67,9 +78,8 @@ fn sample(s: usize, p: usize, k: usize) -> Sample {
 /// What a row's pixels end as: 8-bit sRGB levels (`u8`), or linear colours (`f64`) for a
 /// frame that averages several renders (motion blur), three to a pixel either way.
 pub trait Pixel: Copy + Default {
-    /// Up to [`LANES`] pixels' linear colours (a lane per pixel, an array per channel) into
-    /// `out`, as many pixels as it holds.
-    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [Self]);
+    /// Up to [`LANES`] pixels' linear colours into `out`, as many pixels as it holds.
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; 3]], out: &mut [Self]);
 
     /// A band's packet: lanes 0..4 into `upper`, 4..8 into `lower` (a packet's worth of
     /// pixels, or fewer at a row's end), its colours `color` unless it hit nothing.
@@ -84,7 +94,7 @@ pub trait Pixel: Copy + Default {
 
 impl Pixel for u8 {
     #[inline(always)]
-    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; 3]], out: &mut [u8]) {
         job.encode_pixels::<V>(tok, linear, out)
     }
 
@@ -102,11 +112,9 @@ impl Pixel for u8 {
 
 impl Pixel for f64 {
     #[inline(always)]
-    fn put<V: Lanes>(_: &RowJob, _: V::Token, linear: &[[f64; LANES]; 3], out: &mut [f64]) {
-        for (p, px) in out.chunks_exact_mut(3).enumerate() {
-            for a in 0..3 {
-                px[a] = linear[a][p];
-            }
+    fn put<V: Lanes>(_: &RowJob, _: V::Token, linear: &[[f64; 3]], out: &mut [f64]) {
+        for (px, c) in out.chunks_exact_mut(3).zip(linear) {
+            px.copy_from_slice(c);
         }
     }
 
@@ -157,36 +165,23 @@ pub struct RowJob<'a> {
     pub adaptive: bool,
 }
 
-/// Row `j` of a job, or the rows of a band from row `j`, to be written into `row`.
-struct RowWork<'r, 'a, P> {
+/// Row `j` of a job, or with `ONE` (one sample a pixel) the rows of a band from row `j`, to be
+/// written into `row`.
+struct RowWork<'r, 'a, P, const ONE: bool> {
     job: &'r RowJob<'a>,
     j: usize,
     row: &'r mut [P],
 }
 
-/// A band at one sample a pixel.
-struct OneSample<'r, 'a, P>(RowWork<'r, 'a, P>);
-
-/// A row at several samples a pixel.
-struct Several<'r, 'a, P>(RowWork<'r, 'a, P>);
-
-impl<P: Pixel> ForLanes for OneSample<'_, '_, P> {
+impl<P: Pixel, const ONE: bool> ForLanes for RowWork<'_, '_, P, ONE> {
     type Output = ();
 
     #[inline(always)]
     fn run<V: Lanes>(self, tok: V::Token) {
-        let RowWork { job, j, row } = self.0;
-        job.band_packets::<V, P>(tok, j, row)
-    }
-}
-
-impl<P: Pixel> ForLanes for Several<'_, '_, P> {
-    type Output = ();
-
-    #[inline(always)]
-    fn run<V: Lanes>(self, tok: V::Token) {
-        let RowWork { job, j, row } = self.0;
-        if job.adaptive {
+        let RowWork { job, j, row } = self;
+        if ONE {
+            job.band_packets::<V, P>(tok, j, row)
+        } else if job.adaptive {
             job.row_adaptive::<V, P>(tok, j, row)
         } else {
             job.row_samples::<V, P>(tok, j, row)
@@ -208,19 +203,19 @@ impl RowJob<'_> {
     /// layout.
     pub fn band<P: Pixel>(&self, isa: Isa, j: usize, band: &mut [P]) {
         if self.samples == 1 {
-            isa.run(OneSample(RowWork {
+            isa.run(RowWork::<P, true> {
                 job: self,
                 j,
                 row: band,
-            }))
+            })
         } else {
             let row_bytes = 3 * self.table.raster.width as usize;
             for (r, row) in band.chunks_mut(row_bytes).enumerate() {
-                isa.run(Several(RowWork {
+                isa.run(RowWork::<P, false> {
                     job: self,
                     j: j + r,
                     row,
-                }))
+                })
             }
         }
     }
@@ -254,19 +249,11 @@ impl RowJob<'_> {
                 pixels,
             };
             self.cast::<V, false>(span, &list[..n], &mut stages, &mut colors, &mut []);
-            let mut linear = [[0.0; LANES]; 3];
-            for p in 0..pixels {
-                let mut sum = [0.0; 3];
-                for c in &colors[p * s2..(p + 1) * s2] {
-                    for a in 0..3 {
-                        sum[a] += c[a];
-                    }
-                }
-                for a in 0..3 {
-                    linear[a][p] = sum[a] / s2 as f64;
-                }
+            let mut linear = [[0.0; 3]; 4];
+            for (p, c) in colors[..n].chunks(s2).enumerate() {
+                linear[p] = average(c.iter().copied(), s2);
             }
-            P::put::<V>(self, tok, &linear, out);
+            P::put::<V>(self, tok, &linear[..pixels], out);
         }
     }
 
@@ -328,43 +315,35 @@ impl RowJob<'_> {
                 self.cast::<V, false>(span, &rest, &mut stages, &mut colors, &mut []);
                 for (m, &p) in chunk.iter().enumerate() {
                     let c = &shaded[4 * p..4 * p + 4];
-                    let mut sum = [0.0; 3];
                     let mut next = colors[m * others.len()..].iter();
-                    for corner in &corner_of {
-                        let v = match *corner {
-                            Some(m) => c[m],
-                            None => *next.next().unwrap(),
-                        };
-                        for a in 0..3 {
-                            sum[a] += v[a];
-                        }
-                    }
-                    for a in 0..3 {
-                        linear[p][a] = sum[a] / s2 as f64;
-                    }
+                    let samples = corner_of.iter().map(|corner| match *corner {
+                        Some(m) => c[m],
+                        None => *next.next().unwrap(),
+                    });
+                    linear[p] = average(samples, s2);
                 }
             }
             for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
-                let mut lanes = [[0.0; LANES]; 3];
-                for (l, c) in linear[q * LANES..].iter().take(out.len() / 3).enumerate() {
-                    for a in 0..3 {
-                        lanes[a][l] = c[a];
-                    }
-                }
-                P::put::<V>(self, tok, &lanes, out);
+                P::put::<V>(self, tok, &linear[q * LANES..], out);
             }
         }
     }
 
-    /// The sRGB levels of up to [`LANES`] pixels' linear colours (a lane per pixel, an array
-    /// per channel) into `out`, RGB8, as many pixels as it holds.
+    /// The sRGB levels of up to [`LANES`] pixels' linear colours into `out`, RGB8, as many
+    /// pixels as it holds.
     #[inline(always)]
-    fn encode_pixels<V: Lanes>(&self, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
+    fn encode_pixels<V: Lanes>(&self, tok: V::Token, linear: &[[f64; 3]], out: &mut [u8]) {
+        let n = out.len();
+        let mut lanes = [[0.0; LANES]; 3];
+        for (l, c) in linear[..n / 3].iter().enumerate() {
+            for a in 0..3 {
+                lanes[a][l] = c[a];
+            }
+        }
         let mut rgb = [0u8; 3 * LANES];
-        for (a, channel) in linear.iter().enumerate() {
+        for (a, channel) in lanes.iter().enumerate() {
             self.encode.encode_into(V::load(tok, channel), &mut rgb, a);
         }
-        let n = out.len();
         out.copy_from_slice(&rgb[..n]);
     }
 
