@@ -95,7 +95,18 @@ pub trait Pixel: Copy + Default {
 impl Pixel for u8 {
     #[inline(always)]
     fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; 3]], out: &mut [u8]) {
-        job.encode_pixels::<V>(tok, linear, out)
+        let n = out.len();
+        let mut lanes = [[0.0; LANES]; 3];
+        for (l, c) in linear[..n / 3].iter().enumerate() {
+            for a in 0..3 {
+                lanes[a][l] = c[a];
+            }
+        }
+        let mut rgb = [0u8; 3 * LANES];
+        for (a, channel) in lanes.iter().enumerate() {
+            job.encode.encode_into(V::load(tok, channel), &mut rgb, a);
+        }
+        out.copy_from_slice(&rgb[..n]);
     }
 
     #[inline(always)]
@@ -106,7 +117,35 @@ impl Pixel for u8 {
         upper: &mut [u8],
         lower: &mut [u8],
     ) {
-        job.put_levels::<V>(found, color, upper, lower)
+        // A whole packet: each level straight to its pixel, the sky as fixed-size copies of
+        // the background's levels, not calls to `memcpy`.
+        let sky = found.0 == 0;
+        let (bg_upper, bg_lower) = job.background.split_at(3 * HALF);
+        if let (Ok(up), Ok(low)) = (
+            <&mut [u8; 3 * HALF]>::try_from(&mut *upper),
+            <&mut [u8; 3 * HALF]>::try_from(&mut *lower),
+        ) {
+            if sky {
+                *up = bg_upper.try_into().expect("half a packet");
+                *low = bg_lower.try_into().expect("half a packet");
+            } else {
+                // Plain calls, not `array::map`: its closure is not inlined into the function
+                // compiled for the instruction set, and would run its intrinsics out of line.
+                for (a, &linear) in color.iter().enumerate() {
+                    job.encode.encode_halves::<V>(linear, up, low, a);
+                }
+            }
+            return;
+        }
+        let mut rgb = job.background;
+        if !sky {
+            for (a, &linear) in color.iter().enumerate() {
+                job.encode.encode_into::<V>(linear, &mut rgb, a);
+            }
+        }
+        let n = upper.len();
+        upper.copy_from_slice(&rgb[..n]);
+        lower.copy_from_slice(&rgb[3 * HALF..3 * HALF + n]);
     }
 }
 
@@ -329,24 +368,6 @@ impl RowJob<'_> {
         }
     }
 
-    /// The sRGB levels of up to [`LANES`] pixels' linear colours into `out`, RGB8, as many
-    /// pixels as it holds.
-    #[inline(always)]
-    fn encode_pixels<V: Lanes>(&self, tok: V::Token, linear: &[[f64; 3]], out: &mut [u8]) {
-        let n = out.len();
-        let mut lanes = [[0.0; LANES]; 3];
-        for (l, c) in linear[..n / 3].iter().enumerate() {
-            for a in 0..3 {
-                lanes[a][l] = c[a];
-            }
-        }
-        let mut rgb = [0u8; 3 * LANES];
-        for (a, channel) in lanes.iter().enumerate() {
-            self.encode.encode_into(V::load(tok, channel), &mut rgb, a);
-        }
-        out.copy_from_slice(&rgb[..n]);
-    }
-
     /// Casts the samples `list` of the pixels of `span`, in packets of 8 (the last packet's
     /// spare lanes repeat the last sample): each one's linear colour into `colors`, and, when
     /// `SEEN`, what it saw into `seen`: the sphere (or `u64::MAX` for the background) in the
@@ -529,46 +550,5 @@ impl RowJob<'_> {
                 P::put_packet::<V>(self, &founds[2 * c + 1], &colors[2 * c + 1], o2, o3);
             }
         }
-    }
-
-    /// A packet's sRGB levels: lanes 0..4 into `upper`, 4..8 into `lower` (a packet's worth of
-    /// pixels, or fewer at a row's end). Each level straight to its pixel, for a whole packet;
-    /// all background (sky) is the frame's background levels, already encoded, as fixed-size
-    /// copies, not calls to `memcpy`.
-    #[inline(always)]
-    fn put_levels<V: Lanes>(
-        &self,
-        found: &Found<V>,
-        color: &[V; 3],
-        upper: &mut [u8],
-        lower: &mut [u8],
-    ) {
-        let sky = found.0 == 0;
-        let (bg_upper, bg_lower) = self.background.split_at(3 * HALF);
-        if let (Ok(up), Ok(low)) = (
-            <&mut [u8; 3 * HALF]>::try_from(&mut *upper),
-            <&mut [u8; 3 * HALF]>::try_from(&mut *lower),
-        ) {
-            if sky {
-                *up = bg_upper.try_into().expect("half a packet");
-                *low = bg_lower.try_into().expect("half a packet");
-            } else {
-                // Plain calls, not `array::map`: its closure is not inlined into the function
-                // compiled for the instruction set, and would run its intrinsics out of line.
-                for (a, &linear) in color.iter().enumerate() {
-                    self.encode.encode_halves::<V>(linear, up, low, a);
-                }
-            }
-            return;
-        }
-        let mut rgb = self.background;
-        if !sky {
-            for (a, &linear) in color.iter().enumerate() {
-                self.encode.encode_into::<V>(linear, &mut rgb, a);
-            }
-        }
-        let n = upper.len();
-        upper.copy_from_slice(&rgb[..n]);
-        lower.copy_from_slice(&rgb[3 * HALF..3 * HALF + n]);
     }
 }
