@@ -75,13 +75,7 @@ impl Default for Renderer {
 impl Renderer {
     /// A renderer on the fastest instruction path this CPU runs.
     pub fn new() -> Renderer {
-        let simd = Simd::detect();
-        Renderer {
-            table: None,
-            simd,
-            isa: simd.isa().expect("Simd::detect picks a path this CPU runs"),
-            spare: Vec::new(),
-        }
+        Renderer::with_simd(Simd::detect()).expect("Simd::detect picks a path this CPU runs")
     }
 
     /// A renderer on instruction path `simd`, None if this CPU cannot run it. Every path gives

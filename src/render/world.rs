@@ -31,12 +31,8 @@ struct Node {
 }
 
 impl Node {
-    fn lo(&self) -> DVec3 {
-        DVec3::new(self.lo[0] as f64, self.lo[1] as f64, self.lo[2] as f64)
-    }
-
-    fn hi(&self) -> DVec3 {
-        DVec3::new(self.hi[0] as f64, self.hi[1] as f64, self.hi[2] as f64)
+    fn bounds(&self) -> [DVec3; 2] {
+        [self.lo, self.hi].map(|v| DVec3::from(v.map(f64::from)))
     }
 }
 
@@ -155,7 +151,7 @@ impl<'a> SceneIndex<'a> {
         while let Some((k, inside)) = stack.pop() {
             let node = &self.nodes[k];
             let inside = inside || {
-                let (lo, hi) = (node.lo(), node.hi());
+                let [lo, hi] = node.bounds();
                 match planes.box_side(lo, hi) {
                     Side::Outside => continue,
                     Side::Inside => true,
@@ -484,7 +480,7 @@ mod tests {
                         seen[i as usize] += 1;
                         let s = &scene.spheres[i as usize];
                         for &a in &path {
-                            let (lo, hi) = (nodes[a].lo(), nodes[a].hi());
+                            let [lo, hi] = nodes[a].bounds();
                             assert!((s.center_world - s.radius).cmpge(lo).all());
                             assert!((s.center_world + s.radius).cmple(hi).all());
                         }
@@ -556,7 +552,10 @@ mod tests {
                 inside += index
                     .nodes
                     .iter()
-                    .filter(|node| matches!(planes.box_side(node.lo(), node.hi()), Side::Inside))
+                    .filter(|node| {
+                        let [lo, hi] = node.bounds();
+                        matches!(planes.box_side(lo, hi), Side::Inside)
+                    })
                     .count();
             }
         }
