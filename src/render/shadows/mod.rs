@@ -140,27 +140,19 @@ impl ShadowGrid {
         // ray gets the largest key, and is cut off after the sort. Each binned disc's cells are
         // found in index order and gathered into the sorted order, so that binning reads them
         // in sequence, not the spheres at random.
-        let cells: Vec<u64> = spheres
-            .par_iter()
-            .with_min_len(PARALLEL)
-            .map(|s| {
-                if s.radius > big {
-                    return u64::MAX;
-                }
-                cell_key(grid.cell_range(project(s.center_world), s.radius))
-            })
-            .collect();
-        let keys: Vec<u64> = cells
+        let (cells, keys): (Vec<u64>, Vec<u64>) = spheres
             .par_iter()
             .zip(&grid.discs)
             .enumerate()
             .with_min_len(PARALLEL)
-            .map(|(k, (&cells, &Disc { top, .. }))| match cells {
-                // Not binned: a binned disc's cells are each below 4096, never all ones.
-                u64::MAX => u64::MAX,
-                _ => u64::from(!top_order(top)) << 32 | k as u64,
+            .map(|(k, (s, &Disc { top, .. }))| {
+                if s.radius > big {
+                    return (u64::MAX, u64::MAX);
+                }
+                let cells = cell_key(grid.cell_range(project(s.center_world), s.radius));
+                (cells, u64::from(!top_order(top)) << 32 | k as u64)
             })
-            .collect();
+            .unzip();
         let mut keys = sort_by_high_bits(keys, 32);
         keys.truncate(count);
         let order: Vec<u32> = keys
