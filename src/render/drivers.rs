@@ -29,14 +29,6 @@ use crate::raster::MAX_SAMPLES;
 /// samples as it can.
 const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
 
-/// Pixels `first` .. `first + pixels` of row `row`, inside one tile.
-#[derive(Clone, Copy)]
-struct Span {
-    row: usize,
-    first: usize,
-    pixels: usize,
-}
-
 /// The packets of a group of samples between the stages of [`RowJob::cast`]: their
 /// directions, then their nearest hits. Made once per row.
 struct Stages<V: Lanes> {
@@ -282,11 +274,7 @@ impl RowJob<'_> {
             let i0 = g * group;
             let pixels = out.len() / 3;
             let n = pixels * s2;
-            let span = Span {
-                row: j,
-                first: i0,
-                pixels,
-            };
+            let span = (j, i0, pixels);
             self.cast::<V, false>(span, &list[..n], &mut stages, &mut colors, &mut []);
             let mut linear = [[0.0; 3]; 4];
             for (p, c) in colors[..n].chunks(s2).enumerate() {
@@ -328,11 +316,7 @@ impl RowJob<'_> {
         for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
             let i0 = g * TILE;
             let pixels = out.len() / 3;
-            let span = Span {
-                row: j,
-                first: i0,
-                pixels,
-            };
+            let span = (j, i0, pixels);
             let n = 4 * pixels;
             self.cast::<V, true>(span, &corner_list[..n], &mut stages, &mut shaded, &mut seen);
             disagree.clear();
@@ -368,7 +352,8 @@ impl RowJob<'_> {
         }
     }
 
-    /// Casts the samples `list` of the pixels of `span`, in packets of 8 (the last packet's
+    /// Casts the samples `list` of the pixels of `span` (row j's pixels i0 .. i0 + `pixels`,
+    /// inside one tile), in packets of 8 (the last packet's
     /// spare lanes repeat the last sample): each one's linear colour into `colors`, and, when
     /// `SEEN`, what it saw into `seen`: the sphere (or `u64::MAX` for the background) in the
     /// high 32 bits and, in the low 32, which lights reach the point. Adaptive sampling compares
@@ -376,7 +361,7 @@ impl RowJob<'_> {
     #[inline(always)]
     fn cast<V: Lanes, const SEEN: bool>(
         &self,
-        span: Span,
+        (j, i0, pixels): (usize, usize, usize),
         list: &[Sample],
         stages: &mut Stages<V>,
         colors: &mut [[f64; 3]],
@@ -384,11 +369,6 @@ impl RowJob<'_> {
     ) {
         let tok = stages.dirs[0][0].token();
         let (s, t, n) = (self.samples, self.table, list.len());
-        let Span {
-            row: j,
-            first: i0,
-            pixels,
-        } = span;
         let background = self.ctx.background.to_array();
         let candidates = self.bins.at(i0, j);
         let covers = |k: u32, _: usize| self.bins.covers(k, (i0, i0 + pixels - 1), (j, j));
