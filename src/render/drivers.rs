@@ -17,7 +17,7 @@
 
 use super::kernels::{Found, Shading};
 use super::lanes::{ForLanes, Lanes, LANES};
-use super::rays::{band_direction, unit, RayTable, HALF};
+use super::rays::{unit, RayTable, HALF};
 use super::shadows::{HINTED_LIGHTS, NO_HINT};
 use super::simd::Isa;
 use super::srgb::SrgbEncoder;
@@ -458,8 +458,8 @@ impl RowJob<'_> {
             *y = V::load(tok, &lanes);
         }
         let yys = [ys[0].mul(ys[0]), ys[1].mul(ys[1])];
-        let (z, zz) = (t.dz, V::splat(tok, t.dz * t.dz));
-        // A stretch of the band's unit directions (`band_direction`), computed ahead of its
+        let (z, zz) = (V::splat(tok, t.dz), V::splat(tok, t.dz * t.dz));
+        // A stretch of the band's unit directions (of the table's `packet_xs`), computed ahead of its
         // packets: independent square roots and divisions, out of each packet's chain of
         // dependent work. The first stretch's are computed here, each next stretch's in this
         // stretch's last stage, column by column as its slots are freed: that stage reads
@@ -469,7 +469,8 @@ impl RowJob<'_> {
         let mut dirs = [[V::splat(tok, 0.0); 3]; STRETCH];
         for c in 0..columns.min(STRETCH / 2) {
             for h in 0..2 {
-                dirs[2 * c + h] = band_direction(t, c, ys[h], z, yys[h], zz);
+                let x = V::load(tok, &t.packet_xs[c]);
+                dirs[2 * c + h] = unit(x, ys[h], z, yys[h], zz);
             }
         }
         // The stretch's nearest hits, then its colours, then its levels, each stage a short loop
@@ -523,7 +524,8 @@ impl RowJob<'_> {
                 if c < next {
                     for h in 0..2 {
                         let column = c0 + STRETCH / 2 + c;
-                        dirs[2 * c + h] = band_direction(t, column, ys[h], z, yys[h], zz);
+                        let x = V::load(tok, &t.packet_xs[column]);
+                        dirs[2 * c + h] = unit(x, ys[h], z, yys[h], zz);
                     }
                 }
                 P::put_packet::<V>(self, &founds[2 * c], &colors[2 * c], o0, o1);

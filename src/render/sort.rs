@@ -115,11 +115,7 @@ pub fn on_pool<A: Send, T: Send>(tasks: Vec<A>, f: impl Fn(usize, A) -> T + Sync
             .map(|(t, a)| f(t, a))
             .collect()
     } else {
-        tasks
-            .into_iter()
-            .enumerate()
-            .map(|(t, a)| f(t, a))
-            .collect()
+        tasks.into_iter().map(|a| f(0, a)).collect()
     }
 }
 

@@ -85,34 +85,31 @@ impl<'a> SceneIndex<'a> {
                 })
                 .collect()
         };
-        if scene.spheres.len() <= copy_max {
+        let curve = (scene.spheres.len() <= copy_max).then(|| {
             let scene_index = curve_order(&scene.spheres);
             let copy: Vec<Sphere> = scene_index
                 .par_iter()
                 .with_min_len(PARALLEL)
                 .map(|&k| scene.spheres[k as usize])
                 .collect();
-            let order: Vec<u32> = (0..copy.len() as u32).collect();
-            let (nodes, shadows) = rayon::join(|| hierarchy(&copy, &order), || grids(&copy));
-            return SceneIndex {
-                scene,
-                curve: Some((copy, scene_index)),
-                nodes,
-                order,
-                shadows,
-            };
-        }
-        let (nodes_order, shadows) = rayon::join(
+            (copy, scene_index)
+        });
+        // Over the copy, the hierarchy's order is the copy's own.
+        let spheres = curve.as_ref().map_or(&scene.spheres[..], |(copy, _)| copy);
+        let ((nodes, order), shadows) = rayon::join(
             || {
-                let order = curve_order(&scene.spheres);
-                (hierarchy(&scene.spheres, &order), order)
+                let order = if curve.is_some() {
+                    (0..spheres.len() as u32).collect()
+                } else {
+                    curve_order(spheres)
+                };
+                (hierarchy(spheres, &order), order)
             },
-            || grids(&scene.spheres),
+            || grids(spheres),
         );
-        let (nodes, order) = nodes_order;
         SceneIndex {
             scene,
-            curve: None,
+            curve,
             nodes,
             order,
             shadows,

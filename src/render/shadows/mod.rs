@@ -126,33 +126,30 @@ impl ShadowGrid {
         }
         (grid.dims, grid.inv_cell) = grid_size(hi - lo, count, median);
         grid.origin = lo;
-        grid.discs = spheres
-            .par_iter()
-            .with_min_len(PARALLEL)
-            .map(|s| {
-                let top = s.center_world.dot(to_light) + s.radius;
-                Disc::new(project(s.center_world) - lo, s.radius, top)
-            })
-            .collect();
         // Binned highest top first (equal tops by index), so every cell lists them so: one
         // radix sort of 8 bytes a sphere, its top's order above its index ([`top_order`]),
         // the keys made in index order (so equal tops stay in it). A sphere tested for every
         // ray gets the largest key, and is cut off after the sort. Each binned disc's cells are
         // found in index order and gathered into the sorted order, so that binning reads them
         // in sequence, not the spheres at random.
-        let (cells, keys): (Vec<u64>, Vec<u64>) = spheres
+        let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = spheres
             .par_iter()
-            .zip(&grid.discs)
             .enumerate()
             .with_min_len(PARALLEL)
-            .map(|(k, (s, &Disc { top, .. }))| {
+            .map(|(k, s)| {
+                let top = s.center_world.dot(to_light) + s.radius;
+                let disc = Disc::new(project(s.center_world) - lo, s.radius, top);
                 if s.radius > big {
-                    return (u64::MAX, u64::MAX);
+                    return (disc, (u64::MAX, u64::MAX));
                 }
                 let cells = cell_key(grid.cell_range(project(s.center_world), s.radius));
-                (cells, u64::from(!top_order(top)) << 32 | k as u64)
+                (
+                    disc,
+                    (cells, u64::from(!top_order(disc.top)) << 32 | k as u64),
+                )
             })
             .unzip();
+        grid.discs = discs;
         let mut keys = sort_by_high_bits(keys, 32);
         keys.truncate(count);
         let order: Vec<u32> = keys
