@@ -14,7 +14,7 @@ use super::shadows::{big_radius, f32_down, f32_up, ShadowGrid};
 use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
-use crate::scene::{Scene, Sphere};
+use crate::scene::{Light, Scene, Sphere};
 
 /// Spheres per leaf.
 const LEAF: usize = 4;
@@ -75,16 +75,6 @@ impl<'a> SceneIndex<'a> {
     /// `copy_max` of them (the tests take both ways for the same scene).
     pub(super) fn copying_up_to(scene: &'a Scene, copy_max: usize) -> SceneIndex<'a> {
         use rayon::prelude::*;
-        let grids = |spheres: &[Sphere]| -> Vec<Option<ShadowGrid>> {
-            scene
-                .lights
-                .iter()
-                .map(|l| {
-                    (l.shadows && spheres.len() > 1)
-                        .then(|| ShadowGrid::build(spheres, -l.direction_world))
-                })
-                .collect()
-        };
         let curve = (scene.spheres.len() <= copy_max).then(|| {
             let scene_index = curve_order(&scene.spheres);
             let copy: Vec<Sphere> = scene_index
@@ -105,7 +95,13 @@ impl<'a> SceneIndex<'a> {
                 };
                 (hierarchy(spheres, &order), order)
             },
-            || grids(spheres),
+            || {
+                let grid = |l: &Light| {
+                    (l.shadows && spheres.len() > 1)
+                        .then(|| ShadowGrid::build(spheres, -l.direction_world))
+                };
+                scene.lights.iter().map(grid).collect()
+            },
         );
         SceneIndex {
             scene,
