@@ -143,9 +143,8 @@ where
         let items = sort::slots::<u32>(offsets[offsets.len() - 1] as usize);
         sort::scatter(&self, counts, &items);
         let items = items.into_iter().map(AtomicU32::into_inner).collect();
-        let width = self.width;
         Bins {
-            width,
+            width: self.width,
             offsets,
             items,
         }

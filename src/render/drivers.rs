@@ -17,7 +17,7 @@
 
 use super::kernels::{Found, Shading};
 use super::lanes::{ForLanes, Lanes, LANES};
-use super::rays::{band_direction, unit, RayTable, HALF};
+use super::rays::{unit, RayTable, HALF};
 use super::shadows::{HINTED_LIGHTS, NO_HINT};
 use super::simd::Isa;
 use super::srgb::SrgbEncoder;
@@ -28,14 +28,6 @@ use crate::raster::MAX_SAMPLES;
 /// them up to 8×8, two up to 11×11 and one above; adaptive sampling fits as many pixels' other
 /// samples as it can.
 const MAX_GROUP_SAMPLES: usize = (MAX_SAMPLES * MAX_SAMPLES) as usize;
-
-/// Pixels `first` .. `first + pixels` of row `row`, inside one tile.
-#[derive(Clone, Copy)]
-struct Span {
-    row: usize,
-    first: usize,
-    pixels: usize,
-}
 
 /// The packets of a group of samples between the stages of [`RowJob::cast`]: their
 /// directions, then their nearest hits. Made once per row.
@@ -59,6 +51,17 @@ impl<V: Lanes> Stages<V> {
 /// pixel's, and its line in `ys` past the pixel row's first.
 type Sample = (u16, u16);
 
+/// The average of a pixel's s² sample colours, summed in order.
+fn average(samples: impl Iterator<Item = [f64; 3]>, s2: usize) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for c in samples {
+        for a in 0..3 {
+            sum[a] += c[a];
+        }
+    }
+    sum.map(|v| v / s2 as f64)
+}
+
 /// Sample k (row-major in the s×s grid) of pixel p of a group.
 fn sample(s: usize, p: usize, k: usize) -> Sample {
     ((p * s + k % s) as u16, (k / s) as u16)
@@ -67,9 +70,8 @@ fn sample(s: usize, p: usize, k: usize) -> Sample {
 /// What a row's pixels end as: 8-bit sRGB levels (`u8`), or linear colours (`f64`) for a
 /// frame that averages several renders (motion blur), three to a pixel either way.
 pub trait Pixel: Copy + Default {
-    /// Up to [`LANES`] pixels' linear colours (a lane per pixel, an array per channel) into
-    /// `out`, as many pixels as it holds.
-    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [Self]);
+    /// Up to [`LANES`] pixels' linear colours into `out`, as many pixels as it holds.
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; 3]], out: &mut [Self]);
 
     /// A band's packet: lanes 0..4 into `upper`, 4..8 into `lower` (a packet's worth of
     /// pixels, or fewer at a row's end), its colours `color` unless it hit nothing.
@@ -84,8 +86,19 @@ pub trait Pixel: Copy + Default {
 
 impl Pixel for u8 {
     #[inline(always)]
-    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
-        job.encode_pixels::<V>(tok, linear, out)
+    fn put<V: Lanes>(job: &RowJob, tok: V::Token, linear: &[[f64; 3]], out: &mut [u8]) {
+        let n = out.len();
+        let mut lanes = [[0.0; LANES]; 3];
+        for (l, c) in linear[..n / 3].iter().enumerate() {
+            for a in 0..3 {
+                lanes[a][l] = c[a];
+            }
+        }
+        let mut rgb = [0u8; 3 * LANES];
+        for (a, channel) in lanes.iter().enumerate() {
+            job.encode.encode_into(V::load(tok, channel), &mut rgb, a);
+        }
+        out.copy_from_slice(&rgb[..n]);
     }
 
     #[inline(always)]
@@ -96,17 +109,43 @@ impl Pixel for u8 {
         upper: &mut [u8],
         lower: &mut [u8],
     ) {
-        job.put_levels::<V>(found, color, upper, lower)
+        // A whole packet: each level straight to its pixel, the sky as fixed-size copies of
+        // the background's levels, not calls to `memcpy`.
+        let sky = found.0 == 0;
+        let (bg_upper, bg_lower) = job.background.split_at(3 * HALF);
+        if let (Ok(up), Ok(low)) = (
+            <&mut [u8; 3 * HALF]>::try_from(&mut *upper),
+            <&mut [u8; 3 * HALF]>::try_from(&mut *lower),
+        ) {
+            if sky {
+                *up = bg_upper.try_into().expect("half a packet");
+                *low = bg_lower.try_into().expect("half a packet");
+            } else {
+                // Plain calls, not `array::map`: its closure is not inlined into the function
+                // compiled for the instruction set, and would run its intrinsics out of line.
+                for (a, &linear) in color.iter().enumerate() {
+                    job.encode.encode_halves::<V>(linear, up, low, a);
+                }
+            }
+            return;
+        }
+        let mut rgb = job.background;
+        if !sky {
+            for (a, &linear) in color.iter().enumerate() {
+                job.encode.encode_into::<V>(linear, &mut rgb, a);
+            }
+        }
+        let n = upper.len();
+        upper.copy_from_slice(&rgb[..n]);
+        lower.copy_from_slice(&rgb[3 * HALF..3 * HALF + n]);
     }
 }
 
 impl Pixel for f64 {
     #[inline(always)]
-    fn put<V: Lanes>(_: &RowJob, _: V::Token, linear: &[[f64; LANES]; 3], out: &mut [f64]) {
-        for (p, px) in out.chunks_exact_mut(3).enumerate() {
-            for a in 0..3 {
-                px[a] = linear[a][p];
-            }
+    fn put<V: Lanes>(_: &RowJob, _: V::Token, linear: &[[f64; 3]], out: &mut [f64]) {
+        for (px, c) in out.chunks_exact_mut(3).zip(linear) {
+            px.copy_from_slice(c);
         }
     }
 
@@ -157,36 +196,23 @@ pub struct RowJob<'a> {
     pub adaptive: bool,
 }
 
-/// Row `j` of a job, or the rows of a band from row `j`, to be written into `row`.
-struct RowWork<'r, 'a, P> {
+/// Row `j` of a job, or with `ONE` (one sample a pixel) the rows of a band from row `j`, to be
+/// written into `row`.
+struct RowWork<'r, 'a, P, const ONE: bool> {
     job: &'r RowJob<'a>,
     j: usize,
     row: &'r mut [P],
 }
 
-/// A band at one sample a pixel.
-struct OneSample<'r, 'a, P>(RowWork<'r, 'a, P>);
-
-/// A row at several samples a pixel.
-struct Several<'r, 'a, P>(RowWork<'r, 'a, P>);
-
-impl<P: Pixel> ForLanes for OneSample<'_, '_, P> {
+impl<P: Pixel, const ONE: bool> ForLanes for RowWork<'_, '_, P, ONE> {
     type Output = ();
 
     #[inline(always)]
     fn run<V: Lanes>(self, tok: V::Token) {
-        let RowWork { job, j, row } = self.0;
-        job.band_packets::<V, P>(tok, j, row)
-    }
-}
-
-impl<P: Pixel> ForLanes for Several<'_, '_, P> {
-    type Output = ();
-
-    #[inline(always)]
-    fn run<V: Lanes>(self, tok: V::Token) {
-        let RowWork { job, j, row } = self.0;
-        if job.adaptive {
+        let RowWork { job, j, row } = self;
+        if ONE {
+            job.band_packets::<V, P>(tok, j, row)
+        } else if job.adaptive {
             job.row_adaptive::<V, P>(tok, j, row)
         } else {
             job.row_samples::<V, P>(tok, j, row)
@@ -208,19 +234,19 @@ impl RowJob<'_> {
     /// layout.
     pub fn band<P: Pixel>(&self, isa: Isa, j: usize, band: &mut [P]) {
         if self.samples == 1 {
-            isa.run(OneSample(RowWork {
+            isa.run(RowWork::<P, true> {
                 job: self,
                 j,
                 row: band,
-            }))
+            })
         } else {
             let row_bytes = 3 * self.table.raster.width as usize;
             for (r, row) in band.chunks_mut(row_bytes).enumerate() {
-                isa.run(Several(RowWork {
+                isa.run(RowWork::<P, false> {
                     job: self,
                     j: j + r,
                     row,
-                }))
+                })
             }
         }
     }
@@ -248,25 +274,13 @@ impl RowJob<'_> {
             let i0 = g * group;
             let pixels = out.len() / 3;
             let n = pixels * s2;
-            let span = Span {
-                row: j,
-                first: i0,
-                pixels,
-            };
+            let span = (j, i0, pixels);
             self.cast::<V, false>(span, &list[..n], &mut stages, &mut colors, &mut []);
-            let mut linear = [[0.0; LANES]; 3];
-            for p in 0..pixels {
-                let mut sum = [0.0; 3];
-                for c in &colors[p * s2..(p + 1) * s2] {
-                    for a in 0..3 {
-                        sum[a] += c[a];
-                    }
-                }
-                for a in 0..3 {
-                    linear[a][p] = sum[a] / s2 as f64;
-                }
+            let mut linear = [[0.0; 3]; 4];
+            for (p, c) in colors[..n].chunks(s2).enumerate() {
+                linear[p] = average(c.iter().copied(), s2);
             }
-            P::put::<V>(self, tok, &linear, out);
+            P::put::<V>(self, tok, &linear[..pixels], out);
         }
     }
 
@@ -302,11 +316,7 @@ impl RowJob<'_> {
         for (g, out) in row.chunks_mut(3 * TILE).enumerate() {
             let i0 = g * TILE;
             let pixels = out.len() / 3;
-            let span = Span {
-                row: j,
-                first: i0,
-                pixels,
-            };
+            let span = (j, i0, pixels);
             let n = 4 * pixels;
             self.cast::<V, true>(span, &corner_list[..n], &mut stages, &mut shaded, &mut seen);
             disagree.clear();
@@ -328,47 +338,22 @@ impl RowJob<'_> {
                 self.cast::<V, false>(span, &rest, &mut stages, &mut colors, &mut []);
                 for (m, &p) in chunk.iter().enumerate() {
                     let c = &shaded[4 * p..4 * p + 4];
-                    let mut sum = [0.0; 3];
                     let mut next = colors[m * others.len()..].iter();
-                    for corner in &corner_of {
-                        let v = match *corner {
-                            Some(m) => c[m],
-                            None => *next.next().unwrap(),
-                        };
-                        for a in 0..3 {
-                            sum[a] += v[a];
-                        }
-                    }
-                    for a in 0..3 {
-                        linear[p][a] = sum[a] / s2 as f64;
-                    }
+                    let samples = corner_of.iter().map(|corner| match *corner {
+                        Some(m) => c[m],
+                        None => *next.next().unwrap(),
+                    });
+                    linear[p] = average(samples, s2);
                 }
             }
             for (q, out) in out.chunks_mut(3 * LANES).enumerate() {
-                let mut lanes = [[0.0; LANES]; 3];
-                for (l, c) in linear[q * LANES..].iter().take(out.len() / 3).enumerate() {
-                    for a in 0..3 {
-                        lanes[a][l] = c[a];
-                    }
-                }
-                P::put::<V>(self, tok, &lanes, out);
+                P::put::<V>(self, tok, &linear[q * LANES..], out);
             }
         }
     }
 
-    /// The sRGB levels of up to [`LANES`] pixels' linear colours (a lane per pixel, an array
-    /// per channel) into `out`, RGB8, as many pixels as it holds.
-    #[inline(always)]
-    fn encode_pixels<V: Lanes>(&self, tok: V::Token, linear: &[[f64; LANES]; 3], out: &mut [u8]) {
-        let mut rgb = [0u8; 3 * LANES];
-        for (a, channel) in linear.iter().enumerate() {
-            self.encode.encode_into(V::load(tok, channel), &mut rgb, a);
-        }
-        let n = out.len();
-        out.copy_from_slice(&rgb[..n]);
-    }
-
-    /// Casts the samples `list` of the pixels of `span`, in packets of 8 (the last packet's
+    /// Casts the samples `list` of the pixels of `span` (row j's pixels i0 .. i0 + `pixels`,
+    /// inside one tile), in packets of 8 (the last packet's
     /// spare lanes repeat the last sample): each one's linear colour into `colors`, and, when
     /// `SEEN`, what it saw into `seen`: the sphere (or `u64::MAX` for the background) in the
     /// high 32 bits and, in the low 32, which lights reach the point. Adaptive sampling compares
@@ -376,7 +361,7 @@ impl RowJob<'_> {
     #[inline(always)]
     fn cast<V: Lanes, const SEEN: bool>(
         &self,
-        span: Span,
+        (j, i0, pixels): (usize, usize, usize),
         list: &[Sample],
         stages: &mut Stages<V>,
         colors: &mut [[f64; 3]],
@@ -384,11 +369,6 @@ impl RowJob<'_> {
     ) {
         let tok = stages.dirs[0][0].token();
         let (s, t, n) = (self.samples, self.table, list.len());
-        let Span {
-            row: j,
-            first: i0,
-            pixels,
-        } = span;
         let background = self.ctx.background.to_array();
         let candidates = self.bins.at(i0, j);
         let covers = |k: u32, _: usize| self.bins.covers(k, (i0, i0 + pixels - 1), (j, j));
@@ -478,8 +458,8 @@ impl RowJob<'_> {
             *y = V::load(tok, &lanes);
         }
         let yys = [ys[0].mul(ys[0]), ys[1].mul(ys[1])];
-        let (z, zz) = (t.dz, V::splat(tok, t.dz * t.dz));
-        // A stretch of the band's unit directions (`band_direction`), computed ahead of its
+        let (z, zz) = (V::splat(tok, t.dz), V::splat(tok, t.dz * t.dz));
+        // A stretch of the band's unit directions (of the table's `packet_xs`), computed ahead of its
         // packets: independent square roots and divisions, out of each packet's chain of
         // dependent work. The first stretch's are computed here, each next stretch's in this
         // stretch's last stage, column by column as its slots are freed: that stage reads
@@ -489,7 +469,8 @@ impl RowJob<'_> {
         let mut dirs = [[V::splat(tok, 0.0); 3]; STRETCH];
         for c in 0..columns.min(STRETCH / 2) {
             for h in 0..2 {
-                dirs[2 * c + h] = band_direction(t, c, ys[h], z, yys[h], zz);
+                let x = V::load(tok, &t.packet_xs[c]);
+                dirs[2 * c + h] = unit(x, ys[h], z, yys[h], zz);
             }
         }
         // The stretch's nearest hits, then its colours, then its levels, each stage a short loop
@@ -543,53 +524,13 @@ impl RowJob<'_> {
                 if c < next {
                     for h in 0..2 {
                         let column = c0 + STRETCH / 2 + c;
-                        dirs[2 * c + h] = band_direction(t, column, ys[h], z, yys[h], zz);
+                        let x = V::load(tok, &t.packet_xs[column]);
+                        dirs[2 * c + h] = unit(x, ys[h], z, yys[h], zz);
                     }
                 }
                 P::put_packet::<V>(self, &founds[2 * c], &colors[2 * c], o0, o1);
                 P::put_packet::<V>(self, &founds[2 * c + 1], &colors[2 * c + 1], o2, o3);
             }
         }
-    }
-
-    /// A packet's sRGB levels: lanes 0..4 into `upper`, 4..8 into `lower` (a packet's worth of
-    /// pixels, or fewer at a row's end). Each level straight to its pixel, for a whole packet;
-    /// all background (sky) is the frame's background levels, already encoded, as fixed-size
-    /// copies, not calls to `memcpy`.
-    #[inline(always)]
-    fn put_levels<V: Lanes>(
-        &self,
-        found: &Found<V>,
-        color: &[V; 3],
-        upper: &mut [u8],
-        lower: &mut [u8],
-    ) {
-        let sky = found.0 == 0;
-        let (bg_upper, bg_lower) = self.background.split_at(3 * HALF);
-        if let (Ok(up), Ok(low)) = (
-            <&mut [u8; 3 * HALF]>::try_from(&mut *upper),
-            <&mut [u8; 3 * HALF]>::try_from(&mut *lower),
-        ) {
-            if sky {
-                *up = bg_upper.try_into().expect("half a packet");
-                *low = bg_lower.try_into().expect("half a packet");
-            } else {
-                // Plain calls, not `array::map`: its closure is not inlined into the function
-                // compiled for the instruction set, and would run its intrinsics out of line.
-                for (a, &linear) in color.iter().enumerate() {
-                    self.encode.encode_halves::<V>(linear, up, low, a);
-                }
-            }
-            return;
-        }
-        let mut rgb = self.background;
-        if !sky {
-            for (a, &linear) in color.iter().enumerate() {
-                self.encode.encode_into::<V>(linear, &mut rgb, a);
-            }
-        }
-        let n = upper.len();
-        upper.copy_from_slice(&rgb[..n]);
-        lower.copy_from_slice(&rgb[3 * HALF..3 * HALF + n]);
     }
 }

@@ -75,13 +75,7 @@ impl Default for Renderer {
 impl Renderer {
     /// A renderer on the fastest instruction path this CPU runs.
     pub fn new() -> Renderer {
-        let simd = Simd::detect();
-        Renderer {
-            table: None,
-            simd,
-            isa: simd.isa().expect("Simd::detect picks a path this CPU runs"),
-            spare: Vec::new(),
-        }
+        Renderer::with_simd(Simd::detect()).expect("Simd::detect picks a path this CPU runs")
     }
 
     /// A renderer on instruction path `simd`, None if this CPU cannot run it. Every path gives
@@ -333,11 +327,22 @@ impl PreparedFrame<'_> {
                 background: self.background,
             })
             .collect();
+        let encode = srgb_encoder();
+        let level = self.background.to_array().map(|c| encode.encode(c));
+        let background = [level; LANES].concat().try_into().expect("LANES pixels");
         let jobs: Vec<RowJob> = self
             .times
             .iter()
             .zip(&contexts)
-            .map(|(t, ctx)| self.job(ctx, t))
+            .map(|(t, ctx)| RowJob {
+                ctx,
+                table: &t.table,
+                bins: &t.bins,
+                encode,
+                background,
+                samples: raster.samples as usize,
+                adaptive: raster.adaptive && raster.samples >= 2,
+            })
             .collect();
         let isa = self.isa;
         let bands = Bands {
@@ -345,31 +350,11 @@ impl PreparedFrame<'_> {
             rows,
             band: BAND,
         };
-        if let [job] = &jobs[..] {
-            let render = |j, band: &mut [u8]| job.band(isa, j, band);
-            rows_in_order(buffer, bands, render, in_order);
-        } else {
-            let render = |j, band: &mut [u8]| shutter::mean_band(isa, &jobs, j, band);
-            rows_in_order(buffer, bands, render, in_order);
-        }
-    }
-
-    /// What the row drivers need of one time sample.
-    fn job<'b>(&'b self, ctx: &'b Shading<'b>, time: &'b TimeSample) -> RowJob<'b> {
-        let raster = self.raster;
-        let encode = srgb_encoder();
-        RowJob {
-            ctx,
-            table: &time.table,
-            bins: &time.bins,
-            encode,
-            background: [self.background.to_array().map(|c| encode.encode(c)); LANES]
-                .concat()
-                .try_into()
-                .expect("LANES pixels"),
-            samples: raster.samples as usize,
-            adaptive: raster.adaptive && raster.samples >= 2,
-        }
+        let render = |j, band: &mut [u8]| match &jobs[..] {
+            [job] => job.band(isa, j, band),
+            _ => shutter::mean_band(isa, &jobs, j, band),
+        };
+        rows_in_order(buffer, bands, render, in_order);
     }
 }
 

@@ -65,32 +65,9 @@ pub const TILE: usize = 16;
 /// next.
 pub(super) const HALF: usize = LANES / 2;
 
-/// The unit directions of the packet of column c (columns HALF·c .. HALF·(c + 1), the table's
-/// `packet_xs`) and lanes' row positions `y`, with `yy` = y² and `zz` = z² (computed once a
-/// band for its upper and its lower packets), normalised exactly as `DVec3::normalize` does
-/// (v · (1 / √(v·v))). A plain function, not a closure: a closure is not inlined into the row
-/// function compiled for the instruction set.
-#[inline(always)]
-pub(super) fn band_direction<V: Lanes>(
-    table: &RayTable,
-    c: usize,
-    y: V,
-    z: f64,
-    yy: V,
-    zz: V,
-) -> [V; 3] {
-    let tok = yy.token();
-    unit(
-        V::load(tok, &table.packet_xs[c]),
-        y,
-        V::splat(tok, z),
-        yy,
-        zz,
-    )
-}
-
 /// The unit vectors along (x, y, z) per lane, given yy = y² and zz = z² (found once for many
-/// packets), normalised exactly as `DVec3::normalize` does: v · (1 / √((x² + y²) + z²)).
+/// packets, as a band's for its upper and lower packets), normalised exactly as
+/// `DVec3::normalize` does: v · (1 / √((x² + y²) + z²)).
 #[inline(always)]
 pub(super) fn unit<V: Lanes>(x: V, y: V, z: V, yy: V, zz: V) -> [V; 3] {
     let tok = x.token();

@@ -5,8 +5,8 @@
 //! divided by their number: the bytes do not depend on the thread count, and since every
 //! instruction path gives the same linear colours, not on the path either.
 
-use super::drivers::RowJob;
-use super::lanes::{Lanes, Portable, LANES};
+use super::drivers::{Pixel, RowJob};
+use super::lanes::{Portable, LANES};
 use super::simd::Isa;
 
 /// The band of rows from `j` of a frame averaged over `jobs` (one per time sample, in time
@@ -24,16 +24,11 @@ pub fn mean_band(isa: Isa, jobs: &[RowJob], j: usize, band: &mut [u8]) {
         }
     }
     let n = jobs.len() as f64;
-    let encode = jobs[0].encode;
     for (means, out) in sum.chunks(3 * LANES).zip(band.chunks_mut(3 * LANES)) {
-        let mut rgb = [0u8; 3 * LANES];
-        for a in 0..3 {
-            let mut channel = [0.0; LANES];
-            for (c, px) in channel.iter_mut().zip(means.chunks_exact(3)) {
-                *c = px[a] / n;
-            }
-            encode.encode_into(Portable::load((), &channel), &mut rgb, a);
+        let mut pixels = [[0.0; 3]; LANES];
+        for (p, px) in pixels.iter_mut().zip(means.chunks_exact(3)) {
+            *p = [px[0] / n, px[1] / n, px[2] / n];
         }
-        out.copy_from_slice(&rgb[..out.len()]);
+        u8::put::<Portable>(&jobs[0], (), &pixels, out);
     }
 }

@@ -107,7 +107,7 @@ pub fn count<S: Scatter>(s: &S, tasks: usize, buckets: usize) -> Counts {
 
 /// `f` of every task, on the pool when there are several: a single task runs on this thread,
 /// which may be outside the pool.
-fn on_pool<A: Send, T: Send>(tasks: Vec<A>, f: impl Fn(usize, A) -> T + Sync) -> Vec<T> {
+pub fn on_pool<A: Send, T: Send>(tasks: Vec<A>, f: impl Fn(usize, A) -> T + Sync) -> Vec<T> {
     if tasks.len() > 1 {
         tasks
             .into_par_iter()
@@ -115,11 +115,7 @@ fn on_pool<A: Send, T: Send>(tasks: Vec<A>, f: impl Fn(usize, A) -> T + Sync) ->
             .map(|(t, a)| f(t, a))
             .collect()
     } else {
-        tasks
-            .into_iter()
-            .enumerate()
-            .map(|(t, a)| f(t, a))
-            .collect()
+        tasks.into_iter().map(|a| f(0, a)).collect()
     }
 }
 

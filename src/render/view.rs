@@ -166,23 +166,17 @@ impl ViewColumns {
             }
         };
         if n >= PARALLEL {
-            fn chunks(v: &mut [f64]) -> rayon::slice::ChunksMut<'_, f64> {
-                v.par_chunks_mut(PARALLEL)
-            }
-            let floats = (
-                chunks(min_dist),
-                chunks(radius),
-                chunks(x0),
-                chunks(x1),
-                chunks(x2),
-            );
             (
-                floats,
+                min_dist.par_chunks_mut(PARALLEL),
+                radius.par_chunks_mut(PARALLEL),
+                x0.par_chunks_mut(PARALLEL),
+                x1.par_chunks_mut(PARALLEL),
+                x2.par_chunks_mut(PARALLEL),
                 id.par_chunks_mut(PARALLEL),
                 ids.par_chunks(PARALLEL),
             )
                 .into_par_iter()
-                .for_each(|((a, b, c, d, e), id, ids)| fill(ids, (a, b, c, d, e, id)));
+                .for_each(|(a, b, c, d, e, id, ids)| fill(ids, (a, b, c, d, e, id)));
         } else {
             fill(ids, (min_dist, radius, x0, x1, x2, id));
         }

@@ -14,7 +14,7 @@ use super::shadows::{big_radius, f32_down, f32_up, ShadowGrid};
 use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
-use crate::scene::{Scene, Sphere};
+use crate::scene::{Light, Scene, Sphere};
 
 /// Spheres per leaf.
 const LEAF: usize = 4;
@@ -31,12 +31,8 @@ struct Node {
 }
 
 impl Node {
-    fn lo(&self) -> DVec3 {
-        DVec3::new(self.lo[0] as f64, self.lo[1] as f64, self.lo[2] as f64)
-    }
-
-    fn hi(&self) -> DVec3 {
-        DVec3::new(self.hi[0] as f64, self.hi[1] as f64, self.hi[2] as f64)
+    fn bounds(&self) -> [DVec3; 2] {
+        [self.lo, self.hi].map(|v| DVec3::from(v.map(f64::from)))
     }
 }
 
@@ -79,44 +75,37 @@ impl<'a> SceneIndex<'a> {
     /// `copy_max` of them (the tests take both ways for the same scene).
     pub(super) fn copying_up_to(scene: &'a Scene, copy_max: usize) -> SceneIndex<'a> {
         use rayon::prelude::*;
-        let grids = |spheres: &[Sphere]| -> Vec<Option<ShadowGrid>> {
-            scene
-                .lights
-                .iter()
-                .map(|l| {
-                    (l.shadows && spheres.len() > 1)
-                        .then(|| ShadowGrid::build(spheres, -l.direction_world))
-                })
-                .collect()
-        };
-        if scene.spheres.len() <= copy_max {
+        let curve = (scene.spheres.len() <= copy_max).then(|| {
             let scene_index = curve_order(&scene.spheres);
             let copy: Vec<Sphere> = scene_index
                 .par_iter()
                 .with_min_len(PARALLEL)
                 .map(|&k| scene.spheres[k as usize])
                 .collect();
-            let order: Vec<u32> = (0..copy.len() as u32).collect();
-            let (nodes, shadows) = rayon::join(|| hierarchy(&copy, &order), || grids(&copy));
-            return SceneIndex {
-                scene,
-                curve: Some((copy, scene_index)),
-                nodes,
-                order,
-                shadows,
-            };
-        }
-        let (nodes_order, shadows) = rayon::join(
+            (copy, scene_index)
+        });
+        // Over the copy, the hierarchy's order is the copy's own.
+        let spheres = curve.as_ref().map_or(&scene.spheres[..], |(copy, _)| copy);
+        let ((nodes, order), shadows) = rayon::join(
             || {
-                let order = curve_order(&scene.spheres);
-                (hierarchy(&scene.spheres, &order), order)
+                let order = if curve.is_some() {
+                    (0..spheres.len() as u32).collect()
+                } else {
+                    curve_order(spheres)
+                };
+                (hierarchy(spheres, &order), order)
             },
-            || grids(&scene.spheres),
+            || {
+                let grid = |l: &Light| {
+                    (l.shadows && spheres.len() > 1)
+                        .then(|| ShadowGrid::build(spheres, -l.direction_world))
+                };
+                scene.lights.iter().map(grid).collect()
+            },
         );
-        let (nodes, order) = nodes_order;
         SceneIndex {
             scene,
-            curve: None,
+            curve,
             nodes,
             order,
             shadows,
@@ -155,7 +144,7 @@ impl<'a> SceneIndex<'a> {
         while let Some((k, inside)) = stack.pop() {
             let node = &self.nodes[k];
             let inside = inside || {
-                let (lo, hi) = (node.lo(), node.hi());
+                let [lo, hi] = node.bounds();
                 match planes.box_side(lo, hi) {
                     Side::Outside => continue,
                     Side::Inside => true,
@@ -484,7 +473,7 @@ mod tests {
                         seen[i as usize] += 1;
                         let s = &scene.spheres[i as usize];
                         for &a in &path {
-                            let (lo, hi) = (nodes[a].lo(), nodes[a].hi());
+                            let [lo, hi] = nodes[a].bounds();
                             assert!((s.center_world - s.radius).cmpge(lo).all());
                             assert!((s.center_world + s.radius).cmple(hi).all());
                         }
@@ -556,7 +545,10 @@ mod tests {
                 inside += index
                     .nodes
                     .iter()
-                    .filter(|node| matches!(planes.box_side(node.lo(), node.hi()), Side::Inside))
+                    .filter(|node| {
+                        let [lo, hi] = node.bounds();
+                        matches!(planes.box_side(lo, hi), Side::Inside)
+                    })
                     .count();
             }
         }

@@ -63,8 +63,19 @@ impl Ymm2 {
     }
 }
 
-// In the closures below, `self` (a `Ymm2`) proves AVX2: each is called only by `each`,
-// `both` or `test` on it.
+/// Methods of [`Lanes`] that are one helper above on `self` (and `b`), its closure's intrinsics
+/// in an unsafe block: `name(b) -> R = helper(|x, y| intrinsics)`.
+macro_rules! lanewise {
+    ($($name:ident($($b:ident)?) -> $ret:ty = $via:ident(|$($v:ident),+| $op:expr);)*) => {$(
+        #[inline(always)]
+        fn $name(self $(, $b: Self)?) -> $ret {
+            // SAFETY: `self` (a `Ymm2`) proves AVX2, and the closure is called only by
+            // `each`, `both` or `test` on it.
+            self.$via($($b,)? |$($v),+| unsafe { $op })
+        }
+    )*};
+}
+
 impl Sealed for Ymm2 {}
 
 impl Lanes for Ymm2 {
@@ -101,90 +112,32 @@ impl Lanes for Ymm2 {
         }
         out
     }
-    #[inline(always)]
-    fn add(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.both(b, |x, y| unsafe { _mm256_add_pd(x, y) })
-    }
-    #[inline(always)]
-    fn sub(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.both(b, |x, y| unsafe { _mm256_sub_pd(x, y) })
-    }
-    #[inline(always)]
-    fn mul(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.both(b, |x, y| unsafe { _mm256_mul_pd(x, y) })
-    }
-    #[inline(always)]
-    fn div(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.both(b, |x, y| unsafe { _mm256_div_pd(x, y) })
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.each(|x| unsafe { _mm256_sqrt_pd(x) })
-    }
-    #[inline(always)]
-    fn neg(self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.each(|x| unsafe { _mm256_xor_pd(x, _mm256_set1_pd(-0.0)) })
-    }
-    #[inline(always)]
-    fn copysign(self, s: Self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.both(s, |x, y| unsafe {
+    lanewise! {
+        add(b) -> Self = both(|x, y| _mm256_add_pd(x, y));
+        sub(b) -> Self = both(|x, y| _mm256_sub_pd(x, y));
+        mul(b) -> Self = both(|x, y| _mm256_mul_pd(x, y));
+        div(b) -> Self = both(|x, y| _mm256_div_pd(x, y));
+        sqrt() -> Self = each(|x| _mm256_sqrt_pd(x));
+        neg() -> Self = each(|x| _mm256_xor_pd(x, _mm256_set1_pd(-0.0)));
+        copysign(b) -> Self = both(|x, y| {
             let sign = _mm256_set1_pd(-0.0);
             _mm256_or_pd(_mm256_andnot_pd(sign, x), _mm256_and_pd(sign, y))
-        })
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.each(|x| unsafe { _mm256_andnot_pd(_mm256_set1_pd(-0.0), x) })
-    }
-    #[inline(always)]
-    fn min(self, b: Self) -> Self {
-        // vminpd gives its second operand when either is NaN.
-        // SAFETY: `self` proves AVX2.
-        self.both(b, |x, y| unsafe {
+        });
+        abs() -> Self = each(|x| _mm256_andnot_pd(_mm256_set1_pd(-0.0), x));
+        // vminpd and vmaxpd give their second operand when either is NaN.
+        min(b) -> Self = both(|x, y| {
             let y_nan = _mm256_cmp_pd::<_CMP_UNORD_Q>(y, y);
             _mm256_blendv_pd(_mm256_min_pd(x, y), x, y_nan)
-        })
-    }
-    #[inline(always)]
-    fn max(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX2.
-        self.both(b, |x, y| unsafe {
+        });
+        max(b) -> Self = both(|x, y| {
             let y_nan = _mm256_cmp_pd::<_CMP_UNORD_Q>(y, y);
             _mm256_blendv_pd(_mm256_max_pd(x, y), x, y_nan)
-        })
-    }
-    #[inline(always)]
-    fn lt(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX2.
-        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(x, y) })
-    }
-    #[inline(always)]
-    fn le(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX2.
-        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_LE_OQ>(x, y) })
-    }
-    #[inline(always)]
-    fn gt(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX2.
-        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_GT_OQ>(x, y) })
-    }
-    #[inline(always)]
-    fn ge(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX2.
-        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_GE_OQ>(x, y) })
-    }
-    #[inline(always)]
-    fn eq(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX2.
-        self.test(b, |x, y| unsafe { _mm256_cmp_pd::<_CMP_EQ_OQ>(x, y) })
+        });
+        lt(b) -> u8 = test(|x, y| _mm256_cmp_pd::<_CMP_LT_OQ>(x, y));
+        le(b) -> u8 = test(|x, y| _mm256_cmp_pd::<_CMP_LE_OQ>(x, y));
+        gt(b) -> u8 = test(|x, y| _mm256_cmp_pd::<_CMP_GT_OQ>(x, y));
+        ge(b) -> u8 = test(|x, y| _mm256_cmp_pd::<_CMP_GE_OQ>(x, y));
+        eq(b) -> u8 = test(|x, y| _mm256_cmp_pd::<_CMP_EQ_OQ>(x, y));
     }
     #[inline(always)]
     fn blend(m: u8, a: Self, b: Self) -> Self {

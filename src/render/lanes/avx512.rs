@@ -37,6 +37,27 @@ impl Zmm {
     }
 }
 
+/// Methods of [`Lanes`] that are one expression of intrinsics on `self` (named `a`, the other
+/// operand `b`): a value of this form (`Self:`) or a mask (`u8:`).
+macro_rules! lanewise {
+    (Self: $($name:ident($a:ident $(, $b:ident)?) = $op:expr;)*) => {$(
+        #[inline(always)]
+        fn $name(self $(, $b: Self)?) -> Self {
+            let $a = self;
+            // SAFETY: `self` proves AVX-512F.
+            self.with(unsafe { $op })
+        }
+    )*};
+    (u8: $($name:ident($a:ident, $b:ident) = $op:expr;)*) => {$(
+        #[inline(always)]
+        fn $name(self, $b: Self) -> u8 {
+            let $a = self;
+            // SAFETY: `self` proves AVX-512F.
+            unsafe { $op }
+        }
+    )*};
+}
+
 impl Sealed for Zmm {}
 
 impl Lanes for Zmm {
@@ -64,99 +85,43 @@ impl Lanes for Zmm {
         unsafe { _mm512_storeu_pd(out.as_mut_ptr(), self.0) };
         out
     }
-    #[inline(always)]
-    fn add(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe { _mm512_add_pd(self.0, b.0) })
-    }
-    #[inline(always)]
-    fn sub(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe { _mm512_sub_pd(self.0, b.0) })
-    }
-    #[inline(always)]
-    fn mul(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe { _mm512_mul_pd(self.0, b.0) })
-    }
-    #[inline(always)]
-    fn div(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe { _mm512_div_pd(self.0, b.0) })
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe { _mm512_sqrt_pd(self.0) })
-    }
-    #[inline(always)]
-    fn neg(self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe {
+    lanewise! {
+        Self: add(a, b) = _mm512_add_pd(a.0, b.0);
+        sub(a, b) = _mm512_sub_pd(a.0, b.0);
+        mul(a, b) = _mm512_mul_pd(a.0, b.0);
+        div(a, b) = _mm512_div_pd(a.0, b.0);
+        sqrt(a) = _mm512_sqrt_pd(a.0);
+        neg(a) = {
             let sign = _mm512_set1_epi64(i64::MIN);
-            _mm512_castsi512_pd(_mm512_xor_epi64(_mm512_castpd_si512(self.0), sign))
-        })
-    }
-    #[inline(always)]
-    fn copysign(self, s: Self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe {
+            _mm512_castsi512_pd(_mm512_xor_epi64(_mm512_castpd_si512(a.0), sign))
+        };
+        copysign(a, s) = {
             let sign = _mm512_set1_epi64(i64::MIN);
-            let (a, b) = (_mm512_castpd_si512(self.0), _mm512_castpd_si512(s.0));
+            let (a, b) = (_mm512_castpd_si512(a.0), _mm512_castpd_si512(s.0));
             _mm512_castsi512_pd(_mm512_or_epi64(
                 _mm512_andnot_epi64(sign, a),
                 _mm512_and_epi64(sign, b),
             ))
-        })
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe { _mm512_abs_pd(self.0) })
-    }
-    #[inline(always)]
-    fn min(self, b: Self) -> Self {
-        // vminpd gives its second operand when either is NaN.
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe {
-            let m = _mm512_min_pd(self.0, b.0);
+        };
+        abs(a) = _mm512_abs_pd(a.0);
+        // vminpd and vmaxpd give their second operand when either is NaN.
+        min(a, b) = {
+            let m = _mm512_min_pd(a.0, b.0);
             let b_nan = _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(b.0, b.0);
-            _mm512_mask_blend_pd(b_nan, m, self.0)
-        })
-    }
-    #[inline(always)]
-    fn max(self, b: Self) -> Self {
-        // SAFETY: `self` proves AVX-512F.
-        self.with(unsafe {
-            let m = _mm512_max_pd(self.0, b.0);
+            _mm512_mask_blend_pd(b_nan, m, a.0)
+        };
+        max(a, b) = {
+            let m = _mm512_max_pd(a.0, b.0);
             let b_nan = _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(b.0, b.0);
-            _mm512_mask_blend_pd(b_nan, m, self.0)
-        })
+            _mm512_mask_blend_pd(b_nan, m, a.0)
+        };
     }
-    #[inline(always)]
-    fn lt(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX-512F.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, b.0) }
-    }
-    #[inline(always)]
-    fn le(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX-512F.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, b.0) }
-    }
-    #[inline(always)]
-    fn gt(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX-512F.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, b.0) }
-    }
-    #[inline(always)]
-    fn ge(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX-512F.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_GE_OQ>(self.0, b.0) }
-    }
-    #[inline(always)]
-    fn eq(self, b: Self) -> u8 {
-        // SAFETY: `self` proves AVX-512F.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, b.0) }
+    lanewise! {
+        u8: lt(a, b) = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(a.0, b.0);
+        le(a, b) = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(a.0, b.0);
+        gt(a, b) = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(a.0, b.0);
+        ge(a, b) = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(a.0, b.0);
+        eq(a, b) = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(a.0, b.0);
     }
     #[inline(always)]
     fn blend(m: u8, a: Self, b: Self) -> Self {

@@ -40,6 +40,16 @@ impl Portable {
     }
 }
 
+/// Methods of [`Lanes`] that are one helper above on `self` (and `b`): `name(b) -> R = helper(f)`.
+macro_rules! lanewise {
+    ($($name:ident($($b:ident)?) -> $ret:ty = $via:ident($f:expr);)*) => {$(
+        #[inline(always)]
+        fn $name(self $(, $b: Self)?) -> $ret {
+            self.$via($($b,)? $f)
+        }
+    )*};
+}
+
 impl Sealed for Portable {}
 
 impl Lanes for Portable {
@@ -61,65 +71,22 @@ impl Lanes for Portable {
     fn store(self) -> [f64; LANES] {
         self.0
     }
-    #[inline(always)]
-    fn add(self, b: Self) -> Self {
-        self.zip(b, |x, y| x + y)
-    }
-    #[inline(always)]
-    fn sub(self, b: Self) -> Self {
-        self.zip(b, |x, y| x - y)
-    }
-    #[inline(always)]
-    fn mul(self, b: Self) -> Self {
-        self.zip(b, |x, y| x * y)
-    }
-    #[inline(always)]
-    fn div(self, b: Self) -> Self {
-        self.zip(b, |x, y| x / y)
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        self.map(f64::sqrt)
-    }
-    #[inline(always)]
-    fn neg(self) -> Self {
-        self.map(|x| -x)
-    }
-    #[inline(always)]
-    fn copysign(self, sign: Self) -> Self {
-        self.zip(sign, f64::copysign)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        self.map(f64::abs)
-    }
-    #[inline(always)]
-    fn min(self, b: Self) -> Self {
-        self.zip(b, f64::min)
-    }
-    #[inline(always)]
-    fn max(self, b: Self) -> Self {
-        self.zip(b, f64::max)
-    }
-    #[inline(always)]
-    fn lt(self, b: Self) -> u8 {
-        self.test(b, |x, y| x < y)
-    }
-    #[inline(always)]
-    fn le(self, b: Self) -> u8 {
-        self.test(b, |x, y| x <= y)
-    }
-    #[inline(always)]
-    fn gt(self, b: Self) -> u8 {
-        self.test(b, |x, y| x > y)
-    }
-    #[inline(always)]
-    fn ge(self, b: Self) -> u8 {
-        self.test(b, |x, y| x >= y)
-    }
-    #[inline(always)]
-    fn eq(self, b: Self) -> u8 {
-        self.test(b, |x, y| x == y)
+    lanewise! {
+        add(b) -> Self = zip(|x, y| x + y);
+        sub(b) -> Self = zip(|x, y| x - y);
+        mul(b) -> Self = zip(|x, y| x * y);
+        div(b) -> Self = zip(|x, y| x / y);
+        sqrt() -> Self = map(f64::sqrt);
+        neg() -> Self = map(|x| -x);
+        copysign(b) -> Self = zip(f64::copysign);
+        abs() -> Self = map(f64::abs);
+        min(b) -> Self = zip(f64::min);
+        max(b) -> Self = zip(f64::max);
+        lt(b) -> u8 = test(|x, y| x < y);
+        le(b) -> u8 = test(|x, y| x <= y);
+        gt(b) -> u8 = test(|x, y| x > y);
+        ge(b) -> u8 = test(|x, y| x >= y);
+        eq(b) -> u8 = test(|x, y| x == y);
     }
     #[inline(always)]
     fn blend(m: u8, a: Self, b: Self) -> Self {

@@ -110,68 +110,46 @@ impl ShadowGrid {
             .reduce(none, |a, b| {
                 (a.0.max(b.0), a.1.min(b.1), a.2.max(b.2), a.3 + b.3)
             });
-        if count == 0 {
-            return ShadowGrid {
-                axes,
-                origin: DVec2::ZERO,
-                inv_cell: 0.0,
-                dims: (0, 0),
-                bins: Bins::empty(),
-                always,
-                extent,
-                to_light,
-                discs: Vec::new(),
-            };
-        }
-        let (dims, inv_cell) = grid_size(hi - lo, count, median);
-        let grid = ShadowGrid {
+        let mut grid = ShadowGrid {
             axes,
-            origin: lo,
-            inv_cell,
-            dims,
+            origin: DVec2::ZERO,
+            inv_cell: 0.0,
+            dims: (0, 0),
             bins: Bins::empty(),
             always,
             extent,
             to_light,
-            discs: spheres
-                .par_iter()
-                .with_min_len(PARALLEL)
-                .map(|s| {
-                    let top = s.center_world.dot(to_light) + s.radius;
-                    Disc::new(project(s.center_world) - lo, s.radius, top)
-                })
-                .collect(),
+            discs: Vec::new(),
         };
+        if count == 0 {
+            return grid;
+        }
+        (grid.dims, grid.inv_cell) = grid_size(hi - lo, count, median);
+        grid.origin = lo;
         // Binned highest top first (equal tops by index), so every cell lists them so: one
         // radix sort of 8 bytes a sphere, its top's order above its index ([`top_order`]),
         // the keys made in index order (so equal tops stay in it). A sphere tested for every
         // ray gets the largest key, and is cut off after the sort. Each binned disc's cells are
         // found in index order and gathered into the sorted order, so that binning reads them
         // in sequence, not the spheres at random.
-        let cells: Vec<u64> = spheres
+        let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = spheres
             .par_iter()
-            .with_min_len(PARALLEL)
-            .map(|s| {
-                if s.radius > big {
-                    return u64::MAX;
-                }
-                let (x0, x1, y0, y1) = grid.cell_range(project(s.center_world), s.radius);
-                [x0, x1, y0, y1]
-                    .iter()
-                    .fold(0u64, |key, &c| key << 16 | c as u64)
-            })
-            .collect();
-        let keys: Vec<u64> = cells
-            .par_iter()
-            .zip(&grid.discs)
             .enumerate()
             .with_min_len(PARALLEL)
-            .map(|(k, (&cells, &Disc { top, .. }))| match cells {
-                // Not binned: a binned disc's cells are each below 4096, never all ones.
-                u64::MAX => u64::MAX,
-                _ => u64::from(!top_order(top)) << 32 | k as u64,
+            .map(|(k, s)| {
+                let top = s.center_world.dot(to_light) + s.radius;
+                let disc = Disc::new(project(s.center_world) - lo, s.radius, top);
+                if s.radius > big {
+                    return (disc, (u64::MAX, u64::MAX));
+                }
+                let cells = cell_key(grid.cell_range(project(s.center_world), s.radius));
+                (
+                    disc,
+                    (cells, u64::from(!top_order(disc.top)) << 32 | k as u64),
+                )
             })
-            .collect();
+            .unzip();
+        grid.discs = discs;
         let mut keys = sort_by_high_bits(keys, 32);
         keys.truncate(count);
         let order: Vec<u32> = keys
@@ -186,21 +164,18 @@ impl ShadowGrid {
             .map(|&k| cells[k as usize])
             .collect();
         drop(cells);
-        let rect_at = |i: usize| {
-            let field = |shift: u32| (sorted[i] >> shift) as u16 as usize;
-            Some((field(48), field(32), field(16), field(0)))
-        };
+        let rect_at = |i: usize| Some(cell_rect(sorted[i]));
         // A quarter of the discs a task (at least PARALLEL), each task counting its own over the
         // whole grid, when the tasks' counts (a grid's worth of u32 each) take no more room
         // than the discs: each disc is read twice, not twice per band of rows. A grid of many
         // more cells than discs (small discs far apart) in bands.
-        let chunk = count.div_ceil(4).max(PARALLEL);
-        let bins = if dims.0 * dims.1 * count.div_ceil(chunk) <= count {
+        let (dims, chunk) = (grid.dims, count.div_ceil(4).max(PARALLEL));
+        grid.bins = if dims.0 * dims.1 * count.div_ceil(chunk) <= count {
             Bins::build(dims, &order, chunk, rect_at)
         } else {
             Bins::build_in_bands(dims, &order, rect_at)
         };
-        ShadowGrid { bins, ..grid }
+        grid
     }
 
     /// The cells a disc of `radius` about projected point `c` overlaps, clamped to the grid.
@@ -235,6 +210,20 @@ pub(super) fn f32_down(v: f64) -> f32 {
     } else {
         rounded
     }
+}
+
+/// The key of the cell range (x0, x1, y0, y1), 16 bits each (the grid is at most 4096 a side):
+/// how the build orders binned discs' cells and a shadow packet groups its lanes.
+#[inline(always)]
+fn cell_key((x0, x1, y0, y1): CellRect) -> u64 {
+    x0 as u64 | (x1 as u64) << 16 | (y0 as u64) << 32 | (y1 as u64) << 48
+}
+
+/// The cell range of a [`cell_key`].
+#[inline(always)]
+fn cell_rect(key: u64) -> CellRect {
+    let field = |shift: u32| (key >> shift) as u16 as usize;
+    (field(0), field(16), field(32), field(48))
 }
 
 /// An f32's bits as an unsigned integer in the order of the values (`f32::total_cmp`'s), for
@@ -336,12 +325,6 @@ impl<'a> FrameShadows<'a> {
             Some(all) => prefetch(&all[k as usize]),
             None => prefetch(&self.spheres[k as usize]),
         }
-    }
-
-    /// The binned spheres of grid cell (x, y).
-    #[inline(always)]
-    fn cell(&self, x: usize, y: usize) -> &[u32] {
-        self.grid.bins.cell(x, y)
     }
 }
 

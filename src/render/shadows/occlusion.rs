@@ -3,7 +3,7 @@
 
 use super::super::bins::CellRect;
 use super::super::lanes::{dot, splat3, Lanes, LANES};
-use super::{FrameShadows, NO_HINT};
+use super::{cell_key, cell_rect, FrameShadows, NO_HINT};
 
 impl FrameShadows<'_> {
     /// Whether the ray from each view point (on sphere `own`) towards the light meets another
@@ -102,8 +102,8 @@ impl FrameShadows<'_> {
         let mut key = [u64::MAX; LANES];
         for l in 0..LANES {
             if pending >> l & 1 == 1 {
-                let at = |c: [i32; LANES]| c[l] as u64;
-                key[l] = cell_key(at(x0), at(x1), at(y0), at(y1));
+                let at = |c: [i32; LANES]| c[l] as usize;
+                key[l] = cell_key((at(x0), at(x1), at(y0), at(y1)));
             }
         }
         // Lanes whose squares fall in the same single cell test its spheres together.
@@ -112,7 +112,7 @@ impl FrameShadows<'_> {
             if here == u64::MAX {
                 continue;
             }
-            let cells = cell_range(here);
+            let cells = cell_rect(here);
             let single = cells.0 == cells.1 && cells.2 == cells.3;
             let mut lanes = 0u8;
             for (m, other) in key.iter_mut().enumerate().skip(l) {
@@ -152,7 +152,7 @@ fn walk<V: Lanes>(
     let discs = &sh.grid.discs;
     for y in y0..=y1 {
         for x in x0..=x1 {
-            let cell = sh.cell(x, y);
+            let cell = sh.grid.bins.cell(x, y);
             for (i, &k) in cell.iter().enumerate() {
                 // A cell's spheres lie anywhere in the scene's memory: the one BLOCKER_AHEAD
                 // entries on is asked for now, so that its reads overlap this one's test.
@@ -241,20 +241,6 @@ fn blocks<V: Lanes>(
     let g2 = dot(&g, &g);
     let hit = cc.le(zero) | (b.lt(zero) & g2.le(r2));
     hit & !V::index_eq(own, V::index(tok, k as u64))
-}
-
-/// The key of the clamped cell range (x0, x1, y0, y1) by which a shadow packet groups its
-/// lanes: 16 bits each (the grid is at most 4096 a side).
-#[inline(always)]
-fn cell_key(x0: u64, x1: u64, y0: u64, y1: u64) -> u64 {
-    x0 | x1 << 16 | y0 << 32 | y1 << 48
-}
-
-/// The cell range (x0, x1, y0, y1) of a [`cell_key`].
-#[inline(always)]
-fn cell_range(key: u64) -> CellRect {
-    let field = |shift: u32| ((key >> shift) & 0xffff) as usize;
-    (field(0), field(16), field(32), field(48))
 }
 
 #[cfg(test)]

@@ -150,12 +150,8 @@ impl TileCone {
         let (j0, j1) = samples(ty, raster.height, raster);
         let xs = [table.xs[i0], table.xs[i1]];
         let ys = [table.ys[j0], table.ys[j1]];
-        let corners = [
-            DVec3::new(xs[0], ys[0], table.dz).normalize(),
-            DVec3::new(xs[1], ys[0], table.dz).normalize(),
-            DVec3::new(xs[0], ys[1], table.dz).normalize(),
-            DVec3::new(xs[1], ys[1], table.dz).normalize(),
-        ];
+        let corners = [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .map(|(x, y)| DVec3::new(xs[x], ys[y], table.dz).normalize());
         let axis = (corners[0] + corners[1] + corners[2] + corners[3]).normalize();
         // Directions through the tile's rectangle of the view plane make a convex set, so every
         // one is within the largest angle to a corner.

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use super::bins::Bins;
 use super::rays::RayTable;
 use super::simd::Isa;
-use super::sort::PARALLEL;
+use super::sort::{on_pool, PARALLEL};
 use super::view::{Ranks, ViewColumns};
 use crate::raster::Raster;
 use footprints::Footprints;
@@ -70,16 +70,8 @@ impl TileBins {
             });
             unbounded
         };
-        let unbounded: Vec<u32> = if n >= PARALLEL {
-            let parts: Vec<Vec<u32>> = rects
-                .par_chunks_mut(PARALLEL)
-                .enumerate()
-                .map(|(c, rects)| prints(c * PARALLEL, rects))
-                .collect();
-            parts.concat()
-        } else {
-            prints(0, &mut rects)
-        };
+        let chunks = rects.chunks_mut(PARALLEL).collect();
+        let unbounded = on_pool(chunks, |c, rects| prints(c * PARALLEL, rects)).concat();
         // Spheres without bounds that the COP is outside of (a ground, seen from above it) are
         // placed tile by tile, once the others are binned: left out where no ray of the tile
         // meets them, and ordered by the nearest hit a ray of the tile can have.
