@@ -26,7 +26,7 @@ use serde_json::{json, Value};
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::export::{clipping_range, relative};
+use crate::export::{aim_negative_z, clipping_range, off_axis, relative, rotations};
 
 /// Segments around and rings from pole to pole of the shared unit sphere.
 const SEGMENTS: u32 = 48;
@@ -130,13 +130,8 @@ pub fn camera_rotation(cam: &Camera) -> DQuat {
     DQuat::from_mat3(&DMat3::from_cols(b.u, b.v, -b.n)).normalize()
 }
 
-/// A rotation taking −Z to the unit vector `d`.
-fn aim_negative_z(d: DVec3) -> DQuat {
-    DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
-}
-
 fn f32s(v: DVec3) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
+    v.as_vec3().to_array()
 }
 
 /// The vertical field of view in radians seen from the COP.
@@ -167,26 +162,20 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     }
 
     // The camera, frame by frame.
-    let (mut times, mut translations, mut rotations, mut fovs) = (vec![], vec![], vec![], vec![]);
-    let mut previous: Option<DQuat> = None;
-    let mut off_axis = 0;
-    let mut cams: Vec<Camera> = Vec::new();
+    let (mut times, mut cams) = (vec![], vec![]);
     for item in doc.cameras() {
         let (frame, cam) = item?;
         cams.push(cam);
         times.push(doc.animation.time(frame) as f32);
-        translations.extend(f32s(relative(cam, origin).cop_world()));
-        let mut q = camera_rotation(&cam);
-        // q and −q are the same rotation: keep the one nearest the last, so LINEAR slerps the
-        // short way.
-        if previous.is_some_and(|p| p.dot(q) < 0.0) {
-            q = -q;
-        }
-        previous = Some(q);
-        rotations.extend([q.x, q.y, q.z, q.w].map(|x| x as f32));
-        fovs.push(yfov(&cam) as f32);
-        off_axis += u64::from(cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0);
     }
+    let translations: Vec<f32> = (cams.iter())
+        .flat_map(|&cam| f32s(relative(cam, origin).cop_world()))
+        .collect();
+    let rotations: Vec<f32> = (rotations(&cams).iter())
+        .flat_map(|q| q.as_quat().to_array())
+        .collect();
+    let fovs: Vec<f32> = cams.iter().map(|cam| yfov(cam) as f32).collect();
+    let off_axis = cams.iter().filter(|cam| off_axis(cam)).count() as u64;
     let first = cams[0];
     // As USD's near: nothing campath draws is clipped (no far: glTF's is then infinite).
     let (near, _) = clipping_range(&doc.scene.spheres, &cams);
@@ -211,19 +200,18 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         );
     }
 
-    let q0 = camera_rotation(&first);
     let mut nodes = vec![Node::Other(json!({
         "name": "camera",
         "camera": 0,
         "translation": f32s(relative(first, origin).cop_world()),
-        "rotation": [q0.x as f32, q0.y as f32, q0.z as f32, q0.w as f32],
+        "rotation": camera_rotation(&first).as_quat().to_array(),
     }))];
     let (mut meshes, mut materials) = (vec![], vec![]);
     for (i, s) in doc.scene.spheres.iter().enumerate() {
         materials.push(Material {
             name: format!("sphere {i}"),
             pbr_metallic_roughness: Pbr {
-                base_color_factor: [s.color.x as f32, s.color.y as f32, s.color.z as f32, 1.0],
+                base_color_factor: s.color.as_vec3().extend(1.0).to_array(),
                 metallic_factor: 0.0,
                 roughness_factor: 1.0,
             },
@@ -246,7 +234,6 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     }
     let mut lights = vec![];
     for (i, l) in doc.scene.lights.iter().enumerate() {
-        let q = aim_negative_z(l.direction_world);
         lights.push(json!({
             "name": format!("light {i}"),
             "type": "directional",
@@ -255,7 +242,7 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         }));
         nodes.push(Node::Other(json!({
             "name": format!("light {i}"),
-            "rotation": [q.x as f32, q.y as f32, q.z as f32, q.w as f32],
+            "rotation": aim_negative_z(l.direction_world).as_quat().to_array(),
             "extensions": {"KHR_lights_punctual": {"light": i}},
         })));
     }
