@@ -50,28 +50,25 @@ impl PathFormat {
         PathFormat::Usd,
     ];
 
+    /// Each format's name on the command line and what it is called in messages, in the
+    /// order of [`PathFormat::ALL`].
+    const NAMES: [(&str, &str); 6] = [
+        ("csv", "CSV"),
+        ("json", "JSON"),
+        ("chan", ".chan"),
+        ("gltf", "glTF"),
+        ("blender", "Blender Python"),
+        ("usd", "USD"),
+    ];
+
     /// The format's name on the command line: `csv`, `json`, `chan`, `gltf`, `blender`, `usd`.
     pub fn name(self) -> &'static str {
-        match self {
-            PathFormat::Csv => "csv",
-            PathFormat::Json => "json",
-            PathFormat::Chan => "chan",
-            PathFormat::Gltf => "gltf",
-            PathFormat::Blender => "blender",
-            PathFormat::Usd => "usd",
-        }
+        PathFormat::NAMES[self as usize].0
     }
 
     /// What the format is called in messages.
     pub fn title(self) -> &'static str {
-        match self {
-            PathFormat::Csv => "CSV",
-            PathFormat::Json => "JSON",
-            PathFormat::Chan => ".chan",
-            PathFormat::Gltf => "glTF",
-            PathFormat::Blender => "Blender Python",
-            PathFormat::Usd => "USD",
-        }
+        PathFormat::NAMES[self as usize].1
     }
 
     /// The format a file name's extension says, if it says one (`.glb` is glTF).
