@@ -52,9 +52,7 @@ impl Buffer {
         target: Option<u32>,
         extra: Value,
     ) -> usize {
-        while !self.bytes.len().is_multiple_of(4) {
-            self.bytes.push(0);
-        }
+        self.bytes.resize(self.bytes.len().next_multiple_of(4), 0);
         let mut view =
             json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len()});
         if let Some(t) = target {
@@ -247,13 +245,13 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         })));
     }
 
-    let mut used = vec![];
-    if !lights.is_empty() {
-        used.push("KHR_lights_punctual");
-    }
-    if zoom {
-        used.push("KHR_animation_pointer");
-    }
+    let used: Vec<&str> = [
+        (!lights.is_empty(), "KHR_lights_punctual"),
+        (zoom, "KHR_animation_pointer"),
+    ]
+    .into_iter()
+    .filter_map(|(on, name)| on.then_some(name))
+    .collect();
     let aspect = first.window.x / first.window.y;
     let mut buffer = json!({"byteLength": buf.bytes.len()});
     if embed {
@@ -385,12 +383,8 @@ pub fn write(doc: &Document, origin: DVec3, binary: bool, out: &mut dyn Write) -
     }
     let mut text = serde_json::to_vec(&json).expect("finite numbers serialise");
     drop(json);
-    while !text.len().is_multiple_of(4) {
-        text.push(b' ');
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
+    text.resize(text.len().next_multiple_of(4), b' ');
+    bin.resize(bin.len().next_multiple_of(4), 0);
     let total = 12 + 8 + text.len() + 8 + bin.len();
     // GLB's lengths are 32-bit: a file past 4 GiB cannot be written as one.
     let Ok(total32) = u32::try_from(total) else {
