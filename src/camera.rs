@@ -29,28 +29,25 @@ pub struct Basis {
 }
 
 /// Why a camera could not be formed.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CameraError {
     /// VPN is zero, or not finite.
+    #[error(
+        "the view plane normal (VPN) is zero or not finite; with a target point, TP equals VRP"
+    )]
     ZeroVpn,
     /// VUV is zero, or not finite.
+    #[error("the view up vector (VUV) is zero or not finite")]
     ZeroVuv,
     /// VPN and VUV are parallel (within 1e-9 rad) and there is no previous frame to follow.
+    #[error(
+        "VPN is parallel to VUV, so no image 'up' is defined; change vuv or the view direction"
+    )]
     Parallel,
     /// The COP's n is not < 0 (an overshooting zoom track can push it through the view plane).
+    #[error("the COP's n is {0}, not < 0; a CatmullRom Zoom track may overshoot: use Monotone")]
     CopNotBehind(f64),
-}
-
-impl std::fmt::Display for CameraError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            CameraError::ZeroVpn => f.write_str("the view plane normal (VPN) is zero or not finite; with a target point, TP equals VRP"),
-            CameraError::ZeroVuv => f.write_str("the view up vector (VUV) is zero or not finite"),
-            CameraError::Parallel => f.write_str("VPN is parallel to VUV, so no image 'up' is defined; change vuv or the view direction"),
-            CameraError::CopNotBehind(n) => write!(f, "the COP's n is {n}, not < 0; a CatmullRom Zoom track may overshoot: use Monotone"),
-        }
-    }
 }
 
 impl Basis {

@@ -5,7 +5,8 @@ use std::fmt;
 use std::path::PathBuf;
 
 /// One problem found while checking a keyframe file, named by the field it concerns.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {message}")]
 pub struct Problem {
     /// Dotted path of the field, e.g. `animate[1].keys[2].t`.
     pub field: String,
@@ -23,11 +24,8 @@ impl Problem {
     }
 }
 
-impl fmt::Display for Problem {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.field, self.message)
-    }
-}
+/// campath's result: [`Error`] by default.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 /// The problems of one file, printed one per line.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,14 +51,17 @@ impl fmt::Display for Problems {
 }
 
 /// Why campath will not write at a path. The command line adds which option named it.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Refusal {
     /// A file stands where a folder goes: the path itself, or a folder above it.
+    #[error("{} is a file, not a folder", .0.display())]
     NotAFolder(PathBuf),
     /// A folder stands where a file goes.
+    #[error("{} is a folder: name the file to write", .0.display())]
     NotAFile(PathBuf),
     /// The path is, or lies inside, the golden `NAME.golden` of the shot `NAME.ron`.
+    #[error("{} is the golden of {}", golden.display(), shot.display())]
     Golden {
         /// The golden folder.
         golden: PathBuf,
@@ -68,6 +69,12 @@ pub enum Refusal {
         shot: PathBuf,
     },
     /// The path is, or lies inside, a golden the run compares with.
+    #[error(
+        "{} {} the golden {}",
+        path.display(),
+        if *inside { "lies inside" } else { "is" },
+        golden.display()
+    )]
     InGolden {
         /// The path.
         path: PathBuf,
@@ -78,9 +85,18 @@ pub enum Refusal {
     },
     /// The folder's `hashes.txt` names campath's renderer and lists frames without keys, as the
     /// goldens campath writes do (an output folder's frames have keys).
+    #[error(
+        "{} is a golden: its hashes.txt names campath's renderer and lists frames without keys",
+        .0.display()
+    )]
     GoldenHashes(PathBuf),
     /// The path lies inside a folder of rendered frames, which would then hold a file or folder
     /// campath did not write there.
+    #[error(
+        "{} lies in {}, which is a folder of rendered frames",
+        path.display(),
+        frames.display()
+    )]
     InFrames {
         /// The path.
         path: PathBuf,
@@ -88,6 +104,7 @@ pub enum Refusal {
         frames: PathBuf,
     },
     /// The folder holds files campath did not write there (the first three named).
+    #[error("{} holds files campath did not write ({})", dir.display(), names.join(", "))]
     Foreign {
         /// The folder.
         dir: PathBuf,
@@ -113,46 +130,6 @@ impl Refusal {
             self,
             Refusal::Golden { .. } | Refusal::InGolden { .. } | Refusal::GoldenHashes(_)
         )
-    }
-}
-
-impl fmt::Display for Refusal {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Refusal::NotAFolder(p) => write!(f, "{} is a file, not a folder", p.display()),
-            Refusal::NotAFile(p) => write!(f, "{} is a folder: name the file to write", p.display()),
-            Refusal::Golden { golden, shot } => {
-                write!(f, "{} is the golden of {}", golden.display(), shot.display())
-            }
-            Refusal::InGolden {
-                path,
-                golden,
-                inside,
-            } => write!(
-                f,
-                "{} {} the golden {}",
-                path.display(),
-                if *inside { "lies inside" } else { "is" },
-                golden.display()
-            ),
-            Refusal::GoldenHashes(p) => write!(
-                f,
-                "{} is a golden: its hashes.txt names campath's renderer and lists frames without keys",
-                p.display()
-            ),
-            Refusal::InFrames { path, frames } => write!(
-                f,
-                "{} lies in {}, which is a folder of rendered frames",
-                path.display(),
-                frames.display()
-            ),
-            Refusal::Foreign { dir, names } => write!(
-                f,
-                "{} holds files campath did not write ({})",
-                dir.display(),
-                names.join(", ")
-            ),
-        }
     }
 }
 
@@ -274,12 +251,7 @@ impl Error {
                 | Error::Busy { .. }
         )
     }
-}
 
-/// campath's result: [`Error`] by default.
-pub type Result<T, E = Error> = std::result::Result<T, E>;
-
-impl Error {
     /// For `map_err`: a failure to read `path`.
     pub fn read(path: impl Into<PathBuf>) -> impl Fn(std::io::Error) -> Error {
         let path = path.into();

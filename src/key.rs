@@ -8,7 +8,6 @@
 //! Every struct is destructured without `..`, so a field added to any of them does not compile
 //! until it is added to the key too.
 
-use glam::{DVec2, DVec3};
 use sha2::{Digest, Sha256};
 
 use crate::camera::{Basis, Camera};
@@ -48,17 +47,16 @@ impl KeyBase {
             samples,
             adaptive,
         } = raster;
-        h.u64(u64::from(width));
-        h.u64(u64::from(height));
-        h.u64(u64::from(samples));
-        h.u64(u64::from(adaptive));
+        for x in [width, height, samples, u32::from(adaptive)] {
+            h.u64(u64::from(x));
+        }
         let Scene {
             background,
             ambient,
             lights,
             spheres,
         } = scene;
-        h.vec3(*background);
+        h.f64s(&background.to_array());
         h.f64(*ambient);
         h.u64(lights.len() as u64);
         for &Light {
@@ -67,8 +65,8 @@ impl KeyBase {
             shadows,
         } in lights
         {
-            h.vec3(direction_world);
-            h.vec3(color);
+            h.f64s(&direction_world.to_array());
+            h.f64s(&color.to_array());
             h.u64(u64::from(shadows));
         }
         h.u64(spheres.len() as u64);
@@ -134,14 +132,10 @@ impl Feed {
     fn f64(&mut self, x: f64) {
         self.0.update(x.to_bits().to_le_bytes());
     }
-    fn vec2(&mut self, v: DVec2) {
-        self.f64(v.x);
-        self.f64(v.y);
-    }
-    fn vec3(&mut self, v: DVec3) {
-        self.f64(v.x);
-        self.f64(v.y);
-        self.f64(v.z);
+    fn f64s(&mut self, xs: &[f64]) {
+        for &x in xs {
+            self.f64(x);
+        }
     }
     fn camera(&mut self, camera: &Camera) {
         let Camera {
@@ -151,15 +145,16 @@ impl Feed {
             window,
         } = *camera;
         for p in [vrp_world, u, v, n, cop_view] {
-            self.vec3(p);
+            self.f64s(&p.to_array());
         }
-        self.vec2(window);
+        self.f64s(&window.to_array());
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::{DVec2, DVec3};
 
     fn scene() -> Scene {
         Scene {

@@ -19,7 +19,7 @@ use glam::DVec3;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
-use crate::frames::list_frames;
+use crate::frames::{list_frames, median};
 use crate::scene::Sphere;
 
 /// A change this many times the shot's median change is a jump (with the floors below).
@@ -73,10 +73,6 @@ impl std::fmt::Display for Warning {
     }
 }
 
-fn median(xs: &[f64]) -> f64 {
-    crate::frames::median(xs)
-}
-
 /// Consecutive runs of indices.
 fn runs(indices: &[usize]) -> Vec<Vec<usize>> {
     let mut out: Vec<Vec<usize>> = Vec::new();
@@ -108,24 +104,19 @@ pub fn warnings(doc: &Document) -> Result<Vec<Warning>> {
             .windows(2)
             .map(|w| angle_deg(w[0].basis.n, w[1].basis.n) * fps)
             .collect();
-        jumps(
-            &mut out,
-            Quantity::Speed,
-            &speed,
-            SPEED_FLOOR,
-            0.0,
-            "speed",
-            "units/s",
-        );
-        jumps(
-            &mut out,
-            Quantity::TurnRate,
-            &turn,
-            TURN_FLOOR,
-            TURN_MIN_DEG_S,
-            "turn rate",
-            "°/s",
-        );
+        for (quantity, rate, floor, min, name, unit) in [
+            (Quantity::Speed, speed, SPEED_FLOOR, 0.0, "speed", "units/s"),
+            (
+                Quantity::TurnRate,
+                turn,
+                TURN_FLOOR,
+                TURN_MIN_DEG_S,
+                "turn rate",
+                "°/s",
+            ),
+        ] {
+            jumps(&mut out, quantity, &rate, floor, min, name, unit);
+        }
     }
     inside_spheres(&mut out, doc, &cameras);
     near_target(&mut out, doc);
@@ -179,18 +170,16 @@ fn jumps(
         let frames: Vec<u64> = (first as u64 + 1..=last as u64 + 1).collect();
         let (from, to) = (rate[first], rate[last + 1]);
         let peak = run.iter().map(|&i| rate[i + 1]).fold(from, f64::max);
+        let (reached, then) = match peak > from.max(to) {
+            true => (peak, format!(", then {to:.3}")),
+            false => (to, String::new()),
+        };
         out.push(Warning {
             quantity,
             frames,
             message: format!(
-                "the {name} jumps: {from:.3} → {:.3} {unit}{} (the shot's typical change between \
-                 frames is {typical:.3} {unit})",
-                if peak > from.max(to) { peak } else { to },
-                if peak > from.max(to) {
-                    format!(", then {to:.3}")
-                } else {
-                    String::new()
-                }
+                "the {name} jumps: {from:.3} → {reached:.3} {unit}{then} (the shot's typical \
+                 change between frames is {typical:.3} {unit})",
             ),
         });
     }

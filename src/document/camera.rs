@@ -63,16 +63,13 @@ impl Checker {
             return Some(DVec3::new(0.0, 0.0, -1.0));
         };
         let c = self.triple("camera.cop", c)?;
-        if c.z < 0.0 {
-            Some(c)
-        } else {
-            let message = format!(
+        let message = || {
+            format!(
                 "the COP's n must be < 0 (behind the view plane), got {}",
                 c.z
-            );
-            self.problem("camera.cop", message);
-            None
-        }
+            )
+        };
+        self.ensure("camera.cop", c.z < 0.0, c, message)
     }
 
     /// A VPN or a target point, not both; neither when a track (`setter`: its field and mode)
@@ -137,15 +134,8 @@ impl Checker {
         match (cam.window, cam.hfov, cam.vfov) {
             (Some(w), None, None) => {
                 let w = self.pair("camera.window", w)?;
-                if w.x > 0.0 && w.y > 0.0 {
-                    Some(w)
-                } else {
-                    self.problem(
-                        "camera.window",
-                        format!("width and height must be > 0, got ({}, {})", w.x, w.y),
-                    );
-                    None
-                }
+                let message = || format!("width and height must be > 0, got ({}, {})", w.x, w.y);
+                self.ensure("camera.window", w.x > 0.0 && w.y > 0.0, w, message)
             }
             (Some(_), _, _) => {
                 self.problem(

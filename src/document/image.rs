@@ -71,15 +71,10 @@ impl Checker {
         let spec = image.motion_blur.as_ref()?;
         let shutter = self.finite("image.motion_blur.shutter", spec.shutter);
         let shutter = shutter.and_then(|s| {
-            if s > 0.0 && s <= 1.0 {
-                Some(s)
-            } else {
-                self.problem(
-                    "image.motion_blur.shutter",
-                    format!("the fraction of the frame interval the shutter is open must lie in (0, 1], got {s}"),
-                );
-                None
-            }
+            let message = || {
+                format!("the fraction of the frame interval the shutter is open must lie in (0, 1], got {s}")
+            };
+            self.ensure("image.motion_blur.shutter", s > 0.0 && s <= 1.0, s, message)
         });
         let samples = match u32::try_from(spec.samples) {
             Ok(n) if (1..=MAX_TIME_SAMPLES).contains(&n) => Some(n),

@@ -10,7 +10,7 @@ use glam::{DVec2, DVec3};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use crate::animation::{Animation, Exposure, Pointing};
+use crate::animation::{Animation, Exposure, FrameError, Pointing};
 use crate::camera::{Camera, CameraError};
 use crate::error::{Error, Problem, Problems, Result};
 use crate::format::sphere_files::Listing;
@@ -167,14 +167,19 @@ impl Document {
 
     /// Every frame's camera, in order, or the first frame where the camera is undefined.
     pub fn cameras(&self) -> impl Iterator<Item = Result<(u64, Camera)>> + '_ {
-        self.animation.cameras().map(|r| {
-            r.map_err(|e| Error::Frame {
-                path: self.path.clone(),
-                frame: e.frame,
-                time: e.time,
-                message: e.cause.to_string(),
-            })
-        })
+        self.animation
+            .cameras()
+            .map(|r| r.map_err(|e| self.frame_error(e)))
+    }
+
+    /// The error for a frame (or time sample) where the camera is undefined.
+    fn frame_error(&self, e: FrameError) -> Error {
+        Error::Frame {
+            path: self.path.clone(),
+            frame: e.frame,
+            time: e.time,
+            message: e.cause.to_string(),
+        }
     }
 
     /// Every frame's [`Exposure`], in order: its camera and, with motion blur, the camera at
@@ -186,15 +191,8 @@ impl Document {
             let Some(blur) = self.motion_blur else {
                 return Ok((frame, Exposure::still(camera)));
             };
-            match self.animation.exposure(frame, camera, blur) {
-                Ok(exposure) => Ok((frame, exposure)),
-                Err(e) => Err(Error::Frame {
-                    path: self.path.clone(),
-                    frame: e.frame,
-                    time: e.time,
-                    message: e.cause.to_string(),
-                }),
-            }
+            let exposure = self.animation.exposure(frame, camera, blur);
+            Ok((frame, exposure.map_err(|e| self.frame_error(e))?))
         })
     }
 
@@ -251,88 +249,65 @@ impl Checker {
         self.problems.push(Problem::new(field.to_string(), message));
     }
 
-    fn finite(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
-        if sized(x) {
-            Some(x)
-        } else {
-            self.problem(
-                field,
-                format!("must be a finite number within ±{LARGEST:e}, got {x:?}"),
-            );
-            None
+    /// `value` when `ok`; else the problem `message()` at `field`, and None.
+    fn ensure<T>(
+        &mut self,
+        field: impl fmt::Display,
+        ok: bool,
+        value: T,
+        message: impl FnOnce() -> String,
+    ) -> Option<T> {
+        if !ok {
+            self.problem(field, message());
         }
+        ok.then_some(value)
+    }
+
+    fn finite(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
+        let message = || format!("must be a finite number within ±{LARGEST:e}, got {x:?}");
+        self.ensure(field, sized(x), x, message)
     }
 
     fn triple(&mut self, field: impl fmt::Display + Copy, t: Triple) -> Option<DVec3> {
-        let v = DVec3::new(t.0, t.1, t.2);
-        if [t.0, t.1, t.2].into_iter().all(sized) {
-            Some(v)
-        } else {
-            self.problem(
-                field,
-                format!("must be finite numbers within ±{LARGEST:e}, got {t:?}"),
-            );
-            None
-        }
+        let ok = [t.0, t.1, t.2].into_iter().all(sized);
+        let message = || format!("must be finite numbers within ±{LARGEST:e}, got {t:?}");
+        self.ensure(field, ok, DVec3::new(t.0, t.1, t.2), message)
     }
 
     fn pair(&mut self, field: &str, p: Pair) -> Option<DVec2> {
-        let v = DVec2::new(p.0, p.1);
-        if sized(p.0) && sized(p.1) {
-            Some(v)
-        } else {
-            self.problem(
-                field,
-                format!("must be finite numbers within ±{LARGEST:e}, got {p:?}"),
-            );
-            None
-        }
+        let message = || format!("must be finite numbers within ±{LARGEST:e}, got {p:?}");
+        self.ensure(
+            field,
+            sized(p.0) && sized(p.1),
+            DVec2::new(p.0, p.1),
+            message,
+        )
     }
 
     fn direction(&mut self, field: &str, t: Triple) -> Option<DVec3> {
         let v = self.triple(field, t)?;
-        if v.length() > 0.0 && v.length().is_finite() {
-            Some(v)
-        } else {
-            self.problem(field, "must be a non-zero vector");
-            None
-        }
+        let ok = v.length() > 0.0 && v.length().is_finite();
+        self.ensure(field, ok, v, || "must be a non-zero vector".into())
     }
 
     fn color(&mut self, field: impl fmt::Display + Copy, t: Triple) -> Option<DVec3> {
         let v = self.triple(field, t)?;
-        if v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::ONE).all() {
-            Some(v)
-        } else {
-            self.problem(
-                field,
-                format!("linear RGB components must lie in [0, 1], got {t:?}"),
-            );
-            None
-        }
+        let ok = v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::ONE).all();
+        let message = || format!("linear RGB components must lie in [0, 1], got {t:?}");
+        self.ensure(field, ok, v, message)
     }
 
     fn positive(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
         let x = self.finite(field, x)?;
-        if x > 0.0 {
-            Some(x)
-        } else {
-            self.problem(field, format!("must be greater than 0, got {x}"));
-            None
-        }
+        self.ensure(field, x > 0.0, x, || {
+            format!("must be greater than 0, got {x}")
+        })
     }
 
     fn fov(&mut self, field: &str, deg: f64) -> Option<f64> {
         let deg = self.finite(field, deg)?;
-        if deg > 0.0 && deg < 180.0 {
-            Some(deg)
-        } else {
-            self.problem(
-                field,
-                format!("a field of view in degrees must lie in (0, 180), got {deg}"),
-            );
-            None
-        }
+        let message = || format!("a field of view in degrees must lie in (0, 180), got {deg}");
+        self.ensure(field, deg > 0.0 && deg < 180.0, deg, message)
     }
 
     fn document(&mut self, path: &Path, mut spec: FileSpec) -> Option<Document> {

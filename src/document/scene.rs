@@ -81,25 +81,20 @@ impl Checker {
             return Some(if spec.lights.is_empty() { 1.0 } else { 0.1 });
         };
         let a = self.finite("scene.ambient", a)?;
-        if a >= 0.0 {
-            Some(a)
-        } else {
-            self.problem("scene.ambient", format!("must be ≥ 0, got {a}"));
-            None
-        }
+        self.ensure("scene.ambient", a >= 0.0, a, || {
+            format!("must be ≥ 0, got {a}")
+        })
     }
 
     fn light(&mut self, field: &str, l: &LightSpec) -> Option<Light> {
         let dir = self.direction(&format!("{field}.direction"), l.direction);
         let color = match l.color {
             Some(c) => {
-                let c = self.triple(&format!("{field}.color"), c)?;
-                if c.cmpge(DVec3::ZERO).all() {
-                    Some(c)
-                } else {
-                    self.problem(format!("{field}.color"), "components must be ≥ 0");
-                    None
-                }
+                let field = format!("{field}.color");
+                let c = self.triple(&field, c)?;
+                self.ensure(field, c.cmpge(DVec3::ZERO).all(), c, || {
+                    "components must be ≥ 0".into()
+                })
             }
             None => Some(DVec3::ONE),
         };

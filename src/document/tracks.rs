@@ -141,12 +141,9 @@ impl Checker {
     /// A Zoom key: the COP's n, < 0.
     fn cop_n(&mut self, field: &str, n: f64) -> Option<f64> {
         let n = self.finite(field, n)?;
-        if n < 0.0 {
-            Some(n)
-        } else {
-            self.problem(field, format!("the COP's n must be < 0, got {n}"));
-            None
-        }
+        self.ensure(field, n < 0.0, n, || {
+            format!("the COP's n must be < 0, got {n}")
+        })
     }
 
     pub(super) fn keys<S, V: Keyable>(

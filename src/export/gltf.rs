@@ -26,7 +26,7 @@ use serde_json::{json, Value};
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::export::{clipping_range, relative};
+use crate::export::{aim_negative_z, clipping_range, off_axis, relative, rotations};
 
 /// Segments around and rings from pole to pole of the shared unit sphere.
 const SEGMENTS: u32 = 48;
@@ -52,9 +52,7 @@ impl Buffer {
         target: Option<u32>,
         extra: Value,
     ) -> usize {
-        while !self.bytes.len().is_multiple_of(4) {
-            self.bytes.push(0);
-        }
+        self.bytes.resize(self.bytes.len().next_multiple_of(4), 0);
         let mut view =
             json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len()});
         if let Some(t) = target {
@@ -130,13 +128,8 @@ pub fn camera_rotation(cam: &Camera) -> DQuat {
     DQuat::from_mat3(&DMat3::from_cols(b.u, b.v, -b.n)).normalize()
 }
 
-/// A rotation taking −Z to the unit vector `d`.
-fn aim_negative_z(d: DVec3) -> DQuat {
-    DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
-}
-
 fn f32s(v: DVec3) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
+    v.as_vec3().to_array()
 }
 
 /// The vertical field of view in radians seen from the COP.
@@ -167,26 +160,20 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     }
 
     // The camera, frame by frame.
-    let (mut times, mut translations, mut rotations, mut fovs) = (vec![], vec![], vec![], vec![]);
-    let mut previous: Option<DQuat> = None;
-    let mut off_axis = 0;
-    let mut cams: Vec<Camera> = Vec::new();
+    let (mut times, mut cams) = (vec![], vec![]);
     for item in doc.cameras() {
         let (frame, cam) = item?;
         cams.push(cam);
         times.push(doc.animation.time(frame) as f32);
-        translations.extend(f32s(relative(cam, origin).cop_world()));
-        let mut q = camera_rotation(&cam);
-        // q and −q are the same rotation: keep the one nearest the last, so LINEAR slerps the
-        // short way.
-        if previous.is_some_and(|p| p.dot(q) < 0.0) {
-            q = -q;
-        }
-        previous = Some(q);
-        rotations.extend([q.x, q.y, q.z, q.w].map(|x| x as f32));
-        fovs.push(yfov(&cam) as f32);
-        off_axis += u64::from(cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0);
     }
+    let translations: Vec<f32> = (cams.iter())
+        .flat_map(|&cam| f32s(relative(cam, origin).cop_world()))
+        .collect();
+    let rotations: Vec<f32> = (rotations(&cams).iter())
+        .flat_map(|q| q.as_quat().to_array())
+        .collect();
+    let fovs: Vec<f32> = cams.iter().map(|cam| yfov(cam) as f32).collect();
+    let off_axis = cams.iter().filter(|cam| off_axis(cam)).count() as u64;
     let first = cams[0];
     // As USD's near: nothing campath draws is clipped (no far: glTF's is then infinite).
     let (near, _) = clipping_range(&doc.scene.spheres, &cams);
@@ -211,19 +198,18 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         );
     }
 
-    let q0 = camera_rotation(&first);
     let mut nodes = vec![Node::Other(json!({
         "name": "camera",
         "camera": 0,
         "translation": f32s(relative(first, origin).cop_world()),
-        "rotation": [q0.x as f32, q0.y as f32, q0.z as f32, q0.w as f32],
+        "rotation": camera_rotation(&first).as_quat().to_array(),
     }))];
     let (mut meshes, mut materials) = (vec![], vec![]);
     for (i, s) in doc.scene.spheres.iter().enumerate() {
         materials.push(Material {
             name: format!("sphere {i}"),
             pbr_metallic_roughness: Pbr {
-                base_color_factor: [s.color.x as f32, s.color.y as f32, s.color.z as f32, 1.0],
+                base_color_factor: s.color.as_vec3().extend(1.0).to_array(),
                 metallic_factor: 0.0,
                 roughness_factor: 1.0,
             },
@@ -246,7 +232,6 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     }
     let mut lights = vec![];
     for (i, l) in doc.scene.lights.iter().enumerate() {
-        let q = aim_negative_z(l.direction_world);
         lights.push(json!({
             "name": format!("light {i}"),
             "type": "directional",
@@ -255,18 +240,18 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         }));
         nodes.push(Node::Other(json!({
             "name": format!("light {i}"),
-            "rotation": [q.x as f32, q.y as f32, q.z as f32, q.w as f32],
+            "rotation": aim_negative_z(l.direction_world).as_quat().to_array(),
             "extensions": {"KHR_lights_punctual": {"light": i}},
         })));
     }
 
-    let mut used = vec![];
-    if !lights.is_empty() {
-        used.push("KHR_lights_punctual");
-    }
-    if zoom {
-        used.push("KHR_animation_pointer");
-    }
+    let used: Vec<&str> = [
+        (!lights.is_empty(), "KHR_lights_punctual"),
+        (zoom, "KHR_animation_pointer"),
+    ]
+    .into_iter()
+    .filter_map(|(on, name)| on.then_some(name))
+    .collect();
     let aspect = first.window.x / first.window.y;
     let mut buffer = json!({"byteLength": buf.bytes.len()});
     if embed {
@@ -398,12 +383,8 @@ pub fn write(doc: &Document, origin: DVec3, binary: bool, out: &mut dyn Write) -
     }
     let mut text = serde_json::to_vec(&json).expect("finite numbers serialise");
     drop(json);
-    while !text.len().is_multiple_of(4) {
-        text.push(b' ');
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
+    text.resize(text.len().next_multiple_of(4), b' ');
+    bin.resize(bin.len().next_multiple_of(4), 0);
     let total = 12 + 8 + text.len() + 8 + bin.len();
     // GLB's lengths are 32-bit: a file past 4 GiB cannot be written as one.
     let Ok(total32) = u32::try_from(total) else {

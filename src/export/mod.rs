@@ -9,7 +9,7 @@ pub mod usd;
 
 use std::io::Write;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 use crate::camera::{Basis, Camera};
 use crate::document::Document;
@@ -50,28 +50,25 @@ impl PathFormat {
         PathFormat::Usd,
     ];
 
+    /// Each format's name on the command line and what it is called in messages, in the
+    /// order of [`PathFormat::ALL`].
+    const NAMES: [(&str, &str); 6] = [
+        ("csv", "CSV"),
+        ("json", "JSON"),
+        ("chan", ".chan"),
+        ("gltf", "glTF"),
+        ("blender", "Blender Python"),
+        ("usd", "USD"),
+    ];
+
     /// The format's name on the command line: `csv`, `json`, `chan`, `gltf`, `blender`, `usd`.
     pub fn name(self) -> &'static str {
-        match self {
-            PathFormat::Csv => "csv",
-            PathFormat::Json => "json",
-            PathFormat::Chan => "chan",
-            PathFormat::Gltf => "gltf",
-            PathFormat::Blender => "blender",
-            PathFormat::Usd => "usd",
-        }
+        PathFormat::NAMES[self as usize].0
     }
 
     /// What the format is called in messages.
     pub fn title(self) -> &'static str {
-        match self {
-            PathFormat::Csv => "CSV",
-            PathFormat::Json => "JSON",
-            PathFormat::Chan => ".chan",
-            PathFormat::Gltf => "glTF",
-            PathFormat::Blender => "Blender Python",
-            PathFormat::Usd => "USD",
-        }
+        PathFormat::NAMES[self as usize].1
     }
 
     /// The format a file name's extension says, if it says one (`.glb` is glTF).
@@ -267,6 +264,40 @@ pub(crate) fn relative(mut cam: Camera, origin: DVec3) -> Camera {
     cam
 }
 
+/// Each camera's [`gltf::camera_rotation`], of q and −q (the same rotation) the one nearest the
+/// one before, so that a reader's interpolation between samples turns the short way.
+pub(crate) fn rotations(cams: &[Camera]) -> Vec<DQuat> {
+    let mut out: Vec<DQuat> = Vec::with_capacity(cams.len());
+    for cam in cams {
+        let q = gltf::camera_rotation(cam);
+        out.push(match out.last() {
+            Some(p) if p.dot(q) < 0.0 => -q,
+            _ => q,
+        });
+    }
+    out
+}
+
+/// A rotation taking −Z to the unit vector `d`.
+pub(crate) fn aim_negative_z(d: DVec3) -> DQuat {
+    DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
+}
+
+/// `(x, y, z)`, each as Rust's `{:?}` writes it (USDA's `double3`, a Python tuple).
+pub(crate) fn triple(v: DVec3) -> String {
+    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
+}
+
+/// `(w, x, y, z)`, the real part first, as USD and Blender write a quaternion.
+pub(crate) fn quat_wxyz(q: DQuat) -> String {
+    format!("({:?}, {:?}, {:?}, {:?})", q.w, q.x, q.y, q.z)
+}
+
+/// Whether `cam`'s COP is off the VPN (distort), which `.chan` and glTF cannot carry.
+fn off_axis(cam: &Camera) -> bool {
+    cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0
+}
+
 /// How far keeping places in f32 (glTF, Blender) moves the camera's picture: see [`f32_shift`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct F32Shift {
@@ -368,14 +399,7 @@ pub fn write_path(
     };
     match format {
         PathFormat::Csv | PathFormat::Json | PathFormat::Chan => {}
-        PathFormat::Gltf => {
-            let off_axis = gltf::write(doc, origin, glb, out)?;
-            out.flush().map_err(Error::stdout)?;
-            return Ok(Dropped {
-                off_axis,
-                ..Dropped::default()
-            });
-        }
+        PathFormat::Gltf => return whole(&[], gltf::write(doc, origin, glb, out)?, out),
         PathFormat::Blender => return whole(blender::script(doc, origin)?.as_bytes(), 0, out),
         PathFormat::Usd => return whole(usd::usda(doc, origin)?.as_bytes(), 0, out),
     }
@@ -400,7 +424,7 @@ pub fn write_path(
                 format!("  {}{comma}", json_row(frame, t, &cam))
             }
             _ => {
-                if cam.cop_view.x != 0.0 || cam.cop_view.y != 0.0 {
+                if off_axis(&cam) {
                     if dropped.off_axis == 0 {
                         dropped.first = frame;
                     }
@@ -446,18 +470,9 @@ fn json_row(frame: u64, t: f64, cam: &Camera) -> String {
 
 /// `frame tx ty tz rx ry rz vfov`, frames numbered from 1.
 fn chan_row(frame: u64, cam: &Camera, r: DVec3) -> String {
-    let cop = cam.cop_world();
-    format!(
-        "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
-        frame + 1,
-        cop.x,
-        cop.y,
-        cop.z,
-        r.x,
-        r.y,
-        r.z,
-        vertical_fov(cam)
-    )
+    let (cop, fov) = (cam.cop_world(), vertical_fov(cam));
+    let fields = [cop.x, cop.y, cop.z, r.x, r.y, r.z, fov].map(|x| x.to_string());
+    format!("{}\t{}", frame + 1, fields.join("\t"))
 }
 
 #[cfg(test)]

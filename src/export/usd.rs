@@ -26,13 +26,14 @@
 
 use std::fmt::Write as _;
 
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
-use crate::export::gltf::camera_rotation;
-use crate::export::{clipping_range, keyed_cameras, relative};
+use crate::export::{
+    aim_negative_z, clipping_range, keyed_cameras, quat_wxyz, relative, rotations, triple,
+};
 
 /// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
 pub const FILM_WIDTH: f64 = 0.36;
@@ -104,50 +105,16 @@ fn quoted(s: &str) -> String {
     out + "\""
 }
 
-fn f32s(v: f64) -> f32 {
-    v as f32
-}
-
-fn quatd(q: DQuat) -> String {
-    // USD writes a quaternion real part first.
-    format!("({:?}, {:?}, {:?}, {:?})", q.w, q.x, q.y, q.z)
-}
-
-fn double3(v: DVec3) -> String {
-    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
-}
-
 fn color3f(v: DVec3) -> String {
-    format!("({:?}, {:?}, {:?})", f32s(v.x), f32s(v.y), f32s(v.z))
-}
-
-/// A rotation taking −Z to the unit vector `d`.
-fn aim_negative_z(d: DVec3) -> DQuat {
-    DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
+    let v = v.as_vec3();
+    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
 }
 
 /// The stage as USDA text.
 pub fn usda(doc: &Document, origin: DVec3) -> Result<String> {
-    let mut times = Vec::new();
-    let mut cams = Vec::new();
-    let mut cops = Vec::new();
-    let mut orients = Vec::new();
-    let mut lenses = Vec::new();
-    let mut previous: Option<DQuat> = None;
-    for (time, cam) in keyed_cameras(doc)? {
-        let mut q = camera_rotation(&cam);
-        // q and −q are the same rotation: keep the one nearest the last, so that USD's slerp
-        // between samples turns the short way.
-        if previous.is_some_and(|p| p.dot(q) < 0.0) {
-            q = -q;
-        }
-        previous = Some(q);
-        times.push(time);
-        cams.push(cam);
-        cops.push(relative(cam, origin).cop_world());
-        orients.push(q);
-        lenses.push(UsdLens::of(&cam));
-    }
+    let (times, cams): (Vec<f64>, Vec<Camera>) = keyed_cameras(doc)?.into_iter().unzip();
+    let orients = rotations(&cams);
+    let lenses: Vec<UsdLens> = cams.iter().map(UsdLens::of).collect();
     let frames = doc.animation.frames;
     let (near, far) = clipping_range(&doc.scene.spheres, &cams);
     let r = doc.raster;
@@ -203,14 +170,14 @@ def Xform "{root}" (
         source = quoted(&doc.path.display().to_string()),
         width = r.width,
         height = r.height,
-        background = double3(bg),
+        background = triple(bg),
         ambient = doc.scene.ambient,
-        origin = double3(origin),
+        origin = triple(origin),
         end = frames - 1,
-        near = f32s(near),
-        far = f32s(far),
-        ha = f32s(first.horizontal_aperture),
-        va = f32s(first.vertical_aperture),
+        near = near as f32,
+        far = far as f32,
+        ha = first.horizontal_aperture as f32,
+        va = first.vertical_aperture as f32,
         shutter = match doc.motion_blur {
             Some(b) => format!(
                 "        double shutter:close = {:?}\n        double shutter:open = {:?}\n",
@@ -231,17 +198,24 @@ def Xform "{root}" (
         }
         let _ = writeln!(s, "        }}");
     };
-    samples(&mut s, "float focalLength", &|k| {
-        format!("{:?}", f32s(lenses[k].focal_length))
+    let names = [
+        "focalLength",
+        "horizontalApertureOffset",
+        "verticalApertureOffset",
+    ];
+    for (i, name) in names.into_iter().enumerate() {
+        samples(&mut s, &format!("float {name}"), &|k| {
+            let l = lenses[k];
+            format!(
+                "{:?}",
+                [l.focal_length, l.horizontal_offset, l.vertical_offset][i] as f32
+            )
+        });
+    }
+    samples(&mut s, "double3 xformOp:translate", &|k| {
+        triple(relative(cams[k], origin).cop_world())
     });
-    samples(&mut s, "float horizontalApertureOffset", &|k| {
-        format!("{:?}", f32s(lenses[k].horizontal_offset))
-    });
-    samples(&mut s, "float verticalApertureOffset", &|k| {
-        format!("{:?}", f32s(lenses[k].vertical_offset))
-    });
-    samples(&mut s, "double3 xformOp:translate", &|k| double3(cops[k]));
-    samples(&mut s, "quatd xformOp:orient", &|k| quatd(orients[k]));
+    samples(&mut s, "quatd xformOp:orient", &|k| quat_wxyz(orients[k]));
     let _ = writeln!(
         s,
         "        uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:orient\"]\n    }}"
@@ -249,7 +223,7 @@ def Xform "{root}" (
 
     for (i, sphere) in doc.scene.spheres.iter().enumerate() {
         let r = sphere.radius;
-        let e = f32s(r);
+        let e = r as f32;
         let _ = write!(
             s,
             r#"
@@ -266,7 +240,7 @@ def Xform "{root}" (
 "#,
             m = -e,
             color = color3f(sphere.color),
-            centre = double3(sphere.center_world - origin),
+            centre = triple(sphere.center_world - origin),
         );
     }
     for (i, light) in doc.scene.lights.iter().enumerate() {
@@ -287,9 +261,9 @@ def Xform "{root}" (
     }}
 "#,
             color = color3f(light.color / intensity),
-            intensity = f32s(intensity),
+            intensity = intensity as f32,
             shadows = light.shadows,
-            orient = quatd(aim_negative_z(light.direction_world)),
+            orient = quat_wxyz(aim_negative_z(light.direction_world)),
         );
     }
     let _ = write!(
@@ -307,7 +281,7 @@ def Scope "Render"
     }}
 }}
 "#,
-        pixel_aspect = f32s(pixel_aspect),
+        pixel_aspect = pixel_aspect as f32,
         width = r.width,
         height = r.height,
     );

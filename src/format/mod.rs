@@ -248,73 +248,50 @@ pub fn parse(path: &Path, text: &str) -> Result<FileSpec> {
 /// The names of the outermost struct's fields and of the fields of the structs they hold
 /// (`camera.vpn`), in the order the text writes them; strings and comments are passed over.
 fn field_order(text: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut depth = 0usize;
-    let mut top = String::new();
-    let mut chars = text.char_indices().peekable();
-    while let Some((i, c)) = chars.next() {
-        match c {
-            '"' => {
-                while let Some((_, c)) = chars.next() {
-                    match c {
-                        '\\' => {
-                            chars.next();
-                        }
-                        '"' => break,
-                        _ => {}
-                    }
+    let s = text.as_bytes();
+    let ident = |c: &u8| c.is_ascii_alphanumeric() || *c == b'_';
+    let (mut out, mut depth, mut top, mut i) = (Vec::new(), 0usize, "", 0);
+    while i < s.len() {
+        match s[i] {
+            b'"' => {
+                i += 1;
+                while i < s.len() && s[i] != b'"' {
+                    i += 1 + usize::from(s[i] == b'\\');
                 }
             }
-            '/' if chars.peek().map(|p| p.1) == Some('/') => {
-                for (_, c) in chars.by_ref() {
-                    if c == '\n' {
-                        break;
-                    }
-                }
+            b'/' if s.get(i + 1) == Some(&b'/') => {
+                i = s[i..]
+                    .iter()
+                    .position(|&c| c == b'\n')
+                    .map_or(s.len(), |n| i + n);
             }
-            '/' if chars.peek().map(|p| p.1) == Some('*') => {
+            b'/' if s.get(i + 1) == Some(&b'*') => {
                 // Block comments nest, as RON reads them.
-                chars.next();
-                let (mut level, mut prev) = (1, ' ');
-                for (_, c) in chars.by_ref() {
-                    match (prev, c) {
-                        ('*', '/') => level -= 1,
-                        ('/', '*') => level += 1,
-                        _ => {
-                            prev = c;
-                            continue;
-                        }
-                    }
-                    if level == 0 {
-                        break;
-                    }
-                    prev = ' ';
-                }
+                i = pieces::block_comment_end(s, i).unwrap_or(s.len());
+                continue;
             }
-            '(' | '[' | '{' => depth += 1,
-            ')' | ']' | '}' => depth = depth.saturating_sub(1),
-            c if (depth == 1 || depth == 2) && (c.is_ascii_alphabetic() || c == '_') => {
-                let mut end = i + c.len_utf8();
-                while let Some(&(j, d)) = chars.peek() {
-                    if d.is_ascii_alphanumeric() || d == '_' {
-                        end = j + d.len_utf8();
-                        chars.next();
-                    } else {
-                        break;
-                    }
-                }
+            b'(' | b'[' | b'{' => depth += 1,
+            b')' | b']' | b'}' => depth = depth.saturating_sub(1),
+            c if (depth == 1 || depth == 2) && (c.is_ascii_alphabetic() || c == b'_') => {
+                let end = s[i..]
+                    .iter()
+                    .position(|c| !ident(c))
+                    .map_or(s.len(), |n| i + n);
                 if text[end..].trim_start().starts_with(':') {
                     let name = &text[i..end];
                     if depth == 1 {
-                        top = name.to_string();
-                        out.push(top.clone());
+                        top = name;
+                        out.push(top.to_string());
                     } else {
                         out.push(format!("{top}.{name}"));
                     }
                 }
+                i = end;
+                continue;
             }
             _ => {}
         }
+        i += 1;
     }
     out
 }

@@ -397,7 +397,7 @@ fn find_open(s: &[u8]) -> Option<usize> {
 }
 
 /// The byte after the block comment that starts at `i` (RON's block comments nest).
-fn block_comment_end(s: &[u8], mut i: usize) -> Option<usize> {
+pub(super) fn block_comment_end(s: &[u8], mut i: usize) -> Option<usize> {
     let mut level = 0usize;
     while i + 1 < s.len() {
         match (s[i], s[i + 1]) {

@@ -21,33 +21,27 @@ pub(super) enum Scalar {
     F64,
 }
 
+/// Each scalar type, in the order of [`Scalar`]: its two names in a header (the first is the
+/// one messages use) and its size in bytes.
+const SCALARS: [(Scalar, [&str; 2], usize); 8] = [
+    (Scalar::I8, ["char", "int8"], 1),
+    (Scalar::U8, ["uchar", "uint8"], 1),
+    (Scalar::I16, ["short", "int16"], 2),
+    (Scalar::U16, ["ushort", "uint16"], 2),
+    (Scalar::I32, ["int", "int32"], 4),
+    (Scalar::U32, ["uint", "uint32"], 4),
+    (Scalar::F32, ["float", "float32"], 4),
+    (Scalar::F64, ["double", "float64"], 8),
+];
+
 impl Scalar {
     fn parse(name: &str) -> Option<Scalar> {
-        Some(match name {
-            "char" | "int8" => Scalar::I8,
-            "uchar" | "uint8" => Scalar::U8,
-            "short" | "int16" => Scalar::I16,
-            "ushort" | "uint16" => Scalar::U16,
-            "int" | "int32" => Scalar::I32,
-            "uint" | "uint32" => Scalar::U32,
-            "float" | "float32" => Scalar::F32,
-            "double" | "float64" => Scalar::F64,
-            _ => return None,
-        })
+        SCALARS.iter().find(|s| s.1.contains(&name)).map(|s| s.0)
     }
 
     /// The type's name in a header.
     pub fn name(self) -> &'static str {
-        match self {
-            Scalar::I8 => "char",
-            Scalar::U8 => "uchar",
-            Scalar::I16 => "short",
-            Scalar::U16 => "ushort",
-            Scalar::I32 => "int",
-            Scalar::U32 => "uint",
-            Scalar::F32 => "float",
-            Scalar::F64 => "double",
-        }
+        SCALARS[self as usize].1[0]
     }
 
     /// Whether a list's count may be of this type.
@@ -80,12 +74,7 @@ impl Scalar {
     }
 
     pub fn size(self) -> usize {
-        match self {
-            Scalar::I8 | Scalar::U8 => 1,
-            Scalar::I16 | Scalar::U16 => 2,
-            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
-            Scalar::F64 => 8,
-        }
+        SCALARS[self as usize].2
     }
 
     /// The value of little-endian `b` (exactly `size` bytes), widened exactly to f64.
