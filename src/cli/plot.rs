@@ -18,7 +18,7 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::chart::{draw_error, draw_png};
+use super::chart::{draw_png, Drawn};
 use super::error::Result;
 use crate::animation::Pointing;
 use crate::camera::Camera;
@@ -230,50 +230,41 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
         },
     ];
     draw_png(path, SIZE, |root| {
-        let drawn = (|| -> Drawn {
-            // The legend goes in a strip below both panels, where it covers nothing.
-            let (panels, strip) = root.split_vertically(SIZE.1 - LEGEND_HEIGHT);
-            let (left, right) = panels.split_horizontally(SIZE.0 / 2);
-            for (view, area) in views.iter().zip([left, right]) {
-                let (cx, cy) = view.project(mid);
-                let flip = view.right == DVec3::NEG_X;
-                // One scale on both axes (true sizes): the x range widened to the plotting
-                // area's width in pixels.
-                let (w, h) = area.dim_in_pixel();
-                let plot_w = f64::from(w) - 2.0 * MARGIN - Y_LABELS;
-                let plot_h = f64::from(h) - 2.0 * MARGIN - X_LABELS - CAPTION;
-                let half_x = half * (plot_w / plot_h).max(1.0);
-                let mut chart = ChartBuilder::on(&area)
-                    .caption(&view.title, ("sans-serif", 18))
-                    .margin(MARGIN as u32)
-                    .x_label_area_size(X_LABELS as u32)
-                    .y_label_area_size(Y_LABELS as u32)
-                    .build_cartesian_2d(cx - half_x..cx + half_x, cy - half..cy + half)?;
-                chart
-                    .configure_mesh()
-                    .x_desc(&view.x_desc)
-                    .y_desc(&view.y_desc)
-                    // The top view's page x is −x: label the world's x (0.0, never −0.0).
-                    .x_label_formatter(&|v| tick(if flip { -v } else { *v }))
-                    .y_label_formatter(&|v| tick(*v))
-                    .label_style(("sans-serif", 14))
-                    .draw()?;
-                let spans = (DVec2::new(cx, cy), half);
-                spheres(&mut chart, doc, view, spans, plot_h / (2.0 * half))?;
-                frustums(&chart, &marks, every, half * 0.12, view)?;
-                path_and_keys(&chart, &marks, view, half)?;
-            }
-            legend(&strip, &marks, every, doc)
-        })();
-        drawn.map_err(draw_error(path))
+        // The legend goes in a strip below both panels, where it covers nothing.
+        let (panels, strip) = root.split_vertically(SIZE.1 - LEGEND_HEIGHT);
+        let (left, right) = panels.split_horizontally(SIZE.0 / 2);
+        for (view, area) in views.iter().zip([left, right]) {
+            let (cx, cy) = view.project(mid);
+            let flip = view.right == DVec3::NEG_X;
+            // One scale on both axes (true sizes): the x range widened to the plotting
+            // area's width in pixels.
+            let (w, h) = area.dim_in_pixel();
+            let plot_w = f64::from(w) - 2.0 * MARGIN - Y_LABELS;
+            let plot_h = f64::from(h) - 2.0 * MARGIN - X_LABELS - CAPTION;
+            let half_x = half * (plot_w / plot_h).max(1.0);
+            let mut chart = ChartBuilder::on(&area)
+                .caption(&view.title, ("sans-serif", 18))
+                .margin(MARGIN as u32)
+                .x_label_area_size(X_LABELS as u32)
+                .y_label_area_size(Y_LABELS as u32)
+                .build_cartesian_2d(cx - half_x..cx + half_x, cy - half..cy + half)?;
+            chart
+                .configure_mesh()
+                .x_desc(&view.x_desc)
+                .y_desc(&view.y_desc)
+                // The top view's page x is −x: label the world's x (0.0, never −0.0).
+                .x_label_formatter(&|v| tick(if flip { -v } else { *v }))
+                .y_label_formatter(&|v| tick(*v))
+                .label_style(("sans-serif", 14))
+                .draw()?;
+            let spans = (DVec2::new(cx, cy), half);
+            spheres(&mut chart, doc, view, spans, plot_h / (2.0 * half))?;
+            frustums(&chart, &marks, every, half * 0.12, view)?;
+            path_and_keys(&chart, &marks, view, half)?;
+        }
+        legend(&strip, &marks, every, doc)
     })
 }
-
-/// What drawing returns: plotters' error, made the command's once in [`write`].
-type Drawn = std::result::Result<
-    (),
-    DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>,
->;
 
 /// Pixels of the legend strip below the panels, and of the panels' margins and label areas.
 const LEGEND_HEIGHT: u32 = 70;
