@@ -12,6 +12,7 @@ use super::junit::escape;
 use crate::FrameHash;
 
 /// A differing frame's pictures in the review folder (file names) and hashes.
+#[derive(Default)]
 pub struct ReviewFrame {
     pub frame: u64,
     pub golden_hash: Option<FrameHash>,
@@ -23,6 +24,18 @@ pub struct ReviewFrame {
     /// The difference image, beside a golden frame.
     pub diff: Option<String>,
     pub pixels: Option<PixelDiff>,
+}
+
+impl ReviewFrame {
+    /// A differing frame with its hashes, before its pictures are written.
+    pub fn of(d: &crate::testing::Difference) -> ReviewFrame {
+        ReviewFrame {
+            frame: d.frame,
+            golden_hash: d.expected,
+            fresh_hash: d.actual,
+            ..Default::default()
+        }
+    }
 }
 
 /// A failing shot on the page.

@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::args::Shot;
-use super::error::{CliError, Result};
+use super::error::Result;
 use super::failures::{self, difference, golden_pixels, PixelDiff};
 use super::junit;
 use crate::document::Document;
@@ -53,22 +53,14 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
     let golden = Golden::load(&a.golden)?;
     // Every refusal comes before anything is written or removed.
     let goldens = golden_folders(&golden);
-    if let Some(path) = &a.junit {
-        crate::output::outside_goldens(path, &goldens)
-            .map_err(|r| CliError::refused("--junit", path, &r))?;
-        junit::check_target(path)?;
-    }
     // The folder of failure pictures is this run's until it ends.
-    let _claimed = match &a.save_failures {
-        Some(dir) => {
-            if let Some(path) = &a.junit {
-                failures::report_apart(path, dir, "--save-failures")?;
-            }
-            let ours = crate::output::is_failure_picture;
-            Some(failures::claim(dir, "--save-failures", &goldens, ours)?)
-        }
-        None => None,
-    };
+    let _claimed = failures::claim(
+        a.junit.as_deref(),
+        a.save_failures.as_deref(),
+        "--save-failures",
+        &goldens,
+        crate::output::is_failure_picture,
+    )?;
     let total = doc.animation.frames;
     let size = (doc.raster.width, doc.raster.height);
     let golden_frames = golden.frames();
