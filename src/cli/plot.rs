@@ -11,18 +11,20 @@
 //!   straight line.
 //! - The legend lists only what the file has.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::args::{default_out_dir, Shot};
 use super::chart::{draw_png, Drawn};
 use super::error::Result;
 use crate::animation::Pointing;
 use crate::camera::Camera;
 use crate::document::Document;
+use crate::output::{folder_of, pictures, LOCK};
 use crate::scene::Sphere;
 
 type Chart<'a, 'b> =
@@ -195,6 +197,36 @@ impl Spread {
             dir
         }
     }
+}
+
+/// The options of `campath plot`.
+#[derive(clap::Args)]
+pub struct PlotArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// Where the PNG goes [default: out/<file stem>/plot.png].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// A frustum every N frames, N ≥ 1 [default: about eight along the path].
+    #[arg(long, value_parser = super::args::at_least_one)]
+    pub every: Option<u64>,
+}
+
+/// `campath plot`: the plot, written as one of the runs of its folder when the folder is one
+/// campath's runs write (it has their lock file).
+pub fn run(a: PlotArgs, out: &mut dyn std::io::Write) -> Result<()> {
+    let file = &a.shot.file;
+    let png = (a.out).unwrap_or_else(|| default_out_dir(file).join(pictures::PLOT));
+    super::args::check_extension("--out", &png, &["png"], "plot writes PNG")?;
+    let doc = Document::load(file)?;
+    super::args::check_writable(&png)?;
+    let every = a.every.unwrap_or((doc.animation.frames / 8).max(1));
+    let folder = folder_of(&png);
+    let locked = folder.join(LOCK).is_file();
+    let _lock = (locked.then(|| super::progress::lock_whole(folder, false))).transpose()?;
+    write(&doc, &png, every)?;
+    writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?;
+    Ok(())
 }
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.

@@ -3,8 +3,10 @@
 
 use std::io::IsTerminal;
 
+use std::path::Path;
+
 use super::error::{CliError, Result};
-use crate::output::lock::Wait;
+use crate::output::lock::{Claim, FolderLock, Wait};
 use crate::output::sequence::Event;
 use crate::Error;
 
@@ -167,4 +169,11 @@ pub fn with_wait<T>(
         }
     };
     Ok(f(Wait::Yes(&mut report))?)
+}
+
+/// The lock of the whole folder `dir`, waiting for a run that holds it (see [`with_wait`]).
+pub fn lock_whole(dir: &Path, no_wait: bool) -> Result<FolderLock> {
+    with_wait(no_wait, false, |wait| {
+        FolderLock::acquire(dir, Claim::Whole, wait)
+    })
 }

@@ -6,15 +6,17 @@
 //! samples (1, 2, 4, 8, 16) are rows of the same table and plot, on a frame where the camera
 //! moves during the shutter, against [`REFERENCE_TIME_SAMPLES`] time samples.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::args::{check_extension, default_out_dir, Shot};
 use super::chart::draw_png;
 use super::error::{CliError, Result};
 use super::table::Table;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::frames::median;
+use crate::output::pictures;
 use crate::raster::{MotionBlur, MAX_TIME_SAMPLES};
 use crate::render::{srgb_decode, Raster, Renderer, SceneIndex, Simd};
 use crate::scene::Scene;
@@ -494,13 +496,7 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
     let reference = UniformSpeed::new(track.clone(), PATH_REFERENCE_SAMPLES);
     let exact: Vec<_> = times.iter().map(|t| reference.sample(*t)).collect();
     let measure = |path: &PathTrack, build_us: f64, samples: u32| {
-        let mut eval = Vec::new();
-        let mut positions = Vec::new();
-        for _ in 0..5 {
-            let start = Instant::now();
-            positions = times.iter().map(|t| path.sample(*t)).collect::<Vec<_>>();
-            eval.push(start.elapsed().as_secs_f64() * 1e9 / times.len().max(1) as f64);
-        }
+        let (secs, positions) = five(|| times.iter().map(|t| path.sample(*t)).collect::<Vec<_>>());
         let max_error = positions
             .iter()
             .zip(&exact)
@@ -511,35 +507,36 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
             .map(|w| (w[1] - w[0]).length())
             .collect();
         let mean = steps.iter().sum::<f64>() / steps.len().max(1) as f64;
-        let spread = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
+        let (lo, hi) = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
             (lo.min(*s), hi.max(*s))
         });
         PathRow {
             samples,
             build_us,
-            eval_ns: median(&eval),
+            eval_ns: secs * 1e9 / times.len().max(1) as f64,
             max_error,
-            speed_spread: if mean > 0.0 {
-                (spread.1 - spread.0) / mean
-            } else {
-                0.0
-            },
+            speed_spread: if mean > 0.0 { (hi - lo) / mean } else { 0.0 },
         }
     };
     let mut rows = vec![measure(&PathTrack::Keyed(track.clone()), 0.0, 0)];
     rows[0].max_error = f64::NAN;
     for samples in [2, 4, 16, 64, 256, 1024] {
-        let mut builds = Vec::new();
-        let mut table = None;
-        for _ in 0..5 {
-            let start = Instant::now();
-            table = Some(UniformSpeed::new(track.clone(), samples));
-            builds.push(start.elapsed().as_secs_f64() * 1e6);
-        }
-        let path = PathTrack::Uniform(table.expect("built five times"));
-        rows.push(measure(&path, median(&builds), samples));
+        let (secs, table) = five(|| UniformSpeed::new(track.clone(), samples));
+        rows.push(measure(&PathTrack::Uniform(table), secs * 1e6, samples));
     }
     Some(rows)
+}
+
+/// Five timed runs of `f`: their median seconds, and the last run's result.
+fn five<T>(mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut secs = Vec::new();
+    let mut last = None;
+    for _ in 0..5 {
+        let start = Instant::now();
+        last = Some(f());
+        secs.push(start.elapsed().as_secs_f64());
+    }
+    (median(&secs), last.expect("five runs"))
 }
 
 /// The camera path table as Markdown.
@@ -576,18 +573,31 @@ pub fn path_table(rows: &[PathRow]) -> String {
     t.markdown()
 }
 
-/// `campath report`: both tables on `out`, and the plot at `plot`.
-pub fn run(
-    file: &Path,
-    frame: Option<u64>,
-    runs: usize,
-    plot_path: &Path,
-    out: &mut dyn std::io::Write,
-) -> Result<()> {
+/// The options of `campath report`.
+#[derive(clap::Args)]
+pub struct ReportArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// The frame to measure [default: the middle frame].
+    #[arg(long)]
+    pub frame: Option<u64>,
+    /// Timed renders per setting (the median is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub runs: u64,
+    /// Where the log-log plot goes [default: out/<file stem>/report.png].
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// `campath report`: both tables on `out`, and the plot at `--plot`.
+pub fn run(a: ReportArgs, out: &mut dyn std::io::Write) -> Result<()> {
+    let file = &a.shot.file;
+    let plot_path = (a.plot).unwrap_or_else(|| default_out_dir(file).join(pictures::REPORT));
+    check_extension("--plot", &plot_path, &["png"], "the report's plot is PNG")?;
     let doc = Document::load(file)?;
     // Measuring takes a while: find out first that the plot can be written.
-    super::args::check_writable(plot_path)?;
-    let frame = frame.unwrap_or(doc.animation.frames / 2);
+    super::args::check_writable(&plot_path)?;
+    let (frame, runs) = (a.frame.unwrap_or(doc.animation.frames / 2), a.runs as usize);
     let mut rows = renderer_report(&doc, frame, runs)?;
     let motion = motion_report(&doc, frame, runs)?;
     if let Some((_, _, m)) = &motion {
@@ -607,7 +617,7 @@ pub fn run(
         ),
     }
     .map_err(stdout)?;
-    plot(&rows, plot_path)?;
+    plot(&rows, &plot_path)?;
     writeln!(out, "\nplot: {}", plot_path.display()).map_err(stdout)?;
     if let Some(path) = path_report(&doc) {
         writeln!(

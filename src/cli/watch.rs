@@ -24,11 +24,11 @@ use std::time::{Duration, Instant};
 
 use notify::{EventKind, RecursiveMode, Watcher};
 
+use super::args::{default_out_dir, NoWait, Shot};
 use super::error::{CliError, Result};
 use super::{plot, preview};
 use crate::document::Document;
 use crate::frames::render_frame;
-use crate::output::lock::{Claim, FolderLock};
 use crate::output::pictures::{FRAMES, PAGE, PLOT, SHEET, STATUS};
 use crate::output::{check, write_atomic, write_png_atomic, Compression, Use};
 use crate::Error;
@@ -52,15 +52,31 @@ struct Status {
     stopped: bool,
 }
 
-/// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide (240 by
-/// default), at most the file's width.
-pub fn run(
-    file: &Path,
-    dir: &Path,
-    width: Option<u32>,
-    no_wait: bool,
-    out: &mut dyn Write,
-) -> Result<()> {
+/// The options of `campath watch`.
+#[derive(clap::Args)]
+pub struct WatchArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// Where the preview and its page go [default: out/<file stem>-watch/].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Width of the small frames in pixels [default: 240, or the file's width if smaller];
+    /// a width above the file's (which a save may change) gives the file's, and says so.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: Option<u32>,
+    #[command(flatten)]
+    pub no_wait: NoWait,
+}
+
+/// Watches the file until Ctrl-C, keeping the preview in the output folder `--width` pixels
+/// wide (240 by default), at most the file's width.
+pub fn run(a: WatchArgs, out: &mut dyn Write) -> Result<()> {
+    let (file, width, no_wait) = (a.shot.file.as_path(), a.width, a.no_wait.on);
+    let dir = &a.out.clone().unwrap_or_else(|| {
+        let mut dir = default_out_dir(file).into_os_string();
+        dir.push("-watch");
+        PathBuf::from(dir)
+    });
     // The folder, not the file: editors often save by writing a new file and renaming it.
     let folder = match file.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -75,9 +91,7 @@ pub fn run(
     // The folder is this watch's until it stops; as render's, it holds nothing campath does not
     // write there, and is not a golden.
     check(dir, Use::Frames).map_err(|r| CliError::refused("--out", dir, &r))?;
-    let lock = super::progress::with_wait(no_wait, false, |wait| {
-        FolderLock::acquire(dir, Claim::Whole, wait)
-    })?;
+    let lock = super::progress::lock_whole(dir, no_wait)?;
     let started = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_millis() as u64);
