@@ -56,20 +56,13 @@ pub fn is_review_file(name: &str) -> bool {
     if name == "index.html" {
         return true;
     }
-    let Some(rest) = name
-        .strip_prefix("shot")
-        .and_then(|r| r.strip_suffix(".png"))
-    else {
-        return false;
-    };
-    let Some((numbers, what)) = rest.split_once('.') else {
-        return false;
-    };
-    let Some((shot, frame)) = numbers.split_once("_frame") else {
-        return false;
-    };
+    let parts = (name.strip_prefix("shot"))
+        .and_then(|r| r.strip_suffix(".png")?.split_once('.'))
+        .and_then(|(numbers, what)| Some((numbers.split_once("_frame")?, what)));
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    digits(shot) && digits(frame) && ["new", "golden", "diff"].contains(&what)
+    parts.is_some_and(|((shot, frame), what)| {
+        digits(shot) && digits(frame) && ["new", "golden", "diff"].contains(&what)
+    })
 }
 
 const STYLE: &str = "

@@ -128,11 +128,8 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
                 let got = d
                     .actual
                     .map_or_else(|| "no such frame".to_string(), |h| h.to_string());
-                let mut message = format!("expected {hash}, got {got}");
-                if let Some(p) = pixel_diffs.get(frame) {
-                    message += &pixels_changed(p);
-                }
-                message
+                let pixels = pixels_changed(pixel_diffs.get(frame));
+                format!("expected {hash}, got {got}{pixels}")
             });
             suite.case(&format!("frame {frame}"), failure);
         }
@@ -157,32 +154,29 @@ fn unchecked(golden: &Golden, total: u64) -> Option<String> {
     ))
 }
 
-fn pixels_changed(p: &PixelDiff) -> String {
-    format!(
-        ": {} pixel(s) changed, largest difference {} level(s)",
-        p.changed, p.largest
-    )
-}
-
-/// The golden hash of a differing frame (verify compares only the frames its golden lists).
-fn expected(d: &Difference) -> String {
-    d.expected
-        .map_or_else(|| "none".to_string(), |h| h.to_string())
+/// What a differing frame's pixels changed, after its hashes: empty without a golden picture.
+fn pixels_changed(p: Option<&PixelDiff>) -> String {
+    p.map_or_else(String::new, |p| {
+        format!(
+            ": {} pixel(s) changed, largest difference {} level(s)",
+            p.changed, p.largest
+        )
+    })
 }
 
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
-    match (&d.actual, diff) {
-        (None, _) => format!(
+    // The golden hash (verify compares only the frames its golden lists).
+    let expected = d.expected.map_or_else(|| "none".into(), |h| h.to_string());
+    match &d.actual {
+        None => format!(
             "frame {}: in {} but the animation has only {total} frames",
             d.frame,
             golden.display()
         ),
-        (Some(got), None) => format!("frame {}: expected {}, got {got}", d.frame, expected(d)),
-        (Some(got), Some(p)) => format!(
-            "frame {}: expected {}, got {got}{}",
+        Some(got) => format!(
+            "frame {}: expected {expected}, got {got}{}",
             d.frame,
-            expected(d),
-            pixels_changed(p)
+            pixels_changed(diff)
         ),
     }
 }

@@ -34,7 +34,7 @@ use crate::output::{check, write_atomic, write_png_atomic, Compression, Use};
 use crate::Error;
 
 /// What the page reads from `status.js`.
-#[derive(serde::Serialize)]
+#[derive(serde::Serialize, Default)]
 struct Status {
     /// This run's number: the millisecond it started (since 1970), and past the folder's last.
     run: u64,
@@ -100,7 +100,8 @@ pub fn run(a: WatchArgs, out: &mut dyn Write) -> Result<()> {
         .file_name()
         .map(|n| n.to_os_string())
         .unwrap_or_default();
-    write_atomic(&dir.join(PAGE), page(&name.to_string_lossy()))?;
+    let page_path = dir.join(PAGE);
+    write_atomic(&page_path, page(&name.to_string_lossy()))?;
 
     let stop = super::progress::ctrl_c_flag()?;
     let (tx, rx) = mpsc::channel();
@@ -109,16 +110,11 @@ pub fn run(a: WatchArgs, out: &mut dyn Write) -> Result<()> {
         .watch(&folder, RecursiveMode::NonRecursive)
         .map_err(|e| watch_error(file, e))?;
 
-    let page = dir.join(PAGE);
-    writeln!(out, "watching {}; open {}", file.display(), page.display()).map_err(Error::stdout)?;
+    let (file_shown, page_shown) = (file.display(), page_path.display());
+    writeln!(out, "watching {file_shown}; open {page_shown}").map_err(Error::stdout)?;
     let mut status = Status {
         run,
-        version: 0,
-        good: 0,
-        error: None,
-        ms: 0,
-        frames: [0; 3],
-        stopped: false,
+        ..Default::default()
     };
     // The last run's pictures go, and the page hears of it, before this run's first.
     for picture in FRAMES.into_iter().chain([SHEET, PLOT]) {
