@@ -182,33 +182,22 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let bad = checked.len() - runs.len();
     let updated = runs.iter().filter(|r| r.updated).count();
     let open = runs.iter().filter(|r| !r.updated);
-    let passed = open
-        .clone()
-        .filter(|r| r.verdict() == Verdict::Passed)
-        .count();
-    let no_golden = open
-        .clone()
-        .filter(|r| r.verdict() == Verdict::NoGolden)
-        .count();
+    let count = |is: &dyn Fn(Verdict) -> bool| open.clone().filter(|r| is(r.verdict())).count();
+    let passed = count(&|v| v == Verdict::Passed);
+    let no_golden = count(&|v| v == Verdict::NoGolden);
     let differ = runs.len() - updated - passed - no_golden;
     // Goldens of a newer campath: this one never writes them, so approving is no answer.
-    let newer = open
-        .clone()
-        .filter(|r| matches!(r.verdict(), Verdict::OtherRenderer(v) if v > VERSION))
-        .count();
+    let newer = count(&|v| matches!(v, Verdict::OtherRenderer(v) if v > VERSION));
+    let ok = differ + no_golden + bad == 0;
     let mut summary = format!(
         "test result: {}. {} shot(s): {passed} passed, {differ} differ, {no_golden} without \
          golden, {bad} could not be checked",
-        if differ + no_golden + bad == 0 {
-            "ok"
-        } else {
-            "FAILED"
-        },
+        if ok { "ok" } else { "FAILED" },
         shots.len()
     );
     if updated > 0 {
         summary += &format!("; {updated} golden(s) written");
-    } else if a.update && differ + no_golden + bad == 0 {
+    } else if a.update && ok {
         summary += "; no golden needed writing";
     } else if !a.update && differ + no_golden > newer {
         summary += &format!(
