@@ -213,9 +213,3 @@ pub fn check(c: CheckArgs, out: &mut dyn Write) -> Result<bool> {
     }
     Ok(!c.strict || warnings.is_empty())
 }
-
-impl From<std::convert::Infallible> for CliError {
-    fn from(e: std::convert::Infallible) -> Self {
-        match e {}
-    }
-}
