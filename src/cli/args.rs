@@ -173,19 +173,14 @@ pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<
         .and_then(|p| p.extension())
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     match (format, by_name, ext.as_deref()) {
-        (None, None, Some("usdc" | "usdz")) => return Ok(PathFormat::Usd),
-        (None, None, Some("txt")) => return Ok(PathFormat::Csv),
-        (None, None, Some(ext)) => {
-            return Err(CliError::Usage(format!(
-                "--out {}: no format is written as .{ext}; name the file .csv, .json, .chan, \
-                 .gltf, .glb, .py or .usda, or give --format",
-                out.expect("an extension comes from --out").display()
-            )))
-        }
-        _ => {}
-    }
-    match (format, by_name) {
-        (Some(f), Some(n)) if f != n => {
+        (None, None, Some("usdc" | "usdz")) => Ok(PathFormat::Usd),
+        (None, None, Some("txt") | None) => Ok(PathFormat::Csv),
+        (None, None, Some(ext)) => Err(CliError::Usage(format!(
+            "--out {}: no format is written as .{ext}; name the file .csv, .json, .chan, \
+             .gltf, .glb, .py or .usda, or give --format",
+            out.expect("an extension comes from --out").display()
+        ))),
+        (Some(f), Some(n), _) if f != n => {
             let out = out.expect("an extension comes from --out");
             Err(CliError::Usage(format!(
                 "--out {} names a {} file, but --format {} writes {}: change the extension or \
@@ -196,8 +191,7 @@ pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<
                 f.title()
             )))
         }
-        (Some(f), _) | (None, Some(f)) => Ok(f),
-        (None, None) => Ok(PathFormat::Csv),
+        (Some(f), _, _) | (None, Some(f), _) => Ok(f),
     }
 }
 

@@ -32,18 +32,24 @@ pub fn draw_error<E: std::error::Error + Send + Sync>(
     }
 }
 
+/// What drawing returns: plotters' error, made the command's in [`draw_png`].
+pub type Drawn = std::result::Result<
+    (),
+    DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>,
+>;
+
 /// Draws on a white `size` bitmap with `draw`, then writes it to `path` as a PNG.
 pub fn draw_png(
     path: &Path,
     size: (u32, u32),
-    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Drawn,
 ) -> Result<()> {
     register_font();
     let mut buf = vec![255u8; (size.0 * size.1 * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
         root.fill(&WHITE).map_err(draw_error(path))?;
-        draw(root.clone())?;
+        draw(root.clone()).map_err(draw_error(path))?;
         root.present().map_err(draw_error(path))?;
     }
     Ok(write_png(path, &buf, size, Compression::Fast)?)

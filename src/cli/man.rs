@@ -62,40 +62,38 @@ The output folder's lock: one run writes a folder at a time (the shards of one N
 README.md, docs/format.md, docs/farms.md and docs/exports.md in campath's sources.
 "#;
 
-fn io(e: std::io::Error) -> Error {
-    Error::stdout(e)
-}
-
 /// The whole manual as one roff page.
 pub fn page(out: &mut dyn Write) -> Result<()> {
     let mut cmd = super::Cli::command().disable_help_subcommand(true);
     cmd.build();
     let man = Man::new(cmd.clone());
-    man.render_title(out).map_err(io)?;
-    man.render_name_section(out).map_err(io)?;
-    man.render_synopsis_section(out).map_err(io)?;
-    man.render_description_section(out).map_err(io)?;
-    man.render_options_section(out).map_err(io)?;
-    writeln!(out, ".SH COMMANDS").map_err(io)?;
-    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
-        let sub_man = Man::new(sub.clone());
-        let mut text = Vec::new();
-        sub_man.render_synopsis_section(&mut text).map_err(io)?;
-        sub_man.render_description_section(&mut text).map_err(io)?;
-        sub_man.render_options_section(&mut text).map_err(io)?;
-        // Each command is a subsection of COMMANDS: its synopsis as the heading.
-        let text = String::from_utf8_lossy(&text)
-            .replace(
-                ".SH SYNOPSIS\n",
-                &format!(".SS \"campath {}\"\n", sub.get_name()),
-            )
-            .replace(".SH DESCRIPTION\n", ".PP\n")
-            .replace(".SH OPTIONS\n", ".PP\nOptions:\n");
-        out.write_all(text.as_bytes()).map_err(io)?;
-    }
-    out.write_all(TAIL.as_bytes()).map_err(io)?;
-    man.render_version_section(out).map_err(io)?;
-    Ok(())
+    let write = |out: &mut dyn Write| -> std::io::Result<()> {
+        man.render_title(out)?;
+        man.render_name_section(out)?;
+        man.render_synopsis_section(out)?;
+        man.render_description_section(out)?;
+        man.render_options_section(out)?;
+        writeln!(out, ".SH COMMANDS")?;
+        for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+            let sub_man = Man::new(sub.clone());
+            let mut text = Vec::new();
+            sub_man.render_synopsis_section(&mut text)?;
+            sub_man.render_description_section(&mut text)?;
+            sub_man.render_options_section(&mut text)?;
+            // Each command is a subsection of COMMANDS: its synopsis as the heading.
+            let text = String::from_utf8_lossy(&text)
+                .replace(
+                    ".SH SYNOPSIS\n",
+                    &format!(".SS \"campath {}\"\n", sub.get_name()),
+                )
+                .replace(".SH DESCRIPTION\n", ".PP\n")
+                .replace(".SH OPTIONS\n", ".PP\nOptions:\n");
+            out.write_all(text.as_bytes())?;
+        }
+        out.write_all(TAIL.as_bytes())?;
+        man.render_version_section(out)
+    };
+    Ok(write(out).map_err(Error::stdout)?)
 }
 
 /// Writes the whole manual as `dir/campath.1`, and a page per command (`campath-render.1`, …)

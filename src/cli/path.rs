@@ -2,22 +2,39 @@
 //! the warnings of formats that keep places in f32.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::PathBuf;
+
+use super::args::Shot;
 
 use super::error::{CliError, Result};
 use crate::document::Document;
 use crate::export::PathFormat;
 use crate::output::Use;
 
+/// The options of `campath path`.
+#[derive(clap::Args)]
+pub struct PathArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py, .usda), else csv]
+    #[arg(long, value_parser = super::args::path_format())]
+    pub format: Option<PathFormat>,
+    /// Write to this file instead of standard output (glTF: binary when it ends in .glb; USD:
+    /// .usda or .usd).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write every place relative to this point of campath's world (glTF and Blender keep
+    /// places in f32: a shot far from the origin needs one near it).
+    #[arg(long, value_name = "X,Y,Z", value_parser = super::args::point, allow_hyphen_values = true)]
+    pub origin: Option<glam::DVec3>,
+}
+
 /// `campath path`: the evaluated camera per frame (or the whole shot as glTF) on standard
-/// output, or into `file_out` (binary glTF when it ends in `.glb`).
-pub fn path(
-    file: &Path,
-    format: PathFormat,
-    file_out: Option<&Path>,
-    origin: glam::DVec3,
-    out: &mut dyn Write,
-) -> Result<()> {
+/// output, or into `--out` (binary glTF when it ends in `.glb`).
+pub fn path(a: PathArgs, out: &mut dyn Write) -> Result<()> {
+    let file_out = a.out.as_deref();
+    let format = super::args::resolve_format(a.format, file_out)?;
+    let origin = a.origin.unwrap_or_default();
     // Not into a golden or a folder of rendered frames: the next render there would refuse
     // the folder for holding a file campath did not write.
     if let Some(target) = file_out {
@@ -35,7 +52,7 @@ pub fn path(
             }
         }
     }
-    let doc = Document::load(file)?;
+    let doc = Document::load(&a.shot.file)?;
     let frames = doc.animation.frames;
     let glb =
         file_out.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")));

@@ -11,17 +11,20 @@
 //!   straight line.
 //! - The legend lists only what the file has.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};
 use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::chart::{draw_error, draw_png};
+use super::args::{default_out_dir, Shot};
+use super::chart::{draw_png, Drawn};
 use super::error::Result;
 use crate::animation::Pointing;
 use crate::camera::Camera;
 use crate::document::Document;
+use crate::output::{folder_of, pictures, LOCK};
 use crate::scene::Sphere;
 
 type Chart<'a, 'b> =
@@ -134,11 +137,6 @@ impl Marks {
         })
     }
 
-    /// Whether the camera moves (its VRP differs between frames).
-    fn moves(&self) -> bool {
-        self.moves
-    }
-
     /// The region shown: the path, keys and targets, and the spheres no larger than that
     /// region, as a centre and a half-width.
     fn region(&self, doc: &Document) -> (DVec3, f64) {
@@ -153,11 +151,6 @@ impl Marks {
             hi = hi.max(s.center_world + s.radius);
         }
         ((lo + hi) * 0.5, (hi - lo).max_element() * 0.55 + 1e-9)
-    }
-
-    /// The path's main horizontal direction.
-    fn travel(&self) -> DVec3 {
-        self.travel
     }
 }
 
@@ -206,11 +199,48 @@ impl Spread {
     }
 }
 
+/// The options of `campath plot`.
+#[derive(clap::Args)]
+pub struct PlotArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// Where the PNG goes [default: out/<file stem>/plot.png].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// A frustum every N frames, N ≥ 1 [default: about eight along the path].
+    #[arg(long, value_parser = super::args::at_least_one)]
+    pub every: Option<u64>,
+}
+
+/// `campath plot`: the plot, written as one of the runs of its folder when the folder is one
+/// campath's runs write (it has their lock file).
+pub fn run(a: PlotArgs, out: &mut dyn std::io::Write) -> Result<()> {
+    let file = &a.shot.file;
+    let png = (a.out).unwrap_or_else(|| default_out_dir(file).join(pictures::PLOT));
+    super::args::check_extension("--out", &png, &["png"], "plot writes PNG")?;
+    let doc = Document::load(file)?;
+    super::args::check_writable(&png)?;
+    let every = a.every.unwrap_or((doc.animation.frames / 8).max(1));
+    let folder = folder_of(&png);
+    let locked = folder.join(LOCK).is_file();
+    let _lock = (locked.then(|| super::progress::lock_whole(folder, false))).transpose()?;
+    write(&doc, &png, every)?;
+    writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?;
+    Ok(())
+}
+
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
 pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
     let marks = Marks::of(doc, every)?;
     let (mid, half) = marks.region(doc);
-    let h = marks.travel();
+    let h = marks.travel;
+    let (title, along) = match marks.moves {
+        true => ("along the travel", "along the travel"),
+        false => (
+            "across the first view direction",
+            "along the first view direction",
+        ),
+    };
     let views = [
         View {
             title: "from above (+y), as the frames see left and right".into(),
@@ -220,26 +250,14 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
             y_desc: "z (world units)".into(),
         },
         View {
-            title: if marks.moves() {
-                format!(
-                    "from the side, along the travel ({:.2}, 0, {:.2})",
-                    h.x + 0.0,
-                    h.z + 0.0
-                )
-            } else {
-                format!(
-                    "from the side, across the first view direction ({:.2}, 0, {:.2})",
-                    h.x + 0.0,
-                    h.z + 0.0
-                )
-            },
+            title: format!(
+                "from the side, {title} ({:.2}, 0, {:.2})",
+                h.x + 0.0,
+                h.z + 0.0
+            ),
             right: h,
             up: DVec3::Y,
-            x_desc: if marks.moves() {
-                "distance along the travel (world units)".into()
-            } else {
-                "distance along the first view direction (world units)".into()
-            },
+            x_desc: format!("distance {along} (world units)"),
             y_desc: "y (world units)".into(),
         },
     ];
@@ -250,8 +268,8 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
         for (view, area) in views.iter().zip([left, right]) {
             let (cx, cy) = view.project(mid);
             let flip = view.right == DVec3::NEG_X;
-            // One scale on both axes (true sizes): the x range widened to the plotting area's
-            // width in pixels.
+            // One scale on both axes (true sizes): the x range widened to the plotting
+            // area's width in pixels.
             let (w, h) = area.dim_in_pixel();
             let plot_w = f64::from(w) - 2.0 * MARGIN - Y_LABELS;
             let plot_h = f64::from(h) - 2.0 * MARGIN - X_LABELS - CAPTION;
@@ -261,8 +279,7 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
                 .margin(MARGIN as u32)
                 .x_label_area_size(X_LABELS as u32)
                 .y_label_area_size(Y_LABELS as u32)
-                .build_cartesian_2d(cx - half_x..cx + half_x, cy - half..cy + half)
-                .map_err(draw_error(path))?;
+                .build_cartesian_2d(cx - half_x..cx + half_x, cy - half..cy + half)?;
             chart
                 .configure_mesh()
                 .x_desc(&view.x_desc)
@@ -271,14 +288,13 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
                 .x_label_formatter(&|v| tick(if flip { -v } else { *v }))
                 .y_label_formatter(&|v| tick(*v))
                 .label_style(("sans-serif", 14))
-                .draw()
-                .map_err(draw_error(path))?;
+                .draw()?;
             let spans = (DVec2::new(cx, cy), half);
-            spheres(&mut chart, doc, view, spans, plot_h / (2.0 * half), path)?;
-            frustums(&mut chart, &marks, every, half * 0.12, view, path)?;
-            path_and_keys(&mut chart, &marks, view, half, path)?;
+            spheres(&mut chart, doc, view, spans, plot_h / (2.0 * half))?;
+            frustums(&chart, &marks, every, half * 0.12, view)?;
+            path_and_keys(&chart, &marks, view, half)?;
         }
-        legend(&strip, &marks, every, doc, path)
+        legend(&strip, &marks, every, doc)
     })
 }
 
@@ -289,6 +305,9 @@ const X_LABELS: f64 = 40.0;
 const Y_LABELS: f64 = 55.0;
 /// About the height of an 18-point caption with its gap.
 const CAPTION: f64 = 28.0;
+/// The colours of the start and of the view directions.
+const START: RGBColor = RGBColor(0, 150, 0);
+const GREY: RGBColor = RGBColor(90, 90, 90);
 
 /// An axis label with one decimal, never `-0.0`.
 fn tick(v: f64) -> String {
@@ -353,21 +372,11 @@ fn spheres(
     view: &View,
     panel: (DVec2, f64),
     px_per_unit: f64,
-    path: &Path,
-) -> Result<()> {
+) -> Drawn {
     let mut dots = Vec::new();
-    let flush = |chart: &mut Chart, dots: &mut Vec<Rectangle<(f64, f64)>>| {
-        chart
-            .draw_series(dots.drain(..))
-            .map(|_| ())
-            .map_err(draw_error(path))
-    };
     for s in &doc.scene.spheres {
-        let col = RGBColor(
-            (s.color.x * 255.0) as u8,
-            (s.color.y * 255.0) as u8,
-            (s.color.z * 255.0) as u8,
-        );
+        let [r, g, b] = (s.color * 255.0).to_array().map(|c| c as u8);
+        let col = RGBColor(r, g, b);
         if s.radius * px_per_unit < 1.25 {
             // Half a pixel wider on each side, as the outline's stroke is.
             let (x, y) = view.project(s.center_world);
@@ -378,16 +387,15 @@ fn spheres(
             ));
             continue;
         }
-        flush(chart, &mut dots)?;
+        chart.draw_series(dots.drain(..))?;
         let (region, edge) = outline(s, view, panel);
         chart
-            .draw_series(std::iter::once(Polygon::new(region, col.mix(0.3))))
-            .map_err(draw_error(path))?;
-        chart
-            .draw_series(std::iter::once(PathElement::new(edge, col)))
-            .map_err(draw_error(path))?;
+            .plotting_area()
+            .draw(&Polygon::new(region, col.mix(0.3)))?;
+        chart.plotting_area().draw(&PathElement::new(edge, col))?;
     }
-    flush(chart, &mut dots)
+    chart.draw_series(dots)?;
+    Ok(())
 }
 
 /// A frustum every `every` frames and at the last, drawn from the camera forwards as Blender and
@@ -397,46 +405,33 @@ fn spheres(
 /// A camera that does not move gets its frustum at the first and the last frame only, and its
 /// view direction (from the window's centre, on the ray from the COP) at the others: frustums
 /// turning about one point would pile up into a pinwheel.
-fn frustums(
-    chart: &mut Chart,
-    marks: &Marks,
-    every: u64,
-    reach: f64,
-    view: &View,
-    path: &Path,
-) -> Result<()> {
-    let moves = marks.moves();
+fn frustums(chart: &Chart, marks: &Marks, every: u64, reach: f64, view: &View) -> Drawn {
+    let area = chart.plotting_area();
+    let line = |from: DVec3, to: DVec3, style: ShapeStyle| {
+        area.draw(&PathElement::new(
+            vec![view.project(from), view.project(to)],
+            style,
+        ))
+    };
     for &(k, ref cam) in &marks.cams {
         let ends = k == 0 || k == marks.last;
         if !k.is_multiple_of(every.max(1)) && !ends {
             continue;
         }
-        if !moves && !ends {
-            let cop = cam.cop_world();
-            let depth = -cam.cop_view.z;
+        let cop = cam.cop_world();
+        // The COP is −cop.n behind the window.
+        let depth = -cam.cop_view.z;
+        if !marks.moves && !ends {
             let centre = cam.point_to_world(DVec3::ZERO);
             let tip = cop + (centre - cop) * ((depth + 2.0 * reach) / depth);
-            chart
-                .draw_series(std::iter::once(PathElement::new(
-                    vec![view.project(centre), view.project(tip)],
-                    RGBColor(90, 90, 90).stroke_width(2),
-                )))
-                .map_err(draw_error(path))?;
+            line(centre, tip, GREY.stroke_width(2))?;
             continue;
         }
-        let cop = cam.cop_world();
         let (w, h) = (cam.window.x * 0.5, cam.window.y * 0.5);
-        // The corners' rays, scaled to reach `reach` past the window along the view direction:
-        // the COP is −cop.n behind the window.
-        let depth = -cam.cop_view.z;
+        // The corners' rays, scaled to reach `reach` past the window along the view direction.
         let scale = (depth + reach) / depth;
-        let corners: Vec<DVec3> = [(-w, -h), (w, -h), (w, h), (-w, h)]
-            .iter()
-            .map(|&(x, y)| {
-                let through = cam.point_to_world(DVec3::new(x, y, 0.0));
-                cop + (through - cop) * scale
-            })
-            .collect();
+        let corners = [(-w, -h), (w, -h), (w, h), (-w, h)]
+            .map(|(x, y)| cop + (cam.point_to_world(DVec3::new(x, y, 0.0)) - cop) * scale);
         for (i, corner) in corners.iter().enumerate() {
             // Corners 1 and 2 are on the camera's right (+u).
             let style = if i == 1 || i == 2 {
@@ -444,36 +439,20 @@ fn frustums(
             } else {
                 BLACK.mix(0.4).stroke_width(1)
             };
-            chart
-                .draw_series(std::iter::once(PathElement::new(
-                    vec![view.project(cop), view.project(*corner)],
-                    style,
-                )))
-                .map_err(draw_error(path))?;
+            line(cop, *corner, style)?;
         }
-        let mut rim: Vec<(f64, f64)> = corners.iter().map(|p| view.project(*p)).collect();
-        rim.push(rim[0]);
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                rim,
-                BLACK.stroke_width(1),
-            )))
-            .map_err(draw_error(path))?;
+        let rim = corners.iter().chain(&corners[..1]);
+        let rim: Points = rim.map(|p| view.project(*p)).collect();
+        area.draw(&PathElement::new(rim, BLACK.stroke_width(1)))?;
     }
     Ok(())
 }
 
 /// The VRP's path with its start (and direction of travel) and end, the keyframes and the
 /// targets.
-fn path_and_keys<'a>(
-    chart: &mut Chart<'a, 'a>,
-    marks: &Marks,
-    view: &View,
-    half: f64,
-    path: &Path,
-) -> Result<()> {
-    let err = draw_error(path);
-    let line: Vec<(f64, f64)> = marks
+fn path_and_keys(chart: &Chart, marks: &Marks, view: &View, half: f64) -> Drawn {
+    let area = chart.plotting_area();
+    let line: Points = marks
         .cams
         .iter()
         .map(|(_, c)| view.project(c.vrp_world))
@@ -485,14 +464,9 @@ fn path_and_keys<'a>(
         .find(|p| (p.0 - start.0).hypot(p.1 - start.1) > half * 0.02)
         .copied();
     if ahead.is_some() {
-        chart
-            .draw_series(LineSeries::new(line.clone(), BLUE.stroke_width(2)))
-            .map_err(&err)?;
+        area.draw(&PathElement::new(line, BLUE.stroke_width(2)))?;
     }
-    let start_color = RGBColor(0, 150, 0);
-    chart
-        .draw_series(std::iter::once(Circle::new(start, 7, start_color.filled())))
-        .map_err(&err)?;
+    area.draw(&Circle::new(start, 7, START.filled()))?;
     if let Some(p) = ahead {
         let (dx, dy) = (p.0 - start.0, p.1 - start.1);
         let len = dx.hypot(dy);
@@ -504,170 +478,88 @@ fn path_and_keys<'a>(
                 tip.1 - uy * 0.35 + ux * 0.25 * s,
             )
         };
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![start, tip, barb(1.0), tip, barb(-1.0)],
-                start_color.stroke_width(3),
-            )))
-            .map_err(&err)?;
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [
-                    (end.0 - half * 0.012, end.1 - half * 0.012),
-                    (end.0 + half * 0.012, end.1 + half * 0.012),
-                ],
-                BLACK.filled(),
-            )))
-            .map_err(&err)?;
+        let arrow = vec![start, tip, barb(1.0), tip, barb(-1.0)];
+        area.draw(&PathElement::new(arrow, START.stroke_width(3)))?;
+        let corner = |s: f64| (end.0 + s * half * 0.012, end.1 + s * half * 0.012);
+        area.draw(&Rectangle::new([corner(-1.0), corner(1.0)], BLACK.filled()))?;
     }
-    if !marks.keys.is_empty() {
-        chart
-            .draw_series(
-                marks
-                    .keys
-                    .iter()
-                    .map(|k| Circle::new(view.project(*k), 5, RED.filled())),
-            )
-            .map_err(&err)?;
+    for k in &marks.keys {
+        area.draw(&Circle::new(view.project(*k), 5, RED.filled()))?;
     }
-    if !marks.targets.is_empty() {
-        chart
-            .draw_series(
-                marks
-                    .targets
-                    .iter()
-                    .map(|t| Cross::new(view.project(*t), 6, GREEN.stroke_width(2))),
-            )
-            .map_err(&err)?;
+    for t in &marks.targets {
+        area.draw(&Cross::new(view.project(*t), 6, GREEN.stroke_width(2)))?;
     }
     Ok(())
 }
 
 /// The legend, in its strip below the panels: only what the file has, in one or two rows.
 fn legend(
-    strip: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    strip: &DrawingArea<BitMapBackend<'_>, Shift>,
     marks: &Marks,
     every: u64,
     doc: &Document,
-    path: &Path,
-) -> Result<()> {
-    let err = draw_error(path);
-    let moves = marks.moves();
-    let start_color = RGBColor(0, 150, 0);
-    type Mark = Box<
-        dyn Fn(
-            &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
-            (i32, i32),
-        ) -> Result<(), String>,
-    >;
-    let mut entries: Vec<(String, Mark)> = Vec::new();
-    if moves {
-        entries.push((
-            "VRP path".into(),
-            Box::new(|a, (x, y)| {
-                a.draw(&PathElement::new(
-                    vec![(x, y), (x + 20, y)],
-                    BLUE.stroke_width(2),
-                ))
-                .map_err(|e| e.to_string())
-            }),
-        ));
-    }
-    entries.push((
-        if moves {
-            "start, with the direction of travel"
-        } else {
-            "camera position (it does not move)"
-        }
-        .into(),
-        Box::new(move |a, (x, y)| {
-            a.draw(&Circle::new((x + 10, y), 6, start_color.filled()))
-                .map_err(|e| e.to_string())
-        }),
-    ));
-    if moves {
-        entries.push((
-            "end".into(),
-            Box::new(|a, (x, y)| {
-                a.draw(&Rectangle::new(
-                    [(x + 5, y - 5), (x + 15, y + 5)],
-                    BLACK.filled(),
-                ))
-                .map_err(|e| e.to_string())
-            }),
-        ));
-    }
-    if !marks.keys.is_empty() {
-        entries.push((
-            "Observer keyframes".into(),
-            Box::new(|a, (x, y)| {
-                a.draw(&Circle::new((x + 10, y), 5, RED.filled()))
-                    .map_err(|e| e.to_string())
-            }),
-        ));
-    }
-    if !marks.targets.is_empty() {
-        entries.push((
-            "target points (TP)".into(),
-            Box::new(|a, (x, y)| {
-                a.draw(&Cross::new((x + 10, y), 6, GREEN.stroke_width(2)))
-                    .map_err(|e| e.to_string())
-            }),
-        ));
-    }
+) -> Drawn {
+    let moves = marks.moves;
+    let line = |c: RGBColor| PathElement::new(vec![(0, 0), (20, 0)], c.stroke_width(2)).into_dyn();
+    let start = match moves {
+        true => "start, with the direction of travel",
+        false => "camera position (it does not move)",
+    };
     let frustum = if moves {
         format!("view frustum every {every} frame(s), COP to beyond the window; heavy edges on the camera's right")
     } else {
         "view frustum at the first and last frame; heavy edges on the camera's right".to_string()
     };
-    if !moves {
-        entries.push((
+    // Each entry, when the file has it: its label and its mark about the entry's (0, 0).
+    let entries = [
+        (moves, String::from("VRP path"), line(BLUE)),
+        (
+            true,
+            start.into(),
+            Circle::new((10, 0), 6, START.filled()).into_dyn(),
+        ),
+        (
+            moves,
+            "end".into(),
+            Rectangle::new([(5, -5), (15, 5)], BLACK.filled()).into_dyn(),
+        ),
+        (
+            !marks.keys.is_empty(),
+            "Observer keyframes".into(),
+            Circle::new((10, 0), 5, RED.filled()).into_dyn(),
+        ),
+        (
+            !marks.targets.is_empty(),
+            "target points (TP)".into(),
+            Cross::new((10, 0), 6, GREEN.stroke_width(2)).into_dyn(),
+        ),
+        (
+            !moves,
             format!("view direction every {every} frame(s)"),
-            Box::new(|a, (x, y)| {
-                a.draw(&PathElement::new(
-                    vec![(x, y), (x + 20, y)],
-                    RGBColor(90, 90, 90).stroke_width(2),
-                ))
-                .map_err(|e| e.to_string())
-            }),
-        ));
-    }
-    entries.push((
-        frustum,
-        Box::new(|a, (x, y)| {
-            a.draw(&PathElement::new(
-                vec![(x, y + 5), (x + 20, y - 5)],
-                BLACK.stroke_width(2),
-            ))
-            .map_err(|e| e.to_string())
-        }),
-    ));
-    if !doc.scene.spheres.is_empty() {
-        entries.push((
+            line(GREY),
+        ),
+        (
+            true,
+            frustum,
+            PathElement::new(vec![(0, 5), (20, -5)], BLACK.stroke_width(2)).into_dyn(),
+        ),
+        (
+            !doc.scene.spheres.is_empty(),
             "spheres, true size and colour".into(),
-            Box::new(|a, (x, y)| {
-                a.draw(&Circle::new((x + 10, y), 6, BLACK.mix(0.3).filled()))
-                    .map_err(|e| e.to_string())
-            }),
-        ));
-    }
+            Circle::new((10, 0), 6, BLACK.mix(0.3).filled()).into_dyn(),
+        ),
+    ];
     // Laid out left to right, wrapping to the next row; about 7 px per character.
     let font: TextStyle = ("sans-serif", 14).into();
     let (width, _) = strip.dim_in_pixel();
     let (mut x, mut y) = (20i32, 20i32);
-    for (label, mark) in &entries {
-        let text_w = strip.estimate_text_size(label, &font).map_err(&err)?.0 as i32;
-        let entry_w = 30 + text_w + 28;
+    for (_, label, mark) in entries.into_iter().filter(|e| e.0) {
+        let entry_w = 30 + strip.estimate_text_size(&label, &font)?.0 as i32 + 28;
         if x + entry_w > width as i32 && x > 20 {
             (x, y) = (20, y + 26);
         }
-        mark(strip, (x, y)).map_err(|message| super::error::CliError::Draw {
-            path: path.to_path_buf(),
-            message,
-        })?;
-        strip
-            .draw(&Text::new(label.clone(), (x + 30, y - 8), font.clone()))
-            .map_err(&err)?;
+        strip.draw(&(EmptyElement::at((x, y)) + mark))?;
+        strip.draw(&Text::new(label, (x + 30, y - 8), font.clone()))?;
         x += entry_w;
     }
     Ok(())
@@ -711,11 +603,11 @@ mod tests {
             dir = -dir;
         }
         assert!(
-            (marks.travel() - dir).length() < 1e-9,
+            (marks.travel - dir).length() < 1e-9,
             "{} {dir}",
-            marks.travel()
+            marks.travel
         );
-        assert!(marks.moves());
+        assert!(marks.moves);
     }
 
     #[test]

@@ -3,10 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
+use super::args::{default_out_dir, Shot};
 use super::error::{CliError, Result};
 use crate::document::Document;
 use crate::frames::{for_each_frame, FrameSet};
-use crate::output::{write_png_atomic, Compression};
+use crate::output::{write_png_atomic, Compression, Use};
 use crate::render::Raster;
 use crate::Error;
 
@@ -18,6 +19,42 @@ pub const GAP: u32 = 2;
 pub const LABEL: u32 = 16;
 /// Most frames in the GIF; longer sequences are sampled evenly.
 pub const GIF_FRAMES: u64 = 120;
+
+/// The options of `campath preview`.
+#[derive(clap::Args)]
+pub struct PreviewArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// Output folder [default: out/<file stem>/].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Width of each small frame in pixels, up to the file's width [default: 240, or the
+    /// file's width if smaller].
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Frames on the contact sheet, spread evenly, up to the file's frame count [default: 12,
+    /// or every frame if fewer].
+    #[arg(long)]
+    pub count: Option<u64>,
+}
+
+/// `campath preview`: the sheet and the GIF, written into the output folder under its lock.
+pub fn run(a: PreviewArgs, out: &mut dyn std::io::Write) -> Result<()> {
+    let doc = Document::load(&a.shot.file)?;
+    let dir = a.out.unwrap_or_else(|| default_out_dir(&a.shot.file));
+    let width = a.width.unwrap_or(doc.raster.width.min(240));
+    let count = a.count.unwrap_or(doc.animation.frames.min(12));
+    check(&doc, width, count)?;
+    doc.check_path()?;
+    // As render: a golden or a folder of other files is refused, and a folder is written by one
+    // run at a time.
+    crate::output::check(&dir, Use::Frames).map_err(|r| CliError::refused("--out", &dir, &r))?;
+    let _lock = super::progress::lock_whole(&dir, false)?;
+    let (png, gif) = write(&doc, &dir, width, count, true)?;
+    let gif = gif.expect("asked for the GIF");
+    writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?;
+    Ok(())
+}
 
 /// The small raster: `width` pixels wide, the file's aspect, one sample per pixel.
 pub fn small_raster(doc: &Document, width: u32) -> Raster {

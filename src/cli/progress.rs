@@ -3,8 +3,10 @@
 
 use std::io::IsTerminal;
 
+use std::path::Path;
+
 use super::error::{CliError, Result};
-use crate::output::lock::Wait;
+use crate::output::lock::{Claim, FolderLock, Wait};
 use crate::output::sequence::Event;
 use crate::Error;
 
@@ -13,8 +15,8 @@ pub enum Progress {
     /// Nothing at all, not even the summary.
     Quiet,
     /// For logs and pipes: a line when the run starts, then one every few seconds, and one at
-    /// the end.
-    Lines(Lines),
+    /// the end; made at the start.
+    Lines(Option<Lines>),
     /// A progress bar with frames per second and an ETA (for terminals), made at the start.
     Bar(Option<indicatif::ProgressBar>),
 }
@@ -65,16 +67,7 @@ impl Progress {
         } else if std::io::stderr().is_terminal() {
             Progress::Bar(None)
         } else {
-            let now = std::time::Instant::now();
-            Progress::Lines(Lines {
-                verb: String::new(),
-                frames: 0,
-                done: 0,
-                to_do: 0,
-                began: now,
-                last: now,
-                every: progress_interval(),
-            })
+            Progress::Lines(None)
         }
     }
 
@@ -97,12 +90,18 @@ impl Progress {
                 b.inc(kept);
                 *bar = Some(b);
             }
-            Progress::Lines(l) => {
+            Progress::Lines(lines) => {
                 eprintln!("{} frame(s) to {verb}, {kept} kept", frames - kept);
                 let now = std::time::Instant::now();
-                l.verb = verb.to_string();
-                (l.frames, l.done, l.to_do) = (frames, kept, frames - kept);
-                (l.began, l.last) = (now, now);
+                *lines = Some(Lines {
+                    verb: verb.to_string(),
+                    frames,
+                    done: kept,
+                    to_do: frames - kept,
+                    began: now,
+                    last: now,
+                    every: progress_interval(),
+                });
             }
             Progress::Quiet => {}
         }
@@ -112,7 +111,7 @@ impl Progress {
         match (self, e) {
             (p, Event::Start { frames, kept }) => p.begin(frames, kept, "render"),
             (Progress::Bar(Some(bar)), Event::Written(_)) => bar.inc(1),
-            (Progress::Lines(l), Event::Written(_)) => {
+            (Progress::Lines(Some(l)), Event::Written(_)) => {
                 l.done += 1;
                 if l.last.elapsed() >= l.every && l.done < l.frames {
                     l.last = std::time::Instant::now();
@@ -126,7 +125,7 @@ impl Progress {
     pub fn finish(self) {
         match self {
             Progress::Bar(Some(bar)) => bar.finish_and_clear(),
-            Progress::Lines(l) if l.to_do > 0 => eprintln!("{}", l.line()),
+            Progress::Lines(Some(l)) if l.to_do > 0 => eprintln!("{}", l.line()),
             _ => {}
         }
     }
@@ -167,4 +166,11 @@ pub fn with_wait<T>(
         }
     };
     Ok(f(Wait::Yes(&mut report))?)
+}
+
+/// The lock of the whole folder `dir`, waiting for a run that holds it (see [`with_wait`]).
+pub fn lock_whole(dir: &Path, no_wait: bool) -> Result<FolderLock> {
+    with_wait(no_wait, false, |wait| {
+        FolderLock::acquire(dir, Claim::Whole, wait)
+    })
 }

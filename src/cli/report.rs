@@ -6,15 +6,17 @@
 //! samples (1, 2, 4, 8, 16) are rows of the same table and plot, on a frame where the camera
 //! moves during the shutter, against [`REFERENCE_TIME_SAMPLES`] time samples.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::chart::{draw_error, draw_png};
+use super::args::{check_extension, default_out_dir, Shot};
+use super::chart::draw_png;
 use super::error::{CliError, Result};
 use super::table::Table;
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::frames::median;
+use crate::output::pictures;
 use crate::raster::{MotionBlur, MAX_TIME_SAMPLES};
 use crate::render::{srgb_decode, Raster, Renderer, SceneIndex, Simd};
 use crate::scene::Scene;
@@ -53,6 +55,16 @@ impl Setting {
         }
     }
 
+    /// The plot's series of the setting: grids, adaptive, instruction paths, time samples.
+    fn series(self) -> usize {
+        match self {
+            Setting::Samples(_) => 0,
+            Setting::Adaptive(_) => 1,
+            Setting::Path(_) => 2,
+            Setting::Motion(_) => 3,
+        }
+    }
+
     /// The plot's short name beside its marker (its series says the rest).
     pub fn short(self) -> String {
         match self {
@@ -78,20 +90,10 @@ pub struct Measured {
     pub changed: f64,
 }
 
-/// Median time of `runs` renders after one warm-up render, and the last frame.
+/// Median time of `runs` renders after one warm-up render, and the last frame: a frame averaged
+/// over `cameras` (motion blur's time samples), each run preparing every time sample and
+/// rendering the frame.
 fn timed(
-    camera: &Camera,
-    scene: &Scene,
-    raster: Raster,
-    simd: Simd,
-    runs: usize,
-) -> (f64, Vec<u8>) {
-    timed_times(std::slice::from_ref(camera), scene, raster, simd, runs)
-}
-
-/// [`timed`] for a frame averaged over `cameras` (motion blur's time samples), each run
-/// preparing every time sample and rendering the frame.
-fn timed_times(
     cameras: &[Camera],
     scene: &Scene,
     raster: Raster,
@@ -123,20 +125,25 @@ fn moving_frame(doc: &Document, frame: u64, blur: MotionBlur) -> Result<Option<u
     let mut moving = Vec::new();
     for item in doc.cameras() {
         let (k, camera) = item.map_err(CliError::from)?;
-        let exposure = doc.animation.exposure(k, camera, blur).map_err(|e| {
-            CliError::Usage(format!("frame {}, t = {} s: {}", e.frame, e.time, e.cause))
-        })?;
-        if exposure.renders().len() > 1 {
+        if exposure(doc, k, camera, blur)?.len() > 1 {
             moving.push(k);
         }
     }
     Ok(moving.into_iter().min_by_key(|k| (k.abs_diff(frame), *k)))
 }
 
+/// The cameras of frame `k`'s time samples.
+fn exposure(doc: &Document, k: u64, camera: Camera, blur: MotionBlur) -> Result<Vec<Camera>> {
+    let exposure = doc.animation.exposure(k, camera, blur).map_err(|e| {
+        CliError::Usage(format!("frame {}, t = {} s: {}", e.frame, e.time, e.cause))
+    })?;
+    Ok(exposure.renders().to_vec())
+}
+
 /// Motion blur's time samples on frame `frame` (see [`moving_frame`]) of `doc`, one sample a
 /// pixel, against [`REFERENCE_TIME_SAMPLES`]: the frame measured, its shutter and the rows; None
 /// when the camera never moves.
-pub fn motion_report(
+fn motion_report(
     doc: &Document,
     frame: u64,
     runs: usize,
@@ -147,24 +154,23 @@ pub fn motion_report(
         return Ok(None);
     };
     let camera = doc.camera(frame).map_err(CliError::from)?;
-    let cameras = |n: u32| -> Result<Vec<Camera>> {
-        let exposure = doc.animation.exposure(frame, camera, blur(n));
-        let exposure = exposure.map_err(|e| {
-            CliError::Usage(format!("frame {}, t = {} s: {}", e.frame, e.time, e.cause))
-        })?;
-        Ok(exposure.renders().to_vec())
-    };
+    let cameras = |n: u32| exposure(doc, frame, camera, blur(n));
     let raster = Raster {
         samples: 1,
         adaptive: false,
         ..doc.raster
     };
     let simd = Simd::detect();
-    let reference = cameras(REFERENCE_TIME_SAMPLES)?;
-    let (_, reference) = timed_times(&reference, &doc.scene, raster, simd, 0);
+    let (_, reference) = timed(
+        &cameras(REFERENCE_TIME_SAMPLES)?,
+        &doc.scene,
+        raster,
+        simd,
+        0,
+    );
     let mut rows = Vec::new();
     for n in [1, 2, 4, 8, 16] {
-        let (secs, pixels) = timed_times(&cameras(n)?, &doc.scene, raster, simd, runs);
+        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);
         rows.push(measure(Setting::Motion(n), secs, &pixels, &reference));
     }
     Ok(Some((frame, shutter, rows)))
@@ -218,42 +224,33 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
         adaptive: false,
         ..doc.raster
     };
-    let (_, reference) = timed(
-        &camera,
-        &doc.scene,
-        Raster {
-            samples: REFERENCE_SAMPLES,
-            ..base
-        },
-        Simd::detect(),
-        0,
-    );
+    let reference = Raster {
+        samples: REFERENCE_SAMPLES,
+        ..base
+    };
     let fastest = Simd::detect();
-    let mut settings: Vec<(Setting, Raster, Simd)> = [1, 2, 3, 4, 8]
-        .iter()
-        .map(|&s| (Setting::Samples(s), Raster { samples: s, ..base }, fastest))
-        .collect();
-    for s in [2, 4, 8] {
-        settings.push((
-            Setting::Adaptive(s),
-            Raster {
-                samples: s,
-                adaptive: true,
-                ..base
-            },
-            fastest,
-        ));
-    }
+    let (_, reference) = timed(&[camera], &doc.scene, reference, fastest, 0);
+    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), Raster { samples: s, ..base }));
+    let adaptive = [2, 4, 8].map(|s| {
+        let raster = Raster {
+            samples: s,
+            adaptive: true,
+            ..base
+        };
+        (Setting::Adaptive(s), raster)
+    });
+    let grids = samples
+        .into_iter()
+        .chain(adaptive)
+        .map(|(s, r)| (s, r, fastest));
     // The instruction paths: all f64, all the same bytes; only the time differs.
-    for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
-        settings.push((Setting::Path(simd), base, simd));
-    }
-    let mut out = Vec::new();
-    for (setting, raster, simd) in settings {
-        let (secs, pixels) = timed(&camera, &doc.scene, raster, simd, runs);
-        out.push(measure(setting, secs, &pixels, &reference));
-    }
-    Ok(out)
+    let supported = Simd::ALL.into_iter().filter(|s| s.supported());
+    let paths = supported.map(|simd| (Setting::Path(simd), base, simd));
+    let measured = grids.chain(paths).map(|(setting, raster, simd)| {
+        let (secs, pixels) = timed(&[camera], &doc.scene, raster, simd, runs);
+        measure(setting, secs, &pixels, &reference)
+    });
+    Ok(measured.collect())
 }
 
 /// The renderer table as Markdown.
@@ -300,30 +297,27 @@ fn power_label(e: f64) -> String {
 /// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG: ticks
 /// and grid lines at every decade, each point labelled beside its marker where the label covers
 /// no marker, line or other label.
-pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
+fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
-    let floor = 1e-3;
+    const FLOOR: f64 = 1e-3;
     let point = |r: &Measured| {
         (
             libm::log10(r.secs * 1e3),
-            libm::log10(r.rmse_levels.max(floor)),
+            libm::log10(r.rmse_levels.max(FLOOR)),
         )
     };
-    let (tmin, tmax) = rows
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
-            (a.min(r.secs * 1e3), b.max(r.secs * 1e3))
-        });
-    let (emin, emax) = rows
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
-            let e = r.rmse_levels.max(floor);
-            (a.min(e), b.max(e))
-        });
-    let (x0, x1) = decades(tmin, tmax);
-    let (y0, y1) = decades(emin, emax);
+    let span = |v: fn(&Measured) -> f64| {
+        let (lo, hi) = rows
+            .iter()
+            .map(v)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        decades(lo, hi)
+    };
+    let (x0, x1) = span(|r| r.secs * 1e3);
+    let (y0, y1) = span(|r| r.rmse_levels.max(FLOOR));
     draw_png(path, (900, 600), |root| {
-        let draw_err = draw_error(path);
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 "Error against run time (references: 16×16 samples per pixel; 64 time samples)",
@@ -332,8 +326,7 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .margin(20)
             .x_label_area_size(55)
             .y_label_area_size(75)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(&draw_err)?;
+            .build_cartesian_2d(x0..x1, y0..y1)?;
         chart
             .configure_mesh()
             .x_desc("median render time per frame (ms, log scale)")
@@ -344,57 +337,35 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .y_label_formatter(&|v| power_label(*v))
             .light_line_style(WHITE)
             .label_style(("sans-serif", 16))
-            .draw()
-            .map_err(&draw_err)?;
-        let plain: Vec<_> = rows
-            .iter()
-            // The instruction paths share samples 1's error; the plot shows the samples.
-            .filter(|r| matches!(r.setting, Setting::Samples(_)))
-            .map(point)
-            .collect();
-        let adaptive: Vec<_> = rows
-            .iter()
-            .filter(|r| matches!(r.setting, Setting::Adaptive(_)))
-            .map(point)
-            .collect();
-        let mut paths: Vec<_> = rows
-            .iter()
-            .filter(|r| matches!(r.setting, Setting::Path(_)))
-            .map(point)
-            .collect();
-        paths.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let motion: Vec<_> = rows
-            .iter()
-            .filter(|r| matches!(r.setting, Setting::Motion(_)))
-            .map(point)
-            .collect();
+            .draw()?;
+        // The instruction paths share samples 1's error; the plot shows the samples.
+        let mut series: [Vec<_>; 4] = std::array::from_fn(|i| {
+            let rows = rows.iter().filter(|r| r.setting.series() == i);
+            rows.map(point).collect()
+        });
+        series[2].sort_by(|a, b| a.0.total_cmp(&b.0));
         // The lines' segments in pixels, for placing the labels off them.
-        let mut segments: Vec<((i32, i32), (i32, i32))> = Vec::new();
-        for series in [&plain, &adaptive, &paths, &motion] {
-            for pair in series.windows(2) {
-                segments.push((chart.backend_coord(&pair[0]), chart.backend_coord(&pair[1])));
-            }
-        }
-        for (series, color, name) in [
-            (plain, BLUE, "full s×s grid"),
-            (adaptive, RED, "adaptive (corners first)"),
-            (paths, GREEN, "1 sample, each instruction path"),
-            (
-                motion,
-                MAGENTA,
-                "N time samples (reference: 64; motion blur)",
-            ),
-        ] {
+        let segments: Vec<_> = series
+            .iter()
+            .flat_map(|s| s.windows(2))
+            .map(|pair| (chart.backend_coord(&pair[0]), chart.backend_coord(&pair[1])))
+            .collect();
+        let names = [
+            (BLUE, "full s×s grid"),
+            (RED, "adaptive (corners first)"),
+            (GREEN, "1 sample, each instruction path"),
+            (MAGENTA, "N time samples (reference: 64; motion blur)"),
+        ];
+        for (series, (color, name)) in series.into_iter().zip(names) {
+            let dots = series.iter().map(|p| Circle::new(*p, 5, color.filled()));
+            let dots: Vec<_> = dots.collect();
             chart
-                .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
-                .map_err(&draw_err)?
+                .draw_series(LineSeries::new(series, color.stroke_width(2)))?
                 .label(name)
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                 });
-            chart
-                .draw_series(series.iter().map(|p| Circle::new(*p, 5, color.filled())))
-                .map_err(&draw_err)?;
+            chart.draw_series(dots)?;
         }
         // Each label at the first place around its marker that covers no marker, no line and
         // no label placed before (or, failing that, the least of them), inside the axes.
@@ -408,63 +379,45 @@ pub fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             let text = r.setting.short();
             let (px, py) = chart.backend_coord(&point(r));
             let (w, h) = (8 * text.chars().count() as i32, 15);
-            let candidates = [
-                (9, -18),
-                (9, 4),
-                (-9 - w, -18),
-                (-9 - w, 4),
-                (-w / 2, -26),
-                (-w / 2, 10),
-                (9, -34),
-                (9, 20),
-                (-9 - w, -34),
-                (-9 - w, 20),
-                (-w / 2, -42),
-                (-w / 2, 26),
-            ];
-            let cost = |(dx, dy): (i32, i32)| {
-                let rect = LabelBox {
-                    x: px + dx,
-                    y: py + dy,
-                    w,
-                    h,
-                };
+            let at = |(dx, dy): (i32, i32)| LabelBox {
+                x: px + dx,
+                y: py + dy,
+                w,
+                h,
+            };
+            let cost = |rect: LabelBox| {
                 let outside = rect.x < xs.start
                     || rect.x + w > xs.end
                     || rect.y < ys.start
                     || rect.y + h > ys.end;
                 let labels = placed.iter().filter(|o| o.overlaps(&rect)).count();
-                let marks = markers
-                    .iter()
-                    .filter(|&&(mx, my)| rect.grown(6).contains(mx, my))
-                    .count();
+                let grown = rect.grown(6);
+                let marks = markers.iter().filter(|m| grown.contains(**m)).count();
                 let lines = segments.iter().filter(|(a, b)| rect.meets(*a, *b)).count();
                 usize::from(outside) * 100 + labels * 10 + marks * 10 + lines
             };
-            let best = candidates
-                .iter()
-                .copied()
-                .min_by_key(|&c| cost(c))
+            // Beside the marker, right then left, or centred above or below; then farther out.
+            let best = [0, 16]
+                .into_iter()
+                .flat_map(|d| {
+                    let (l, c) = (-9 - w, -w / 2);
+                    [(9, -18), (9, 4), (l, -18), (l, 4), (c, -26), (c, 10)]
+                        .map(|(dx, dy)| (dx, if dy < 0 { dy - d } else { dy + d }))
+                })
+                .min_by_key(|&c| cost(at(c)))
                 .expect("candidates");
-            placed.push(LabelBox {
-                x: px + best.0,
-                y: py + best.1,
-                w,
-                h,
-            });
+            placed.push(at(best));
+            let label = Text::new(text, best, ("sans-serif", 14));
             chart
-                .draw_series(std::iter::once(
-                    EmptyElement::at(point(r)) + Text::new(text, best, ("sans-serif", 14)),
-                ))
-                .map_err(&draw_err)?;
+                .plotting_area()
+                .draw(&(EmptyElement::at(point(r)) + label))?;
         }
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
             .border_style(BLACK)
             .background_style(WHITE)
-            .draw()
-            .map_err(&draw_err)?;
+            .draw()?;
         Ok(())
     })
 }
@@ -483,7 +436,7 @@ impl LabelBox {
         self.x < o.x + o.w && o.x < self.x + self.w && self.y < o.y + o.h && o.y < self.y + self.h
     }
 
-    fn contains(&self, x: i32, y: i32) -> bool {
+    fn contains(&self, (x, y): (i32, i32)) -> bool {
         (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
     }
 
@@ -503,7 +456,7 @@ impl LabelBox {
             let t = k as f64 / steps as f64;
             let x = a.0 as f64 + (b.0 - a.0) as f64 * t;
             let y = a.1 as f64 + (b.1 - a.1) as f64 * t;
-            self.contains(x.round() as i32, y.round() as i32)
+            self.contains((x.round() as i32, y.round() as i32))
         })
     }
 }
@@ -543,13 +496,7 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
     let reference = UniformSpeed::new(track.clone(), PATH_REFERENCE_SAMPLES);
     let exact: Vec<_> = times.iter().map(|t| reference.sample(*t)).collect();
     let measure = |path: &PathTrack, build_us: f64, samples: u32| {
-        let mut eval = Vec::new();
-        let mut positions = Vec::new();
-        for _ in 0..5 {
-            let start = Instant::now();
-            positions = times.iter().map(|t| path.sample(*t)).collect::<Vec<_>>();
-            eval.push(start.elapsed().as_secs_f64() * 1e9 / times.len().max(1) as f64);
-        }
+        let (secs, positions) = five(|| times.iter().map(|t| path.sample(*t)).collect::<Vec<_>>());
         let max_error = positions
             .iter()
             .zip(&exact)
@@ -560,35 +507,36 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
             .map(|w| (w[1] - w[0]).length())
             .collect();
         let mean = steps.iter().sum::<f64>() / steps.len().max(1) as f64;
-        let spread = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
+        let (lo, hi) = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
             (lo.min(*s), hi.max(*s))
         });
         PathRow {
             samples,
             build_us,
-            eval_ns: median(&eval),
+            eval_ns: secs * 1e9 / times.len().max(1) as f64,
             max_error,
-            speed_spread: if mean > 0.0 {
-                (spread.1 - spread.0) / mean
-            } else {
-                0.0
-            },
+            speed_spread: if mean > 0.0 { (hi - lo) / mean } else { 0.0 },
         }
     };
     let mut rows = vec![measure(&PathTrack::Keyed(track.clone()), 0.0, 0)];
     rows[0].max_error = f64::NAN;
     for samples in [2, 4, 16, 64, 256, 1024] {
-        let mut builds = Vec::new();
-        let mut table = None;
-        for _ in 0..5 {
-            let start = Instant::now();
-            table = Some(UniformSpeed::new(track.clone(), samples));
-            builds.push(start.elapsed().as_secs_f64() * 1e6);
-        }
-        let path = PathTrack::Uniform(table.expect("built five times"));
-        rows.push(measure(&path, median(&builds), samples));
+        let (secs, table) = five(|| UniformSpeed::new(track.clone(), samples));
+        rows.push(measure(&PathTrack::Uniform(table), secs * 1e6, samples));
     }
     Some(rows)
+}
+
+/// Five timed runs of `f`: their median seconds, and the last run's result.
+fn five<T>(mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut secs = Vec::new();
+    let mut last = None;
+    for _ in 0..5 {
+        let start = Instant::now();
+        last = Some(f());
+        secs.push(start.elapsed().as_secs_f64());
+    }
+    (median(&secs), last.expect("five runs"))
 }
 
 /// The camera path table as Markdown.
@@ -625,18 +573,31 @@ pub fn path_table(rows: &[PathRow]) -> String {
     t.markdown()
 }
 
-/// `campath report`: both tables on `out`, and the plot at `plot`.
-pub fn run(
-    file: &Path,
-    frame: Option<u64>,
-    runs: usize,
-    plot_path: &Path,
-    out: &mut dyn std::io::Write,
-) -> Result<()> {
+/// The options of `campath report`.
+#[derive(clap::Args)]
+pub struct ReportArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// The frame to measure [default: the middle frame].
+    #[arg(long)]
+    pub frame: Option<u64>,
+    /// Timed renders per setting (the median is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub runs: u64,
+    /// Where the log-log plot goes [default: out/<file stem>/report.png].
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// `campath report`: both tables on `out`, and the plot at `--plot`.
+pub fn run(a: ReportArgs, out: &mut dyn std::io::Write) -> Result<()> {
+    let file = &a.shot.file;
+    let plot_path = (a.plot).unwrap_or_else(|| default_out_dir(file).join(pictures::REPORT));
+    check_extension("--plot", &plot_path, &["png"], "the report's plot is PNG")?;
     let doc = Document::load(file)?;
     // Measuring takes a while: find out first that the plot can be written.
-    super::args::check_writable(plot_path)?;
-    let frame = frame.unwrap_or(doc.animation.frames / 2);
+    super::args::check_writable(&plot_path)?;
+    let (frame, runs) = (a.frame.unwrap_or(doc.animation.frames / 2), a.runs as usize);
     let mut rows = renderer_report(&doc, frame, runs)?;
     let motion = motion_report(&doc, frame, runs)?;
     if let Some((_, _, m)) = &motion {
@@ -656,7 +617,7 @@ pub fn run(
         ),
     }
     .map_err(stdout)?;
-    plot(&rows, plot_path)?;
+    plot(&rows, &plot_path)?;
     writeln!(out, "\nplot: {}", plot_path.display()).map_err(stdout)?;
     if let Some(path) = path_report(&doc) {
         writeln!(

@@ -12,6 +12,7 @@ use super::junit::escape;
 use crate::FrameHash;
 
 /// A differing frame's pictures in the review folder (file names) and hashes.
+#[derive(Default)]
 pub struct ReviewFrame {
     pub frame: u64,
     pub golden_hash: Option<FrameHash>,
@@ -23,6 +24,18 @@ pub struct ReviewFrame {
     /// The difference image, beside a golden frame.
     pub diff: Option<String>,
     pub pixels: Option<PixelDiff>,
+}
+
+impl ReviewFrame {
+    /// A differing frame with its hashes, before its pictures are written.
+    pub fn of(d: &crate::testing::Difference) -> ReviewFrame {
+        ReviewFrame {
+            frame: d.frame,
+            golden_hash: d.expected,
+            fresh_hash: d.actual,
+            ..Default::default()
+        }
+    }
 }
 
 /// A failing shot on the page.
@@ -43,20 +56,13 @@ pub fn is_review_file(name: &str) -> bool {
     if name == "index.html" {
         return true;
     }
-    let Some(rest) = name
-        .strip_prefix("shot")
-        .and_then(|r| r.strip_suffix(".png"))
-    else {
-        return false;
-    };
-    let Some((numbers, what)) = rest.split_once('.') else {
-        return false;
-    };
-    let Some((shot, frame)) = numbers.split_once("_frame") else {
-        return false;
-    };
+    let parts = (name.strip_prefix("shot"))
+        .and_then(|r| r.strip_suffix(".png")?.split_once('.'))
+        .and_then(|(numbers, what)| Some((numbers.split_once("_frame")?, what)));
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    digits(shot) && digits(frame) && ["new", "golden", "diff"].contains(&what)
+    parts.is_some_and(|((shot, frame), what)| {
+        digits(shot) && digits(frame) && ["new", "golden", "diff"].contains(&what)
+    })
 }
 
 const STYLE: &str = "

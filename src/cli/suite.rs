@@ -117,26 +117,14 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
         )));
     }
     let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
-    if let Some(path) = &a.junit {
-        crate::output::outside_goldens(path, &goldens)
-            .map_err(|r| CliError::refused("--junit", path, &r))?;
-        junit::check_target(path)?;
-    }
     // The review folder is this run's until it ends.
-    let _claimed = match &a.review {
-        Some(dir) => {
-            if let Some(path) = &a.junit {
-                failures::report_apart(path, dir, "--review")?;
-            }
-            Some(failures::claim(
-                dir,
-                "--review",
-                &goldens,
-                review::is_review_file,
-            )?)
-        }
-        None => None,
-    };
+    let _claimed = failures::claim(
+        a.junit.as_deref(),
+        a.review.as_deref(),
+        "--review",
+        &goldens,
+        review::is_review_file,
+    )?;
 
     // What killed approvals left beside the goldens, cleared a folder at a time (an approval
     // then does not list the folder again for its shot).
@@ -194,33 +182,22 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let bad = checked.len() - runs.len();
     let updated = runs.iter().filter(|r| r.updated).count();
     let open = runs.iter().filter(|r| !r.updated);
-    let passed = open
-        .clone()
-        .filter(|r| r.verdict() == Verdict::Passed)
-        .count();
-    let no_golden = open
-        .clone()
-        .filter(|r| r.verdict() == Verdict::NoGolden)
-        .count();
+    let count = |is: &dyn Fn(Verdict) -> bool| open.clone().filter(|r| is(r.verdict())).count();
+    let passed = count(&|v| v == Verdict::Passed);
+    let no_golden = count(&|v| v == Verdict::NoGolden);
     let differ = runs.len() - updated - passed - no_golden;
     // Goldens of a newer campath: this one never writes them, so approving is no answer.
-    let newer = open
-        .clone()
-        .filter(|r| matches!(r.verdict(), Verdict::OtherRenderer(v) if v > VERSION))
-        .count();
+    let newer = count(&|v| matches!(v, Verdict::OtherRenderer(v) if v > VERSION));
+    let ok = differ + no_golden + bad == 0;
     let mut summary = format!(
         "test result: {}. {} shot(s): {passed} passed, {differ} differ, {no_golden} without \
          golden, {bad} could not be checked",
-        if differ + no_golden + bad == 0 {
-            "ok"
-        } else {
-            "FAILED"
-        },
+        if ok { "ok" } else { "FAILED" },
         shots.len()
     );
     if updated > 0 {
         summary += &format!("; {updated} golden(s) written");
-    } else if a.update && differ + no_golden + bad == 0 {
+    } else if a.update && ok {
         summary += "; no golden needed writing";
     } else if !a.update && differ + no_golden > newer {
         summary += &format!(
@@ -272,66 +249,38 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
 /// Renders and compares one shot; with a review folder, writes its differing frames' pictures
 /// there as they are found.
 fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> Checked {
-    let shot = match Shot::open(shot, options) {
-        Ok(shot) => shot,
-        Err(e) => {
-            return Checked {
-                run: Err(e),
-                review: Vec::new(),
-            }
-        }
-    };
     let mut frames = Vec::new();
-    let size = (shot.doc.raster.width, shot.doc.raster.height);
-    let golden_frames = shot.golden_frames.clone();
-    let run = shot.run(options, |d: &Difference, pixels| {
-        let Some(dir) = review else { return Ok(()) };
-        let name = |what: &str| review::file_name(index, d.frame, what);
-        let new = name("new");
-        write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
-        let mut f = ReviewFrame {
-            frame: d.frame,
-            golden_hash: d.expected,
-            fresh_hash: d.actual,
-            new: Some(new),
-            golden: None,
-            diff: None,
-            pixels: None,
-        };
-        if let Some(golden) = golden_frames
-            .get(&d.frame)
-            .and_then(|p| golden_pixels(p, size))
-        {
-            let (image, p) = difference(&golden, pixels);
-            let (g, dname) = (name("golden"), name("diff"));
-            write_png(&dir.join(&g), &golden, size, Compression::Fast)?;
-            write_png(&dir.join(&dname), &image, size, Compression::Fast)?;
-            (f.golden, f.diff, f.pixels) = (Some(g), Some(dname), Some(p));
-        }
-        frames.push(f);
-        Ok(())
+    let run = Shot::open(shot, options).and_then(|shot| {
+        let size = (shot.doc.raster.width, shot.doc.raster.height);
+        let golden_frames = shot.golden_frames.clone();
+        shot.run(options, |d: &Difference, pixels| {
+            let Some(dir) = review else { return Ok(()) };
+            let name = |what: &str| review::file_name(index, d.frame, what);
+            let new = name("new");
+            write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
+            let mut f = ReviewFrame::of(d);
+            f.new = Some(new);
+            if let Some(golden) = golden_frames
+                .get(&d.frame)
+                .and_then(|p| golden_pixels(p, size))
+            {
+                let (image, p) = difference(&golden, pixels);
+                let (g, dname) = (name("golden"), name("diff"));
+                write_png(&dir.join(&g), &golden, size, Compression::Fast)?;
+                write_png(&dir.join(&dname), &image, size, Compression::Fast)?;
+                (f.golden, f.diff, f.pixels) = (Some(g), Some(dname), Some(p));
+            }
+            frames.push(f);
+            Ok(())
+        })
     });
     if let Ok(run) = &run {
         // Golden frames past the animation's end: listed, with nothing rendered.
-        frames.extend(
-            run.differ
-                .iter()
-                .filter(|d| d.actual.is_none())
-                .map(|d| ReviewFrame {
-                    frame: d.frame,
-                    golden_hash: d.expected,
-                    fresh_hash: None,
-                    new: None,
-                    golden: None,
-                    diff: None,
-                    pixels: None,
-                }),
-        );
+        let past = run.differ.iter().filter(|d| d.actual.is_none());
+        frames.extend(past.map(ReviewFrame::of));
     }
-    Checked {
-        run,
-        review: frames,
-    }
+    let review = frames;
+    Checked { run, review }
 }
 
 /// A shot's JUnit suite: one case per frame of the animation or the golden.
@@ -342,21 +291,16 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
         Err(e) => return junit::Suite::errored(&name, &e.to_string()),
     };
     let mut s = junit::Suite::new(&name);
-    // An approved shot passes: its golden now holds these frames.
-    let differ: BTreeMap<u64, &Difference> = match run.updated {
-        true => BTreeMap::new(),
-        false => run.differ.iter().map(|d| (d.frame, d)).collect(),
-    };
-    let stale: std::collections::BTreeSet<u64> = match run.updated {
-        true => Default::default(),
-        false => run.stale.iter().copied().collect(),
-    };
-    // The shot's frames, and any the golden lists past them (none once approved: the golden
-    // now holds the shot's frames only).
-    let past: Vec<u64> = match (&run.golden, run.updated) {
-        (Some(g), false) => g.hashes.range(run.frames..).map(|(&f, _)| f).collect(),
-        _ => Vec::new(),
-    };
+    // An approved shot passes: its golden now holds the shot's frames, and only those; else
+    // the golden may list frames past the shot's.
+    let open = !run.updated;
+    let differ: BTreeMap<u64, &Difference> = (run.differ.iter().filter(|_| open))
+        .map(|d| (d.frame, d))
+        .collect();
+    let stale = run.stale.iter().filter(|_| open);
+    let stale: std::collections::BTreeSet<u64> = stale.copied().collect();
+    let golden = run.golden.iter().filter(|_| open);
+    let past = golden.flat_map(|g| g.hashes.range(run.frames..).map(|(&f, _)| f));
     for frame in (0..run.frames).chain(past) {
         let stale_picture = stale.contains(&frame).then(|| {
             "the golden's picture of this frame is missing or not the picture of its hash"

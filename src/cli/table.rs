@@ -1,5 +1,5 @@
-//! Markdown tables, as README and docs/performance.md show them: `bench`, `bench --scaling`
-//! and `report` print theirs through this one writer.
+//! Markdown tables, as README and docs/performance.md show them: the peers benchmark's and
+//! `report`'s, through this one writer.
 
 /// A table: a header and rows of cells, already formatted.
 pub struct Table {

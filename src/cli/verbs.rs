@@ -11,7 +11,6 @@ use super::stats::{timing_line, Stats};
 use crate::document::Document;
 use crate::frames::FrameSet;
 use crate::frames::Shard;
-use crate::output::lock::{Claim, FolderLock};
 use crate::output::sequence::{self, RenderOptions, RenderSummary};
 use crate::output::{Compression, Use, HASHES};
 use crate::Error;
@@ -123,9 +122,7 @@ pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
     }
     // As render: a golden or a folder of other files is refused before the lock is taken.
     crate::output::check(dir, Use::Frames).map_err(|r| CliError::refused("DIR", dir, &r))?;
-    let lock = with_wait(no_wait, false, |wait| {
-        FolderLock::acquire(dir, Claim::Whole, wait)
-    })?;
+    let lock = super::progress::lock_whole(dir, no_wait)?;
     let frames = sequence::merge(&lock)?;
     writeln!(
         out,
@@ -136,30 +133,51 @@ pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-pub fn hash(
-    file: &Path,
-    frames: Option<FrameSpec>,
-    stats: bool,
-    stats_json: Option<&Path>,
-) -> Result<()> {
+/// The options of `campath hash`.
+#[derive(clap::Args)]
+pub struct HashArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    #[arg(long)]
+    pub frames: Option<FrameSpec>,
+    /// Also print the timing summary to standard error.
+    #[arg(long)]
+    pub stats: bool,
+    #[command(flatten)]
+    pub stats_json: StatsJson,
+}
+
+pub fn hash(a: HashArgs) -> Result<()> {
+    let stats_json = a.stats_json.path.as_deref();
     Stats::check_target(stats_json, None)?;
-    let doc = Document::load(file)?;
-    let range = FrameSpec::resolve(frames, doc.animation.frames)?;
+    let doc = Document::load(&a.shot.file)?;
+    let range = FrameSpec::resolve(a.frames, doc.animation.frames)?;
     let mut lines = std::io::BufWriter::new(std::io::stdout());
     let timing = crate::frames::hash_frames(&doc, range, |frame, hash| {
         writeln!(lines, "{frame} {hash}").map_err(Error::stdout)
     })?;
     lines.flush().map_err(Error::stdout)?;
-    if stats {
+    if a.stats {
         eprintln!("{}", timing_line("hashed", "", &timing));
     }
     Stats::of(&timing, 0).write(stats_json)
 }
 
+/// The options of `campath check`.
+#[derive(clap::Args)]
+pub struct CheckArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// Exit 1 when there are warnings about the motion (jumps, the COP inside a sphere, a
+    /// target at the camera, the up vector flipping).
+    #[arg(long)]
+    pub strict: bool,
+}
+
 /// A one-line summary of a valid file, after evaluating every frame's camera.
 /// `campath check`: Ok(false) under `--strict` when there are warnings (exit 1).
-pub fn check(file: &Path, strict: bool, out: &mut dyn Write) -> Result<bool> {
-    let doc = Document::load(file)?;
+pub fn check(c: CheckArgs, out: &mut dyn Write) -> Result<bool> {
+    let doc = Document::load(&c.shot.file)?;
     doc.check_path()?;
     let a = &doc.animation;
     let tracks: Vec<&str> = a.tracks().map(|m| m.name()).collect();
@@ -193,11 +211,5 @@ pub fn check(file: &Path, strict: bool, out: &mut dyn Write) -> Result<bool> {
     for w in &warnings {
         writeln!(out, "warning: {w}").map_err(Error::stdout)?;
     }
-    Ok(!strict || warnings.is_empty())
-}
-
-impl From<std::convert::Infallible> for CliError {
-    fn from(e: std::convert::Infallible) -> Self {
-        match e {}
-    }
+    Ok(!c.strict || warnings.is_empty())
 }

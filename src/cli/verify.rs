@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::args::Shot;
-use super::error::{CliError, Result};
+use super::error::Result;
 use super::failures::{self, difference, golden_pixels, PixelDiff};
 use super::junit;
 use crate::document::Document;
@@ -53,22 +53,14 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
     let golden = Golden::load(&a.golden)?;
     // Every refusal comes before anything is written or removed.
     let goldens = golden_folders(&golden);
-    if let Some(path) = &a.junit {
-        crate::output::outside_goldens(path, &goldens)
-            .map_err(|r| CliError::refused("--junit", path, &r))?;
-        junit::check_target(path)?;
-    }
     // The folder of failure pictures is this run's until it ends.
-    let _claimed = match &a.save_failures {
-        Some(dir) => {
-            if let Some(path) = &a.junit {
-                failures::report_apart(path, dir, "--save-failures")?;
-            }
-            let ours = crate::output::is_failure_picture;
-            Some(failures::claim(dir, "--save-failures", &goldens, ours)?)
-        }
-        None => None,
-    };
+    let _claimed = failures::claim(
+        a.junit.as_deref(),
+        a.save_failures.as_deref(),
+        "--save-failures",
+        &goldens,
+        crate::output::is_failure_picture,
+    )?;
     let total = doc.animation.frames;
     let size = (doc.raster.width, doc.raster.height);
     let golden_frames = golden.frames();
@@ -136,11 +128,8 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
                 let got = d
                     .actual
                     .map_or_else(|| "no such frame".to_string(), |h| h.to_string());
-                let mut message = format!("expected {hash}, got {got}");
-                if let Some(p) = pixel_diffs.get(frame) {
-                    message += &pixels_changed(p);
-                }
-                message
+                let pixels = pixels_changed(pixel_diffs.get(frame));
+                format!("expected {hash}, got {got}{pixels}")
             });
             suite.case(&format!("frame {frame}"), failure);
         }
@@ -165,32 +154,29 @@ fn unchecked(golden: &Golden, total: u64) -> Option<String> {
     ))
 }
 
-fn pixels_changed(p: &PixelDiff) -> String {
-    format!(
-        ": {} pixel(s) changed, largest difference {} level(s)",
-        p.changed, p.largest
-    )
-}
-
-/// The golden hash of a differing frame (verify compares only the frames its golden lists).
-fn expected(d: &Difference) -> String {
-    d.expected
-        .map_or_else(|| "none".to_string(), |h| h.to_string())
+/// What a differing frame's pixels changed, after its hashes: empty without a golden picture.
+fn pixels_changed(p: Option<&PixelDiff>) -> String {
+    p.map_or_else(String::new, |p| {
+        format!(
+            ": {} pixel(s) changed, largest difference {} level(s)",
+            p.changed, p.largest
+        )
+    })
 }
 
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
-    match (&d.actual, diff) {
-        (None, _) => format!(
+    // The golden hash (verify compares only the frames its golden lists).
+    let expected = d.expected.map_or_else(|| "none".into(), |h| h.to_string());
+    match &d.actual {
+        None => format!(
             "frame {}: in {} but the animation has only {total} frames",
             d.frame,
             golden.display()
         ),
-        (Some(got), None) => format!("frame {}: expected {}, got {got}", d.frame, expected(d)),
-        (Some(got), Some(p)) => format!(
-            "frame {}: expected {}, got {got}{}",
+        Some(got) => format!(
+            "frame {}: expected {expected}, got {got}{}",
             d.frame,
-            expected(d),
-            pixels_changed(p)
+            pixels_changed(diff)
         ),
     }
 }

@@ -224,57 +224,31 @@ fn frame_rate(fps: f64) -> String {
 
 /// ffmpeg's arguments, up to the output path: raw RGB frames on standard input.
 fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
-    let mut args: Vec<String> = [
-        "-hide_banner",
-        "-loglevel",
-        "error",
-        "-y",
-        "-f",
-        "rawvideo",
-        "-pix_fmt",
-        "rgb24",
-        "-video_size",
-    ]
-    .map(String::from)
-    .to_vec();
-    args.push(format!("{}x{}", doc.raster.width, doc.raster.height));
-    args.push("-framerate".into());
-    args.push(frame_rate(doc.animation.fps));
-    args.extend(["-i", "-", "-an"].map(String::from));
-    let codec: &[&str] = if lossless {
+    let size = format!("{}x{}", doc.raster.width, doc.raster.height);
+    let input = format!(
+        "-hide_banner -loglevel error -y -f rawvideo -pix_fmt rgb24 -video_size {size} \
+         -framerate {} -i - -an",
+        frame_rate(doc.animation.fps)
+    );
+    let codec = if lossless {
         // FFV1 stores RGB exactly; bgr0 is its packed RGB input.
-        &[
-            "-c:v", "ffv1", "-level", "3", "-pix_fmt", "bgr0", "-f", "matroska",
-        ]
+        "-c:v ffv1 -level 3 -pix_fmt bgr0 -f matroska".to_string()
     } else {
         // yuv420p needs even sides: pad odd ones by a pixel. The sRGB levels go to Y'CbCr by
         // BT.709's matrix in limited range, and the stream says so (untagged, players guess,
         // and HD players guess BT.709 where ffmpeg's default matrix is BT.601's).
-        &[
-            "-c:v",
-            "libx264",
-            "-vf",
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2,scale=out_color_matrix=bt709:out_range=tv:flags=accurate_rnd+full_chroma_int,format=yuv420p",
-            "-colorspace",
-            "bt709",
-            "-color_primaries",
-            "bt709",
-            "-color_trc",
-            "iec61966-2-1",
-            "-color_range",
-            "tv",
-            "-movflags",
-            "+faststart",
-            "-f",
-            "mp4",
-        ]
+        format!(
+            "-c:v libx264 -vf pad=ceil(iw/2)*2:ceil(ih/2)*2,scale=out_color_matrix=bt709:\
+             out_range=tv:flags=accurate_rnd+full_chroma_int,format=yuv420p -colorspace bt709 \
+             -color_primaries bt709 -color_trc iec61966-2-1 -color_range tv \
+             -movflags +faststart -f mp4 -crf {crf}"
+        )
     };
-    args.extend(codec.iter().map(|s| s.to_string()));
-    if !lossless {
-        args.push("-crf".into());
-        args.push(crf.to_string());
-    }
-    args
+    // No argument holds a space: the frame rate, the size and the filter are single words.
+    (input + " " + &codec)
+        .split(' ')
+        .map(String::from)
+        .collect()
 }
 
 /// Decodes every frame's PNG, checks it against the manifest, and writes its RGB to ffmpeg.

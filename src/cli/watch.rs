@@ -24,17 +24,17 @@ use std::time::{Duration, Instant};
 
 use notify::{EventKind, RecursiveMode, Watcher};
 
+use super::args::{default_out_dir, NoWait, Shot};
 use super::error::{CliError, Result};
 use super::{plot, preview};
 use crate::document::Document;
 use crate::frames::render_frame;
-use crate::output::lock::{Claim, FolderLock};
 use crate::output::pictures::{FRAMES, PAGE, PLOT, SHEET, STATUS};
 use crate::output::{check, write_atomic, write_png_atomic, Compression, Use};
 use crate::Error;
 
 /// What the page reads from `status.js`.
-#[derive(serde::Serialize)]
+#[derive(serde::Serialize, Default)]
 struct Status {
     /// This run's number: the millisecond it started (since 1970), and past the folder's last.
     run: u64,
@@ -52,15 +52,31 @@ struct Status {
     stopped: bool,
 }
 
-/// Watches `file` until Ctrl-C, keeping the preview in `dir` `width` pixels wide (240 by
-/// default), at most the file's width.
-pub fn run(
-    file: &Path,
-    dir: &Path,
-    width: Option<u32>,
-    no_wait: bool,
-    out: &mut dyn Write,
-) -> Result<()> {
+/// The options of `campath watch`.
+#[derive(clap::Args)]
+pub struct WatchArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    /// Where the preview and its page go [default: out/<file stem>-watch/].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Width of the small frames in pixels [default: 240, or the file's width if smaller];
+    /// a width above the file's (which a save may change) gives the file's, and says so.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: Option<u32>,
+    #[command(flatten)]
+    pub no_wait: NoWait,
+}
+
+/// Watches the file until Ctrl-C, keeping the preview in the output folder `--width` pixels
+/// wide (240 by default), at most the file's width.
+pub fn run(a: WatchArgs, out: &mut dyn Write) -> Result<()> {
+    let (file, width, no_wait) = (a.shot.file.as_path(), a.width, a.no_wait.on);
+    let dir = &a.out.clone().unwrap_or_else(|| {
+        let mut dir = default_out_dir(file).into_os_string();
+        dir.push("-watch");
+        PathBuf::from(dir)
+    });
     // The folder, not the file: editors often save by writing a new file and renaming it.
     let folder = match file.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -75,9 +91,7 @@ pub fn run(
     // The folder is this watch's until it stops; as render's, it holds nothing campath does not
     // write there, and is not a golden.
     check(dir, Use::Frames).map_err(|r| CliError::refused("--out", dir, &r))?;
-    let lock = super::progress::with_wait(no_wait, false, |wait| {
-        FolderLock::acquire(dir, Claim::Whole, wait)
-    })?;
+    let lock = super::progress::lock_whole(dir, no_wait)?;
     let started = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_millis() as u64);
@@ -86,7 +100,8 @@ pub fn run(
         .file_name()
         .map(|n| n.to_os_string())
         .unwrap_or_default();
-    write_atomic(&dir.join(PAGE), page(&name.to_string_lossy()))?;
+    let page_path = dir.join(PAGE);
+    write_atomic(&page_path, page(&name.to_string_lossy()))?;
 
     let stop = super::progress::ctrl_c_flag()?;
     let (tx, rx) = mpsc::channel();
@@ -95,16 +110,11 @@ pub fn run(
         .watch(&folder, RecursiveMode::NonRecursive)
         .map_err(|e| watch_error(file, e))?;
 
-    let page = dir.join(PAGE);
-    writeln!(out, "watching {}; open {}", file.display(), page.display()).map_err(Error::stdout)?;
+    let (file_shown, page_shown) = (file.display(), page_path.display());
+    writeln!(out, "watching {file_shown}; open {page_shown}").map_err(Error::stdout)?;
     let mut status = Status {
         run,
-        version: 0,
-        good: 0,
-        error: None,
-        ms: 0,
-        frames: [0; 3],
-        stopped: false,
+        ..Default::default()
     };
     // The last run's pictures go, and the page hears of it, before this run's first.
     for picture in FRAMES.into_iter().chain([SHEET, PLOT]) {
