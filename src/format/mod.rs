@@ -373,7 +373,14 @@ pub fn read(path: &Path) -> Result<FileSpec> {
             }
         }
     }
-    let bytes = read_bytes(path).map_err(Error::read(path.to_path_buf()))?;
+    match read_bytes(path) {
+        Ok(bytes) => from_bytes(path, bytes),
+        Err(cause) => Err(Error::read(path)(cause)),
+    }
+}
+
+/// The file's bytes parsed.
+fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<FileSpec> {
     let spec = parse(path, utf8(path, &bytes)?);
     // Giving a large text's pages back takes a while (0.1 s at a million spheres' 169 MB):
     // on a thread of its own, beside the work that follows.
