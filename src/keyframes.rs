@@ -362,15 +362,11 @@ pub struct DirectionTrack {
 impl DirectionTrack {
     /// `keys` as for [`Track::new`], with non-zero values (normalised here). `up` picks the
     /// rotation between opposite directions: about `up`, turning towards `direction × up`.
-    pub fn new(keys: Vec<Key<DVec3>>, up: DVec3) -> Self {
+    pub fn new(mut keys: Vec<Key<DVec3>>, up: DVec3) -> Self {
         assert!(!keys.is_empty(), "a track needs a key");
-        let keys: Vec<Key<DVec3>> = keys
-            .into_iter()
-            .map(|k| Key {
-                value: k.value.normalize(),
-                ..k
-            })
-            .collect();
+        for k in &mut keys {
+            k.value = k.value.normalize();
+        }
         let segments = (0..keys.len().saturating_sub(1))
             .map(|i| Self::segment(&keys, i, up))
             .collect();
@@ -515,11 +511,8 @@ impl UniformSpeed {
     /// The position at `t` seconds; held before the first and after the last key time.
     pub fn sample(&self, t: f64) -> DVec3 {
         let (t0, t1) = (self.times[0], self.times[self.times.len() - 1]);
-        if t <= t0 || self.length() == 0.0 {
+        if t <= t0 || t >= t1 || self.length() == 0.0 {
             return self.track.sample(t0.max(t.min(t1)));
-        }
-        if t >= t1 {
-            return self.track.sample(t1);
         }
         let s = self.length() * ((t - t0) / (t1 - t0));
         let i = self
