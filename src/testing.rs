@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 /// What a frame-hash test needs, from one place.
 pub use crate::document::Document;
-pub use crate::frames::{hashes, render_frame};
+pub use crate::frames::{hashes, render_frame, Difference};
 pub use crate::golden::Golden;
 pub use crate::hash::{frame_hash, FrameHash};
 
@@ -29,8 +29,6 @@ pub fn golden_dir(shot: &Path) -> PathBuf {
     name.push(".golden");
     shot.with_file_name(name)
 }
-
-pub use crate::frames::Difference;
 
 /// How a shot compares with its golden.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -371,15 +369,11 @@ pub fn clear_left_approvals(folder: &Path) {
     for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
         let name = entry.file_name();
         let bytes = name.as_encoded_bytes();
-        let Some(at) = bytes.windows(15).position(|w| w == b".golden.update-") else {
-            continue;
-        };
-        if at < 2 || bytes[0] != b'.' {
-            continue;
-        }
+        let at = bytes.windows(15).position(|w| w == b".golden.update-");
         // The shot's stem lies between the dot and `.golden.update-` (a stem that is not
         // UTF-8 is left to its next approval).
-        let Ok(stem) = std::str::from_utf8(&bytes[1..at]) else {
+        let stem = at.filter(|&at| at >= 2 && bytes[0] == b'.');
+        let Some(Ok(stem)) = stem.map(|at| std::str::from_utf8(&bytes[1..at])) else {
             continue;
         };
         let shot = folder.join(format!("{stem}.ron"));
