@@ -133,9 +133,7 @@ impl Animation {
             cop.z = zoom.sample(t);
         }
         if let Some(distort) = &self.distort {
-            let uv = distort.sample(t);
-            cop.x = uv.x;
-            cop.y = uv.y;
+            (cop.x, cop.y) = distort.sample(t).into();
         }
         if !(cop.z < 0.0 && cop.is_finite()) {
             return Err(CameraError::CopNotBehind(cop.z));
