@@ -133,9 +133,7 @@ impl Animation {
             cop.z = zoom.sample(t);
         }
         if let Some(distort) = &self.distort {
-            let uv = distort.sample(t);
-            cop.x = uv.x;
-            cop.y = uv.y;
+            (cop.x, cop.y) = distort.sample(t).into();
         }
         if !(cop.z < 0.0 && cop.is_finite()) {
             return Err(CameraError::CopNotBehind(cop.z));
@@ -184,23 +182,16 @@ impl Animation {
     /// Every frame's camera, in order. The basis of each frame follows the one before it, so the
     /// path is always evaluated from frame 0; this costs microseconds per frame.
     pub fn cameras(&self) -> impl Iterator<Item = Result<(u64, Camera), FrameError>> + '_ {
-        let mut previous_v = None;
-        let mut failed = false;
+        // The previous frame's v; None once a frame has failed, which ends the frames.
+        let mut previous = Some(None);
         (0..self.frames).map_while(move |frame| {
-            if failed {
-                return None;
-            }
             let time = self.time(frame);
-            match self.camera_at(time, previous_v) {
-                Ok(cam) => {
-                    previous_v = Some(cam.basis.v);
-                    Some(Ok((frame, cam)))
-                }
-                Err(cause) => {
-                    failed = true;
-                    Some(Err(FrameError { frame, time, cause }))
-                }
-            }
+            let camera = self.camera_at(time, previous?);
+            previous = camera.as_ref().ok().map(|c| Some(c.basis.v));
+            Some(match camera {
+                Ok(cam) => Ok((frame, cam)),
+                Err(cause) => Err(FrameError { frame, time, cause }),
+            })
         })
     }
 }

@@ -1,6 +1,7 @@
 //! The frame engine: which frames a run covers, rendering them in order with each frame's
 //! `FrameKey`, and streaming the pixels to a consumer on its own thread.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
@@ -45,10 +46,8 @@ impl FromStr for Shard {
     fn from_str(s: &str) -> std::result::Result<Shard, String> {
         let bad = || format!("{s:?}: expected K/N with 0 ≤ K < N, e.g. 0/4");
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
-        let (index, count): (u64, u64) = (
-            k.trim().parse().map_err(|_| bad())?,
-            n.trim().parse().map_err(|_| bad())?,
-        );
+        let parse = |x: &str| x.trim().parse::<u64>().map_err(|_| bad());
+        let (index, count) = (parse(k)?, parse(n)?);
         if count == 0 || index >= count {
             return Err(bad());
         }
@@ -153,13 +152,9 @@ pub fn for_each_frame(
     done: impl FnMut(u64) -> bool,
     mut sink: impl FnMut(u64, &FrameKey, &Arc<Vec<u8>>, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
+    let kept = "Keep::Frames keeps the key and the pixels";
     run(doc, set, done, Keep::Frames, |frame, key, pixels, hash| {
-        sink(
-            frame,
-            key.expect("keys made"),
-            pixels.expect("frames kept"),
-            hash,
-        )
+        sink(frame, key.expect(kept), pixels.expect(kept), hash)
     })
 }
 
@@ -194,16 +189,10 @@ fn run(
 ) -> Result<Timing> {
     let started = Instant::now();
     // The key hashes every sphere while the index is built (38 ms of 0.2 s at a million).
-    let (base, index) = match keep {
-        Keep::Frames => {
-            let (base, index) = rayon::join(
-                || KeyBase::new(&doc.scene, doc.raster),
-                || SceneIndex::new(&doc.scene),
-            );
-            (Some(base), index)
-        }
-        Keep::Hashes => (None, SceneIndex::new(&doc.scene)),
-    };
+    let (base, index) = rayon::join(
+        || (keep == Keep::Frames).then(|| KeyBase::new(&doc.scene, doc.raster)),
+        || SceneIndex::new(&doc.scene),
+    );
     let mut renderer = Renderer::new();
     let end = set.range.end;
     let mut wanted = doc
@@ -306,14 +295,9 @@ impl FrameBuffers {
     /// A buffer that no one else holds, or a new empty one. Its old bytes are all overwritten
     /// by the render.
     fn take(&mut self) -> Arc<Vec<u8>> {
-        match self
-            .handed_out
-            .iter()
-            .position(|b| Arc::strong_count(b) == 1)
-        {
-            Some(k) => self.handed_out.swap_remove(k),
-            None => Arc::new(Vec::new()),
-        }
+        let handed_out = &mut self.handed_out;
+        let free = handed_out.iter().position(|b| Arc::strong_count(b) == 1);
+        free.map_or_else(|| Arc::new(Vec::new()), |k| handed_out.swap_remove(k))
     }
 
     /// Remembers `pixels` for reuse once its other holders let go of it.
@@ -369,10 +353,9 @@ pub fn hash_frames(
     frames: Range<u64>,
     mut each: impl FnMut(u64, FrameHash) -> Result<()>,
 ) -> Result<Timing> {
-    let set = FrameSet::all(frames);
     run(
         doc,
-        &set,
+        &FrameSet::all(frames),
         |_| false,
         Keep::Hashes,
         |frame, _, _, hash| each(frame, hash),
@@ -446,7 +429,7 @@ pub fn compare_each(
     mut each: impl FnMut(&Difference, &[u8]) -> Result<()> + Send,
 ) -> Result<Vec<Difference>> {
     let total = doc.animation.frames;
-    let wanted: std::collections::BTreeMap<u64, FrameHash> = expected.iter().copied().collect();
+    let wanted: BTreeMap<u64, FrameHash> = expected.iter().copied().collect();
     let end = wanted.keys().last().map_or(0, |last| (last + 1).min(total));
     let mut differ = Vec::new();
     stream_frames(
@@ -466,18 +449,20 @@ pub fn compare_each(
             Ok(())
         },
     )?;
-    // Frames the animation does not have.
-    differ.extend(
-        wanted
-            .iter()
-            .filter(|(f, _)| **f >= total)
-            .map(|(f, h)| Difference {
-                frame: *f,
-                expected: Some(*h),
-                actual: None,
-            }),
-    );
+    differ.extend(past_end(&wanted, total));
     Ok(differ)
+}
+
+/// The frames from `total` on that `expected` lists: frames the animation does not have.
+pub(crate) fn past_end(
+    expected: &BTreeMap<u64, FrameHash>,
+    total: u64,
+) -> impl Iterator<Item = Difference> + '_ {
+    expected.range(total..).map(|(&frame, &hash)| Difference {
+        frame,
+        expected: Some(hash),
+        actual: None,
+    })
 }
 
 /// `1, 4, 7` for a few frames, `1, 4, 7, … (40 in all)` for many.

@@ -50,13 +50,11 @@ impl Golden {
         let m = Manifest::parse(&file, &text)?;
         let mut hashes = BTreeMap::new();
         for e in m.entries {
-            if let Some(before) = hashes.insert(e.frame, e.hash) {
-                if before != e.hash {
-                    return Err(bad(format!(
-                        "frame {} is listed twice with different hashes",
-                        e.frame
-                    )));
-                }
+            if hashes.insert(e.frame, e.hash).is_some_and(|h| h != e.hash) {
+                return Err(bad(format!(
+                    "frame {} is listed twice with different hashes",
+                    e.frame
+                )));
             }
         }
         if hashes.is_empty() {

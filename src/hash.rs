@@ -12,9 +12,7 @@ pub struct FrameHash(pub [u8; 32]);
 impl FrameHash {
     /// The hash of raw RGB8 pixels.
     pub fn of(pixels: &[u8]) -> FrameHash {
-        let mut h = FrameHasher::default();
-        h.update(pixels);
-        h.finish()
+        FrameHash(Sha256::digest(pixels).into())
     }
 }
 
@@ -38,16 +36,12 @@ impl std::str::FromStr for FrameHash {
 
     /// 64 hex digits.
     fn from_str(s: &str) -> std::result::Result<FrameHash, String> {
-        let bad = || format!("{s:?} is not a SHA-256 (64 hex digits)");
         // Only digits: `from_str_radix` alone would take a sign (`+f`).
         if s.len() != 64 || !s.bytes().all(|b| b.is_ascii_hexdigit()) {
-            return Err(bad());
+            return Err(format!("{s:?} is not a SHA-256 (64 hex digits)"));
         }
-        let mut out = [0u8; 32];
-        for (i, byte) in out.iter_mut().enumerate() {
-            *byte = u8::from_str_radix(&s[2 * i..2 * i + 2], 16).map_err(|_| bad())?;
-        }
-        Ok(FrameHash(out))
+        let byte = |i: usize| u8::from_str_radix(&s[2 * i..2 * i + 2], 16).expect("hex digits");
+        Ok(FrameHash(std::array::from_fn(byte)))
     }
 }
 

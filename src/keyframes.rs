@@ -35,13 +35,6 @@ pub enum Interpolation {
     Centripetal,
 }
 
-impl Interpolation {
-    /// Whether campath evaluates the segment as a precomputed cubic Bézier.
-    fn is_cubic(self) -> bool {
-        matches!(self, Interpolation::Monotone | Interpolation::Centripetal)
-    }
-}
-
 /// One key: a value at a time in seconds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Key<V> {
@@ -246,7 +239,8 @@ fn centripetal_tangents<V: Keyable>(keys: &[Key<V>]) -> (Vec<V>, Vec<f64>) {
     (tangents, knots)
 }
 
-/// Bézier control points for every segment whose start key asks for a cubic interpolation.
+/// Bézier control points for every segment whose start key asks for a cubic interpolation
+/// (empty when none does).
 fn cubic_controls<V: Keyable>(keys: &[Key<V>]) -> Vec<Option<Controls<V>>> {
     let monotone = keys
         .iter()
@@ -256,24 +250,25 @@ fn cubic_controls<V: Keyable>(keys: &[Key<V>]) -> Vec<Option<Controls<V>>> {
         .iter()
         .any(|k| k.interpolation == Interpolation::Centripetal)
         .then(|| centripetal_tangents(keys));
+    if monotone.is_none() && centripetal.is_none() {
+        return Vec::new();
+    }
     (0..keys.len() - 1)
         .map(|i| {
-            let (a, b) = (keys[i].value, keys[i + 1].value);
-            match keys[i].interpolation {
+            let asked = "computed when a key asks for it";
+            // The tangents and the segment's span in their parameter (seconds, or knots).
+            let (m, span) = match keys[i].interpolation {
                 Interpolation::Monotone => {
-                    let m = monotone.as_ref().expect("computed when a key asks for it");
-                    let h = keys[i + 1].t - keys[i].t;
-                    Some((a + m[i] * (h / 3.0), b - m[i + 1] * (h / 3.0)))
+                    (monotone.as_ref().expect(asked), keys[i + 1].t - keys[i].t)
                 }
                 Interpolation::Centripetal => {
-                    let (m, knots) = centripetal
-                        .as_ref()
-                        .expect("computed when a key asks for it");
-                    let span = knots[i + 1] - knots[i];
-                    Some((a + m[i] * (span / 3.0), b - m[i + 1] * (span / 3.0)))
+                    let (m, knots) = centripetal.as_ref().expect(asked);
+                    (m, knots[i + 1] - knots[i])
                 }
-                _ => None,
-            }
+                _ => return None,
+            };
+            let (a, b) = (keys[i].value, keys[i + 1].value);
+            Some((a + m[i] * (span / 3.0), b - m[i + 1] * (span / 3.0)))
         })
         .collect()
 }
@@ -318,15 +313,10 @@ impl<V: Keyable> Track<V> {
         assert!(!keys.is_empty(), "a track needs a key");
         debug_assert!(keys.windows(2).all(|w| w[0].t < w[1].t));
         let spline = (keys.len() >= 2).then(|| spline_with_phantoms(&keys));
-        let controls = if keys.iter().any(|k| k.interpolation.is_cubic()) {
-            cubic_controls(&keys)
-        } else {
-            Vec::new()
-        };
         Track {
-            keys,
+            controls: cubic_controls(&keys),
             spline,
-            controls,
+            keys,
         }
     }
 
@@ -343,20 +333,12 @@ impl<V: Keyable> Track<V> {
             Some(_) if t <= first.t => first.value,
             Some(_) if t >= last.t => last.value,
             Some(spline) => {
-                if !self.controls.is_empty() {
-                    let i = self.keys.partition_point(|k| k.t <= t) - 1;
-                    if let Some((c1, c2)) = self.controls[i] {
-                        let (a, b) = (&self.keys[i], &self.keys[i + 1]);
-                        let s = (t - a.t) / (b.t - a.t);
-                        return Knot::cubic_bezier(
-                            s,
-                            Knot(a.value),
-                            Knot(c1),
-                            Knot(c2),
-                            Knot(b.value),
-                        )
-                        .0;
-                    }
+                let i = self.keys.partition_point(|k| k.t <= t) - 1;
+                if let Some(&Some((c1, c2))) = self.controls.get(i) {
+                    let (a, b) = (&self.keys[i], &self.keys[i + 1]);
+                    let s = (t - a.t) / (b.t - a.t);
+                    let (a, c1, c2, b) = (Knot(a.value), Knot(c1), Knot(c2), Knot(b.value));
+                    return Knot::cubic_bezier(s, a, c1, c2, b).0;
                 }
                 spline
                     .sample(t)
@@ -380,15 +362,11 @@ pub struct DirectionTrack {
 impl DirectionTrack {
     /// `keys` as for [`Track::new`], with non-zero values (normalised here). `up` picks the
     /// rotation between opposite directions: about `up`, turning towards `direction × up`.
-    pub fn new(keys: Vec<Key<DVec3>>, up: DVec3) -> Self {
+    pub fn new(mut keys: Vec<Key<DVec3>>, up: DVec3) -> Self {
         assert!(!keys.is_empty(), "a track needs a key");
-        let keys: Vec<Key<DVec3>> = keys
-            .into_iter()
-            .map(|k| Key {
-                value: k.value.normalize(),
-                ..k
-            })
-            .collect();
+        for k in &mut keys {
+            k.value = k.value.normalize();
+        }
         let segments = (0..keys.len().saturating_sub(1))
             .map(|i| Self::segment(&keys, i, up))
             .collect();
@@ -503,15 +481,16 @@ impl UniformSpeed {
                 times.push(w[0].t + (w[1].t - w[0].t) * (k as f64 / n as f64));
             }
         }
-        let mut lengths = Vec::with_capacity(times.len());
-        let mut total = 0.0;
-        let mut prev = track.sample(times[0]);
-        for &t in &times {
-            let p = track.sample(t);
-            total += (p - prev).length();
-            lengths.push(total);
-            prev = p;
-        }
+        let (mut total, mut prev) = (0.0, track.sample(times[0]));
+        let lengths = times
+            .iter()
+            .map(|&t| {
+                let p = track.sample(t);
+                total += (p - prev).length();
+                prev = p;
+                total
+            })
+            .collect();
         UniformSpeed {
             track,
             times,
@@ -532,11 +511,8 @@ impl UniformSpeed {
     /// The position at `t` seconds; held before the first and after the last key time.
     pub fn sample(&self, t: f64) -> DVec3 {
         let (t0, t1) = (self.times[0], self.times[self.times.len() - 1]);
-        if t <= t0 || self.length() == 0.0 {
+        if t <= t0 || t >= t1 || self.length() == 0.0 {
             return self.track.sample(t0.max(t.min(t1)));
-        }
-        if t >= t1 {
-            return self.track.sample(t1);
         }
         let s = self.length() * ((t - t0) / (t1 - t0));
         let i = self

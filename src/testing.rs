@@ -9,13 +9,12 @@ use std::path::{Path, PathBuf};
 
 /// What a frame-hash test needs, from one place.
 pub use crate::document::Document;
-pub use crate::frames::{hashes, render_frame};
+pub use crate::frames::{hashes, render_frame, Difference};
 pub use crate::golden::Golden;
 pub use crate::hash::{frame_hash, FrameHash};
 
 use crate::error::{Error, Result};
-use crate::frames::list_frames;
-use crate::frames::{stream_frames, FrameSet};
+use crate::frames::{list_frames, past_end, stream_frames, FrameSet};
 use crate::golden;
 use crate::key::VERSION;
 use crate::output::{frame_path, png_hash, write_png, Compression, HASHES};
@@ -30,8 +29,6 @@ pub fn golden_dir(shot: &Path) -> PathBuf {
     name.push(".golden");
     shot.with_file_name(name)
 }
-
-pub use crate::frames::Difference;
 
 /// How a shot compares with its golden.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -217,11 +214,8 @@ impl Shot {
         };
         let doc = Document::load(path)?;
         let dir = golden_dir(path);
-        let golden = if dir.join(HASHES).exists() {
-            Some(Golden::load(&dir)?)
-        } else {
-            None
-        };
+        let hashes = dir.join(HASHES);
+        let golden = hashes.exists().then(|| Golden::load(&dir)).transpose()?;
         let golden_frames = crate::output::frames_in(&dir);
         Ok(Shot {
             path: path.to_path_buf(),
@@ -246,13 +240,9 @@ impl Shot {
         options: Options,
         mut each: impl FnMut(&Difference, &[u8]) -> Result<()> + Send,
     ) -> Result<ShotRun> {
-        let Shot {
-            path,
-            doc,
-            golden,
-            golden_frames,
-            _lock,
-        } = self;
+        // The lock stays in `self`, held until the run returns.
+        let (path, doc, golden, golden_frames) =
+            (self.path, self.doc, self.golden, self.golden_frames);
         let dir = golden_dir(&path);
         let total = doc.animation.frames;
         let size = (doc.raster.width, doc.raster.height);
@@ -310,11 +300,7 @@ impl Shot {
             return Err(e);
         }
         if let Some(g) = &golden {
-            differ.extend(g.hashes.range(total..).map(|(frame, hash)| Difference {
-                frame: *frame,
-                expected: Some(*hash),
-                actual: None,
-            }));
+            differ.extend(past_end(&g.hashes, total));
         }
         let mut run = ShotRun {
             shot: path,
@@ -378,23 +364,16 @@ fn staging_prefix(shot: &Path) -> std::ffi::OsString {
 /// every shot of a folder costs one listing. A check writes nothing it must: a folder that
 /// cannot be read or removed is left.
 pub fn clear_left_approvals(folder: &Path) {
-    let folder = if folder.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        folder
-    };
+    let folder = Some(folder).filter(|f| !f.as_os_str().is_empty());
+    let folder = folder.unwrap_or(Path::new("."));
     for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
         let name = entry.file_name();
         let bytes = name.as_encoded_bytes();
-        let Some(at) = bytes.windows(15).position(|w| w == b".golden.update-") else {
-            continue;
-        };
-        if at < 2 || bytes[0] != b'.' {
-            continue;
-        }
+        let at = bytes.windows(15).position(|w| w == b".golden.update-");
         // The shot's stem lies between the dot and `.golden.update-` (a stem that is not
         // UTF-8 is left to its next approval).
-        let Ok(stem) = std::str::from_utf8(&bytes[1..at]) else {
+        let stem = at.filter(|&at| at >= 2 && bytes[0] == b'.');
+        let Some(Ok(stem)) = stem.map(|at| std::str::from_utf8(&bytes[1..at])) else {
             continue;
         };
         let shot = folder.join(format!("{stem}.ron"));
@@ -407,6 +386,7 @@ pub fn clear_left_approvals(folder: &Path) {
 /// Staging folders of `shot` that approvals left (killed before they finished).
 fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
     let prefix = staging_prefix(shot);
+    let prefix = prefix.as_encoded_bytes();
     let parent = shot
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -415,11 +395,7 @@ fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
         .into_iter()
         .flatten()
         .flatten()
-        .filter(|e| {
-            let name = e.file_name();
-            name.as_encoded_bytes()
-                .starts_with(prefix.as_encoded_bytes())
-        })
+        .filter(|e| e.file_name().as_encoded_bytes().starts_with(prefix))
         .map(|e| e.path())
         .collect()
 }
