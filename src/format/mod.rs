@@ -449,25 +449,24 @@ fn utf8<'a>(path: &Path, bytes: &'a [u8]) -> Result<&'a str> {
     })
 }
 
-/// Calls `f` with every string of `len` characters from `alphabet`, one after another: the
-/// exhaustive tests of the number readers against `from_str`.
-#[cfg(test)]
-fn each_string(alphabet: &[u8], len: u32, mut f: impl FnMut(&str)) {
-    let mut text = String::with_capacity(len as usize);
-    for n in 0..alphabet.len().pow(len) {
-        text.clear();
-        let mut n = n;
-        for _ in 0..len {
-            text.push(alphabet[n % alphabet.len()] as char);
-            n /= alphabet.len();
-        }
-        f(&text);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Calls `f` with every string of `len` characters from `alphabet`, one after another: the
+    /// exhaustive tests of the number readers against `from_str`.
+    pub(super) fn each_string(alphabet: &[u8], len: u32, mut f: impl FnMut(&str)) {
+        let mut text = String::with_capacity(len as usize);
+        for n in 0..alphabet.len().pow(len) {
+            text.clear();
+            let mut n = n;
+            for _ in 0..len {
+                text.push(alphabet[n % alphabet.len()] as char);
+                n /= alphabet.len();
+            }
+            f(&text);
+        }
+    }
 
     /// Names in comments, nested ones too, are no fields; the outer fields and their
     /// structs' fields are, in the text's order.

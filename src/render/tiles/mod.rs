@@ -157,7 +157,7 @@ impl TileBins {
 
 #[cfg(test)]
 mod tests {
-    use super::footprints::{footprint, Footprint};
+    use super::footprints::tests::{footprint, Footprint};
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::render::kernels::Shading;
