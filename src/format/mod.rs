@@ -344,8 +344,11 @@ fn field_before(text: &str, line: usize, col: usize) -> Option<&str> {
         .char_indices()
         .nth(col.saturating_sub(1))
         .map_or(row.len(), |(i, _)| i);
-    let before = text.get(..start + offset)?.trim_end().strip_suffix(':')?;
-    let before = before.trim_end();
+    let before = text
+        .get(..start + offset)?
+        .trim_end()
+        .strip_suffix(':')?
+        .trim_end();
     let name_start = before
         .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
         .map_or(0, |i| i + 1);
