@@ -18,9 +18,6 @@ pub(super) struct ViewSphere {
     /// COP − centre (the columns find it from the centre).
     #[cfg(test)]
     pub(super) f: DVec3,
-    /// |f|² − r² (the search finds it from f).
-    #[cfg(test)]
-    pub(super) c: f64,
     /// |f| − r: no primary ray meets the sphere nearer than this.
     pub(super) min_dist: f64,
     /// The sphere's rank (see [`Ranks`]).
@@ -43,8 +40,6 @@ impl ViewSphere {
             radius,
             #[cfg(test)]
             f,
-            #[cfg(test)]
-            c: c_of(f, radius),
             min_dist: f.length() - radius,
             id,
         }
@@ -257,6 +252,11 @@ mod tests {
     use super::*;
 
     impl ViewSphere {
+        /// |f|² − r², as the search finds it from f.
+        pub(in crate::render) fn c(&self) -> f64 {
+            c_of(self.f, self.radius)
+        }
+
         /// What the tiles read of it.
         pub(in crate::render) fn reach(&self) -> Reach {
             Reach {
