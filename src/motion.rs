@@ -120,10 +120,7 @@ pub fn warnings(doc: &Document) -> Result<Vec<Warning>> {
     }
     inside_spheres(&mut out, doc, &cameras);
     near_target(&mut out, doc);
-    let flips: Vec<usize> = (1..cameras.len())
-        .filter(|&k| cameras[k - 1].basis.v.dot(cameras[k].basis.v) < 0.0)
-        .collect();
-    for k in flips {
+    for k in (1..cameras.len()).filter(|&k| cameras[k - 1].basis.v.dot(cameras[k].basis.v) < 0.0) {
         out.push(Warning {
             quantity: Quantity::UpFlip,
             frames: vec![k as u64 - 1, k as u64],

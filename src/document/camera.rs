@@ -17,19 +17,14 @@ impl Checker {
         spec: &FileSpec,
         raster: Option<&Raster>,
     ) -> Option<Animation> {
-        let fps = match spec.fps {
-            Some(f) => self.positive("fps", f),
-            None => Some(24.0),
-        };
+        let fps = spec.fps.map_or(Some(24.0), |f| self.positive("fps", f));
         let cam = &spec.camera;
-        let vrp = match cam.vrp {
-            Some(v) => self.triple("camera.vrp", v),
-            None => Some(DVec3::ZERO),
-        };
-        let vuv = match cam.vuv {
-            Some(v) => self.direction("camera.vuv", v),
-            None => Some(DVec3::Y),
-        };
+        let vrp = cam
+            .vrp
+            .map_or(Some(DVec3::ZERO), |v| self.triple("camera.vrp", v));
+        let vuv = cam
+            .vuv
+            .map_or(Some(DVec3::Y), |v| self.direction("camera.vuv", v));
         let cop = self.cop(cam);
         let tracks = self.tracks(&spec.animate, vuv.unwrap_or(DVec3::Y));
         let setter = spec

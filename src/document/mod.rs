@@ -206,19 +206,15 @@ impl Document {
 
     /// Frame `frame`'s exposure (see [`Document::exposures`]), in O(frame).
     pub fn exposure(&self, frame: u64) -> Result<Exposure> {
-        match self.exposures().nth(frame as usize) {
-            Some(e) => e.map(|(_, exposure)| exposure),
-            None => Err(self.no_frame(frame)),
-        }
+        let item = self.exposures().nth(frame as usize);
+        Ok(item.ok_or_else(|| self.no_frame(frame))??.1)
     }
 
     /// Frame `frame`'s camera. The cameras are evaluated in order from frame 0 (the up vector
     /// near the VUV pole continues from the previous frame), so this costs O(frame).
     pub fn camera(&self, frame: u64) -> Result<Camera> {
-        match self.cameras().nth(frame as usize) {
-            Some(c) => c.map(|(_, camera)| camera),
-            None => Err(self.no_frame(frame)),
-        }
+        let item = self.cameras().nth(frame as usize);
+        Ok(item.ok_or_else(|| self.no_frame(frame))??.1)
     }
 
     /// Evaluates the whole path, reporting the first frame whose camera is undefined.

@@ -24,10 +24,8 @@ impl Checker {
         spec: &mut format::SceneSpec,
         folder: &Path,
     ) -> (Option<Scene>, Vec<SphereFile>) {
-        let background = match spec.background {
-            Some(b) => self.color("scene.background", b),
-            None => Some(DVec3::ZERO),
-        };
+        let background =
+            (spec.background).map_or(Some(DVec3::ZERO), |b| self.color("scene.background", b));
         let ambient = self.ambient(spec);
         let lights: Vec<Light> = (spec.lights.iter().enumerate())
             .filter_map(|(i, l)| self.light(&format!("scene.lights[{i}]"), l))
@@ -113,10 +111,7 @@ impl Checker {
         };
         let center = self.triple(field("center"), s.center);
         let radius = self.positive(field("radius"), s.radius);
-        let color = match s.color {
-            Some(c) => self.color(field("color"), c),
-            None => Some(DVec3::ONE),
-        };
+        let color = (s.color).map_or(Some(DVec3::ONE), |c| self.color(field("color"), c));
         Some(Sphere {
             center_world: center?,
             radius: radius?,

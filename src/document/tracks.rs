@@ -61,7 +61,6 @@ impl Checker {
 
     /// Checks one track into its slot of `out`.
     fn track(&mut self, field: &str, spec: &TrackSpec, vuv: DVec3, out: &mut Tracks) {
-        let triple = |c: &mut Self, f: &str, v: &Triple| c.triple(f, *v);
         match spec {
             TrackSpec::Observer {
                 keys,
@@ -74,7 +73,7 @@ impl Checker {
                 interpolation,
             } => {
                 out.track = self
-                    .keys(field, keys, *interpolation, triple)
+                    .keys(field, keys, *interpolation, |c, f, v| c.triple(f, *v))
                     .map(Track::new)
             }
             TrackSpec::LookAround {

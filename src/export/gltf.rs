@@ -159,13 +159,11 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         );
     }
 
-    // The camera, frame by frame.
-    let (mut times, mut cams) = (vec![], vec![]);
-    for item in doc.cameras() {
-        let (frame, cam) = item?;
-        cams.push(cam);
-        times.push(doc.animation.time(frame) as f32);
-    }
+    let frames: Vec<(u64, Camera)> = doc.cameras().collect::<Result<_>>()?;
+    let times: Vec<f32> = (frames.iter())
+        .map(|(k, _)| doc.animation.time(*k) as f32)
+        .collect();
+    let cams: Vec<Camera> = frames.into_iter().map(|(_, cam)| cam).collect();
     let translations: Vec<f32> = (cams.iter())
         .flat_map(|&cam| f32s(relative(cam, origin).cop_world()))
         .collect();

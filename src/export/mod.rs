@@ -208,11 +208,9 @@ pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) 
 /// outwards from the frame's camera, as in an exposure. An end where the camera is undefined
 /// is left out.
 pub(crate) fn keyed_cameras(doc: &Document) -> Result<Vec<(f64, Camera)>> {
-    let mut keys = Vec::new();
-    for item in doc.cameras() {
-        let (frame, cam) = item?;
-        keys.push((frame as f64, cam));
-    }
+    let mut keys: Vec<(f64, Camera)> = (doc.cameras())
+        .map(|item| item.map(|(frame, cam)| (frame as f64, cam)))
+        .collect::<Result<_>>()?;
     let Some(blur) = doc.motion_blur else {
         return Ok(keys);
     };

@@ -344,8 +344,11 @@ fn field_before(text: &str, line: usize, col: usize) -> Option<&str> {
         .char_indices()
         .nth(col.saturating_sub(1))
         .map_or(row.len(), |(i, _)| i);
-    let before = text.get(..start + offset)?.trim_end().strip_suffix(':')?;
-    let before = before.trim_end();
+    let before = text
+        .get(..start + offset)?
+        .trim_end()
+        .strip_suffix(':')?
+        .trim_end();
     let name_start = before
         .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
         .map_or(0, |i| i + 1);
@@ -456,25 +459,24 @@ fn utf8<'a>(path: &Path, bytes: &'a [u8]) -> Result<&'a str> {
     })
 }
 
-/// Calls `f` with every string of `len` characters from `alphabet`, one after another: the
-/// exhaustive tests of the number readers against `from_str`.
-#[cfg(test)]
-fn each_string(alphabet: &[u8], len: u32, mut f: impl FnMut(&str)) {
-    let mut text = String::with_capacity(len as usize);
-    for n in 0..alphabet.len().pow(len) {
-        text.clear();
-        let mut n = n;
-        for _ in 0..len {
-            text.push(alphabet[n % alphabet.len()] as char);
-            n /= alphabet.len();
-        }
-        f(&text);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Calls `f` with every string of `len` characters from `alphabet`, one after another: the
+    /// exhaustive tests of the number readers against `from_str`.
+    pub(super) fn each_string(alphabet: &[u8], len: u32, mut f: impl FnMut(&str)) {
+        let mut text = String::with_capacity(len as usize);
+        for n in 0..alphabet.len().pow(len) {
+            text.clear();
+            let mut n = n;
+            for _ in 0..len {
+                text.push(alphabet[n % alphabet.len()] as char);
+                n /= alphabet.len();
+            }
+            f(&text);
+        }
+    }
 
     /// Names in comments, nested ones too, are no fields; the outer fields and their
     /// structs' fields are, in the text's order.

@@ -135,11 +135,7 @@ pub fn read(
     let mut head = Vec::new();
     let (open, bom, end) = loop {
         let end = blocks::read(file, &mut head, grow()).ok()?;
-        let bom = if head.starts_with(b"\xef\xbb\xbf") {
-            3
-        } else {
-            0
-        };
+        let bom = 3 * usize::from(head.starts_with(b"\xef\xbb\xbf"));
         if let Some(open) = find_open(&head[bom..]) {
             break (open, bom, end);
         }

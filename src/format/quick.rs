@@ -246,7 +246,7 @@ mod tests {
             } else {
                 &[","]
             };
-            super::super::each_string(alphabet, len, |token| {
+            super::super::tests::each_string(alphabet, len, |token| {
                 for end in ends {
                     check(&format!("{token}{end}"));
                 }

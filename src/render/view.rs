@@ -18,9 +18,6 @@ pub(super) struct ViewSphere {
     /// COP − centre (the columns find it from the centre).
     #[cfg(test)]
     pub(super) f: DVec3,
-    /// |f|² − r² (the search finds it from f).
-    #[cfg(test)]
-    pub(super) c: f64,
     /// |f| − r: no primary ray meets the sphere nearer than this.
     pub(super) min_dist: f64,
     /// The sphere's rank (see [`Ranks`]).
@@ -43,20 +40,8 @@ impl ViewSphere {
             radius,
             #[cfg(test)]
             f,
-            #[cfg(test)]
-            c: c_of(f, radius),
             min_dist: f.length() - radius,
             id,
-        }
-    }
-
-    /// What the tiles read of it.
-    #[cfg(test)]
-    pub(super) fn reach(&self) -> Reach {
-        Reach {
-            f: self.f,
-            radius: self.radius,
-            min_dist: self.min_dist,
         }
     }
 }
@@ -98,15 +83,6 @@ pub(super) struct ViewColumns {
 }
 
 impl ViewColumns {
-    /// `spheres`, seen from `cop`, one slice per field.
-    #[cfg(test)]
-    pub(super) fn new(cop: DVec3, spheres: &[ViewSphere]) -> ViewColumns {
-        let mut columns = ViewColumns::zeroed(0, 0);
-        columns.cop = cop;
-        columns.extend(spheres);
-        columns
-    }
-
     /// `n` spheres of zeros, in fresh memory the kernel hands over zeroed (untouched until
     /// written), with room for `room` (at least `n`).
     fn zeroed(n: usize, room: usize) -> ViewColumns {
@@ -206,24 +182,6 @@ impl ViewColumns {
         id.resize(n, 0);
     }
 
-    /// `spheres` after the ones held: each seen from the columns' COP.
-    #[cfg(test)]
-    pub(super) fn extend(&mut self, spheres: &[ViewSphere]) {
-        for s in spheres {
-            let bits = |v: DVec3| v.to_array().map(f64::to_bits);
-            assert!(
-                bits(s.f) == bits(self.cop - s.center),
-                "a sphere seen from another COP"
-            );
-            self.min_dist.push(s.min_dist);
-            self.radius.push(s.radius);
-            for a in 0..3 {
-                self.center[a].push(s.center[a]);
-            }
-            self.id.push(s.id as u64);
-        }
-    }
-
     /// What the tiles read of sphere `k`.
     pub(super) fn reach(&self, k: usize) -> Reach {
         Reach {
@@ -287,4 +245,52 @@ pub(super) struct ViewLight<'a> {
     pub(super) color: DVec3,
     /// Spheres binned for this light's shadow rays; None when the light casts no shadows.
     pub(super) shadows: Option<FrameShadows<'a>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    impl ViewSphere {
+        /// |f|² − r², as the search finds it from f.
+        pub(in crate::render) fn c(&self) -> f64 {
+            c_of(self.f, self.radius)
+        }
+
+        /// What the tiles read of it.
+        pub(in crate::render) fn reach(&self) -> Reach {
+            Reach {
+                f: self.f,
+                radius: self.radius,
+                min_dist: self.min_dist,
+            }
+        }
+    }
+
+    impl ViewColumns {
+        /// `spheres`, seen from `cop`, one slice per field.
+        pub(in crate::render) fn new(cop: DVec3, spheres: &[ViewSphere]) -> ViewColumns {
+            let mut columns = ViewColumns::zeroed(0, 0);
+            columns.cop = cop;
+            columns.extend(spheres);
+            columns
+        }
+
+        /// `spheres` after the ones held: each seen from the columns' COP.
+        pub(in crate::render) fn extend(&mut self, spheres: &[ViewSphere]) {
+            for s in spheres {
+                let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+                assert!(
+                    bits(s.f) == bits(self.cop - s.center),
+                    "a sphere seen from another COP"
+                );
+                self.min_dist.push(s.min_dist);
+                self.radius.push(s.radius);
+                for a in 0..3 {
+                    self.center[a].push(s.center[a]);
+                }
+                self.id.push(s.id as u64);
+            }
+        }
+    }
 }

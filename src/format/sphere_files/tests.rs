@@ -642,7 +642,7 @@ fn text_numbers_are_what_from_str_reads() {
     };
     for (alphabet, longest) in [(&b"0159.eE+-"[..], 6), (b"09.eE+-infatyNIx(", 5)] {
         for len in 0..=longest {
-            super::super::each_string(alphabet, len, check);
+            super::super::tests::each_string(alphabet, len, check);
         }
     }
     for field in [

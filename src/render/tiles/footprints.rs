@@ -5,73 +5,8 @@
 use glam::{DVec2, DVec3};
 
 use super::super::lanes::{ForLanes, Lanes, LANES};
-#[cfg(test)]
-use super::super::view::Reach;
 use super::super::view::ViewColumns;
 use crate::raster::Raster;
-
-/// Pixel rectangle (inclusive) a sphere's projection may cover.
-#[cfg(test)]
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Footprint {
-    Culled,
-    Everywhere,
-    Pixels {
-        i0: usize,
-        i1: usize,
-        j0: usize,
-        j1: usize,
-    },
-}
-
-/// Slopes a = x/z of the two lines through the origin tangent to the circle (x, z, r), for
-/// z > r: the roots of a²(z² − r²) − 2a·x·z + x² − r² = 0.
-#[cfg(test)]
-fn tangent_slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
-    let root = r * (x * x + z * z - r * r).sqrt();
-    let den = z * z - r * r;
-    ((x * z - root) / den, (x * z + root) / den)
-}
-
-/// The exact bounds of a sphere's projection through the COP onto the view plane, widened by a
-/// pixel so that rounding never drops a covered sample: one sphere at a time, the oracle of
-/// [`Footprints`], which does the same operations eight spheres at a time.
-#[cfg(test)]
-pub(super) fn footprint(s: &Reach, cop: DVec3, window: DVec2, raster: Raster) -> Footprint {
-    let p = -s.f; // centre relative to the COP
-    if p.z <= -s.radius {
-        return Footprint::Culled;
-    }
-    if p.z <= s.radius {
-        return Footprint::Everywhere;
-    }
-    let d = -cop.z;
-    let (ax0, ax1) = tangent_slopes(p.x, p.z, s.radius);
-    let (ay0, ay1) = tangent_slopes(p.y, p.z, s.radius);
-    let (w, h) = (raster.width as f64, raster.height as f64);
-    // Window x → pixel column, window y → pixel row (rows grow downwards).
-    let col = |a: f64| (cop.x + d * a + window.x * 0.5) / window.x * w;
-    let row = |a: f64| (window.y * 0.5 - (cop.y + d * a)) / window.y * h;
-    let (x0, x1) = (col(ax0) - 1.0, col(ax1) + 1.0);
-    let (y0, y1) = (row(ay1) - 1.0, row(ay0) + 1.0);
-    if !(x1 >= 0.0 && y1 >= 0.0 && x0 < w && y0 < h) {
-        // Off screen (also catches NaN from a degenerate window).
-        return if x0.is_nan() || y0.is_nan() {
-            Footprint::Everywhere
-        } else {
-            Footprint::Culled
-        };
-    }
-    // Clamped to [0, n − 1] first, then truncated: the floor of the value (the same as
-    // flooring first, without a call to floor for each of the four).
-    let clamp = |v: f64, n: f64| v.max(0.0).min(n - 1.0) as usize;
-    Footprint::Pixels {
-        i0: clamp(x0, w),
-        i1: clamp(x1, w),
-        j0: clamp(y0, h),
-        j1: clamp(y1, h),
-    }
-}
 
 /// The spheres' pixel rectangles, eight at a time: for sphere k, the inclusive rectangle
 /// `[i0, i1, j0, j1]` its projection may cover, `[1, 0, 1, 0]` when it is culled (wholly behind
@@ -191,10 +126,76 @@ impl ForLanes for Footprints<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::render::simd::Simd;
+    use crate::render::view::Reach;
     use crate::render::view::ViewSphere;
+
+    /// Pixel rectangle (inclusive) a sphere's projection may cover.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub(in crate::render::tiles) enum Footprint {
+        Culled,
+        Everywhere,
+        Pixels {
+            i0: usize,
+            i1: usize,
+            j0: usize,
+            j1: usize,
+        },
+    }
+
+    /// Slopes a = x/z of the two lines through the origin tangent to the circle (x, z, r), for
+    /// z > r: the roots of a²(z² − r²) − 2a·x·z + x² − r² = 0.
+    fn tangent_slopes(x: f64, z: f64, r: f64) -> (f64, f64) {
+        let root = r * (x * x + z * z - r * r).sqrt();
+        let den = z * z - r * r;
+        ((x * z - root) / den, (x * z + root) / den)
+    }
+
+    /// The exact bounds of a sphere's projection through the COP onto the view plane, widened by a
+    /// pixel so that rounding never drops a covered sample: one sphere at a time, the oracle of
+    /// [`Footprints`], which does the same operations eight spheres at a time.
+    pub(in crate::render::tiles) fn footprint(
+        s: &Reach,
+        cop: DVec3,
+        window: DVec2,
+        raster: Raster,
+    ) -> Footprint {
+        let p = -s.f; // centre relative to the COP
+        if p.z <= -s.radius {
+            return Footprint::Culled;
+        }
+        if p.z <= s.radius {
+            return Footprint::Everywhere;
+        }
+        let d = -cop.z;
+        let (ax0, ax1) = tangent_slopes(p.x, p.z, s.radius);
+        let (ay0, ay1) = tangent_slopes(p.y, p.z, s.radius);
+        let (w, h) = (raster.width as f64, raster.height as f64);
+        // Window x → pixel column, window y → pixel row (rows grow downwards).
+        let col = |a: f64| (cop.x + d * a + window.x * 0.5) / window.x * w;
+        let row = |a: f64| (window.y * 0.5 - (cop.y + d * a)) / window.y * h;
+        let (x0, x1) = (col(ax0) - 1.0, col(ax1) + 1.0);
+        let (y0, y1) = (row(ay1) - 1.0, row(ay0) + 1.0);
+        if !(x1 >= 0.0 && y1 >= 0.0 && x0 < w && y0 < h) {
+            // Off screen (also catches NaN from a degenerate window).
+            return if x0.is_nan() || y0.is_nan() {
+                Footprint::Everywhere
+            } else {
+                Footprint::Culled
+            };
+        }
+        // Clamped to [0, n − 1] first, then truncated: the floor of the value (the same as
+        // flooring first, without a call to floor for each of the four).
+        let clamp = |v: f64, n: f64| v.max(0.0).min(n - 1.0) as usize;
+        Footprint::Pixels {
+            i0: clamp(x0, w),
+            i1: clamp(x1, w),
+            j0: clamp(y0, h),
+            j1: clamp(y1, h),
+        }
+    }
 
     /// The footprints eight at a time, on every instruction path this CPU runs, are the
     /// one-sphere oracle's: seeded spheres in view, in front, behind, cut by the COP's plane,

@@ -207,7 +207,7 @@ mod tests {
                                 let center = cop + (u * ca + away * (1.0 - ca * ca).sqrt()) * d;
                                 let sphere = ViewSphere::in_view(center, r, cop, 0);
                                 let f = sphere.f;
-                                let Some(t) = root(f, sphere.c, r * r, u) else {
+                                let Some(t) = root(f, sphere.c(), r * r, u) else {
                                     continue;
                                 };
                                 hits += 1;

@@ -157,7 +157,7 @@ impl TileBins {
 
 #[cfg(test)]
 mod tests {
-    use super::footprints::{footprint, Footprint};
+    use super::footprints::tests::{footprint, Footprint};
     use super::*;
     use crate::camera::{Basis, Camera};
     use crate::render::kernels::Shading;
@@ -337,7 +337,7 @@ mod tests {
                                 };
                             }
                             for d in (0..s2).map(|k| table.direction(i, j, k)) {
-                                if let Some(t) = root(g.f, g.c, g.radius * g.radius, d) {
+                                if let Some(t) = root(g.f, g.c(), g.radius * g.radius, d) {
                                     tile.1 = tile.1.min(t);
                                 }
                             }
@@ -350,7 +350,7 @@ mod tests {
                             for d in (0..s2).map(|k| table.direction(i, j, k)) {
                                 let mut every: Option<(usize, f64)> = None;
                                 for (k, s) in view.iter().enumerate() {
-                                    let t = root(s.f, s.c, s.radius * s.radius, d);
+                                    let t = root(s.f, s.c(), s.radius * s.radius, d);
                                     if let Some(t) = t.filter(|&t| every.is_none_or(|b| t < b.1)) {
                                         every = Some((k, t));
                                     }
@@ -447,7 +447,7 @@ mod tests {
                     let bins =
                         TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
                     let shading = unlit(&columns);
-                    let t = root(f, sphere.c, sphere.radius * sphere.radius, d);
+                    let t = root(f, sphere.c(), sphere.radius * sphere.radius, d);
                     assert!(t.is_some(), "the ray meets the sphere");
                     let found = nearest(&shading, &bins, (i, j), d);
                     assert_eq!(
