@@ -137,11 +137,8 @@ pub fn ctrl_c_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
     use std::sync::atomic::{AtomicBool, Ordering};
     let stop = std::sync::Arc::new(AtomicBool::new(false));
     let flag = std::sync::Arc::clone(&stop);
-    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
-        tool: "ctrlc",
-        package: "campath",
-        message: format!("cannot catch Ctrl-C: {e}"),
-    })?;
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+        .map_err(|e| CliError::Tool("ctrlc", format!("cannot catch Ctrl-C: {e}")))?;
     Ok(stop)
 }
 

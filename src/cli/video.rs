@@ -44,8 +44,10 @@ pub struct VideoArgs {
     pub no_wait: NoWait,
 }
 
+/// ffmpeg could not be started: missing, most likely.
 fn ffmpeg_missing(e: std::io::Error) -> CliError {
-    CliError::missing("ffmpeg", "ffmpeg", e)
+    let message = format!("cannot run it ({e}); install the Debian package ffmpeg");
+    CliError::Tool("ffmpeg", message)
 }
 
 pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
@@ -174,7 +176,12 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         )));
     }
     // ffmpeg's own failure explains a pipe it stopped reading.
-    encoder_status(&result).and(fed)?;
+    if !result.status.success() {
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        let message = format!("failed ({}): {}", result.status, stderr.trim());
+        return Err(CliError::Tool("ffmpeg", message));
+    }
+    fed?;
     tmp.persist(&video)
         .map_err(|e| Error::write(&video)(e.error))?;
     if !quiet {
@@ -278,30 +285,12 @@ fn feed(
         }
         if let Err(e) = stdin.write_all(&pixels) {
             // ffmpeg stopped reading: its own message says why.
-            return Err(CliError::Tool {
-                tool: "ffmpeg",
-                package: "ffmpeg",
-                message: format!("stopped reading frames at frame {frame} ({e})"),
-            });
+            let message = format!("stopped reading frames at frame {frame} ({e})");
+            return Err(CliError::Tool("ffmpeg", message));
         }
         progress.event(Event::Written(frame));
     }
     Ok(())
-}
-
-fn encoder_status(result: &std::process::Output) -> Result<()> {
-    if result.status.success() {
-        return Ok(());
-    }
-    Err(CliError::Tool {
-        tool: "ffmpeg",
-        package: "ffmpeg",
-        message: format!(
-            "failed ({}): {}",
-            result.status,
-            String::from_utf8_lossy(&result.stderr).trim()
-        ),
-    })
 }
 
 #[cfg(test)]

@@ -219,11 +219,7 @@ fn identity(m: &std::fs::Metadata) -> [i128; 2] {
 }
 
 fn watch_error(file: &Path, e: notify::Error) -> CliError {
-    CliError::Tool {
-        tool: "notify",
-        package: "campath",
-        message: format!("cannot watch {}: {e}", file.display()),
-    }
+    CliError::Tool("notify", format!("cannot watch {}: {e}", file.display()))
 }
 
 /// How long a file that fails to load must stay as it is before its error is shown: an editor
