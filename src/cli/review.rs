@@ -141,11 +141,7 @@ fn frame(html: &mut String, f: &ReviewFrame) {
         f.frame, f.frame
     );
     if let Some(p) = &f.pixels {
-        let _ = write!(
-            html,
-            ": {} pixel(s) changed, largest difference {} level(s)",
-            p.changed, p.largest
-        );
+        let _ = write!(html, ": {p}");
     }
     let _ = write!(
         html,

@@ -156,12 +156,7 @@ fn unchecked(golden: &Golden, total: u64) -> Option<String> {
 
 /// What a differing frame's pixels changed, after its hashes: empty without a golden picture.
 fn pixels_changed(p: Option<&PixelDiff>) -> String {
-    p.map_or_else(String::new, |p| {
-        format!(
-            ": {} pixel(s) changed, largest difference {} level(s)",
-            p.changed, p.largest
-        )
-    })
+    p.map_or_else(String::new, |p| format!(": {p}"))
 }
 
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
