@@ -149,10 +149,7 @@ pub fn write(
         |frame| !(sheet_at.contains(&frame) || gif && frame % step == 0),
         |frame, _, pixels, _| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
-                let (cx, cy) = (
-                    slot as u32 % COLUMNS * (slot_w + GAP),
-                    slot as u32 / COLUMNS * (row_h + GAP),
-                );
+                let (cx, cy) = tile(slot, slot_w, row_h);
                 for y in 0..h {
                     let src = (y * w * 3) as usize;
                     let dst = (((cy + y) * sheet_w + cx) * 3) as usize;
@@ -197,6 +194,12 @@ pub fn write(
     Ok((png, Some(gif)))
 }
 
+/// The top-left pixel of the sheet's tile `slot`, of slots `slot_w` wide and rows `row_h` high.
+fn tile(slot: usize, slot_w: u32, row_h: u32) -> (u32, u32) {
+    let (col, row) = (slot as u32 % COLUMNS, slot as u32 / COLUMNS);
+    (col * (slot_w + GAP), row * (row_h + GAP))
+}
+
 /// The font of the frame numbers under tiles `w` pixels wide.
 fn label_font(w: u32) -> plotters::style::FontDesc<'static> {
     use plotters::prelude::*;
@@ -232,16 +235,10 @@ fn label_frames(
     let root = BitMapBackend::with_buffer(sheet, size).into_drawing_area();
     let font = label_font(w).color(&BLACK);
     for (slot, frame) in frames.iter().enumerate() {
-        let (x, y) = (
-            slot as u32 % COLUMNS * (slot_w + GAP),
-            slot as u32 / COLUMNS * (h + LABEL + GAP) + h + 3,
-        );
-        root.draw(&Text::new(
-            format!("{frame}"),
-            (x as i32 + 2, y as i32),
-            font.clone(),
-        ))
-        .map_err(super::chart::draw_error(path))?;
+        let (x, y) = tile(slot, slot_w, h + LABEL);
+        let at = (x as i32 + 2, (y + h + 3) as i32);
+        root.draw(&Text::new(format!("{frame}"), at, font.clone()))
+            .map_err(super::chart::draw_error(path))?;
     }
     root.present().map_err(super::chart::draw_error(path))
 }

@@ -90,28 +90,16 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         Ok(())
     })?;
     for d in &differ {
-        writeln!(
-            out,
-            "{}",
-            line(d, pixel_diffs.get(&d.frame), &a.golden, total)
-        )
-        .map_err(Error::stdout)?;
+        let line = line(d, pixel_diffs.get(&d.frame), &a.golden, total);
+        writeln!(out, "{line}").map_err(Error::stdout)?;
     }
+    let (listed, file) = (golden.hashes.len(), a.golden.display());
     let summary = if differ.is_empty() {
-        format!(
-            "{} frame(s) match {}",
-            golden.hashes.len(),
-            a.golden.display()
-        )
+        format!("{listed} frame(s) match {file}")
     } else {
         let frames: Vec<u64> = differ.iter().map(|d| d.frame).collect();
-        format!(
-            "{} of {} frame(s) differ from {}: {}",
-            differ.len(),
-            golden.hashes.len(),
-            a.golden.display(),
-            list_frames(&frames)
-        )
+        let (n, shown) = (differ.len(), list_frames(&frames));
+        format!("{n} of {listed} frame(s) differ from {file}: {shown}")
     };
     writeln!(out, "{summary}").map_err(Error::stdout)?;
     if let Some(note) = unchecked(&golden, total) {
