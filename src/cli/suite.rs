@@ -111,10 +111,8 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     }
     let shots = shots(&a.dir)?;
     if shots.is_empty() {
-        return Err(CliError::Usage(format!(
-            "{} holds no *.ron shot",
-            a.dir.display()
-        )));
+        let message = format!("{} holds no *.ron shot", a.dir.display());
+        return Err(CliError::Usage(message));
     }
     let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
     // The review folder is this run's until it ends.
