@@ -50,8 +50,8 @@ pub fn run(a: PreviewArgs, out: &mut dyn std::io::Write) -> Result<()> {
     // run at a time.
     crate::output::check(&dir, Use::Frames).map_err(|r| CliError::refused("--out", &dir, &r))?;
     let _lock = super::progress::lock_whole(&dir, false)?;
-    let (png, gif) = write(&doc, &dir, width, count, true)?;
-    let gif = gif.expect("asked for the GIF");
+    let png = write(&doc, &dir, width, count, true)?;
+    let gif = dir.join(crate::output::pictures::GIF);
     writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?;
     Ok(())
 }
@@ -96,15 +96,9 @@ pub fn check(doc: &Document, width: u32, count: u64) -> Result<()> {
 }
 
 /// Writes `dir/preview.png` (a sheet of `count` frames) and, with `gif`, `dir/preview.gif`
-/// (at most [`GIF_FRAMES`] frames, evenly spaced); returns the paths. Only the frames shown are
+/// (at most [`GIF_FRAMES`] frames, evenly spaced); returns the sheet's path. Only the frames shown are
 /// rendered. The caller holds the folder's lock; `width` and `count` are as [`check`] takes them.
-pub fn write(
-    doc: &Document,
-    dir: &Path,
-    width: u32,
-    count: u64,
-    gif: bool,
-) -> Result<(PathBuf, Option<PathBuf>)> {
+pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> Result<PathBuf> {
     check(doc, width, count)?;
     let frames = doc.animation.frames;
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
@@ -185,13 +179,11 @@ pub fn write(
         &png,
     )?;
     write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
-    if !gif {
-        return Ok((png, None));
+    if gif {
+        // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
+        crate::output::write_atomic(&gif_path, &bytes)?;
     }
-    // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
-    let gif = gif_path;
-    crate::output::write_atomic(&gif, &bytes)?;
-    Ok((png, Some(gif)))
+    Ok(png)
 }
 
 /// The top-left pixel of the sheet's tile `slot`, of slots `slot_w` wide and rows `row_h` high.

@@ -56,6 +56,13 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     // The render folder the frames go into first.
     let frames_dir = &default_out_dir(file);
     let (quiet, no_wait) = (a.quiet.on, a.no_wait.on);
+    let (ext, what) = match a.lossless {
+        true => ("mkv", "--lossless writes FFV1 in Matroska"),
+        false => (
+            "mp4",
+            "the video is H.264 in MP4 (--lossless: FFV1 in .mkv)",
+        ),
+    };
     // Before anything else: a video name that says the container, and is not a folder.
     if let Some(video) = &a.out {
         if video.is_dir() {
@@ -67,13 +74,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         if let Err(r) = crate::output::golden_of(folder_of(video)) {
             return Err(CliError::refused("--out", video, &r));
         }
-        if a.lossless {
-            let what = "--lossless writes FFV1 in Matroska";
-            super::args::check_extension("--out", video, &["mkv"], what)?;
-        } else {
-            let what = "the video is H.264 in MP4 (--lossless: FFV1 in .mkv)";
-            super::args::check_extension("--out", video, &["mp4"], what)?;
-        }
+        super::args::check_extension("--out", video, &[ext], what)?;
     }
     let doc = Document::load(file)?;
     // Matroska stamps frames in milliseconds: above 1000 fps two frames would share a time.
@@ -85,7 +86,6 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
             doc.animation.fps
         )));
     }
-    let ext = if a.lossless { "mkv" } else { "mp4" };
     let own = video_path(frames_dir, file, ext);
     let video = a.out.clone().unwrap_or_else(|| own.clone());
     // In the frames folder a video has the file's name, the one a run that changes the frames
