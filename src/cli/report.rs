@@ -274,8 +274,10 @@ pub fn renderer_table(rows: &[Measured]) -> String {
     t.markdown()
 }
 
-/// Whole decades around `lo..hi` (positive), as exponents.
-fn decades(lo: f64, hi: f64) -> (f64, f64) {
+/// Whole decades around the positive values `vs`, as exponents.
+fn decades(vs: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let lo = vs.clone().fold(f64::INFINITY, f64::min);
+    let hi = vs.fold(f64::NEG_INFINITY, f64::max);
     let (a, b) = (libm::floor(libm::log10(lo)), libm::ceil(libm::log10(hi)));
     (a, if b > a { b } else { a + 1.0 })
 }
@@ -302,17 +304,8 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             libm::log10(r.rmse_levels.max(FLOOR)),
         )
     };
-    let span = |v: fn(&Measured) -> f64| {
-        let (lo, hi) = rows
-            .iter()
-            .map(v)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            });
-        decades(lo, hi)
-    };
-    let (x0, x1) = span(|r| r.secs * 1e3);
-    let (y0, y1) = span(|r| r.rmse_levels.max(FLOOR));
+    let (x0, x1) = decades(rows.iter().map(|r| r.secs * 1e3));
+    let (y0, y1) = decades(rows.iter().map(|r| r.rmse_levels.max(FLOOR)));
     draw_png(path, (900, 600), |root| {
         let mut chart = ChartBuilder::on(&root)
             .caption(
@@ -496,9 +489,8 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
             .map(|w| (w[1] - w[0]).length())
             .collect();
         let mean = steps.iter().sum::<f64>() / steps.len().max(1) as f64;
-        let (lo, hi) = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
-            (lo.min(*s), hi.max(*s))
-        });
+        let lo = steps.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = steps.iter().copied().fold(0.0, f64::max);
         PathRow {
             samples,
             build_us,

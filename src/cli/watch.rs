@@ -96,10 +96,7 @@ pub fn run(a: WatchArgs, out: &mut dyn Write) -> Result<()> {
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_millis() as u64);
     let run = started.max(last_run(dir).saturating_add(1));
-    let name = file
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
+    let name = file.file_name().unwrap_or_default().to_os_string();
     let page_path = dir.join(PAGE);
     write_atomic(&page_path, page(&name.to_string_lossy()))?;
 
