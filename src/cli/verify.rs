@@ -77,12 +77,8 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         let Some(dir) = &a.save_failures else {
             return Ok(());
         };
-        write_png(
-            &frame_path(dir, d.frame, total),
-            pixels,
-            size,
-            Compression::Fast,
-        )?;
+        let path = frame_path(dir, d.frame, total);
+        write_png(&path, pixels, size, Compression::Fast)?;
         if let Some((image, _)) = diff {
             let name = format!("frame_{:0w$}.diff.png", d.frame, w = pad_width(total));
             write_png(&dir.join(name), &image, size, Compression::Fast)?;
