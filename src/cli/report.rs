@@ -157,13 +157,8 @@ fn motion_report(
         ..doc.raster
     };
     let simd = Simd::detect();
-    let (_, reference) = timed(
-        &cameras(REFERENCE_TIME_SAMPLES)?,
-        &doc.scene,
-        raster,
-        simd,
-        0,
-    );
+    let exact = cameras(REFERENCE_TIME_SAMPLES)?;
+    let (_, reference) = timed(&exact, &doc.scene, raster, simd, 0);
     let mut rows = Vec::new();
     for n in [1, 2, 4, 8, 16] {
         let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);

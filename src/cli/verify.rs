@@ -146,16 +146,9 @@ fn pixels_changed(p: Option<&PixelDiff>) -> String {
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
     // The golden hash (verify compares only the frames its golden lists).
     let expected = d.expected.map_or_else(|| "none".into(), |h| h.to_string());
+    let (frame, golden, pixels) = (d.frame, golden.display(), pixels_changed(diff));
     match &d.actual {
-        None => format!(
-            "frame {}: in {} but the animation has only {total} frames",
-            d.frame,
-            golden.display()
-        ),
-        Some(got) => format!(
-            "frame {}: expected {expected}, got {got}{}",
-            d.frame,
-            pixels_changed(diff)
-        ),
+        None => format!("frame {frame}: in {golden} but the animation has only {total} frames"),
+        Some(got) => format!("frame {frame}: expected {expected}, got {got}{pixels}"),
     }
 }
