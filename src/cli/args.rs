@@ -104,9 +104,8 @@ impl FrameSpec {
             } else {
                 format!("{}..{}", range.start, range.end)
             };
-            return Err(CliError::Usage(format!(
-                "--frames {shown}: the animation has frames 0..{frames}"
-            )));
+            let message = format!("--frames {shown}: the animation has frames 0..{frames}");
+            return Err(CliError::Usage(message));
         }
         Ok(range)
     }
@@ -210,17 +209,6 @@ pub fn default_out_dir(file: &Path) -> PathBuf {
     Path::new("out").join(stem)
 }
 
-/// Refuses a path below a file: no folder can be made there.
-pub fn no_file_above(file: &Path) -> Result<()> {
-    match file.ancestors().skip(1).find(|p| p.is_file()) {
-        Some(above) => Err(CliError::Usage(format!(
-            "{} is a file, not a folder",
-            above.display()
-        ))),
-        None => Ok(()),
-    }
-}
-
 /// Refuses (exit 2, before any work) a report `path` given as `option` that exists and is not
 /// `what` campath wrote there, as `ours` tells from its bytes: a report never overwrites a shot,
 /// a golden or anything else.
@@ -240,9 +228,13 @@ pub fn report_target(
     )))
 }
 
-/// Creates the folder a file will be written into.
+/// Creates the folder a file will be written into, refusing a path below a file (no folder can
+/// be made there).
 pub fn create_parent(file: &Path) -> Result<()> {
-    no_file_above(file)?;
+    if let Some(above) = file.ancestors().skip(1).find(|p| p.is_file()) {
+        let message = format!("{} is a file, not a folder", above.display());
+        return Err(CliError::Usage(message));
+    }
     match file.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => {
             std::fs::create_dir_all(dir).map_err(|e| crate::Error::write(dir)(e).into())
@@ -272,10 +264,8 @@ pub fn check_extension(option: &str, file: &Path, allowed: &[&str], what: &str) 
 /// (and that the name is not a folder).
 pub fn check_writable(file: &Path) -> Result<()> {
     if file.is_dir() {
-        return Err(CliError::Usage(format!(
-            "{} is a folder: name the file to write",
-            file.display()
-        )));
+        let message = format!("{} is a folder: name the file to write", file.display());
+        return Err(CliError::Usage(message));
     }
     create_parent(file)?;
     // A file beside it, as it is written before it is renamed into place (removed on drop).

@@ -14,13 +14,8 @@ pub enum CliError {
     #[error("{0}")]
     Usage(String),
     /// An outside program is missing or failed (exit 3).
-    #[error("{tool}: {message}")]
-    Tool {
-        tool: &'static str,
-        /// The Debian package that provides it.
-        package: &'static str,
-        message: String,
-    },
+    #[error("{0}: {1}")]
+    Tool(&'static str, String),
     /// Stopped by Ctrl-C, what the run wrote removed (exit 130).
     #[error("{0}")]
     Stopped(String),
@@ -36,7 +31,7 @@ impl CliError {
         match self {
             CliError::Campath(e) if e.is_bad_input() => 2,
             CliError::Usage(_) => 2,
-            CliError::Tool { .. } => 3,
+            CliError::Tool(..) => 3,
             CliError::Stopped(_) => 130,
             _ => 1,
         }
@@ -78,15 +73,6 @@ impl CliError {
             named += &format!("{}: ", path.display());
         }
         CliError::Usage(format!("{named}{refusal}; nothing was written ({fix})"))
-    }
-
-    /// `tool` could not be started: missing, most likely.
-    pub fn missing(tool: &'static str, package: &'static str, cause: std::io::Error) -> CliError {
-        CliError::Tool {
-            tool,
-            package,
-            message: format!("cannot run it ({cause}); install the Debian package {package}"),
-        }
     }
 }
 

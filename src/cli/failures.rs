@@ -42,10 +42,20 @@ pub fn claim(
 }
 
 /// How a differing frame differs from its golden picture.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct PixelDiff {
     pub changed: u64,
     pub largest: u8,
+}
+
+impl std::fmt::Display for PixelDiff {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        let (changed, largest) = (self.changed, self.largest);
+        write!(
+            f,
+            "{changed} pixel(s) changed, largest difference {largest} level(s)"
+        )
+    }
 }
 
 /// Marks a changed pixel in a difference image; unchanged pixels are the golden frame at a
@@ -56,10 +66,7 @@ pub const CHANGED: [u8; 3] = [255, 0, 255];
 /// and the changed-pixel count and largest per-channel difference.
 pub fn difference(golden: &[u8], actual: &[u8]) -> (Vec<u8>, PixelDiff) {
     let mut image = Vec::with_capacity(golden.len());
-    let mut diff = PixelDiff {
-        changed: 0,
-        largest: 0,
-    };
+    let mut diff = PixelDiff::default();
     for (g, a) in golden.chunks_exact(3).zip(actual.chunks_exact(3)) {
         if g == a {
             image.extend(g.iter().map(|c| c / 3));

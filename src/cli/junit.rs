@@ -74,11 +74,8 @@ pub fn text(name: &str, suites: &[Suite]) -> String {
             );
         }
         for (case, failure) in &s.cases {
-            let _ = write!(
-                xml,
-                "    <testcase classname=\"{suite}\" name=\"{}\"",
-                escape(case)
-            );
+            let case = escape(case);
+            let _ = write!(xml, "    <testcase classname=\"{suite}\" name=\"{case}\"");
             match failure {
                 None => xml += "/>\n",
                 Some(message) => {

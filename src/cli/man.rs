@@ -102,13 +102,11 @@ pub fn write_pages(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
     std::fs::create_dir_all(dir).map_err(Error::write(dir))?;
     let mut cmd = super::Cli::command().disable_help_subcommand(true);
     cmd.build();
-    let mut written = Vec::new();
-    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
-        let path = Man::new(sub.clone())
-            .generate_to(dir)
-            .map_err(Error::write(dir))?;
-        written.push(path);
-    }
+    let pages = cmd.get_subcommands().filter(|s| !s.is_hide_set());
+    let pages = pages.map(|sub| Man::new(sub.clone()).generate_to(dir));
+    let mut written = pages
+        .collect::<std::io::Result<Vec<_>>>()
+        .map_err(Error::write(dir))?;
     let path = dir.join("campath.1");
     let mut text = Vec::new();
     page(&mut text)?;

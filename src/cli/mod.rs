@@ -98,13 +98,13 @@ enum Command {
     },
 }
 
-/// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
 /// When the process started (first called from `main`): the origin of first-frame latency.
 pub fn started() -> std::time::Instant {
     static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
     *START.get_or_init(std::time::Instant::now)
 }
 
+/// Runs the command. Ok(false) means it ran and found a difference (verify): exit 1.
 pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
     if let Some(Err(e)) = crate::render::Simd::from_env() {
         return Err(error::CliError::Usage(format!("CAMPATH_SIMD: {e}")));
@@ -185,9 +185,7 @@ fn option_error(e: clap::Error) -> ExitCode {
         // The benchmark against POV-Ray left the binary: say where it went.
         ErrorKind::InvalidSubcommand
             if e.get(ContextKind::InvalidSubcommand)
-                .map(|v| v.to_string())
-                .as_deref()
-                == Some("bench") =>
+                .is_some_and(|v| v.to_string() == "bench") =>
         {
             eprintln!(
                 "campath: error: `campath bench` is now a benchmark of campath's source tree: \

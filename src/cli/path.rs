@@ -62,11 +62,8 @@ pub fn path(a: PathArgs, out: &mut dyn Write) -> Result<()> {
         format,
         PathFormat::Gltf | PathFormat::Blender | PathFormat::Usd
     ) {
-        let f32_file = format != PathFormat::Usd;
-        if let Some(place) = f32_file
-            .then(|| crate::export::past_f32(&doc, origin))
-            .flatten()
-        {
+        let past = (format != PathFormat::Usd).then(|| crate::export::past_f32(&doc, origin));
+        if let Some(place) = past.flatten() {
             return Err(CliError::Usage(format!(
                 "{place} lies past f32's range (±3.4e38){}, which {} keeps; nothing was written",
                 if origin == glam::DVec3::ZERO {

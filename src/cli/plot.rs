@@ -510,50 +510,38 @@ fn legend(
     } else {
         "view frustum at the first and last frame; heavy edges on the camera's right".to_string()
     };
-    // Each entry, when the file has it: its label and its mark about the entry's (0, 0).
-    let entries = [
-        (moves, String::from("VRP path"), line(BLUE)),
-        (
-            true,
-            start.into(),
-            Circle::new((10, 0), 6, START.filled()).into_dyn(),
-        ),
-        (
-            moves,
-            "end".into(),
-            Rectangle::new([(5, -5), (15, 5)], BLACK.filled()).into_dyn(),
-        ),
-        (
-            !marks.keys.is_empty(),
-            "Observer keyframes".into(),
-            Circle::new((10, 0), 5, RED.filled()).into_dyn(),
-        ),
-        (
-            !marks.targets.is_empty(),
-            "target points (TP)".into(),
-            Cross::new((10, 0), 6, GREEN.stroke_width(2)).into_dyn(),
-        ),
-        (
-            !moves,
-            format!("view direction every {every} frame(s)"),
-            line(GREY),
-        ),
-        (
-            true,
-            frustum,
-            PathElement::new(vec![(0, 5), (20, -5)], BLACK.stroke_width(2)).into_dyn(),
-        ),
-        (
-            !doc.scene.spheres.is_empty(),
-            "spheres, true size and colour".into(),
-            Circle::new((10, 0), 6, BLACK.mix(0.3).filled()).into_dyn(),
-        ),
-    ];
+    // Each entry the file has: its label and its mark about the entry's (0, 0).
+    let dot = |r, style: ShapeStyle| Circle::new((10, 0), r, style).into_dyn();
+    let mut entries = Vec::new();
+    if moves {
+        entries.push(("VRP path".to_string(), line(BLUE)));
+    }
+    entries.push((start.to_string(), dot(6, START.filled())));
+    if moves {
+        let end = Rectangle::new([(5, -5), (15, 5)], BLACK.filled()).into_dyn();
+        entries.push(("end".to_string(), end));
+    }
+    if !marks.keys.is_empty() {
+        entries.push(("Observer keyframes".to_string(), dot(5, RED.filled())));
+    }
+    if !marks.targets.is_empty() {
+        let cross = Cross::new((10, 0), 6, GREEN.stroke_width(2)).into_dyn();
+        entries.push(("target points (TP)".to_string(), cross));
+    }
+    if !moves {
+        entries.push((format!("view direction every {every} frame(s)"), line(GREY)));
+    }
+    let heavy = PathElement::new(vec![(0, 5), (20, -5)], BLACK.stroke_width(2)).into_dyn();
+    entries.push((frustum, heavy));
+    if !doc.scene.spheres.is_empty() {
+        let sphere = dot(6, BLACK.mix(0.3).filled());
+        entries.push(("spheres, true size and colour".to_string(), sphere));
+    }
     // Laid out left to right, wrapping to the next row; about 7 px per character.
     let font: TextStyle = ("sans-serif", 14).into();
     let (width, _) = strip.dim_in_pixel();
     let (mut x, mut y) = (20i32, 20i32);
-    for (_, label, mark) in entries.into_iter().filter(|e| e.0) {
+    for (label, mark) in entries {
         let entry_w = 30 + strip.estimate_text_size(&label, &font)?.0 as i32 + 28;
         if x + entry_w > width as i32 && x > 20 {
             (x, y) = (20, y + 26);

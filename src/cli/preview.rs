@@ -50,8 +50,8 @@ pub fn run(a: PreviewArgs, out: &mut dyn std::io::Write) -> Result<()> {
     // run at a time.
     crate::output::check(&dir, Use::Frames).map_err(|r| CliError::refused("--out", &dir, &r))?;
     let _lock = super::progress::lock_whole(&dir, false)?;
-    let (png, gif) = write(&doc, &dir, width, count, true)?;
-    let gif = gif.expect("asked for the GIF");
+    let png = write(&doc, &dir, width, count, true)?;
+    let gif = dir.join(crate::output::pictures::GIF);
     writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?;
     Ok(())
 }
@@ -96,15 +96,9 @@ pub fn check(doc: &Document, width: u32, count: u64) -> Result<()> {
 }
 
 /// Writes `dir/preview.png` (a sheet of `count` frames) and, with `gif`, `dir/preview.gif`
-/// (at most [`GIF_FRAMES`] frames, evenly spaced); returns the paths. Only the frames shown are
+/// (at most [`GIF_FRAMES`] frames, evenly spaced); returns the sheet's path. Only the frames shown are
 /// rendered. The caller holds the folder's lock; `width` and `count` are as [`check`] takes them.
-pub fn write(
-    doc: &Document,
-    dir: &Path,
-    width: u32,
-    count: u64,
-    gif: bool,
-) -> Result<(PathBuf, Option<PathBuf>)> {
+pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> Result<PathBuf> {
     check(doc, width, count)?;
     let frames = doc.animation.frames;
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
@@ -149,10 +143,7 @@ pub fn write(
         |frame| !(sheet_at.contains(&frame) || gif && frame % step == 0),
         |frame, _, pixels, _| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
-                let (cx, cy) = (
-                    slot as u32 % COLUMNS * (slot_w + GAP),
-                    slot as u32 / COLUMNS * (row_h + GAP),
-                );
+                let (cx, cy) = tile(slot, slot_w, row_h);
                 for y in 0..h {
                     let src = (y * w * 3) as usize;
                     let dst = (((cy + y) * sheet_w + cx) * 3) as usize;
@@ -188,13 +179,17 @@ pub fn write(
         &png,
     )?;
     write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
-    if !gif {
-        return Ok((png, None));
+    if gif {
+        // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
+        crate::output::write_atomic(&gif_path, &bytes)?;
     }
-    // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
-    let gif = gif_path;
-    crate::output::write_atomic(&gif, &bytes)?;
-    Ok((png, Some(gif)))
+    Ok(png)
+}
+
+/// The top-left pixel of the sheet's tile `slot`, of slots `slot_w` wide and rows `row_h` high.
+fn tile(slot: usize, slot_w: u32, row_h: u32) -> (u32, u32) {
+    let (col, row) = (slot as u32 % COLUMNS, slot as u32 / COLUMNS);
+    (col * (slot_w + GAP), row * (row_h + GAP))
 }
 
 /// The font of the frame numbers under tiles `w` pixels wide.
@@ -232,16 +227,10 @@ fn label_frames(
     let root = BitMapBackend::with_buffer(sheet, size).into_drawing_area();
     let font = label_font(w).color(&BLACK);
     for (slot, frame) in frames.iter().enumerate() {
-        let (x, y) = (
-            slot as u32 % COLUMNS * (slot_w + GAP),
-            slot as u32 / COLUMNS * (h + LABEL + GAP) + h + 3,
-        );
-        root.draw(&Text::new(
-            format!("{frame}"),
-            (x as i32 + 2, y as i32),
-            font.clone(),
-        ))
-        .map_err(super::chart::draw_error(path))?;
+        let (x, y) = tile(slot, slot_w, h + LABEL);
+        let at = (x as i32 + 2, (y + h + 3) as i32);
+        root.draw(&Text::new(format!("{frame}"), at, font.clone()))
+            .map_err(super::chart::draw_error(path))?;
     }
     root.present().map_err(super::chart::draw_error(path))
 }

@@ -34,17 +34,6 @@ pub struct Lines {
     every: std::time::Duration,
 }
 
-/// Seconds between progress lines off a terminal: `CAMPATH_PROGRESS_SECS`, 5 by default (0:
-/// a line per frame).
-fn progress_interval() -> std::time::Duration {
-    let secs = std::env::var("CAMPATH_PROGRESS_SECS")
-        .ok()
-        .and_then(|s| s.parse::<f64>().ok())
-        .filter(|s| s.is_finite() && *s >= 0.0)
-        .unwrap_or(5.0);
-    std::time::Duration::from_secs_f64(secs)
-}
-
 impl Lines {
     fn line(&self) -> String {
         let secs = self.began.elapsed().as_secs_f64();
@@ -92,6 +81,12 @@ impl Progress {
             }
             Progress::Lines(lines) => {
                 eprintln!("{} frame(s) to {verb}, {kept} kept", frames - kept);
+                // Seconds between lines: `CAMPATH_PROGRESS_SECS`, 5 by default (0: every frame).
+                let secs = std::env::var("CAMPATH_PROGRESS_SECS")
+                    .ok()
+                    .and_then(|s| s.parse::<f64>().ok())
+                    .filter(|s| s.is_finite() && *s >= 0.0)
+                    .unwrap_or(5.0);
                 let now = std::time::Instant::now();
                 *lines = Some(Lines {
                     verb: verb.to_string(),
@@ -100,7 +95,7 @@ impl Progress {
                     to_do: frames - kept,
                     began: now,
                     last: now,
-                    every: progress_interval(),
+                    every: std::time::Duration::from_secs_f64(secs),
                 });
             }
             Progress::Quiet => {}
@@ -137,11 +132,8 @@ pub fn ctrl_c_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>> {
     use std::sync::atomic::{AtomicBool, Ordering};
     let stop = std::sync::Arc::new(AtomicBool::new(false));
     let flag = std::sync::Arc::clone(&stop);
-    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).map_err(|e| CliError::Tool {
-        tool: "ctrlc",
-        package: "campath",
-        message: format!("cannot catch Ctrl-C: {e}"),
-    })?;
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+        .map_err(|e| CliError::Tool("ctrlc", format!("cannot catch Ctrl-C: {e}")))?;
     Ok(stop)
 }
 

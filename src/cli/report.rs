@@ -103,19 +103,15 @@ fn timed(
     let mut r = Renderer::with_simd(simd).unwrap_or_default();
     // Indexed once, as a render of many frames does.
     let index = SceneIndex::new(scene);
-    let mut pixels = Vec::new();
-    let mut render = |pixels: &mut Vec<u8>| {
-        r.prepare_times(cameras, &index, raster)
-            .render_into(pixels, &mut |_| {})
+    let mut render = || {
+        let mut pixels = Vec::new();
+        let frame = r.prepare_times(cameras, &index, raster);
+        frame.render_into(&mut pixels, &mut |_| {});
+        pixels
     };
-    render(&mut pixels);
-    let mut secs = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        let t = Instant::now();
-        render(&mut pixels);
-        secs.push(t.elapsed().as_secs_f64());
-    }
-    (median(&secs), pixels)
+    let warm = render();
+    let (secs, last) = median_time(runs, render);
+    (secs, last.unwrap_or(warm))
 }
 
 /// The motion rows' frame: `frame` if the camera moves during its shutter (at the reference's
@@ -161,13 +157,8 @@ fn motion_report(
         ..doc.raster
     };
     let simd = Simd::detect();
-    let (_, reference) = timed(
-        &cameras(REFERENCE_TIME_SAMPLES)?,
-        &doc.scene,
-        raster,
-        simd,
-        0,
-    );
+    let exact = cameras(REFERENCE_TIME_SAMPLES)?;
+    let (_, reference) = timed(&exact, &doc.scene, raster, simd, 0);
     let mut rows = Vec::new();
     for n in [1, 2, 4, 8, 16] {
         let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);
@@ -278,8 +269,10 @@ pub fn renderer_table(rows: &[Measured]) -> String {
     t.markdown()
 }
 
-/// Whole decades around `lo..hi` (positive), as exponents.
-fn decades(lo: f64, hi: f64) -> (f64, f64) {
+/// Whole decades around the positive values `vs`, as exponents.
+fn decades(vs: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let lo = vs.clone().fold(f64::INFINITY, f64::min);
+    let hi = vs.fold(f64::NEG_INFINITY, f64::max);
     let (a, b) = (libm::floor(libm::log10(lo)), libm::ceil(libm::log10(hi)));
     (a, if b > a { b } else { a + 1.0 })
 }
@@ -306,17 +299,8 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             libm::log10(r.rmse_levels.max(FLOOR)),
         )
     };
-    let span = |v: fn(&Measured) -> f64| {
-        let (lo, hi) = rows
-            .iter()
-            .map(v)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            });
-        decades(lo, hi)
-    };
-    let (x0, x1) = span(|r| r.secs * 1e3);
-    let (y0, y1) = span(|r| r.rmse_levels.max(FLOOR));
+    let (x0, x1) = decades(rows.iter().map(|r| r.secs * 1e3));
+    let (y0, y1) = decades(rows.iter().map(|r| r.rmse_levels.max(FLOOR)));
     draw_png(path, (900, 600), |root| {
         let mut chart = ChartBuilder::on(&root)
             .caption(
@@ -391,8 +375,9 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
                     || rect.y < ys.start
                     || rect.y + h > ys.end;
                 let labels = placed.iter().filter(|o| o.overlaps(&rect)).count();
-                let grown = rect.grown(6);
-                let marks = markers.iter().filter(|m| grown.contains(**m)).count();
+                let (x, y) = (rect.x - 6..rect.x + w + 6, rect.y - 6..rect.y + h + 6);
+                let near = |m: &&(i32, i32)| x.contains(&m.0) && y.contains(&m.1);
+                let marks = markers.iter().filter(near).count();
                 let lines = segments.iter().filter(|(a, b)| rect.meets(*a, *b)).count();
                 usize::from(outside) * 100 + labels * 10 + marks * 10 + lines
             };
@@ -438,15 +423,6 @@ impl LabelBox {
 
     fn contains(&self, (x, y): (i32, i32)) -> bool {
         (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
-    }
-
-    fn grown(&self, by: i32) -> LabelBox {
-        LabelBox {
-            x: self.x - by,
-            y: self.y - by,
-            w: self.w + 2 * by,
-            h: self.h + 2 * by,
-        }
     }
 
     /// Whether the segment from `a` to `b` passes through the box (sampled every pixel or so).
@@ -496,7 +472,8 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
     let reference = UniformSpeed::new(track.clone(), PATH_REFERENCE_SAMPLES);
     let exact: Vec<_> = times.iter().map(|t| reference.sample(*t)).collect();
     let measure = |path: &PathTrack, build_us: f64, samples: u32| {
-        let (secs, positions) = five(|| times.iter().map(|t| path.sample(*t)).collect::<Vec<_>>());
+        let (secs, positions) = median_time(5, || times.iter().map(|t| path.sample(*t)).collect());
+        let positions: Vec<_> = positions.expect("five runs");
         let max_error = positions
             .iter()
             .zip(&exact)
@@ -507,9 +484,8 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
             .map(|w| (w[1] - w[0]).length())
             .collect();
         let mean = steps.iter().sum::<f64>() / steps.len().max(1) as f64;
-        let (lo, hi) = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
-            (lo.min(*s), hi.max(*s))
-        });
+        let lo = steps.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = steps.iter().copied().fold(0.0, f64::max);
         PathRow {
             samples,
             build_us,
@@ -521,22 +497,23 @@ pub fn path_report(doc: &Document) -> Option<Vec<PathRow>> {
     let mut rows = vec![measure(&PathTrack::Keyed(track.clone()), 0.0, 0)];
     rows[0].max_error = f64::NAN;
     for samples in [2, 4, 16, 64, 256, 1024] {
-        let (secs, table) = five(|| UniformSpeed::new(track.clone(), samples));
-        rows.push(measure(&PathTrack::Uniform(table), secs * 1e6, samples));
+        let (secs, table) = median_time(5, || UniformSpeed::new(track.clone(), samples));
+        let table = PathTrack::Uniform(table.expect("five runs"));
+        rows.push(measure(&table, secs * 1e6, samples));
     }
     Some(rows)
 }
 
-/// Five timed runs of `f`: their median seconds, and the last run's result.
-fn five<T>(mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut secs = Vec::new();
+/// The median seconds of `runs` runs of `f`, and the last run's result.
+fn median_time<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, Option<T>) {
+    let mut secs = Vec::with_capacity(runs);
     let mut last = None;
-    for _ in 0..5 {
+    for _ in 0..runs {
         let start = Instant::now();
         last = Some(f());
         secs.push(start.elapsed().as_secs_f64());
     }
-    (median(&secs), last.expect("five runs"))
+    (median(&secs), last)
 }
 
 /// The camera path table as Markdown.

@@ -117,12 +117,8 @@ pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> 
         html += "<p class=\"passed\">Every shot matches its golden.</p>\n";
     }
     for shot in shots {
-        let _ = writeln!(
-            html,
-            "<h2>{}</h2><p>{}</p>",
-            escape(&shot.shot),
-            escape(&shot.summary)
-        );
+        let (name, summary) = (escape(&shot.shot), escape(&shot.summary));
+        let _ = writeln!(html, "<h2>{name}</h2><p>{summary}</p>");
         for f in &shot.frames {
             frame(&mut html, f);
         }
@@ -135,17 +131,10 @@ pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> 
 
 fn frame(html: &mut String, f: &ReviewFrame) {
     let hash = |h: &Option<FrameHash>| h.map_or_else(|| "none".to_string(), |h| h.to_string());
-    let _ = write!(
-        html,
-        "<div class=\"frame\" id=\"frame-{}\"><h3>frame {}",
-        f.frame, f.frame
-    );
+    let n = f.frame;
+    let _ = write!(html, "<div class=\"frame\" id=\"frame-{n}\"><h3>frame {n}");
     if let Some(p) = &f.pixels {
-        let _ = write!(
-            html,
-            ": {} pixel(s) changed, largest difference {} level(s)",
-            p.changed, p.largest
-        );
+        let _ = write!(html, ": {p}");
     }
     let _ = write!(
         html,
@@ -160,8 +149,7 @@ fn frame(html: &mut String, f: &ReviewFrame) {
                 "<figure><div class=\"compare\" data-split=\"50\"><img class=\"golden\" src=\"{g}\" alt=\"golden frame {n}\"><img class=\"new\" src=\"{new}\" alt=\"new frame {n}\"></div>\
                  <figcaption>golden | new: <span class=\"controls\"><input class=\"slide\" type=\"range\" min=\"0\" max=\"100\" value=\"50\" aria-label=\"golden or new\"><button class=\"flip\">flip</button></span></figcaption></figure>",
                 g = escape(golden),
-                new = escape(new),
-                n = f.frame
+                new = escape(new)
             );
         }
         (None, Some(new)) => {
@@ -172,9 +160,8 @@ fn frame(html: &mut String, f: &ReviewFrame) {
             };
             let _ = write!(
                 html,
-                "<figure><img class=\"new\" src=\"{}\" alt=\"new frame {}\"><figcaption>new ({why})</figcaption></figure>",
-                escape(new),
-                f.frame
+                "<figure><img class=\"new\" src=\"{}\" alt=\"new frame {n}\"><figcaption>new ({why})</figcaption></figure>",
+                escape(new)
             );
         }
         _ => html.push_str("<p>in the golden, but the animation no longer has this frame</p>"),
@@ -182,9 +169,8 @@ fn frame(html: &mut String, f: &ReviewFrame) {
     if let Some(diff) = &f.diff {
         let _ = write!(
             html,
-            "<figure><img class=\"diff\" src=\"{}\" alt=\"difference, frame {}\"><figcaption>changed pixels in magenta over the dimmed golden frame</figcaption></figure>",
-            escape(diff),
-            f.frame
+            "<figure><img class=\"diff\" src=\"{}\" alt=\"difference, frame {n}\"><figcaption>changed pixels in magenta over the dimmed golden frame</figcaption></figure>",
+            escape(diff)
         );
     }
     html.push_str("</div></div>\n");

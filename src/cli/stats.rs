@@ -89,10 +89,8 @@ pub fn peak_memory_mb() -> Option<f64> {
 /// One line for people, e.g. `rendered 96 frame(s) of 640×360 to out/x in …`: frames, wall
 /// time, median render time, held frames and peak memory. `detail` follows the frame count.
 pub fn timing_line(verb: &str, detail: &str, t: &Timing) -> String {
-    let mut line = format!(
-        "{verb} {} frame(s){detail} in {:.2} s",
-        t.frames, t.wall_secs
-    );
+    let (frames, secs) = (t.frames, t.wall_secs);
+    let mut line = format!("{verb} {frames} frame(s){detail} in {secs:.2} s");
     let mut notes = Vec::new();
     if t.frames > 0 {
         notes.push(format!(

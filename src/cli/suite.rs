@@ -57,8 +57,7 @@ pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
         for e in entries.flatten() {
             let path = e.path();
             let name = e.file_name().to_string_lossy().into_owned();
-            let is_dir = std::fs::metadata(&path).is_ok_and(|m| m.is_dir());
-            if is_dir {
+            if path.is_dir() {
                 if !name.starts_with('.') && !name.ends_with(".golden") {
                     folders.push(path);
                 }
@@ -111,10 +110,8 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     }
     let shots = shots(&a.dir)?;
     if shots.is_empty() {
-        return Err(CliError::Usage(format!(
-            "{} holds no *.ron shot",
-            a.dir.display()
-        )));
+        let message = format!("{} holds no *.ron shot", a.dir.display());
+        return Err(CliError::Usage(message));
     }
     let goldens: Vec<PathBuf> = shots.iter().map(|s| golden_dir(s)).collect();
     // The review folder is this run's until it ends.
@@ -260,10 +257,10 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
             write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
             let mut f = ReviewFrame::of(d);
             f.new = Some(new);
-            if let Some(golden) = golden_frames
+            let golden = golden_frames
                 .get(&d.frame)
-                .and_then(|p| golden_pixels(p, size))
-            {
+                .and_then(|p| golden_pixels(p, size));
+            if let Some(golden) = golden {
                 let (image, p) = difference(&golden, pixels);
                 let (g, dname) = (name("golden"), name("diff"));
                 write_png(&dir.join(&g), &golden, size, Compression::Fast)?;

@@ -46,12 +46,8 @@ pub struct RenderArgs {
 /// `render`'s summary: the timing line, the frames kept, why the others were rendered, and the
 /// stale files removed.
 fn render_line(doc: &Document, dir: &Path, s: &RenderSummary) -> String {
-    let detail = format!(
-        " of {}×{} to {}",
-        doc.raster.width,
-        doc.raster.height,
-        dir.display()
-    );
+    let (w, h) = (doc.raster.width, doc.raster.height);
+    let detail = format!(" of {w}×{h} to {}", dir.display());
     let mut line = timing_line("rendered", &detail, &s.timing);
     line += &format!("; {} kept (unchanged and complete on disk)", s.kept);
     let r = s.reasons;
@@ -115,21 +111,18 @@ pub fn render(a: RenderArgs, out: &mut dyn Write) -> Result<()> {
 pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
     // Merge writes into a folder of shard renders; it makes none.
     if !dir.is_dir() {
-        return Err(CliError::Usage(format!(
-            "{}: no such folder of shard renders",
-            dir.display()
-        )));
+        let message = format!("{}: no such folder of shard renders", dir.display());
+        return Err(CliError::Usage(message));
     }
     // As render: a golden or a folder of other files is refused before the lock is taken.
     crate::output::check(dir, Use::Frames).map_err(|r| CliError::refused("DIR", dir, &r))?;
     let lock = super::progress::lock_whole(dir, no_wait)?;
     let frames = sequence::merge(&lock)?;
-    writeln!(
-        out,
+    let merged = format!(
         "merged {frames} frame(s) into {}",
         dir.join(HASHES).display()
-    )
-    .map_err(Error::stdout)?;
+    );
+    writeln!(out, "{merged}").map_err(Error::stdout)?;
     Ok(())
 }
 

@@ -77,12 +77,8 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         let Some(dir) = &a.save_failures else {
             return Ok(());
         };
-        write_png(
-            &frame_path(dir, d.frame, total),
-            pixels,
-            size,
-            Compression::Fast,
-        )?;
+        let path = frame_path(dir, d.frame, total);
+        write_png(&path, pixels, size, Compression::Fast)?;
         if let Some((image, _)) = diff {
             let name = format!("frame_{:0w$}.diff.png", d.frame, w = pad_width(total));
             write_png(&dir.join(name), &image, size, Compression::Fast)?;
@@ -90,28 +86,16 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         Ok(())
     })?;
     for d in &differ {
-        writeln!(
-            out,
-            "{}",
-            line(d, pixel_diffs.get(&d.frame), &a.golden, total)
-        )
-        .map_err(Error::stdout)?;
+        let line = line(d, pixel_diffs.get(&d.frame), &a.golden, total);
+        writeln!(out, "{line}").map_err(Error::stdout)?;
     }
+    let (listed, file) = (golden.hashes.len(), a.golden.display());
     let summary = if differ.is_empty() {
-        format!(
-            "{} frame(s) match {}",
-            golden.hashes.len(),
-            a.golden.display()
-        )
+        format!("{listed} frame(s) match {file}")
     } else {
         let frames: Vec<u64> = differ.iter().map(|d| d.frame).collect();
-        format!(
-            "{} of {} frame(s) differ from {}: {}",
-            differ.len(),
-            golden.hashes.len(),
-            a.golden.display(),
-            list_frames(&frames)
-        )
+        let (n, shown) = (differ.len(), list_frames(&frames));
+        format!("{n} of {listed} frame(s) differ from {file}: {shown}")
     };
     writeln!(out, "{summary}").map_err(Error::stdout)?;
     if let Some(note) = unchecked(&golden, total) {
@@ -156,27 +140,15 @@ fn unchecked(golden: &Golden, total: u64) -> Option<String> {
 
 /// What a differing frame's pixels changed, after its hashes: empty without a golden picture.
 fn pixels_changed(p: Option<&PixelDiff>) -> String {
-    p.map_or_else(String::new, |p| {
-        format!(
-            ": {} pixel(s) changed, largest difference {} level(s)",
-            p.changed, p.largest
-        )
-    })
+    p.map_or_else(String::new, |p| format!(": {p}"))
 }
 
 fn line(d: &Difference, diff: Option<&PixelDiff>, golden: &Path, total: u64) -> String {
     // The golden hash (verify compares only the frames its golden lists).
     let expected = d.expected.map_or_else(|| "none".into(), |h| h.to_string());
+    let (frame, golden, pixels) = (d.frame, golden.display(), pixels_changed(diff));
     match &d.actual {
-        None => format!(
-            "frame {}: in {} but the animation has only {total} frames",
-            d.frame,
-            golden.display()
-        ),
-        Some(got) => format!(
-            "frame {}: expected {expected}, got {got}{}",
-            d.frame,
-            pixels_changed(diff)
-        ),
+        None => format!("frame {frame}: in {golden} but the animation has only {total} frames"),
+        Some(got) => format!("frame {frame}: expected {expected}, got {got}{pixels}"),
     }
 }

@@ -44,8 +44,10 @@ pub struct VideoArgs {
     pub no_wait: NoWait,
 }
 
+/// ffmpeg could not be started: missing, most likely.
 fn ffmpeg_missing(e: std::io::Error) -> CliError {
-    CliError::missing("ffmpeg", "ffmpeg", e)
+    let message = format!("cannot run it ({e}); install the Debian package ffmpeg");
+    CliError::Tool("ffmpeg", message)
 }
 
 pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
@@ -54,6 +56,13 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     // The render folder the frames go into first.
     let frames_dir = &default_out_dir(file);
     let (quiet, no_wait) = (a.quiet.on, a.no_wait.on);
+    let (ext, what) = match a.lossless {
+        true => ("mkv", "--lossless writes FFV1 in Matroska"),
+        false => (
+            "mp4",
+            "the video is H.264 in MP4 (--lossless: FFV1 in .mkv)",
+        ),
+    };
     // Before anything else: a video name that says the container, and is not a folder.
     if let Some(video) = &a.out {
         if video.is_dir() {
@@ -65,13 +74,7 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         if let Err(r) = crate::output::golden_of(folder_of(video)) {
             return Err(CliError::refused("--out", video, &r));
         }
-        if a.lossless {
-            let what = "--lossless writes FFV1 in Matroska";
-            super::args::check_extension("--out", video, &["mkv"], what)?;
-        } else {
-            let what = "the video is H.264 in MP4 (--lossless: FFV1 in .mkv)";
-            super::args::check_extension("--out", video, &["mp4"], what)?;
-        }
+        super::args::check_extension("--out", video, &[ext], what)?;
     }
     let doc = Document::load(file)?;
     // Matroska stamps frames in milliseconds: above 1000 fps two frames would share a time.
@@ -83,7 +86,6 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
             doc.animation.fps
         )));
     }
-    let ext = if a.lossless { "mkv" } else { "mp4" };
     let own = video_path(frames_dir, file, ext);
     let video = a.out.clone().unwrap_or_else(|| own.clone());
     // In the frames folder a video has the file's name, the one a run that changes the frames
@@ -174,7 +176,12 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         )));
     }
     // ffmpeg's own failure explains a pipe it stopped reading.
-    encoder_status(&result).and(fed)?;
+    if !result.status.success() {
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        let message = format!("failed ({}): {}", result.status, stderr.trim());
+        return Err(CliError::Tool("ffmpeg", message));
+    }
+    fed?;
     tmp.persist(&video)
         .map_err(|e| Error::write(&video)(e.error))?;
     if !quiet {
@@ -278,30 +285,12 @@ fn feed(
         }
         if let Err(e) = stdin.write_all(&pixels) {
             // ffmpeg stopped reading: its own message says why.
-            return Err(CliError::Tool {
-                tool: "ffmpeg",
-                package: "ffmpeg",
-                message: format!("stopped reading frames at frame {frame} ({e})"),
-            });
+            let message = format!("stopped reading frames at frame {frame} ({e})");
+            return Err(CliError::Tool("ffmpeg", message));
         }
         progress.event(Event::Written(frame));
     }
     Ok(())
-}
-
-fn encoder_status(result: &std::process::Output) -> Result<()> {
-    if result.status.success() {
-        return Ok(());
-    }
-    Err(CliError::Tool {
-        tool: "ffmpeg",
-        package: "ffmpeg",
-        message: format!(
-            "failed ({}): {}",
-            result.status,
-            String::from_utf8_lossy(&result.stderr).trim()
-        ),
-    })
 }
 
 #[cfg(test)]

@@ -96,10 +96,7 @@ pub fn run(a: WatchArgs, out: &mut dyn Write) -> Result<()> {
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_millis() as u64);
     let run = started.max(last_run(dir).saturating_add(1));
-    let name = file
-        .file_name()
-        .map(|n| n.to_os_string())
-        .unwrap_or_default();
+    let name = file.file_name().unwrap_or_default().to_os_string();
     let page_path = dir.join(PAGE);
     write_atomic(&page_path, page(&name.to_string_lossy()))?;
 
@@ -219,11 +216,7 @@ fn identity(m: &std::fs::Metadata) -> [i128; 2] {
 }
 
 fn watch_error(file: &Path, e: notify::Error) -> CliError {
-    CliError::Tool {
-        tool: "notify",
-        package: "campath",
-        message: format!("cannot watch {}: {e}", file.display()),
-    }
+    CliError::Tool("notify", format!("cannot watch {}: {e}", file.display()))
 }
 
 /// How long a file that fails to load must stay as it is before its error is shown: an editor
