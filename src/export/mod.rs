@@ -39,6 +39,18 @@ pub enum PathFormat {
     Usd,
 }
 
+// `NAMES` is looked up by the variant's position: `ALL` lists the variants in their order.
+const _: () = {
+    let mut k = 0;
+    while k < PathFormat::ALL.len() {
+        assert!(
+            PathFormat::ALL[k] as usize == k,
+            "PathFormat::ALL in the variants' order"
+        );
+        k += 1;
+    }
+};
+
 impl PathFormat {
     /// Every format, in the order `--help` lists them.
     pub const ALL: [PathFormat; 6] = [
@@ -51,7 +63,7 @@ impl PathFormat {
     ];
 
     /// Each format's name on the command line and what it is called in messages, in the
-    /// order of [`PathFormat::ALL`].
+    /// order of [`PathFormat::ALL`], which is the variants' (looked up by position).
     const NAMES: [(&str, &str); 6] = [
         ("csv", "CSV"),
         ("json", "JSON"),

@@ -34,6 +34,15 @@ const SCALARS: [(Scalar, [&str; 2], usize); 8] = [
     (Scalar::F64, ["double", "float64"], 8),
 ];
 
+// The table is looked up by the variant's position.
+const _: () = {
+    let mut k = 0;
+    while k < SCALARS.len() {
+        assert!(SCALARS[k].0 as usize == k, "SCALARS in the order of Scalar");
+        k += 1;
+    }
+};
+
 impl Scalar {
     fn parse(name: &str) -> Option<Scalar> {
         SCALARS.iter().find(|s| s.1.contains(&name)).map(|s| s.0)
