@@ -23,7 +23,7 @@ use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 
-use super::{Refusal, LOCK as FILE_NAME};
+use super::{remove_if_there, Refusal, LOCK as FILE_NAME};
 use crate::error::{Error, Result};
 use crate::frames::Shard;
 
@@ -84,6 +84,7 @@ pub struct FolderLock {
 /// A run that holds `campath.lock`, as it recorded itself:
 /// `<pid>\t<claim>\t<host>\t<command line>`.
 struct Holder {
+    line: String,
     pid: u32,
     claim: String,
     host: String,
@@ -91,30 +92,15 @@ struct Holder {
 }
 
 impl Holder {
-    fn line(&self) -> String {
-        format!(
-            "{}\t{}\t{}\t{}",
-            self.pid, self.claim, self.host, self.command
-        )
-    }
-
     fn parse(line: &str) -> Option<Holder> {
         let mut cols = line.splitn(4, '\t');
         Some(Holder {
+            line: line.to_string(),
             pid: cols.next()?.parse().ok()?,
             claim: cols.next()?.to_string(),
             host: cols.next()?.to_string(),
             command: cols.next()?.to_string(),
         })
-    }
-
-    /// Whether the process still runs, where this host can tell (Linux's /proc, for a holder
-    /// on this host); any other recorded holder counts as running.
-    fn alive(&self) -> bool {
-        let proc = Path::new("/proc");
-        self.host != host()
-            || !proc.join("self").exists()
-            || proc.join(self.pid.to_string()).exists()
     }
 }
 
@@ -126,39 +112,36 @@ fn host() -> String {
         .unwrap_or_default()
 }
 
+/// This run's line in `campath.lock`.
 fn holder_line(claim: Claim) -> String {
     // A command line that is not UTF-8 is named as well as it can be.
     let command: Vec<String> = std::env::args_os()
         .map(|a| a.to_string_lossy().into_owned())
         .collect();
-    Holder {
-        pid: std::process::id(),
-        claim: claim.to_string(),
-        host: host(),
-        command: command.join(" "),
-    }
-    .line()
+    let (pid, host) = (std::process::id(), host());
+    format!("{pid}\t{claim}\t{host}\t{}", command.join(" "))
 }
 
 /// The live holders recorded in `campath.lock`, other than this process.
 fn holders(dir: &Path) -> Vec<Holder> {
     let text = std::fs::read_to_string(dir.join(FILE_NAME)).unwrap_or_default();
-    let here = host();
-    text.lines()
-        .filter_map(Holder::parse)
-        .filter(|h| !(h.pid == std::process::id() && h.host == here) && h.alive())
-        .collect()
+    let (here, proc) = (host(), Path::new("/proc"));
+    // Whether the process still runs, where this host can tell (Linux's /proc, for a holder on
+    // this host); any other recorded holder counts as running.
+    let alive = |h: &Holder| {
+        h.host != here || !proc.join("self").exists() || proc.join(h.pid.to_string()).exists()
+    };
+    let others = text.lines().filter_map(Holder::parse);
+    let others = others.filter(|h| !(h.pid == std::process::id() && h.host == here));
+    others.filter(alive).collect()
 }
 
 /// [`Error::Busy`] naming the live holders that `which` picks (all, if it picks none).
 fn busy(dir: &Path, which: impl Fn(&str) -> bool) -> Error {
-    let all = holders(dir);
-    let picked: Vec<&Holder> = all.iter().filter(|h| which(&h.claim)).collect();
-    let shown = if picked.is_empty() {
-        all.iter().collect()
-    } else {
-        picked
-    };
+    let mut shown = holders(dir);
+    if shown.iter().any(|h| which(&h.claim)) {
+        shown.retain(|h| which(&h.claim));
+    }
     Error::Busy {
         dir: dir.to_path_buf(),
         holders: shown
@@ -221,21 +204,16 @@ fn take(
 
 /// Replaces the holders recorded in `file` with the live ones `keep` picks, plus `own`.
 fn record(dir: &Path, mut file: &File, keep: bool, own: Option<&str>) -> Result<()> {
-    let mut text = String::new();
-    if keep {
-        for h in holders(dir) {
-            text += &h.line();
-            text.push('\n');
-        }
-    }
-    if let Some(own) = own {
-        text += own;
-        text.push('\n');
-    }
-    let path = dir.join(FILE_NAME);
-    file.set_len(0).map_err(Error::write(&path))?;
-    file.rewind().map_err(Error::write(&path))?;
-    file.write_all(text.as_bytes()).map_err(Error::write(&path))
+    let kept = if keep { holders(dir) } else { Vec::new() };
+    let lines = kept
+        .into_iter()
+        .map(|h| h.line)
+        .chain(own.map(str::to_string));
+    let text: String = lines.map(|l| l + "\n").collect();
+    file.set_len(0)
+        .and_then(|()| file.rewind())
+        .and_then(|()| file.write_all(text.as_bytes()))
+        .map_err(Error::write(dir.join(FILE_NAME)))
 }
 
 impl FolderLock {
@@ -254,17 +232,12 @@ impl FolderLock {
         let path = dir.join(FILE_NAME);
         let folder = open(&path)?;
         let own = holder_line(claim);
-        match claim {
+        let held = match claim {
             Claim::Whole => {
                 take(&folder, &path, false, &mut wait, || busy(dir, |_| true))?;
                 record(dir, &folder, false, Some(&own))?;
                 remove_shard_locks(dir)?;
-                Ok(FolderLock {
-                    dir: dir.to_path_buf(),
-                    claim,
-                    folder,
-                    held: Vec::new(),
-                })
+                Vec::new()
             }
             Claim::Shard(shard) => {
                 take(&folder, &path, true, &mut wait, || {
@@ -280,14 +253,15 @@ impl FolderLock {
                 take(&part, &part_path, false, &mut wait, || {
                     busy(dir, |c| c == mine)
                 })?;
-                Ok(FolderLock {
-                    dir: dir.to_path_buf(),
-                    claim,
-                    folder,
-                    held: vec![count, part],
-                })
+                vec![count, part]
             }
-        }
+        };
+        Ok(FolderLock {
+            dir: dir.to_path_buf(),
+            claim,
+            folder,
+            held,
+        })
     }
 
     /// The folder.
@@ -333,16 +307,12 @@ fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str)
     })?;
     for other in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
         let name = other.file_name().to_string_lossy().into_owned();
-        let Some(n) = name
+        let n = name
             .strip_prefix("campath.shards-of-")
-            .and_then(|n| n.strip_suffix(".lock"))
-            .and_then(|n| n.parse::<u64>().ok())
-        else {
+            .and_then(|n| n.strip_suffix(".lock")?.parse::<u64>().ok());
+        let Some(n) = n.filter(|&n| n != count) else {
             continue;
         };
-        if n == count {
-            continue;
-        }
         let file = open(&other.path())?;
         let suffix = format!("/{n}");
         take(&file, &other.path(), false, wait, || {
@@ -375,12 +345,7 @@ fn remove_shard_locks(dir: &Path) -> Result<()> {
     for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         if is_lock_file(&name) && name != FILE_NAME {
-            match std::fs::remove_file(e.path()) {
-                Err(err) if err.kind() != std::io::ErrorKind::NotFound => {
-                    return Err(Error::write(e.path())(err))
-                }
-                _ => {}
-            }
+            remove_if_there(&e.path())?;
         }
     }
     Ok(())
@@ -393,15 +358,10 @@ impl Drop for FolderLock {
         self.held.clear();
         let _ = match self.claim {
             Claim::Whole => record(&self.dir, &self.folder, false, None),
-            Claim::Shard(_) => {
-                let gate = open(&self.dir.join(GATE));
-                match gate {
-                    Ok(gate) if gate.try_lock().is_ok() => {
-                        record(&self.dir, &self.folder, true, None)
-                    }
-                    _ => Ok(()),
-                }
-            }
+            Claim::Shard(_) => match open(&self.dir.join(GATE)) {
+                Ok(gate) if gate.try_lock().is_ok() => record(&self.dir, &self.folder, true, None),
+                _ => Ok(()),
+            },
         };
     }
 }
