@@ -32,17 +32,6 @@ impl Compression {
     }
 }
 
-impl std::str::FromStr for Compression {
-    type Err = String;
-
-    fn from_str(s: &str) -> std::result::Result<Compression, String> {
-        Compression::ALL
-            .into_iter()
-            .find(|c| c.name() == s)
-            .ok_or_else(|| format!("{s:?} is not a compression level"))
-    }
-}
-
 /// Writes `width`×`height` RGB8 pixels as an 8-bit sRGB PNG.
 pub fn write_png(
     path: &Path,
@@ -102,13 +91,12 @@ pub fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let mut prefix = std::ffi::OsString::from(".");
     prefix.push(path.file_name().unwrap_or_default());
     prefix.push(".");
-    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(TMP);
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
     builder
-        .tempfile_in(folder.unwrap_or(Path::new(".")))
+        .tempfile_in(folder_of(path))
         .map_err(Error::write(path))
 }
 
@@ -149,8 +137,7 @@ pub fn remove_temps_of(path: &Path) -> Result<bool> {
         .file_name()
         .and_then(|n| n.to_str())
         .unwrap_or_default();
-    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
-    let Ok(entries) = std::fs::read_dir(folder.unwrap_or(Path::new("."))) else {
+    let Ok(entries) = std::fs::read_dir(folder_of(path)) else {
         return Ok(false);
     };
     let mut removed = false;
@@ -201,6 +188,12 @@ pub fn remove_if_there(path: &Path) -> Result<bool> {
     }
 }
 
+/// The folder a file at `path` goes into (`.` for a bare name).
+pub fn folder_of(path: &Path) -> &Path {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    parent.unwrap_or(Path::new("."))
+}
+
 /// `path` made absolute and free of `.` and `..`, with symbolic links resolved as far as it
 /// exists (the rest need not exist yet): component by component, each prefix that exists taken
 /// to its real path, so a `..` leaves the real folder (a link's target, not the link's), and a
@@ -208,10 +201,8 @@ pub fn remove_if_there(path: &Path) -> Result<bool> {
 pub fn resolved(path: &Path) -> PathBuf {
     use std::path::Component;
     // An empty path (the parent of a bare file name) is the current folder.
-    let path = match path.as_os_str().is_empty() {
-        true => Path::new("."),
-        false => path,
-    };
+    let path = Some(path).filter(|p| !p.as_os_str().is_empty());
+    let path = path.unwrap_or(Path::new("."));
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     let mut out = PathBuf::new();
     for c in absolute.components() {

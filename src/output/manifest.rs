@@ -27,7 +27,7 @@ use std::io::{Read, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use super::files::write_atomic;
+use super::{digits, write_atomic};
 use crate::document::MAX_FRAMES;
 use crate::error::{Error, Result};
 use crate::frames::Shard;
@@ -103,11 +103,7 @@ const RENDERER: &str = "# campath renderer ";
 
 /// The renderer version a `# campath renderer N` line names.
 fn parse_renderer(line: &str) -> Option<u32> {
-    let n = line.strip_prefix(RENDERER)?.trim();
-    if n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    n.parse().ok()
+    digits(line.strip_prefix(RENDERER)?.trim())
 }
 
 /// A parsed manifest.
@@ -135,10 +131,7 @@ fn without_bom(text: &str) -> &str {
 fn head(path: &Path, n: usize) -> Vec<String> {
     let mut bytes = Vec::new();
     let read = File::open(path).and_then(|f| f.take(4096).read_to_end(&mut bytes));
-    if read.is_err() {
-        return Vec::new();
-    }
-    let text = String::from_utf8_lossy(&bytes);
+    let text = String::from_utf8_lossy(&bytes[..read.unwrap_or(0)]);
     without_bom(&text)
         .lines()
         .map(str::trim)
@@ -280,21 +273,13 @@ impl Manifest {
     pub fn text(&self) -> String {
         let mut entries: Vec<&Entry> = self.entries.iter().collect();
         entries.sort_by_key(|e| e.frame);
-        let mut text = String::new();
-        if let Some(r) = self.renderer {
-            text += &format!("{RENDERER}{r}\n");
-        }
-        if let Some(h) = &self.header {
-            text += &format!("{h}\n");
-        }
-        for e in entries {
-            text += &format!("{e}\n");
-        }
-        if self.complete {
-            text += COMPLETE;
-            text.push('\n');
-        }
-        text
+        let renderer = self.renderer.map(|r| format!("{RENDERER}{r}"));
+        let header = self.header.as_ref().map(PartHeader::to_string);
+        let frames = entries.iter().map(|e| e.to_string());
+        let complete = self.complete.then(|| COMPLETE.to_string());
+        let head = renderer.into_iter().chain(header);
+        let lines = head.chain(frames).chain(complete);
+        lines.map(|l| l + "\n").collect()
     }
 }
 

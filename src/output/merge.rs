@@ -150,11 +150,7 @@ fn read_part(
             list_frames(&missing)
         ));
     }
-    if problems.is_empty() {
-        Ok(m)
-    } else {
-        Err(problems)
-    }
+    problems.is_empty().then_some(m).ok_or(problems)
 }
 
 #[cfg(test)]

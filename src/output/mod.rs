@@ -26,8 +26,8 @@ mod merge;
 pub mod sequence;
 
 pub use files::{
-    final_name, png_hash, remove_if_there, resolved, temp_beside, write_atomic, write_atomic_with,
-    write_png, write_png_atomic, Compression,
+    final_name, folder_of, png_hash, remove_if_there, resolved, temp_beside, write_atomic,
+    write_atomic_with, write_png, write_png_atomic, Compression,
 };
 
 /// The manifest of a whole run, and the hashes file of a golden.
@@ -85,24 +85,26 @@ pub fn frame_path(dir: &Path, frame: u64, frames: u64) -> PathBuf {
 
 /// The frame a file name `frame_NNNN.png` holds, and its digits, if it is one.
 pub fn frame_of(name: &str) -> Option<(u64, usize)> {
-    let digits = name.strip_prefix("frame_")?.strip_suffix(".png")?;
-    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    Some((digits.parse().ok()?, digits.len()))
+    let number = name.strip_prefix("frame_")?.strip_suffix(".png")?;
+    Some((digits(number)?, number.len()))
+}
+
+/// The number that ASCII digits alone spell (a sign or a space spells none).
+pub(crate) fn digits<T: std::str::FromStr>(s: &str) -> Option<T> {
+    let all = s.bytes().all(|b| b.is_ascii_digit());
+    s.parse().ok().filter(|_| all)
 }
 
 /// The frame files `frame_NNNN.png` in `dir`, by frame (empty when there is no such folder).
 pub fn frames_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
-    std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|e| {
-            let (frame, _) = frame_of(e.file_name().to_str()?)?;
-            Some((frame, e.path()))
-        })
-        .collect()
+    let frames = entries(dir).filter_map(|(name, e)| Some((frame_of(&name)?.0, e.path())));
+    frames.collect()
+}
+
+/// The entries of `dir` with their names (none when it cannot be read).
+pub(crate) fn entries(dir: &Path) -> impl Iterator<Item = (String, std::fs::DirEntry)> {
+    let all = std::fs::read_dir(dir).into_iter().flatten().flatten();
+    all.map(|e| (e.file_name().to_string_lossy().into_owned(), e))
 }
 
 /// A failure picture: `frame_NNNN.png` (the new frame) or `frame_NNNN.diff.png` (its
@@ -129,11 +131,8 @@ pub(crate) fn part_of(name: &str) -> Option<Shard> {
         .strip_prefix("hashes.part-")?
         .strip_suffix(".txt")?
         .split_once("-of-")?;
-    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    if !digits(k) || !digits(n) {
-        return None;
-    }
-    format!("{k}/{n}").parse().ok()
+    let (index, count) = (digits(k)?, digits(n)?);
+    (index < count).then_some(Shard { index, count })
 }
 
 /// The part files in `dir`, by shard.
@@ -191,14 +190,6 @@ pub fn frames_folder_of(path: &Path) -> Option<PathBuf> {
         .map(Path::to_path_buf)
 }
 
-/// The folder a file at `path` goes into (`.` for a bare name).
-pub fn folder_of(path: &Path) -> &Path {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    }
-}
-
 /// Whether `path` is `dir` or lies inside it, both as they resolve.
 pub fn within(path: &Path, dir: &Path) -> bool {
     resolved(path).starts_with(resolved(dir))
@@ -229,12 +220,8 @@ pub fn check(path: &Path, usage: Use) -> std::result::Result<(), Refusal> {
     match usage {
         Use::Frames => {
             a_folder_of_its_own(path)?;
-            let Ok(entries) = std::fs::read_dir(path) else {
-                return Ok(());
-            };
-            let names: Vec<String> = entries
-                .flatten()
-                .map(|e| e.file_name().to_string_lossy().into_owned())
+            let names: Vec<String> = entries(path)
+                .map(|(name, _)| name)
                 .filter(|n| !is_ours(n) && !is_desktop_clutter(n))
                 .take(3)
                 .collect();
@@ -306,37 +293,32 @@ pub fn claim_pictures(
 ) -> Result<lock::FolderLock> {
     outside_goldens(dir, goldens)?;
     a_folder_of_its_own(dir)?;
-    let entries: Vec<_> = match std::fs::read_dir(dir) {
-        Ok(entries) => entries.flatten().collect(),
-        Err(_) => Vec::new(),
-    };
-    let name = |e: &std::fs::DirEntry| e.file_name().to_string_lossy().into_owned();
+    let listed: Vec<_> = entries(dir).collect();
     let is_mark = |n: &str| n == LOCK || n == OLD_FAILURES_MARK;
-    let marked = entries.iter().any(|e| is_mark(&name(e)));
-    let foreign: Vec<String> = entries
-        .iter()
-        .filter(|e| {
-            let n = name(e);
+    let marked = listed.iter().any(|(n, _)| is_mark(n));
+    let mut foreign: Vec<String> = listed
+        .into_iter()
+        .filter(|(n, e)| {
             let file = e.file_type().is_ok_and(|t| t.is_file());
-            !(file && (is_mark(&n) || (marked && ours(&n))))
+            !(file && (is_mark(n) || (marked && ours(n))))
         })
-        .map(name)
+        .map(|(n, _)| n)
         .collect();
     if !foreign.is_empty() {
-        let mut names: Vec<String> = foreign.iter().take(3).cloned().collect();
         if foreign.len() > 3 {
-            names.push("…".into());
+            foreign.truncate(3);
+            foreign.push("…".into());
         }
         return Err(Refusal::Foreign {
             dir: dir.to_path_buf(),
-            names,
+            names: foreign,
         }
         .into());
     }
     let lock = lock::FolderLock::acquire(dir, lock::Claim::Whole, wait)?;
     // Listed again under the lock: a run this one waited for may have written more since.
     for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
-        let n = name(&e);
+        let n = e.file_name().to_string_lossy().into_owned();
         if n == OLD_FAILURES_MARK || (n != LOCK && ours(&n)) {
             remove_if_there(&e.path())?;
         }

@@ -18,8 +18,8 @@ use super::files::{
 use super::lock::{Claim, FolderLock, Wait};
 use super::manifest::{Entry, Manifest, PartHeader, Writer};
 use super::{
-    check, frame_of, frame_path, manifest_name, pad_width, parts_in, videos, Compression, Use,
-    BEFORE_SHARDS, HASHES,
+    check, entries, frame_of, frame_path, manifest_name, pad_width, parts_in, videos, Compression,
+    Use, BEFORE_SHARDS, HASHES,
 };
 use crate::document::Document;
 use crate::error::{Error, Result};
@@ -104,12 +104,10 @@ fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
     let whole = Manifest::read_lenient(&dir.join(HASHES));
     let aside = Manifest::read_lenient(&dir.join(BEFORE_SHARDS));
     let parts = parts_in(dir).unwrap_or_default().into_values();
+    let mut lines = whole.entries;
+    lines.extend(parts.flat_map(|p| Manifest::read_lenient(&p).entries));
     let mut out: BTreeMap<u64, Vec<Entry>> = BTreeMap::new();
-    for e in whole
-        .entries
-        .into_iter()
-        .chain(parts.flat_map(|p| Manifest::read_lenient(&p).entries))
-    {
+    for e in lines {
         out.entry(e.frame).or_default().push(e);
     }
     let aside = aside.entries.into_iter().map(|e| (e.frame, e)).collect();
@@ -121,8 +119,7 @@ fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
 fn frame_files(dir: &Path, total: u64) -> (BTreeSet<u64>, Vec<PathBuf>) {
     let mut files = BTreeSet::new();
     let mut foreign = Vec::new();
-    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
+    for (name, e) in entries(dir) {
         if let Some((frame, digits)) = frame_of(&name) {
             if frame < total && digits == pad_width(total) {
                 files.insert(frame);
@@ -195,11 +192,8 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     }
     let confirmed = on_disk(dir, total, &unsure);
     let sure: BTreeSet<u64> = confirmed.iter().map(|e| e.frame).collect();
-    for (frame, _) in &unsure {
-        if !sure.contains(frame) {
-            stale.push(frame_path(dir, *frame, total));
-        }
-    }
+    let unconfirmed = unsure.iter().filter(|(frame, _)| !sure.contains(frame));
+    stale.extend(unconfirmed.map(|(frame, _)| frame_path(dir, *frame, total)));
     outside.extend(confirmed);
     outside.sort_by_key(|e| e.frame);
     let kept = on_disk(dir, total, &check);
@@ -247,11 +241,7 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
         remove(path)?;
     }
     remove(&dir.join(BEFORE_SHARDS))?;
-    let mut removed = 0;
-    for path in &plan.stale {
-        removed += u64::from(remove(path)?);
-    }
-    Ok(removed)
+    plan.stale.iter().map(|p| remove(p).map(u64::from)).sum()
 }
 
 /// Takes the lock of the output folder `dir` for a render of `set` (see `output::lock`), after
