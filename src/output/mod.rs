@@ -57,13 +57,6 @@ pub mod pictures {
     pub const STATUS: &str = "status.js";
     /// `watch`'s first, middle and last frames.
     pub const FRAMES: [&str; 3] = ["first.png", "middle.png", "last.png"];
-
-    /// Every one of them.
-    pub(crate) fn all() -> impl Iterator<Item = &'static str> {
-        [SHEET, GIF, PLOT, REPORT, PAGE, STATUS]
-            .into_iter()
-            .chain(FRAMES)
-    }
 }
 
 /// The mark an earlier campath left in a folder of failure pictures, where campath's lock file
@@ -166,6 +159,7 @@ fn is_desktop_clutter(name: &str) -> bool {
 
 /// Whether campath writes files of this name into an output folder.
 fn is_ours(name: &str) -> bool {
+    use pictures::{FRAMES, GIF, PAGE, PLOT, REPORT, SHEET, STATUS};
     let base = final_name(name);
     frame_of(base).is_some()
         || lock::is_lock_file(base)
@@ -173,7 +167,8 @@ fn is_ours(name: &str) -> bool {
         || base.ends_with(".mp4")
         || base.ends_with(".mkv")
         || [HASHES, BEFORE_SHARDS].contains(&base)
-        || pictures::all().any(|p| p == base)
+        || [SHEET, GIF, PLOT, REPORT, PAGE, STATUS].contains(&base)
+        || FRAMES.contains(&base)
 }
 
 /// The folder of rendered frames that `path` (as it resolves) is or lies inside, if any: the

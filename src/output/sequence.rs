@@ -368,7 +368,7 @@ pub fn merge(lock: &FolderLock) -> Result<u64> {
             lock.claim()
         )));
     }
-    let (merged, total) = super::merge::merge(dir, |frame, total| frame_path(dir, frame, total))?;
+    let (merged, total) = super::merge::merge(dir)?;
     let mut damaged: Vec<u64> = merged
         .entries
         .par_iter()
