@@ -131,22 +131,18 @@ pub fn final_name(name: &str) -> &str {
     temp_of(name).unwrap_or(name)
 }
 
-/// Removes what writes of `path` left under temporary names: whether any was there.
-pub fn remove_temps_of(path: &Path) -> Result<bool> {
-    let name = path
-        .file_name()
-        .and_then(|n| n.to_str())
-        .unwrap_or_default();
-    let Ok(entries) = std::fs::read_dir(folder_of(path)) else {
-        return Ok(false);
+/// Removes what writes of `path` left under temporary names.
+pub fn remove_temps_of(path: &Path) -> Result<()> {
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
+        return Ok(());
     };
-    let mut removed = false;
+    let entries = std::fs::read_dir(folder_of(path)).into_iter().flatten();
     for e in entries.flatten() {
         if e.file_name().to_str().and_then(temp_of) == Some(name) {
-            removed |= remove_if_there(&e.path())?;
+            remove_if_there(&e.path())?;
         }
     }
-    Ok(removed)
+    Ok(())
 }
 
 /// Writes `bytes` (text or not) to `path` through a temporary file and a rename; on a
@@ -284,10 +280,10 @@ mod tests {
         let left = temp_beside(&video).unwrap().keep().unwrap().1;
         std::fs::write(dir.path().join("zoom.mp4.tmp"), "").unwrap();
         std::fs::write(dir.path().join("other.mp4.tmp"), "").unwrap();
-        assert!(remove_temps_of(&video).unwrap());
+        remove_temps_of(&video).unwrap();
         assert!(!left.exists());
         assert!(!dir.path().join("zoom.mp4.tmp").exists());
         assert!(dir.path().join("other.mp4.tmp").exists());
-        assert!(!remove_temps_of(&video).unwrap());
+        remove_temps_of(&video).unwrap();
     }
 }

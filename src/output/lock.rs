@@ -294,13 +294,9 @@ fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str)
     // A starting shard holds the gate for a moment only, unless it waits for another count: so
     // a shard that must not wait still tries for a while (shards of one array job start at
     // once), and refuses only a gate held longer.
-    for _ in 0..200 {
-        match gate.try_lock() {
-            Err(TryLockError::WouldBlock) => {
-                std::thread::sleep(std::time::Duration::from_millis(10))
-            }
-            _ => break,
-        }
+    let held_elsewhere = || matches!(gate.try_lock(), Err(TryLockError::WouldBlock));
+    for _ in (0..200).take_while(|_| held_elsewhere()) {
+        std::thread::sleep(std::time::Duration::from_millis(10));
     }
     take(&gate, &gate_path, false, wait, || {
         busy(dir, |c| c.starts_with("shard"))

@@ -176,10 +176,8 @@ fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
         .next()
         .and_then(|h| h.parse().ok())
         .ok_or("bad hash")?;
-    let key = match parts.next() {
-        None => None,
-        Some(k) => Some(FrameKey(k.parse().map_err(|_| "bad key")?)),
-    };
+    let key = parts.next().map(|k| k.parse().map(FrameKey));
+    let key = key.transpose().map_err(|_| "bad key")?;
     if parts.next().is_some() {
         return Err("extra text");
     }
@@ -202,8 +200,6 @@ impl Manifest {
     /// is a byte order mark before the first line (an editor's).
     pub fn parse(path: &Path, text: &str) -> Result<Manifest> {
         let mut m = Manifest::default();
-        // Lines before the first frame line, the renderer line and the part header among them.
-        let mut leading = true;
         for (i, line) in without_bom(text).lines().enumerate() {
             let line = line.trim();
             let bad = |what: &str| Error::Manifest {
@@ -221,7 +217,7 @@ impl Manifest {
             if line == COMPLETE {
                 m.complete = true;
             } else if line.starts_with(RENDERER) {
-                if !leading || m.renderer.is_some() || m.header.is_some() {
+                if !m.entries.is_empty() || m.renderer.is_some() || m.header.is_some() {
                     return Err(bad("a renderer line that is not the first line"));
                 }
                 m.renderer =
@@ -229,7 +225,7 @@ impl Manifest {
                         bad("bad renderer line: expected `# campath renderer N`")
                     })?);
             } else if line.starts_with("# campath part=") {
-                if !leading || m.header.is_some() {
+                if !m.entries.is_empty() || m.header.is_some() {
                     return Err(bad("a part header that is not at the top"));
                 }
                 m.header = Some(PartHeader::parse(line).ok_or_else(|| {
@@ -242,7 +238,6 @@ impl Manifest {
                      part=K/N …` header and `# complete`)",
                 ));
             } else {
-                leading = false;
                 m.entries.push(parse_entry(line).map_err(bad_frame)?);
             }
         }

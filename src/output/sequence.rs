@@ -326,17 +326,10 @@ pub fn render(
         set,
         |frame| kept.contains(&frame),
         |frame, key, pixels, hash| {
-            write_png_atomic(
-                &frame_path(dir, frame, total),
-                pixels,
-                size,
-                options.compression,
-            )?;
-            manifest.append(Entry {
-                frame,
-                hash,
-                key: Some(*key),
-            })?;
+            let png = frame_path(dir, frame, total);
+            write_png_atomic(&png, pixels, size, options.compression)?;
+            let key = Some(*key);
+            manifest.append(Entry { frame, hash, key })?;
             progress(Event::Written(frame));
             Ok(())
         },
