@@ -24,11 +24,7 @@ impl Compression {
 
     /// The level's name on the command line: `fast`, `default`, `best`.
     pub fn name(self) -> &'static str {
-        match self {
-            Compression::Fast => "fast",
-            Compression::Default => "default",
-            Compression::Best => "best",
-        }
+        ["fast", "default", "best"][self as usize]
     }
 }
 

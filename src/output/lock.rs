@@ -44,13 +44,6 @@ pub enum Claim {
     Shard(Shard),
 }
 
-impl Claim {
-    /// The claim of a render of `shard` (None: a whole run).
-    pub fn of(shard: Option<Shard>) -> Claim {
-        shard.map_or(Claim::Whole, Claim::Shard)
-    }
-}
-
 impl std::fmt::Display for Claim {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -112,7 +105,6 @@ fn host() -> String {
         .unwrap_or_default()
 }
 
-/// This run's line in `campath.lock`.
 fn holder_line(claim: Claim) -> String {
     // A command line that is not UTF-8 is named as well as it can be.
     let command: Vec<String> = std::env::args_os()
@@ -273,11 +265,9 @@ impl FolderLock {
     /// was removed or replaced (a new `campath.lock` there is no lock of this run's, and
     /// another run may take it).
     pub fn still_held(&self) -> bool {
-        let path = self.dir.join(FILE_NAME);
-        match (std::fs::metadata(&path), self.folder.metadata()) {
-            (Ok(now), Ok(held)) => same_file(&now, &held),
-            _ => false,
-        }
+        let now = std::fs::metadata(self.dir.join(FILE_NAME));
+        now.and_then(|now| Ok(same_file(&now, &self.folder.metadata()?)))
+            .unwrap_or(false)
     }
 
     /// What this run may write.
@@ -323,17 +313,17 @@ fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str)
     Ok(file)
 }
 
-/// Whether two files' metadata are of one file.
-#[cfg(unix)]
-fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
-    use std::os::unix::fs::MetadataExt;
-    (a.dev(), a.ino()) == (b.dev(), b.ino())
-}
-
 /// Whether two files' metadata are of one file (as far as the platform tells).
-#[cfg(not(unix))]
 fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
-    a.len() == b.len() && a.modified().ok() == b.modified().ok()
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        (a.dev(), a.ino()) == (b.dev(), b.ino())
+    }
+    #[cfg(not(unix))]
+    {
+        a.len() == b.len() && a.modified().ok() == b.modified().ok()
+    }
 }
 
 /// A whole run, holding the folder exclusively, removes the shard lock files: nobody holds them.

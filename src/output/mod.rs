@@ -220,28 +220,37 @@ pub fn check(path: &Path, usage: Use) -> std::result::Result<(), Refusal> {
                 .filter(|n| !is_ours(n) && !is_desktop_clutter(n))
                 .take(3)
                 .collect();
-            match names.is_empty() {
-                true => Ok(()),
-                false => Err(Refusal::Foreign {
-                    dir: path.to_path_buf(),
-                    names,
-                }),
-            }
+            no_foreign(path, names)
         }
         Use::File => {
             if path.is_dir() {
                 return Err(Refusal::NotAFile(path.to_path_buf()));
             }
-            let parent = folder_of(path);
-            golden_of(parent)?;
-            match frames_folder_of(parent) {
-                Some(frames) => Err(Refusal::InFrames {
-                    path: path.to_path_buf(),
-                    frames,
-                }),
-                None => Ok(()),
-            }
+            golden_of(folder_of(path))?;
+            outside_frames(path, Some(folder_of(path)))
         }
+    }
+}
+
+/// Refuses `dir` for what it holds that campath did not write: `names`, if any.
+fn no_foreign(dir: &Path, names: Vec<String>) -> std::result::Result<(), Refusal> {
+    match names.is_empty() {
+        true => Ok(()),
+        false => Err(Refusal::Foreign {
+            dir: dir.to_path_buf(),
+            names,
+        }),
+    }
+}
+
+/// Refuses `path` when `folder` (as it resolves) is or lies inside a folder of rendered frames.
+fn outside_frames(path: &Path, folder: Option<&Path>) -> std::result::Result<(), Refusal> {
+    match folder.and_then(frames_folder_of) {
+        Some(frames) => Err(Refusal::InFrames {
+            path: path.to_path_buf(),
+            frames,
+        }),
+        None => Ok(()),
     }
 }
 
@@ -252,13 +261,7 @@ fn a_folder_of_its_own(path: &Path) -> std::result::Result<(), Refusal> {
         return Err(Refusal::NotAFolder(path.to_path_buf()));
     }
     golden_of(path)?;
-    match resolved(path).parent().and_then(frames_folder_of) {
-        Some(frames) => Err(Refusal::InFrames {
-            path: path.to_path_buf(),
-            frames,
-        }),
-        None => Ok(()),
-    }
+    outside_frames(path, resolved(path).parent())
 }
 
 /// Refuses `path` when it is, or lies inside, one of `goldens` (as they resolve): the goldens a
@@ -299,17 +302,11 @@ pub fn claim_pictures(
         })
         .map(|(n, _)| n)
         .collect();
-    if !foreign.is_empty() {
-        if foreign.len() > 3 {
-            foreign.truncate(3);
-            foreign.push("…".into());
-        }
-        return Err(Refusal::Foreign {
-            dir: dir.to_path_buf(),
-            names: foreign,
-        }
-        .into());
+    if foreign.len() > 3 {
+        foreign.truncate(3);
+        foreign.push("…".into());
     }
+    no_foreign(dir, foreign)?;
     let lock = lock::FolderLock::acquire(dir, lock::Claim::Whole, wait)?;
     // Listed again under the lock: a run this one waited for may have written more since.
     for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {

@@ -138,10 +138,7 @@ fn on_disk(dir: &Path, total: u64, check: &[(u64, Vec<&Entry>)]) -> Vec<Entry> {
         .par_iter()
         .filter_map(|(frame, current)| {
             let hash = png_hash(&frame_path(dir, *frame, total))?;
-            current
-                .iter()
-                .find(|e| e.hash == hash)
-                .map(|e| (*e).clone())
+            current.iter().copied().find(|e| e.hash == hash).cloned()
         })
         .collect()
 }
@@ -214,12 +211,9 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     })
 }
 
-/// Removes the records this run would make false: the frame files of the run's frames that it
-/// renders again (so a run stopped on the way leaves no old picture under a frame's name); a
-/// shard moves hashes.txt aside to [`BEFORE_SHARDS`] (`merge` writes hashes.txt
-/// again; the shards still to run keep their frames by it); a whole run removes the part files,
-/// that file, and the frame files of no current frame. Returns the number of frame files of no
-/// current frame removed.
+/// Removes the records this run would make false (see [`render`]), and the frame files it renders
+/// again, so a run stopped on the way leaves no old picture under a frame's name. Returns the
+/// number of frame files of no current frame removed.
 fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
     if set.shard.is_some() {
         // First: hashes.txt never lists a frame whose picture is gone.
@@ -251,7 +245,7 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
 pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<FolderLock> {
     check(dir, Use::Frames)?;
     doc.check_path()?;
-    FolderLock::acquire(dir, Claim::of(set.shard), wait)
+    FolderLock::acquire(dir, set.shard.map_or(Claim::Whole, Claim::Shard), wait)
 }
 
 /// Renders the frames of `set` to PNGs in the locked folder (see [`lock`]) with their manifest:
@@ -280,11 +274,11 @@ pub fn render(
 ) -> Result<RenderSummary> {
     let started = std::time::Instant::now();
     let dir = lock.dir();
-    if lock.claim() != Claim::of(set.shard) {
+    let claim = set.shard.map_or(Claim::Whole, Claim::Shard);
+    if lock.claim() != claim {
         return Err(Error::Usage(format!(
-            "{}: a render of {} needs the folder's lock for it, not for {}",
+            "{}: a render of {claim} needs the folder's lock for it, not for {}",
             dir.display(),
-            Claim::of(set.shard),
             lock.claim()
         )));
     }
