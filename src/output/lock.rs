@@ -197,11 +197,9 @@ fn take(
 /// Replaces the holders recorded in `file` with the live ones `keep` picks, plus `own`.
 fn record(dir: &Path, mut file: &File, keep: bool, own: Option<&str>) -> Result<()> {
     let kept = if keep { holders(dir) } else { Vec::new() };
-    let lines = kept
-        .into_iter()
-        .map(|h| h.line)
-        .chain(own.map(str::to_string));
-    let text: String = lines.map(|l| l + "\n").collect();
+    let mut lines: Vec<String> = kept.into_iter().map(|h| h.line + "\n").collect();
+    lines.extend(own.map(|own| format!("{own}\n")));
+    let text = lines.concat();
     file.set_len(0)
         .and_then(|()| file.rewind())
         .and_then(|()| file.write_all(text.as_bytes()))
@@ -236,10 +234,8 @@ impl FolderLock {
                     busy(dir, |c| c == "whole")
                 })?;
                 let count = lock_count(dir, shard.count, &mut wait, &folder, &own)?;
-                let part_path = dir.join(format!(
-                    "campath.part-{}-of-{}.lock",
-                    shard.index, shard.count
-                ));
+                let (k, n) = (shard.index, shard.count);
+                let part_path = dir.join(format!("campath.part-{k}-of-{n}.lock"));
                 let part = open(&part_path)?;
                 let mine = Claim::Shard(shard).to_string();
                 take(&part, &part_path, false, &mut wait, || {

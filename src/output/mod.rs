@@ -70,10 +70,8 @@ pub fn pad_width(frames: u64) -> usize {
 
 /// `dir/frame_0042.png`, padded for `frames` frames.
 pub fn frame_path(dir: &Path, frame: u64, frames: u64) -> PathBuf {
-    dir.join(format!(
-        "frame_{frame:0width$}.png",
-        width = pad_width(frames)
-    ))
+    let width = pad_width(frames);
+    dir.join(format!("frame_{frame:0width$}.png"))
 }
 
 /// The frame a file name `frame_NNNN.png` holds, and its digits, if it is one.

@@ -153,9 +153,7 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     }
     let mut sequence = Sha256::new();
     let mut reasons = Reasons::default();
-    let mut check = Vec::new();
-    let mut outside = Vec::new();
-    let mut unsure = Vec::new();
+    let (mut check, mut outside, mut unsure) = (Vec::new(), Vec::new(), Vec::new());
     for item in keys(doc) {
         let (frame, key) = item?;
         sequence.update(key.to_string().as_bytes());
