@@ -24,22 +24,7 @@ impl Compression {
 
     /// The level's name on the command line: `fast`, `default`, `best`.
     pub fn name(self) -> &'static str {
-        match self {
-            Compression::Fast => "fast",
-            Compression::Default => "default",
-            Compression::Best => "best",
-        }
-    }
-}
-
-impl std::str::FromStr for Compression {
-    type Err = String;
-
-    fn from_str(s: &str) -> std::result::Result<Compression, String> {
-        Compression::ALL
-            .into_iter()
-            .find(|c| c.name() == s)
-            .ok_or_else(|| format!("{s:?} is not a compression level"))
+        ["fast", "default", "best"][self as usize]
     }
 }
 
@@ -102,13 +87,12 @@ pub fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let mut prefix = std::ffi::OsString::from(".");
     prefix.push(path.file_name().unwrap_or_default());
     prefix.push(".");
-    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(TMP);
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
     builder
-        .tempfile_in(folder.unwrap_or(Path::new(".")))
+        .tempfile_in(folder_of(path))
         .map_err(Error::write(path))
 }
 
@@ -143,23 +127,18 @@ pub fn final_name(name: &str) -> &str {
     temp_of(name).unwrap_or(name)
 }
 
-/// Removes what writes of `path` left under temporary names: whether any was there.
-pub fn remove_temps_of(path: &Path) -> Result<bool> {
-    let name = path
-        .file_name()
-        .and_then(|n| n.to_str())
-        .unwrap_or_default();
-    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
-    let Ok(entries) = std::fs::read_dir(folder.unwrap_or(Path::new("."))) else {
-        return Ok(false);
+/// Removes what writes of `path` left under temporary names.
+pub fn remove_temps_of(path: &Path) -> Result<()> {
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
+        return Ok(());
     };
-    let mut removed = false;
+    let entries = std::fs::read_dir(folder_of(path)).into_iter().flatten();
     for e in entries.flatten() {
         if e.file_name().to_str().and_then(temp_of) == Some(name) {
-            removed |= remove_if_there(&e.path())?;
+            remove_if_there(&e.path())?;
         }
     }
-    Ok(removed)
+    Ok(())
 }
 
 /// Writes `bytes` (text or not) to `path` through a temporary file and a rename; on a
@@ -201,6 +180,12 @@ pub fn remove_if_there(path: &Path) -> Result<bool> {
     }
 }
 
+/// The folder a file at `path` goes into (`.` for a bare name).
+pub fn folder_of(path: &Path) -> &Path {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    parent.unwrap_or(Path::new("."))
+}
+
 /// `path` made absolute and free of `.` and `..`, with symbolic links resolved as far as it
 /// exists (the rest need not exist yet): component by component, each prefix that exists taken
 /// to its real path, so a `..` leaves the real folder (a link's target, not the link's), and a
@@ -208,10 +193,8 @@ pub fn remove_if_there(path: &Path) -> Result<bool> {
 pub fn resolved(path: &Path) -> PathBuf {
     use std::path::Component;
     // An empty path (the parent of a bare file name) is the current folder.
-    let path = match path.as_os_str().is_empty() {
-        true => Path::new("."),
-        false => path,
-    };
+    let path = Some(path).filter(|p| !p.as_os_str().is_empty());
+    let path = path.unwrap_or(Path::new("."));
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     let mut out = PathBuf::new();
     for c in absolute.components() {
@@ -293,10 +276,10 @@ mod tests {
         let left = temp_beside(&video).unwrap().keep().unwrap().1;
         std::fs::write(dir.path().join("zoom.mp4.tmp"), "").unwrap();
         std::fs::write(dir.path().join("other.mp4.tmp"), "").unwrap();
-        assert!(remove_temps_of(&video).unwrap());
+        remove_temps_of(&video).unwrap();
         assert!(!left.exists());
         assert!(!dir.path().join("zoom.mp4.tmp").exists());
         assert!(dir.path().join("other.mp4.tmp").exists());
-        assert!(!remove_temps_of(&video).unwrap());
+        remove_temps_of(&video).unwrap();
     }
 }

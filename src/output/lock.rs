@@ -23,7 +23,7 @@ use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 
-use super::{Refusal, LOCK as FILE_NAME};
+use super::{remove_if_there, Refusal, LOCK as FILE_NAME};
 use crate::error::{Error, Result};
 use crate::frames::Shard;
 
@@ -42,13 +42,6 @@ pub enum Claim {
     Whole,
     /// Its frames and its part file only; other shards of the same count run beside it.
     Shard(Shard),
-}
-
-impl Claim {
-    /// The claim of a render of `shard` (None: a whole run).
-    pub fn of(shard: Option<Shard>) -> Claim {
-        shard.map_or(Claim::Whole, Claim::Shard)
-    }
 }
 
 impl std::fmt::Display for Claim {
@@ -84,6 +77,7 @@ pub struct FolderLock {
 /// A run that holds `campath.lock`, as it recorded itself:
 /// `<pid>\t<claim>\t<host>\t<command line>`.
 struct Holder {
+    line: String,
     pid: u32,
     claim: String,
     host: String,
@@ -91,30 +85,15 @@ struct Holder {
 }
 
 impl Holder {
-    fn line(&self) -> String {
-        format!(
-            "{}\t{}\t{}\t{}",
-            self.pid, self.claim, self.host, self.command
-        )
-    }
-
     fn parse(line: &str) -> Option<Holder> {
         let mut cols = line.splitn(4, '\t');
         Some(Holder {
+            line: line.to_string(),
             pid: cols.next()?.parse().ok()?,
             claim: cols.next()?.to_string(),
             host: cols.next()?.to_string(),
             command: cols.next()?.to_string(),
         })
-    }
-
-    /// Whether the process still runs, where this host can tell (Linux's /proc, for a holder
-    /// on this host); any other recorded holder counts as running.
-    fn alive(&self) -> bool {
-        let proc = Path::new("/proc");
-        self.host != host()
-            || !proc.join("self").exists()
-            || proc.join(self.pid.to_string()).exists()
     }
 }
 
@@ -131,34 +110,30 @@ fn holder_line(claim: Claim) -> String {
     let command: Vec<String> = std::env::args_os()
         .map(|a| a.to_string_lossy().into_owned())
         .collect();
-    Holder {
-        pid: std::process::id(),
-        claim: claim.to_string(),
-        host: host(),
-        command: command.join(" "),
-    }
-    .line()
+    let (pid, host) = (std::process::id(), host());
+    format!("{pid}\t{claim}\t{host}\t{}", command.join(" "))
 }
 
 /// The live holders recorded in `campath.lock`, other than this process.
 fn holders(dir: &Path) -> Vec<Holder> {
     let text = std::fs::read_to_string(dir.join(FILE_NAME)).unwrap_or_default();
-    let here = host();
-    text.lines()
-        .filter_map(Holder::parse)
-        .filter(|h| !(h.pid == std::process::id() && h.host == here) && h.alive())
-        .collect()
+    let (here, proc) = (host(), Path::new("/proc"));
+    // Whether the process still runs, where this host can tell (Linux's /proc, for a holder on
+    // this host); any other recorded holder counts as running.
+    let alive = |h: &Holder| {
+        h.host != here || !proc.join("self").exists() || proc.join(h.pid.to_string()).exists()
+    };
+    let others = text.lines().filter_map(Holder::parse);
+    let others = others.filter(|h| !(h.pid == std::process::id() && h.host == here));
+    others.filter(alive).collect()
 }
 
 /// [`Error::Busy`] naming the live holders that `which` picks (all, if it picks none).
 fn busy(dir: &Path, which: impl Fn(&str) -> bool) -> Error {
-    let all = holders(dir);
-    let picked: Vec<&Holder> = all.iter().filter(|h| which(&h.claim)).collect();
-    let shown = if picked.is_empty() {
-        all.iter().collect()
-    } else {
-        picked
-    };
+    let mut shown = holders(dir);
+    if shown.iter().any(|h| which(&h.claim)) {
+        shown.retain(|h| which(&h.claim));
+    }
     Error::Busy {
         dir: dir.to_path_buf(),
         holders: shown
@@ -221,21 +196,14 @@ fn take(
 
 /// Replaces the holders recorded in `file` with the live ones `keep` picks, plus `own`.
 fn record(dir: &Path, mut file: &File, keep: bool, own: Option<&str>) -> Result<()> {
-    let mut text = String::new();
-    if keep {
-        for h in holders(dir) {
-            text += &h.line();
-            text.push('\n');
-        }
-    }
-    if let Some(own) = own {
-        text += own;
-        text.push('\n');
-    }
-    let path = dir.join(FILE_NAME);
-    file.set_len(0).map_err(Error::write(&path))?;
-    file.rewind().map_err(Error::write(&path))?;
-    file.write_all(text.as_bytes()).map_err(Error::write(&path))
+    let kept = if keep { holders(dir) } else { Vec::new() };
+    let mut lines: Vec<String> = kept.into_iter().map(|h| h.line + "\n").collect();
+    lines.extend(own.map(|own| format!("{own}\n")));
+    let text = lines.concat();
+    file.set_len(0)
+        .and_then(|()| file.rewind())
+        .and_then(|()| file.write_all(text.as_bytes()))
+        .map_err(Error::write(dir.join(FILE_NAME)))
 }
 
 impl FolderLock {
@@ -254,40 +222,34 @@ impl FolderLock {
         let path = dir.join(FILE_NAME);
         let folder = open(&path)?;
         let own = holder_line(claim);
-        match claim {
+        let held = match claim {
             Claim::Whole => {
                 take(&folder, &path, false, &mut wait, || busy(dir, |_| true))?;
                 record(dir, &folder, false, Some(&own))?;
                 remove_shard_locks(dir)?;
-                Ok(FolderLock {
-                    dir: dir.to_path_buf(),
-                    claim,
-                    folder,
-                    held: Vec::new(),
-                })
+                Vec::new()
             }
             Claim::Shard(shard) => {
                 take(&folder, &path, true, &mut wait, || {
                     busy(dir, |c| c == "whole")
                 })?;
                 let count = lock_count(dir, shard.count, &mut wait, &folder, &own)?;
-                let part_path = dir.join(format!(
-                    "campath.part-{}-of-{}.lock",
-                    shard.index, shard.count
-                ));
+                let (k, n) = (shard.index, shard.count);
+                let part_path = dir.join(format!("campath.part-{k}-of-{n}.lock"));
                 let part = open(&part_path)?;
                 let mine = Claim::Shard(shard).to_string();
                 take(&part, &part_path, false, &mut wait, || {
                     busy(dir, |c| c == mine)
                 })?;
-                Ok(FolderLock {
-                    dir: dir.to_path_buf(),
-                    claim,
-                    folder,
-                    held: vec![count, part],
-                })
+                vec![count, part]
             }
-        }
+        };
+        Ok(FolderLock {
+            dir: dir.to_path_buf(),
+            claim,
+            folder,
+            held,
+        })
     }
 
     /// The folder.
@@ -299,11 +261,9 @@ impl FolderLock {
     /// was removed or replaced (a new `campath.lock` there is no lock of this run's, and
     /// another run may take it).
     pub fn still_held(&self) -> bool {
-        let path = self.dir.join(FILE_NAME);
-        match (std::fs::metadata(&path), self.folder.metadata()) {
-            (Ok(now), Ok(held)) => same_file(&now, &held),
-            _ => false,
-        }
+        let now = std::fs::metadata(self.dir.join(FILE_NAME));
+        now.and_then(|now| Ok(same_file(&now, &self.folder.metadata()?)))
+            .unwrap_or(false)
     }
 
     /// What this run may write.
@@ -320,29 +280,21 @@ fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str)
     // A starting shard holds the gate for a moment only, unless it waits for another count: so
     // a shard that must not wait still tries for a while (shards of one array job start at
     // once), and refuses only a gate held longer.
-    for _ in 0..200 {
-        match gate.try_lock() {
-            Err(TryLockError::WouldBlock) => {
-                std::thread::sleep(std::time::Duration::from_millis(10))
-            }
-            _ => break,
-        }
+    let held_elsewhere = || matches!(gate.try_lock(), Err(TryLockError::WouldBlock));
+    for _ in (0..200).take_while(|_| held_elsewhere()) {
+        std::thread::sleep(std::time::Duration::from_millis(10));
     }
     take(&gate, &gate_path, false, wait, || {
         busy(dir, |c| c.starts_with("shard"))
     })?;
     for other in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
         let name = other.file_name().to_string_lossy().into_owned();
-        let Some(n) = name
+        let n = name
             .strip_prefix("campath.shards-of-")
-            .and_then(|n| n.strip_suffix(".lock"))
-            .and_then(|n| n.parse::<u64>().ok())
-        else {
+            .and_then(|n| n.strip_suffix(".lock")?.parse::<u64>().ok());
+        let Some(n) = n.filter(|&n| n != count) else {
             continue;
         };
-        if n == count {
-            continue;
-        }
         let file = open(&other.path())?;
         let suffix = format!("/{n}");
         take(&file, &other.path(), false, wait, || {
@@ -357,17 +309,17 @@ fn lock_count(dir: &Path, count: u64, wait: &mut Wait, folder: &File, own: &str)
     Ok(file)
 }
 
-/// Whether two files' metadata are of one file.
-#[cfg(unix)]
-fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
-    use std::os::unix::fs::MetadataExt;
-    (a.dev(), a.ino()) == (b.dev(), b.ino())
-}
-
 /// Whether two files' metadata are of one file (as far as the platform tells).
-#[cfg(not(unix))]
 fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
-    a.len() == b.len() && a.modified().ok() == b.modified().ok()
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        (a.dev(), a.ino()) == (b.dev(), b.ino())
+    }
+    #[cfg(not(unix))]
+    {
+        a.len() == b.len() && a.modified().ok() == b.modified().ok()
+    }
 }
 
 /// A whole run, holding the folder exclusively, removes the shard lock files: nobody holds them.
@@ -375,12 +327,7 @@ fn remove_shard_locks(dir: &Path) -> Result<()> {
     for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         if is_lock_file(&name) && name != FILE_NAME {
-            match std::fs::remove_file(e.path()) {
-                Err(err) if err.kind() != std::io::ErrorKind::NotFound => {
-                    return Err(Error::write(e.path())(err))
-                }
-                _ => {}
-            }
+            remove_if_there(&e.path())?;
         }
     }
     Ok(())
@@ -393,15 +340,10 @@ impl Drop for FolderLock {
         self.held.clear();
         let _ = match self.claim {
             Claim::Whole => record(&self.dir, &self.folder, false, None),
-            Claim::Shard(_) => {
-                let gate = open(&self.dir.join(GATE));
-                match gate {
-                    Ok(gate) if gate.try_lock().is_ok() => {
-                        record(&self.dir, &self.folder, true, None)
-                    }
-                    _ => Ok(()),
-                }
-            }
+            Claim::Shard(_) => match open(&self.dir.join(GATE)) {
+                Ok(gate) if gate.try_lock().is_ok() => record(&self.dir, &self.folder, true, None),
+                _ => Ok(()),
+            },
         };
     }
 }

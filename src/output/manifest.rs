@@ -27,7 +27,7 @@ use std::io::{Read, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use super::files::write_atomic;
+use super::{digits, write_atomic};
 use crate::document::MAX_FRAMES;
 use crate::error::{Error, Result};
 use crate::frames::Shard;
@@ -103,11 +103,7 @@ const RENDERER: &str = "# campath renderer ";
 
 /// The renderer version a `# campath renderer N` line names.
 fn parse_renderer(line: &str) -> Option<u32> {
-    let n = line.strip_prefix(RENDERER)?.trim();
-    if n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    n.parse().ok()
+    digits(line.strip_prefix(RENDERER)?.trim())
 }
 
 /// A parsed manifest.
@@ -135,10 +131,7 @@ fn without_bom(text: &str) -> &str {
 fn head(path: &Path, n: usize) -> Vec<String> {
     let mut bytes = Vec::new();
     let read = File::open(path).and_then(|f| f.take(4096).read_to_end(&mut bytes));
-    if read.is_err() {
-        return Vec::new();
-    }
-    let text = String::from_utf8_lossy(&bytes);
+    let text = String::from_utf8_lossy(&bytes[..read.unwrap_or(0)]);
     without_bom(&text)
         .lines()
         .map(str::trim)
@@ -183,10 +176,8 @@ fn parse_entry(line: &str) -> std::result::Result<Entry, &'static str> {
         .next()
         .and_then(|h| h.parse().ok())
         .ok_or("bad hash")?;
-    let key = match parts.next() {
-        None => None,
-        Some(k) => Some(FrameKey(k.parse().map_err(|_| "bad key")?)),
-    };
+    let key = parts.next().map(|k| k.parse().map(FrameKey));
+    let key = key.transpose().map_err(|_| "bad key")?;
     if parts.next().is_some() {
         return Err("extra text");
     }
@@ -209,8 +200,6 @@ impl Manifest {
     /// is a byte order mark before the first line (an editor's).
     pub fn parse(path: &Path, text: &str) -> Result<Manifest> {
         let mut m = Manifest::default();
-        // Lines before the first frame line, the renderer line and the part header among them.
-        let mut leading = true;
         for (i, line) in without_bom(text).lines().enumerate() {
             let line = line.trim();
             let bad = |what: &str| Error::Manifest {
@@ -228,7 +217,7 @@ impl Manifest {
             if line == COMPLETE {
                 m.complete = true;
             } else if line.starts_with(RENDERER) {
-                if !leading || m.renderer.is_some() || m.header.is_some() {
+                if !m.entries.is_empty() || m.renderer.is_some() || m.header.is_some() {
                     return Err(bad("a renderer line that is not the first line"));
                 }
                 m.renderer =
@@ -236,7 +225,7 @@ impl Manifest {
                         bad("bad renderer line: expected `# campath renderer N`")
                     })?);
             } else if line.starts_with("# campath part=") {
-                if !leading || m.header.is_some() {
+                if !m.entries.is_empty() || m.header.is_some() {
                     return Err(bad("a part header that is not at the top"));
                 }
                 m.header = Some(PartHeader::parse(line).ok_or_else(|| {
@@ -249,7 +238,6 @@ impl Manifest {
                      part=K/N …` header and `# complete`)",
                 ));
             } else {
-                leading = false;
                 m.entries.push(parse_entry(line).map_err(bad_frame)?);
             }
         }
@@ -280,21 +268,13 @@ impl Manifest {
     pub fn text(&self) -> String {
         let mut entries: Vec<&Entry> = self.entries.iter().collect();
         entries.sort_by_key(|e| e.frame);
-        let mut text = String::new();
-        if let Some(r) = self.renderer {
-            text += &format!("{RENDERER}{r}\n");
-        }
-        if let Some(h) = &self.header {
-            text += &format!("{h}\n");
-        }
-        for e in entries {
-            text += &format!("{e}\n");
-        }
-        if self.complete {
-            text += COMPLETE;
-            text.push('\n');
-        }
-        text
+        let renderer = self.renderer.map(|r| format!("{RENDERER}{r}"));
+        let header = self.header.as_ref().map(PartHeader::to_string);
+        let frames = entries.iter().map(|e| e.to_string());
+        let complete = self.complete.then(|| COMPLETE.to_string());
+        let head = renderer.into_iter().chain(header);
+        let lines = head.chain(frames).chain(complete);
+        lines.map(|l| l + "\n").collect()
     }
 }
 

@@ -4,20 +4,17 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use super::manifest::{Manifest, PartHeader};
-use super::{manifest_name, parts_in};
+use super::{frame_path, manifest_name, parts_in};
 use crate::error::{Error, Result};
 use crate::frames::list_frames;
 use crate::frames::Shard;
 
-/// Combines the part files in `dir` into the manifest a single run would have written. Refuses, naming what is wrong, unless every shard of one count N is there and
-/// complete, all were rendered from the same file and range, every frame of the range is listed
-/// exactly once by its own shard, and every listed frame's PNG exists. `frame_file` names a
-/// frame's PNG for an animation of `frames` frames. Returns the manifest and the animation's frame
+/// Combines the part files in `dir` into the manifest a single run would have written. Refuses,
+/// naming what is wrong, unless every shard of one count N is there and complete, all were
+/// rendered from the same file and range, every frame of the range is listed exactly once by its
+/// own shard, and every listed frame's PNG exists. Returns the manifest and the animation's frame
 /// count.
-pub(crate) fn merge(
-    dir: &Path,
-    frame_file: impl Fn(u64, u64) -> PathBuf,
-) -> Result<(Manifest, u64)> {
+pub(crate) fn merge(dir: &Path) -> Result<(Manifest, u64)> {
     let refuse = |problems: Vec<String>| Error::Merge {
         dir: dir.to_path_buf(),
         problems,
@@ -36,7 +33,7 @@ pub(crate) fn merge(
             ));
             continue;
         };
-        match read_part(shard, path, &mut reference, &frame_file) {
+        match read_part(shard, dir, path, &mut reference) {
             Ok(part) => {
                 // Parts of one sequence share their frame keys, and so their renderer.
                 all.renderer = all.renderer.or(part.renderer);
@@ -84,9 +81,9 @@ fn shard_count(parts: &BTreeMap<Shard, PathBuf>) -> std::result::Result<u64, Str
 /// completion, and its frames. Returns the part, or every problem found.
 fn read_part(
     shard: Shard,
+    dir: &Path,
     path: &Path,
     reference: &mut Option<(String, PartHeader)>,
-    frame_file: impl Fn(u64, u64) -> PathBuf,
 ) -> std::result::Result<Manifest, Vec<String>> {
     let m = Manifest::read_lenient(path);
     let file = file_of(path);
@@ -135,8 +132,8 @@ fn read_part(
             problems.push(format!("{file}: frame {} does not belong here", e.frame));
         } else if !listed.insert(e.frame) {
             problems.push(format!("{file}: frame {} is listed twice", e.frame));
-        } else if !frame_file(e.frame, header.frames).exists() {
-            let png = file_of(&frame_file(e.frame, header.frames));
+        } else if !frame_path(dir, e.frame, header.frames).exists() {
+            let png = file_of(&frame_path(dir, e.frame, header.frames));
             problems.push(format!(
                 "{file}: frame {} is listed but {png} is missing",
                 e.frame
@@ -150,11 +147,7 @@ fn read_part(
             list_frames(&missing)
         ));
     }
-    if problems.is_empty() {
-        Ok(m)
-    } else {
-        Err(problems)
-    }
+    problems.is_empty().then_some(m).ok_or(problems)
 }
 
 #[cfg(test)]
@@ -194,14 +187,13 @@ mod tests {
     fn merge_names_every_problem_and_joins_whole_parts() {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path();
-        let png = |f: u64, _| dir.join(format!("f{f}.png"));
         for f in 0..4 {
-            std::fs::write(png(f, 4), "").unwrap();
+            std::fs::write(frame_path(dir, f, 4), "").unwrap();
         }
         let (s1, s2) = ("1".repeat(64), "2".repeat(64));
         part(dir, 0, &s1, &[0, 2], true);
         part(dir, 1, &s1, &[1, 3], true);
-        let (merged, frames) = merge(dir, png).unwrap();
+        let (merged, frames) = merge(dir).unwrap();
         let text = merged.text();
         assert_eq!(frames, 4);
         assert_eq!(text.lines().count(), 5);
@@ -217,18 +209,21 @@ mod tests {
             Err(Error::Merge { problems, .. }) => problems.join("\n"),
             other => panic!("{other:?}"),
         };
-        let p = problems(merge(dir, png));
+        let p = problems(merge(dir));
         assert!(p.contains("rendered from a different file"), "{p}");
         part(dir, 1, &s1, &[1], true);
-        std::fs::remove_file(png(2, 4)).unwrap();
-        let p = problems(merge(dir, png));
+        std::fs::remove_file(frame_path(dir, 2, 4)).unwrap();
+        let p = problems(merge(dir));
         assert!(
             p.contains("hashes.part-1-of-2.txt: frame(s) 3 are missing"),
             "{p}"
         );
-        assert!(p.contains("frame 2 is listed but f2.png is missing"), "{p}");
+        assert!(
+            p.contains("frame 2 is listed but frame_0002.png is missing"),
+            "{p}"
+        );
         part(dir, 1, &s1, &[1], false);
-        let p = problems(merge(dir, png));
+        let p = problems(merge(dir));
         assert!(
             p.contains(
                 "shard 1/2 did not finish: hashes.part-1-of-2.txt lists 1 of its 2 frame(s)"

@@ -26,8 +26,8 @@ mod merge;
 pub mod sequence;
 
 pub use files::{
-    final_name, png_hash, remove_if_there, resolved, temp_beside, write_atomic, write_atomic_with,
-    write_png, write_png_atomic, Compression,
+    final_name, folder_of, png_hash, remove_if_there, resolved, temp_beside, write_atomic,
+    write_atomic_with, write_png, write_png_atomic, Compression,
 };
 
 /// The manifest of a whole run, and the hashes file of a golden.
@@ -57,13 +57,6 @@ pub mod pictures {
     pub const STATUS: &str = "status.js";
     /// `watch`'s first, middle and last frames.
     pub const FRAMES: [&str; 3] = ["first.png", "middle.png", "last.png"];
-
-    /// Every one of them.
-    pub(crate) fn all() -> impl Iterator<Item = &'static str> {
-        [SHEET, GIF, PLOT, REPORT, PAGE, STATUS]
-            .into_iter()
-            .chain(FRAMES)
-    }
 }
 
 /// The mark an earlier campath left in a folder of failure pictures, where campath's lock file
@@ -77,32 +70,32 @@ pub fn pad_width(frames: u64) -> usize {
 
 /// `dir/frame_0042.png`, padded for `frames` frames.
 pub fn frame_path(dir: &Path, frame: u64, frames: u64) -> PathBuf {
-    dir.join(format!(
-        "frame_{frame:0width$}.png",
-        width = pad_width(frames)
-    ))
+    let width = pad_width(frames);
+    dir.join(format!("frame_{frame:0width$}.png"))
 }
 
 /// The frame a file name `frame_NNNN.png` holds, and its digits, if it is one.
 pub fn frame_of(name: &str) -> Option<(u64, usize)> {
-    let digits = name.strip_prefix("frame_")?.strip_suffix(".png")?;
-    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    Some((digits.parse().ok()?, digits.len()))
+    let number = name.strip_prefix("frame_")?.strip_suffix(".png")?;
+    Some((digits(number)?, number.len()))
+}
+
+/// The number that ASCII digits alone spell (a sign or a space spells none).
+pub(crate) fn digits<T: std::str::FromStr>(s: &str) -> Option<T> {
+    let all = s.bytes().all(|b| b.is_ascii_digit());
+    s.parse().ok().filter(|_| all)
 }
 
 /// The frame files `frame_NNNN.png` in `dir`, by frame (empty when there is no such folder).
 pub fn frames_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
-    std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|e| {
-            let (frame, _) = frame_of(e.file_name().to_str()?)?;
-            Some((frame, e.path()))
-        })
-        .collect()
+    let frames = entries(dir).filter_map(|(name, e)| Some((frame_of(&name)?.0, e.path())));
+    frames.collect()
+}
+
+/// The entries of `dir` with their names (none when it cannot be read).
+pub(crate) fn entries(dir: &Path) -> impl Iterator<Item = (String, std::fs::DirEntry)> {
+    let all = std::fs::read_dir(dir).into_iter().flatten().flatten();
+    all.map(|e| (e.file_name().to_string_lossy().into_owned(), e))
 }
 
 /// A failure picture: `frame_NNNN.png` (the new frame) or `frame_NNNN.diff.png` (its
@@ -129,11 +122,8 @@ pub(crate) fn part_of(name: &str) -> Option<Shard> {
         .strip_prefix("hashes.part-")?
         .strip_suffix(".txt")?
         .split_once("-of-")?;
-    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    if !digits(k) || !digits(n) {
-        return None;
-    }
-    format!("{k}/{n}").parse().ok()
+    let (index, count) = (digits(k)?, digits(n)?);
+    (index < count).then_some(Shard { index, count })
 }
 
 /// The part files in `dir`, by shard.
@@ -167,6 +157,7 @@ fn is_desktop_clutter(name: &str) -> bool {
 
 /// Whether campath writes files of this name into an output folder.
 fn is_ours(name: &str) -> bool {
+    use pictures::{FRAMES, GIF, PAGE, PLOT, REPORT, SHEET, STATUS};
     let base = final_name(name);
     frame_of(base).is_some()
         || lock::is_lock_file(base)
@@ -174,7 +165,8 @@ fn is_ours(name: &str) -> bool {
         || base.ends_with(".mp4")
         || base.ends_with(".mkv")
         || [HASHES, BEFORE_SHARDS].contains(&base)
-        || pictures::all().any(|p| p == base)
+        || [SHEET, GIF, PLOT, REPORT, PAGE, STATUS].contains(&base)
+        || FRAMES.contains(&base)
 }
 
 /// The folder of rendered frames that `path` (as it resolves) is or lies inside, if any: the
@@ -189,14 +181,6 @@ pub fn frames_folder_of(path: &Path) -> Option<PathBuf> {
                 || manifest::begins_as_campaths(&dir.join(BEFORE_SHARDS))
         })
         .map(Path::to_path_buf)
-}
-
-/// The folder a file at `path` goes into (`.` for a bare name).
-pub fn folder_of(path: &Path) -> &Path {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    }
 }
 
 /// Whether `path` is `dir` or lies inside it, both as they resolve.
@@ -229,37 +213,42 @@ pub fn check(path: &Path, usage: Use) -> std::result::Result<(), Refusal> {
     match usage {
         Use::Frames => {
             a_folder_of_its_own(path)?;
-            let Ok(entries) = std::fs::read_dir(path) else {
-                return Ok(());
-            };
-            let names: Vec<String> = entries
-                .flatten()
-                .map(|e| e.file_name().to_string_lossy().into_owned())
+            let names: Vec<String> = entries(path)
+                .map(|(name, _)| name)
                 .filter(|n| !is_ours(n) && !is_desktop_clutter(n))
                 .take(3)
                 .collect();
-            match names.is_empty() {
-                true => Ok(()),
-                false => Err(Refusal::Foreign {
-                    dir: path.to_path_buf(),
-                    names,
-                }),
-            }
+            no_foreign(path, names)
         }
         Use::File => {
             if path.is_dir() {
                 return Err(Refusal::NotAFile(path.to_path_buf()));
             }
-            let parent = folder_of(path);
-            golden_of(parent)?;
-            match frames_folder_of(parent) {
-                Some(frames) => Err(Refusal::InFrames {
-                    path: path.to_path_buf(),
-                    frames,
-                }),
-                None => Ok(()),
-            }
+            golden_of(folder_of(path))?;
+            outside_frames(path, Some(folder_of(path)))
         }
+    }
+}
+
+/// Refuses `dir` for what it holds that campath did not write: `names`, if any.
+fn no_foreign(dir: &Path, names: Vec<String>) -> std::result::Result<(), Refusal> {
+    match names.is_empty() {
+        true => Ok(()),
+        false => Err(Refusal::Foreign {
+            dir: dir.to_path_buf(),
+            names,
+        }),
+    }
+}
+
+/// Refuses `path` when `folder` (as it resolves) is or lies inside a folder of rendered frames.
+fn outside_frames(path: &Path, folder: Option<&Path>) -> std::result::Result<(), Refusal> {
+    match folder.and_then(frames_folder_of) {
+        Some(frames) => Err(Refusal::InFrames {
+            path: path.to_path_buf(),
+            frames,
+        }),
+        None => Ok(()),
     }
 }
 
@@ -270,13 +259,7 @@ fn a_folder_of_its_own(path: &Path) -> std::result::Result<(), Refusal> {
         return Err(Refusal::NotAFolder(path.to_path_buf()));
     }
     golden_of(path)?;
-    match resolved(path).parent().and_then(frames_folder_of) {
-        Some(frames) => Err(Refusal::InFrames {
-            path: path.to_path_buf(),
-            frames,
-        }),
-        None => Ok(()),
-    }
+    outside_frames(path, resolved(path).parent())
 }
 
 /// Refuses `path` when it is, or lies inside, one of `goldens` (as they resolve): the goldens a
@@ -306,37 +289,26 @@ pub fn claim_pictures(
 ) -> Result<lock::FolderLock> {
     outside_goldens(dir, goldens)?;
     a_folder_of_its_own(dir)?;
-    let entries: Vec<_> = match std::fs::read_dir(dir) {
-        Ok(entries) => entries.flatten().collect(),
-        Err(_) => Vec::new(),
-    };
-    let name = |e: &std::fs::DirEntry| e.file_name().to_string_lossy().into_owned();
+    let listed: Vec<_> = entries(dir).collect();
     let is_mark = |n: &str| n == LOCK || n == OLD_FAILURES_MARK;
-    let marked = entries.iter().any(|e| is_mark(&name(e)));
-    let foreign: Vec<String> = entries
-        .iter()
-        .filter(|e| {
-            let n = name(e);
+    let marked = listed.iter().any(|(n, _)| is_mark(n));
+    let mut foreign: Vec<String> = listed
+        .into_iter()
+        .filter(|(n, e)| {
             let file = e.file_type().is_ok_and(|t| t.is_file());
-            !(file && (is_mark(&n) || (marked && ours(&n))))
+            !(file && (is_mark(n) || (marked && ours(n))))
         })
-        .map(name)
+        .map(|(n, _)| n)
         .collect();
-    if !foreign.is_empty() {
-        let mut names: Vec<String> = foreign.iter().take(3).cloned().collect();
-        if foreign.len() > 3 {
-            names.push("…".into());
-        }
-        return Err(Refusal::Foreign {
-            dir: dir.to_path_buf(),
-            names,
-        }
-        .into());
+    if foreign.len() > 3 {
+        foreign.truncate(3);
+        foreign.push("…".into());
     }
+    no_foreign(dir, foreign)?;
     let lock = lock::FolderLock::acquire(dir, lock::Claim::Whole, wait)?;
     // Listed again under the lock: a run this one waited for may have written more since.
     for e in std::fs::read_dir(dir).map_err(Error::read(dir))?.flatten() {
-        let n = name(&e);
+        let n = e.file_name().to_string_lossy().into_owned();
         if n == OLD_FAILURES_MARK || (n != LOCK && ours(&n)) {
             remove_if_there(&e.path())?;
         }

@@ -18,8 +18,8 @@ use super::files::{
 use super::lock::{Claim, FolderLock, Wait};
 use super::manifest::{Entry, Manifest, PartHeader, Writer};
 use super::{
-    check, frame_of, frame_path, manifest_name, pad_width, parts_in, videos, Compression, Use,
-    BEFORE_SHARDS, HASHES,
+    check, entries, frame_of, frame_path, manifest_name, pad_width, parts_in, videos, Compression,
+    Use, BEFORE_SHARDS, HASHES,
 };
 use crate::document::Document;
 use crate::error::{Error, Result};
@@ -104,12 +104,10 @@ fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
     let whole = Manifest::read_lenient(&dir.join(HASHES));
     let aside = Manifest::read_lenient(&dir.join(BEFORE_SHARDS));
     let parts = parts_in(dir).unwrap_or_default().into_values();
+    let mut lines = whole.entries;
+    lines.extend(parts.flat_map(|p| Manifest::read_lenient(&p).entries));
     let mut out: BTreeMap<u64, Vec<Entry>> = BTreeMap::new();
-    for e in whole
-        .entries
-        .into_iter()
-        .chain(parts.flat_map(|p| Manifest::read_lenient(&p).entries))
-    {
+    for e in lines {
         out.entry(e.frame).or_default().push(e);
     }
     let aside = aside.entries.into_iter().map(|e| (e.frame, e)).collect();
@@ -121,8 +119,7 @@ fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
 fn frame_files(dir: &Path, total: u64) -> (BTreeSet<u64>, Vec<PathBuf>) {
     let mut files = BTreeSet::new();
     let mut foreign = Vec::new();
-    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
+    for (name, e) in entries(dir) {
         if let Some((frame, digits)) = frame_of(&name) {
             if frame < total && digits == pad_width(total) {
                 files.insert(frame);
@@ -141,10 +138,7 @@ fn on_disk(dir: &Path, total: u64, check: &[(u64, Vec<&Entry>)]) -> Vec<Entry> {
         .par_iter()
         .filter_map(|(frame, current)| {
             let hash = png_hash(&frame_path(dir, *frame, total))?;
-            current
-                .iter()
-                .find(|e| e.hash == hash)
-                .map(|e| (*e).clone())
+            current.iter().copied().find(|e| e.hash == hash).cloned()
         })
         .collect()
 }
@@ -159,9 +153,7 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     }
     let mut sequence = Sha256::new();
     let mut reasons = Reasons::default();
-    let mut check = Vec::new();
-    let mut outside = Vec::new();
-    let mut unsure = Vec::new();
+    let (mut check, mut outside, mut unsure) = (Vec::new(), Vec::new(), Vec::new());
     for item in keys(doc) {
         let (frame, key) = item?;
         sequence.update(key.to_string().as_bytes());
@@ -195,11 +187,8 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     }
     let confirmed = on_disk(dir, total, &unsure);
     let sure: BTreeSet<u64> = confirmed.iter().map(|e| e.frame).collect();
-    for (frame, _) in &unsure {
-        if !sure.contains(frame) {
-            stale.push(frame_path(dir, *frame, total));
-        }
-    }
+    let unconfirmed = unsure.iter().filter(|(frame, _)| !sure.contains(frame));
+    stale.extend(unconfirmed.map(|(frame, _)| frame_path(dir, *frame, total)));
     outside.extend(confirmed);
     outside.sort_by_key(|e| e.frame);
     let kept = on_disk(dir, total, &check);
@@ -220,12 +209,9 @@ fn plan(doc: &Document, dir: &Path, set: &FrameSet, force: bool) -> Result<Plan>
     })
 }
 
-/// Removes the records this run would make false: the frame files of the run's frames that it
-/// renders again (so a run stopped on the way leaves no old picture under a frame's name); a
-/// shard moves hashes.txt aside to [`BEFORE_SHARDS`] (`merge` writes hashes.txt
-/// again; the shards still to run keep their frames by it); a whole run removes the part files,
-/// that file, and the frame files of no current frame. Returns the number of frame files of no
-/// current frame removed.
+/// Removes the records this run would make false (see [`render`]), and the frame files it renders
+/// again, so a run stopped on the way leaves no old picture under a frame's name. Returns the
+/// number of frame files of no current frame removed.
 fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> {
     if set.shard.is_some() {
         // First: hashes.txt never lists a frame whose picture is gone.
@@ -247,11 +233,7 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
         remove(path)?;
     }
     remove(&dir.join(BEFORE_SHARDS))?;
-    let mut removed = 0;
-    for path in &plan.stale {
-        removed += u64::from(remove(path)?);
-    }
-    Ok(removed)
+    plan.stale.iter().map(|p| remove(p).map(u64::from)).sum()
 }
 
 /// Takes the lock of the output folder `dir` for a render of `set` (see `output::lock`), after
@@ -261,7 +243,7 @@ fn remove_stale_records(dir: &Path, set: &FrameSet, plan: &Plan) -> Result<u64> 
 pub fn lock(doc: &Document, dir: &Path, set: &FrameSet, wait: Wait) -> Result<FolderLock> {
     check(dir, Use::Frames)?;
     doc.check_path()?;
-    FolderLock::acquire(dir, Claim::of(set.shard), wait)
+    FolderLock::acquire(dir, set.shard.map_or(Claim::Whole, Claim::Shard), wait)
 }
 
 /// Renders the frames of `set` to PNGs in the locked folder (see [`lock`]) with their manifest:
@@ -290,11 +272,11 @@ pub fn render(
 ) -> Result<RenderSummary> {
     let started = std::time::Instant::now();
     let dir = lock.dir();
-    if lock.claim() != Claim::of(set.shard) {
+    let claim = set.shard.map_or(Claim::Whole, Claim::Shard);
+    if lock.claim() != claim {
         return Err(Error::Usage(format!(
-            "{}: a render of {} needs the folder's lock for it, not for {}",
+            "{}: a render of {claim} needs the folder's lock for it, not for {}",
             dir.display(),
-            Claim::of(set.shard),
             lock.claim()
         )));
     }
@@ -336,17 +318,10 @@ pub fn render(
         set,
         |frame| kept.contains(&frame),
         |frame, key, pixels, hash| {
-            write_png_atomic(
-                &frame_path(dir, frame, total),
-                pixels,
-                size,
-                options.compression,
-            )?;
-            manifest.append(Entry {
-                frame,
-                hash,
-                key: Some(*key),
-            })?;
+            let png = frame_path(dir, frame, total);
+            write_png_atomic(&png, pixels, size, options.compression)?;
+            let key = Some(*key);
+            manifest.append(Entry { frame, hash, key })?;
             progress(Event::Written(frame));
             Ok(())
         },
@@ -378,7 +353,7 @@ pub fn merge(lock: &FolderLock) -> Result<u64> {
             lock.claim()
         )));
     }
-    let (merged, total) = super::merge::merge(dir, |frame, total| frame_path(dir, frame, total))?;
+    let (merged, total) = super::merge::merge(dir)?;
     let mut damaged: Vec<u64> = merged
         .entries
         .par_iter()
