@@ -69,9 +69,13 @@ fn encode_png(
         Compression::Default => (CompressionType::Default, FilterType::Adaptive),
         Compression::Best => (CompressionType::Best, FilterType::Adaptive),
     };
-    PngEncoder::new_with_quality(BufWriter::new(file), level, filter)
+    let mut out = BufWriter::new(file);
+    PngEncoder::new_with_quality(&mut out, level, filter)
         .write_image(pixels, width, height, image::ExtendedColorType::Rgb8)
-        .map_err(Error::encode(path))
+        .map_err(Error::encode(path))?;
+    // Flushed here, not on drop, which would pass over a failed write (a full disk) and let a
+    // cut-off PNG be renamed into place.
+    std::io::Write::flush(&mut out).map_err(Error::write(path))
 }
 
 /// The hash of a PNG's RGB8 pixels, or None if it is missing or does not decode.
