@@ -2,6 +2,7 @@
 //! verbs (render, merge, hash, verify, path, check) and the tooling (preview, plot, report).
 //! Binary-only: the library never imports clap, indicatif or plotters.
 
+mod approve;
 mod args;
 mod chart;
 mod error;
@@ -69,6 +70,9 @@ enum Command {
     Test(suite::TestArgs),
     /// Compare fresh renders with golden hashes; exit 1 naming every frame that differs.
     Verify(verify::VerifyArgs),
+    /// Go through the pending goldens that failing tests left: see how each shot differs,
+    /// then accept or reject it (keys on a terminal; --accept or --reject off one).
+    Review(approve::ReviewArgs),
     /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
     /// whole shot as glTF, a Blender script or an OpenUSD stage.
     Path(path::PathArgs),
@@ -117,6 +121,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
         Command::Hash(a) => verbs::hash(a)?,
         Command::Test(a) => return suite::run(a, out),
         Command::Verify(a) => return verify::verify(a, out),
+        Command::Review(a) => return approve::run(a, out),
         Command::Path(a) => path::path(a, out)?,
         Command::Check(a) => return verbs::check(a, out),
         Command::Report(a) => report::run(a, out)?,

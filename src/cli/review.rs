@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::error::Result;
-use super::failures::PixelDiff;
 use super::junit::escape;
+use crate::testing::PixelDiff;
 use crate::FrameHash;
 
 /// A differing frame's pictures in the review folder (file names) and hashes.
@@ -67,7 +67,7 @@ pub fn is_review_file(name: &str) -> bool {
 
 const STYLE: &str = "
 body { font: 14px/1.4 system-ui, sans-serif; margin: 24px; background: #1d1f24; color: #e6e6e6; }
-h1 { font-size: 20px; } h2 { font-size: 16px; margin-top: 32px; border-top: 1px solid #444; padding-top: 16px; }
+h1 { font-size: 20px; } .how { font-family: ui-monospace, monospace; background: #2a2d33; padding: 8px 12px; } h2 { font-size: 16px; margin-top: 32px; border-top: 1px solid #444; padding-top: 16px; }
 .frame { margin: 16px 0 28px; }
 .frame h3 { font-size: 14px; margin: 0 0 6px; font-weight: 600; }
 .pictures { display: flex; flex-wrap: wrap; gap: 16px; align-items: flex-start; }
@@ -105,7 +105,7 @@ window.addEventListener('load', function () {
 ";
 
 /// Writes `dir/index.html` for the failing `shots` of a run of `total` shots; returns its path.
-pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> {
+pub fn write(dir: &Path, shots: &[ReviewShot], total: usize, how: &str) -> Result<PathBuf> {
     let mut html =
         String::from("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">");
     let _ = write!(
@@ -115,6 +115,8 @@ pub fn write(dir: &Path, shots: &[ReviewShot], total: usize) -> Result<PathBuf> 
     );
     if shots.is_empty() {
         html += "<p class=\"passed\">Every shot matches its golden.</p>\n";
+    } else {
+        let _ = writeln!(html, "<p class=\"how\">{}</p>", escape(how));
     }
     for shot in shots {
         let (name, summary) = (escape(&shot.shot), escape(&shot.summary));
@@ -154,9 +156,9 @@ fn frame(html: &mut String, f: &ReviewFrame) {
         }
         (None, Some(new)) => {
             let why = if f.golden_hash.is_some() {
-                "the golden keeps hashes only"
+                "the golden keeps no picture of this frame"
             } else {
-                "no golden"
+                "not in the golden"
             };
             let _ = write!(
                 html,

@@ -1,6 +1,7 @@
 //! `campath test [DIR]`: every shot under DIR against its golden, one line per shot and a
-//! summary; `--update` approves, `--junit` reports to CI, `--review` writes a page of the
-//! differences.
+//! summary. A failing shot leaves a pending golden for `campath review` (or, with `--update`,
+//! is approved); `--junit` reports to CI, `--review` writes a page of the differences, and
+//! `--unreferenced` finds goldens whose shot is gone.
 
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -9,12 +10,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use super::error::{CliError, Result};
-use super::failures::{self, difference, golden_pixels};
+use super::failures;
 use super::junit;
 use super::review::{self, ReviewFrame, ReviewShot};
 use crate::key::VERSION;
 use crate::output::{write_png, Compression};
-use crate::testing::{golden_dir, Difference, Options, Shot, ShotRun, Verdict};
+use crate::testing::pictures::{difference, pixels_of};
+use crate::testing::{golden_dir, shell_word, Difference, Options, Shot, ShotRun, Update, Verdict};
 use crate::Error;
 
 /// The options of `campath test`.
@@ -23,14 +25,26 @@ pub struct TestArgs {
     /// The folder of shots, searched recursively.
     #[arg(default_value = "shots")]
     pub dir: PathBuf,
-    /// Approve: write the golden of every shot that differs or has none (its hashes.txt,
-    /// and its frames when the golden keeps frames); passing goldens are left untouched.
-    #[arg(long)]
+    /// Approve in place: write the golden of every shot that differs or has none (its
+    /// hashes.txt, small pictures, and its frames when the golden keeps frames); passing
+    /// goldens are left untouched. As CAMPATH_UPDATE=always.
+    #[arg(long, conflicts_with_all = ["pending", "no_pending"])]
     pub update: bool,
-    /// With --update, keep every frame's PNG in the goldens it writes (for review pages),
-    /// not only hashes.txt.
+    /// Write a pending golden NAME.golden.new beside the golden of every failing shot, for
+    /// `campath review` (the default, as CAMPATH_UPDATE=new; under CI the default is
+    /// --no-pending).
+    #[arg(long, conflicts_with = "no_pending")]
+    pub pending: bool,
+    /// Write nothing: compare only (as CAMPATH_UPDATE=no).
+    #[arg(long)]
+    pub no_pending: bool,
+    /// With --update, keep every frame's PNG in the goldens it writes, not only hashes.txt
+    /// and the small pictures.
     #[arg(long, requires = "update")]
     pub keep_frames: bool,
+    /// List goldens and pending goldens with no shot beside them; =delete removes them.
+    #[arg(long, value_name = "delete", num_args = 0..=1, require_equals = true, default_missing_value = "list", value_parser = ["list", "delete"])]
+    pub unreferenced: Option<String>,
     /// Also write a JUnit XML report: one test suite per shot, one test case per frame.
     #[arg(long, value_name = "PATH")]
     pub junit: Option<PathBuf>,
@@ -58,7 +72,8 @@ pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
             let path = e.path();
             let name = e.file_name().to_string_lossy().into_owned();
             if path.is_dir() {
-                if !name.starts_with('.') && !name.ends_with(".golden") {
+                let golden = name.ends_with(".golden") || name.ends_with(".golden.new");
+                if !name.starts_with('.') && !golden {
                     folders.push(path);
                 }
             } else if name.ends_with(".ron") {
@@ -108,6 +123,9 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
             a.dir.display()
         )));
     }
+    if let Some(what) = &a.unreferenced {
+        return unreferenced(&a.dir, what == "delete", out);
+    }
     let shots = shots(&a.dir)?;
     if shots.is_empty() {
         let message = format!("{} holds no *.ron shot", a.dir.display());
@@ -135,9 +153,15 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     let next = AtomicUsize::new(0);
     let results: Mutex<BTreeMap<usize, Checked>> = Mutex::new(BTreeMap::new());
     let ready = std::sync::Condvar::new();
+    let (update, keep_frames) = match (a.update, a.pending, a.no_pending) {
+        (true, ..) => (Update::Always, a.keep_frames),
+        (_, true, _) => (Update::New, false),
+        (.., true) => (Update::No, false),
+        _ => Update::from_env().map_err(CliError::Usage)?,
+    };
     let options = Options {
-        update: a.update,
-        keep_frames: a.keep_frames,
+        update,
+        keep_frames,
         swept: true,
     };
     let mut checked = Vec::with_capacity(shots.len());
@@ -177,29 +201,34 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
     // Shots approved by this run count as neither passed nor failing.
     let runs: Vec<&ShotRun> = checked.iter().filter_map(|c| c.run.as_ref().ok()).collect();
     let bad = checked.len() - runs.len();
-    let updated = runs.iter().filter(|r| r.updated).count();
+    let approved = runs.iter().filter(|r| r.updated).count();
+    let pending = runs.iter().filter(|r| r.pending.is_some()).count();
     let open = runs.iter().filter(|r| !r.updated);
     let count = |is: &dyn Fn(Verdict) -> bool| open.clone().filter(|r| is(r.verdict())).count();
     let passed = count(&|v| v == Verdict::Passed);
-    let no_golden = count(&|v| v == Verdict::NoGolden);
-    let differ = runs.len() - updated - passed - no_golden;
+    let new = count(&|v| v == Verdict::NoGolden);
+    let differ = runs.len() - approved - passed - new;
     // Goldens of a newer campath: this one never writes them, so approving is no answer.
     let newer = count(&|v| matches!(v, Verdict::OtherRenderer(v) if v > VERSION));
-    let ok = differ + no_golden + bad == 0;
+    let ok = differ + new + bad == 0;
     let mut summary = format!(
-        "test result: {}. {} shot(s): {passed} passed, {differ} differ, {no_golden} without \
-         golden, {bad} could not be checked",
+        "test result: {}. {} shot(s): {passed} passed, {differ} differ, {new} new",
         if ok { "ok" } else { "FAILED" },
         shots.len()
     );
-    if updated > 0 {
-        summary += &format!("; {updated} golden(s) written");
-    } else if a.update && ok {
-        summary += "; no golden needed writing";
-    } else if !a.update && differ + no_golden > newer {
+    if bad > 0 {
+        summary += &format!(", {bad} could not be checked");
+    }
+    summary += &format!("; {pending} pending golden(s) written, {approved} approved");
+    let dir = shell_word(&a.dir.display().to_string());
+    if pending > 0 {
         summary += &format!(
-            "\nIf the changes are intended, approve them with `campath test {} --update`.",
-            shell_word(&a.dir.display().to_string())
+            "\nLook at the differences and accept or reject them: `campath review {dir}`."
+        );
+    } else if differ + new > newer && update == Update::No {
+        summary += &format!(
+            "\nNothing was written (--no-pending, CAMPATH_UPDATE=no, or CI is set). To look at \
+             the differences: `campath test {dir} --pending`, then `campath review {dir}`."
         );
     }
     if newer > 0 {
@@ -231,7 +260,18 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
                 })
             })
             .collect();
-        let page = review::write(dir, &shown, shots.len())?;
+        let d = shell_word(&a.dir.display().to_string());
+        let how = match update {
+            Update::New => format!(
+                "Accept every shot: campath review {d} --accept (one: add --shot NAME). Reject: \
+                 campath review {d} --reject. On a terminal, campath review {d} asks shot by shot."
+            ),
+            _ => format!(
+                "This run wrote no pending golden. To approve: campath test {d} --pending, then \
+                 campath review {d}; or campath test {d} --update to approve every shot."
+            ),
+        };
+        let page = review::write(dir, &shown, shots.len(), &how)?;
         writeln!(out, "review: {}", page.display()).map_err(Error::stdout)?;
     }
     if bad > 0 {
@@ -240,7 +280,49 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
             shots.len()
         )));
     }
-    Ok(differ + no_golden == 0)
+    Ok(differ + new == 0)
+}
+
+/// `--unreferenced`: the goldens and pending goldens under `dir` with no `NAME.ron` beside
+/// them, listed, and with `delete` removed.
+fn unreferenced(dir: &Path, delete: bool, out: &mut dyn Write) -> Result<bool> {
+    let mut found = Vec::new();
+    let mut folders = vec![dir.to_path_buf()];
+    while let Some(folder) = folders.pop() {
+        for e in std::fs::read_dir(&folder)
+            .map_err(Error::read(&folder))?
+            .flatten()
+        {
+            let (path, name) = (e.path(), e.file_name().to_string_lossy().into_owned());
+            let stem = (name.strip_suffix(".golden.new")).or_else(|| name.strip_suffix(".golden"));
+            match stem {
+                _ if !path.is_dir() || name.starts_with('.') => {}
+                Some(stem) if !folder.join(format!("{stem}.ron")).is_file() => found.push(path),
+                Some(_) => {}
+                None => folders.push(path),
+            }
+        }
+    }
+    found.sort();
+    for path in &found {
+        if delete {
+            std::fs::remove_dir_all(path).map_err(Error::write(path))?;
+            writeln!(out, "removed {}", path.display()).map_err(Error::stdout)?;
+        } else {
+            writeln!(out, "{}", path.display()).map_err(Error::stdout)?;
+        }
+    }
+    let n = found.len();
+    let d = shell_word(&dir.display().to_string());
+    let line = match (n, delete) {
+        (0, _) => "no unreferenced golden".to_string(),
+        (_, true) => format!("{n} unreferenced golden(s) removed"),
+        (_, false) => format!(
+            "{n} unreferenced golden(s); remove them: `campath test {d} --unreferenced=delete`"
+        ),
+    };
+    writeln!(out, "{line}").map_err(Error::stdout)?;
+    Ok(true)
 }
 
 /// Renders and compares one shot; with a review folder, writes its differing frames' pictures
@@ -250,6 +332,7 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
     let run = Shot::open(shot, options).and_then(|shot| {
         let size = (shot.doc.raster.width, shot.doc.raster.height);
         let golden_frames = shot.golden_frames.clone();
+        let thumbs = crate::testing::thumbs_in(&golden_dir(&shot.path));
         shot.run(options, |d: &Difference, pixels| {
             let Some(dir) = review else { return Ok(()) };
             let name = |what: &str| review::file_name(index, d.frame, what);
@@ -257,9 +340,13 @@ fn check(index: usize, shot: &Path, options: Options, review: Option<&Path>) -> 
             write_png(&dir.join(&new), pixels, size, Compression::Fast)?;
             let mut f = ReviewFrame::of(d);
             f.new = Some(new);
-            let golden = golden_frames
-                .get(&d.frame)
-                .and_then(|p| golden_pixels(p, size));
+            let golden = golden_frames.get(&d.frame).and_then(|p| pixels_of(p, size));
+            if let (None, Some(thumb)) = (&golden, thumbs.get(&d.frame)) {
+                // The golden's small picture, beside the new frame.
+                let g = name("golden");
+                std::fs::copy(thumb, dir.join(&g)).map_err(Error::write(dir.join(&g)))?;
+                f.golden = Some(g);
+            }
             if let Some(golden) = golden {
                 let (image, p) = difference(&golden, pixels);
                 let (g, dname) = (name("golden"), name("diff"));
@@ -315,35 +402,4 @@ fn suite(shot: &Path, c: &Checked) -> junit::Suite {
         s.case(&format!("frame {frame}"), failure.or(stale_picture));
     }
     s
-}
-
-/// The path `word` as one word of a POSIX shell command that campath reads as a path: as it is
-/// when it holds only characters no shell treats specially, else in single quotes (a `'` inside
-/// as `'\''`); after `./` when it starts with `-`, which would read as an option. So a printed
-/// command can be pasted.
-fn shell_word(word: &str) -> String {
-    let word = match word.starts_with('-') {
-        true => format!("./{word}"),
-        false => word.to_string(),
-    };
-    let plain = |c: char| c.is_ascii_alphanumeric() || "_-./+:=,@%".contains(c);
-    if !word.is_empty() && word.chars().all(plain) {
-        return word;
-    }
-    format!("'{}'", word.replace('\'', "'\\''"))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::shell_word;
-
-    #[test]
-    fn printed_paths_are_one_shell_word() {
-        assert_eq!(shell_word("shots/a-b_c.d"), "shots/a-b_c.d");
-        assert_eq!(shell_word("my shots"), "'my shots'");
-        assert_eq!(shell_word("ünï cødé"), "'ünï cødé'");
-        assert_eq!(shell_word("it's"), "'it'\\''s'");
-        assert_eq!(shell_word(""), "''");
-        assert_eq!(shell_word("-shots"), "./-shots");
-    }
 }

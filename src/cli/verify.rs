@@ -9,12 +9,13 @@ use std::path::{Path, PathBuf};
 
 use super::args::Shot;
 use super::error::Result;
-use super::failures::{self, difference, golden_pixels, PixelDiff};
+use super::failures;
 use super::junit;
 use crate::document::Document;
 use crate::frames::{compare_each, list_first, list_frames, Difference};
 use crate::golden::Golden;
 use crate::output::{frame_path, pad_width, write_png, Compression, HASHES};
+use crate::testing::pictures::{difference, pixels_of as golden_pixels, PixelDiff};
 use crate::Error;
 
 /// The options of `campath verify`.

@@ -36,6 +36,19 @@ pub struct Document {
     pub(crate) scene: Scene,
     /// The sphere files the scene names, in order, with how many spheres each gave.
     pub(crate) sphere_files: Vec<SphereFile>,
+    /// How far a frame-hash test lets a frame stray from its golden frame (`test`), if at all.
+    pub(crate) tolerance: Option<Tolerance>,
+}
+
+/// A shot's tolerance (`test: (max_pixels: N, max_level: L)`): a frame whose hash differs
+/// passes when at most `max_pixels` of its pixels have a channel more than `max_level` levels
+/// from the golden frame's.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Tolerance {
+    /// Pixels that may differ by more than `max_level`.
+    pub max_pixels: u64,
+    /// Levels of 255 a channel may differ by and count as unchanged.
+    pub max_level: u8,
 }
 
 /// A sphere file of the scene and how many spheres it gave.
@@ -80,6 +93,11 @@ impl Document {
     /// The sphere files the scene names, in order, with how many spheres each gave.
     pub fn sphere_files(&self) -> &[SphereFile] {
         &self.sphere_files
+    }
+
+    /// The shot's tolerance in frame-hash tests, if it states one.
+    pub fn tolerance(&self) -> Option<Tolerance> {
+        self.tolerance
     }
 
     /// The same shot rendered at `width` × `height` pixels (a smaller frame for a quick test),
@@ -319,6 +337,7 @@ impl Checker {
             animation: animation?,
             scene: scene?,
             sphere_files,
+            tolerance: self.tolerance(spec.test.as_ref()),
         };
         // A static camera must be well formed at its first frame; animated ones are checked
         // frame by frame when evaluated.
@@ -342,6 +361,32 @@ impl Checker {
             self.problem(field, format!("at t = 0 s: {e}"));
         }
         Some(doc)
+    }
+}
+
+impl Checker {
+    fn tolerance(&mut self, spec: Option<&format::TestSpec>) -> Option<Tolerance> {
+        let spec = spec?;
+        let max_pixels = spec.max_pixels.unwrap_or(0);
+        let max_level = spec.max_level.unwrap_or(0);
+        let pixels = u64::try_from(max_pixels).ok();
+        let level = u8::try_from(max_level).ok();
+        if pixels.is_none() {
+            self.problem(
+                "test.max_pixels",
+                format!("a pixel count must be 0 or more, got {max_pixels}"),
+            );
+        }
+        if level.is_none() {
+            self.problem(
+                "test.max_level",
+                format!("a level must lie in 0..=255, got {max_level}"),
+            );
+        }
+        Some(Tolerance {
+            max_pixels: pixels?,
+            max_level: level?,
+        })
     }
 }
 

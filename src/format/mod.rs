@@ -39,11 +39,24 @@ pub struct FileSpec {
     /// Spheres, lights, background and ambient.
     #[serde(default)]
     pub scene: SceneSpec,
+    /// A frame-hash test's tolerance, for shots only.
+    #[serde(default)]
+    pub test: Option<TestSpec>,
     /// The file's fields in the order it writes them, top-level (`frames`, `camera`) and one
     /// level down (`camera.vpn`, `image.width`), for listing problems in the file's order.
     /// Filled by [`parse`].
     #[serde(skip)]
     pub order: Vec<String>,
+}
+
+/// The file's `test`: how far a frame may stray from its golden frame and still pass.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TestSpec {
+    /// Pixels that may differ by more than `max_level` (default 0).
+    pub max_pixels: Option<i64>,
+    /// Levels of 255 a channel may differ by unnoticed (default 0).
+    pub max_level: Option<i64>,
 }
 
 /// The file's `image`.

@@ -53,7 +53,7 @@ pub fn write_png_atomic(
 }
 
 /// Encodes the PNG of `path` into `file`.
-fn encode_png(
+pub fn encode_png(
     path: &Path,
     file: impl std::io::Write,
     pixels: &[u8],

@@ -26,8 +26,8 @@ mod merge;
 pub mod sequence;
 
 pub use files::{
-    final_name, folder_of, png_hash, remove_if_there, resolved, temp_beside, write_atomic,
-    write_atomic_with, write_png, write_png_atomic, Compression,
+    encode_png, final_name, folder_of, png_hash, remove_if_there, resolved, temp_beside,
+    write_atomic, write_atomic_with, write_png, write_png_atomic, Compression,
 };
 
 /// The manifest of a whole run, and the hashes file of a golden.
