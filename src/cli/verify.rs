@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::args::Shot;
-use super::error::Result;
+use super::error::{CliError, Result};
 use super::failures;
 use super::junit;
 use crate::document::Document;
@@ -16,6 +16,7 @@ use crate::frames::{compare_each, list_first, list_frames, Difference};
 use crate::golden::Golden;
 use crate::output::{frame_path, pad_width, write_png, Compression, HASHES};
 use crate::testing::pictures::{difference, pixels_of as golden_pixels, PixelDiff};
+use crate::testing::{golden_dir, shell_word, Options, Update};
 use crate::Error;
 
 /// The options of `campath verify`.
@@ -33,6 +34,14 @@ pub struct VerifyArgs {
     /// frame_NNNN.diff.png: changed pixels in magenta over the dimmed golden frame).
     #[arg(long, value_name = "DIR")]
     pub save_failures: Option<PathBuf>,
+    /// When GOLDEN is the shot's own (NAME.golden beside NAME.ron) and frames differ, write
+    /// the pending golden NAME.golden.new for `campath review` (the default, as
+    /// CAMPATH_UPDATE=new; under CI the default is --no-pending).
+    #[arg(long, conflicts_with = "no_pending")]
+    pub pending: bool,
+    /// Write no pending golden.
+    #[arg(long)]
+    pub no_pending: bool,
 }
 
 /// The folders a command must not write into: a golden folder, or the folder of a golden
@@ -119,6 +128,28 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
             suite.case(&format!("frame {frame}"), failure);
         }
         junit::write(path, "campath verify", &[suite])?;
+    }
+    let own = crate::output::resolved(&golden_dir(&a.shot.file));
+    let pending = match (a.pending, a.no_pending) {
+        (true, _) => true,
+        (_, true) => false,
+        _ => Update::from_env().map_err(CliError::Usage)?.0 == Update::New,
+    };
+    if pending && !differ.is_empty() && goldens.iter().any(|g| crate::output::resolved(g) == own) {
+        let options = Options {
+            update: Update::New,
+            ..Options::default()
+        };
+        let run = crate::testing::run_shot(&a.shot.file, options, |_, _| Ok(()))?;
+        if let Some(p) = &run.pending {
+            let folder = a.shot.file.parent().filter(|p| !p.as_os_str().is_empty());
+            let folder = shell_word(&folder.unwrap_or(Path::new(".")).display().to_string());
+            let line = format!(
+                "pending golden: {}; look, then accept or reject: `campath review {folder}`",
+                p.display()
+            );
+            writeln!(out, "{line}").map_err(Error::stdout)?;
+        }
     }
     Ok(differ.is_empty())
 }

@@ -635,6 +635,73 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
     panic!("{message}");
 }
 
+/// Compares `fresh` `(frame, hash)` pairs with the hashes file `golden` (the grammar of
+/// `hashes.txt`), for goldens of hashes that a test computes itself. [`UPDATE_VAR`] works as
+/// for [`assert_shot`]: on a difference, `new` (the default outside CI) writes the fresh
+/// hashes to `GOLDEN.new` beside it, to compare and accept with `mv`; `always` writes
+/// `golden` and passes; `no` writes nothing. Panics naming each frame that differs.
+#[track_caller]
+pub fn assert_hashes(golden: impl AsRef<Path>, fresh: &[(u64, FrameHash)]) {
+    let golden = golden.as_ref();
+    let (update, _) = Update::from_env().unwrap_or_else(|e| panic!("{e}"));
+    let text = std::fs::read_to_string(golden).ok();
+    let want = text
+        .as_deref()
+        .map(|t| crate::output::manifest::parse_hashes(golden, t));
+    let want = match want.transpose() {
+        Ok(w) => w,
+        Err(e) => panic!("{e}"),
+    };
+    let mut pending = golden.as_os_str().to_os_string();
+    pending.push(".new");
+    let pending = PathBuf::from(pending);
+    let lines: Vec<String> = match &want {
+        None => vec![format!("{} does not exist yet", golden.display())],
+        Some(want) => {
+            let got: BTreeMap<u64, FrameHash> = fresh.iter().copied().collect();
+            let want: BTreeMap<u64, FrameHash> = want.iter().copied().collect();
+            let frames: std::collections::BTreeSet<u64> =
+                want.keys().chain(got.keys()).copied().collect();
+            let hash = |h: Option<&FrameHash>| h.map_or("none".to_string(), |h| h.to_string());
+            (frames.into_iter())
+                .filter(|f| want.get(f) != got.get(f))
+                .map(|f| {
+                    format!(
+                        "frame {f}: golden {}, fresh {}",
+                        hash(want.get(&f)),
+                        hash(got.get(&f))
+                    )
+                })
+                .collect()
+        }
+    };
+    let text: String = fresh.iter().map(|(f, h)| format!("{f} {h}\n")).collect();
+    let write = |path: &Path| {
+        crate::output::write_atomic(path, &text).unwrap_or_else(|e| panic!("{e}"));
+    };
+    if lines.is_empty() {
+        let _ = std::fs::remove_file(&pending);
+        return;
+    }
+    let next = match update {
+        Update::Always => return write(golden),
+        Update::New => {
+            write(&pending);
+            format!(
+                "the fresh hashes are in {p}: compare, and accept with `mv {p} {g}`",
+                p = shell_word(&pending.display().to_string()),
+                g = shell_word(&golden.display().to_string())
+            )
+        }
+        Update::No => format!("nothing was written ({UPDATE_VAR}=no, or CI is set)"),
+    };
+    panic!(
+        "{} differs:\n  {}\n{next}; {UPDATE_VAR}=always rewrites it",
+        golden.display(),
+        lines.join("\n  ")
+    );
+}
+
 /// [`assert_shot`] with `shot` taken from the folder of the crate whose test calls it:
 /// `campath::assert_shot!("shots/orbit.ron")` checks `CARGO_MANIFEST_DIR/shots/orbit.ron`,
 /// whatever the working directory.
