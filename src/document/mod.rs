@@ -21,18 +21,13 @@ use crate::scene::Scene;
 /// Largest frame count.
 pub const MAX_FRAMES: u64 = 10_000_000;
 
-/// A loaded, checked keyframe file.
+/// A loaded, checked keyframe file (its fields are described at their accessors).
 #[derive(Debug, Clone)]
 pub struct Document {
-    /// Where it was read from, for messages.
     pub(crate) path: PathBuf,
-    /// Image size and sampling.
     pub(crate) raster: Raster,
-    /// Shutter motion blur (`image.motion_blur`), if any.
     pub(crate) motion_blur: Option<MotionBlur>,
-    /// The camera and its tracks, with the frame count and rate.
     pub(crate) animation: Animation,
-    /// The spheres and lights.
     pub(crate) scene: Scene,
     /// The sphere files the scene names, in order, with how many spheres each gave.
     pub(crate) sphere_files: Vec<SphereFile>,
@@ -75,11 +70,6 @@ impl Document {
     /// The spheres and lights.
     pub fn scene(&self) -> &Scene {
         &self.scene
-    }
-
-    /// The sphere files the scene names, in order, with how many spheres each gave.
-    pub fn sphere_files(&self) -> &[SphereFile] {
-        &self.sphere_files
     }
 
     /// The same shot rendered at `width` × `height` pixels (a smaller frame for a quick test),
@@ -271,13 +261,9 @@ impl Checker {
     }
 
     fn pair(&mut self, field: &str, p: Pair) -> Option<DVec2> {
+        let ok = sized(p.0) && sized(p.1);
         let message = || format!("must be finite numbers within ±{LARGEST:e}, got {p:?}");
-        self.ensure(
-            field,
-            sized(p.0) && sized(p.1),
-            DVec2::new(p.0, p.1),
-            message,
-        )
+        self.ensure(field, ok, DVec2::new(p.0, p.1), message)
     }
 
     fn direction(&mut self, field: &str, t: Triple) -> Option<DVec3> {
