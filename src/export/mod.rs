@@ -39,18 +39,6 @@ pub enum PathFormat {
     Usd,
 }
 
-// `NAMES` is looked up by the variant's position: `ALL` lists the variants in their order.
-const _: () = {
-    let mut k = 0;
-    while k < PathFormat::ALL.len() {
-        assert!(
-            PathFormat::ALL[k] as usize == k,
-            "PathFormat::ALL in the variants' order"
-        );
-        k += 1;
-    }
-};
-
 impl PathFormat {
     /// Every format, in the order `--help` lists them.
     pub const ALL: [PathFormat; 6] = [
@@ -62,25 +50,26 @@ impl PathFormat {
         PathFormat::Usd,
     ];
 
-    /// Each format's name on the command line and what it is called in messages, in the
-    /// order of [`PathFormat::ALL`], which is the variants' (looked up by position).
-    const NAMES: [(&str, &str); 6] = [
-        ("csv", "CSV"),
-        ("json", "JSON"),
-        ("chan", ".chan"),
-        ("gltf", "glTF"),
-        ("blender", "Blender Python"),
-        ("usd", "USD"),
-    ];
-
     /// The format's name on the command line: `csv`, `json`, `chan`, `gltf`, `blender`, `usd`.
     pub fn name(self) -> &'static str {
-        PathFormat::NAMES[self as usize].0
+        self.names().0
     }
 
     /// What the format is called in messages.
     pub fn title(self) -> &'static str {
-        PathFormat::NAMES[self as usize].1
+        self.names().1
+    }
+
+    /// The format's name on the command line and what it is called in messages.
+    fn names(self) -> (&'static str, &'static str) {
+        match self {
+            PathFormat::Csv => ("csv", "CSV"),
+            PathFormat::Json => ("json", "JSON"),
+            PathFormat::Chan => ("chan", ".chan"),
+            PathFormat::Gltf => ("gltf", "glTF"),
+            PathFormat::Blender => ("blender", "Blender Python"),
+            PathFormat::Usd => ("usd", "USD"),
+        }
     }
 
     /// The format a file name's extension says, if it says one (`.glb` is glTF).
