@@ -148,10 +148,10 @@ impl ChanAngles {
     }
 }
 
-/// Vertical field of view in degrees seen from the COP: the window's height at the COP's
-/// distance. Off-axis COPs (distort) have no place in a .chan file; their v offset is ignored.
-pub fn vertical_fov(cam: &Camera) -> f64 {
-    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z) * (180.0 / std::f64::consts::PI)
+/// Vertical field of view in radians seen from the COP: the window's height at the COP's
+/// distance. Off-axis COPs (distort) have no place in `.chan` or glTF; their v offset is ignored.
+fn yfov(cam: &Camera) -> f64 {
+    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z)
 }
 
 /// The clipping range (near, far) of a reader's camera that takes the places of `cams`:
@@ -469,7 +469,7 @@ fn json_row(frame: u64, t: f64, cam: &Camera) -> String {
 
 /// `frame tx ty tz rx ry rz vfov`, frames numbered from 1.
 fn chan_row(frame: u64, cam: &Camera, r: DVec3) -> String {
-    let (cop, fov) = (cam.cop_world(), vertical_fov(cam));
+    let (cop, fov) = (cam.cop_world(), yfov(cam).to_degrees());
     let fields = [cop.x, cop.y, cop.z, r.x, r.y, r.z, fov].map(|x| x.to_string());
     format!("{}\t{}", frame + 1, fields.join("\t"))
 }
