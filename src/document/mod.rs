@@ -249,6 +249,27 @@ impl Checker {
         ok.then_some(value)
     }
 
+    /// `value` when it lies in 1..=`max`; else the problem "`{what}`must lie in 1..=`max``{unit}`,
+    /// got `value`" at `field`.
+    fn count(
+        &mut self,
+        field: &str,
+        value: i64,
+        max: u32,
+        (what, unit): (&str, &str),
+    ) -> Option<u32> {
+        match u32::try_from(value) {
+            Ok(n) if (1..=max).contains(&n) => Some(n),
+            _ => {
+                self.problem(
+                    field,
+                    format!("{what}must lie in 1..={max}{unit}, got {value}"),
+                );
+                None
+            }
+        }
+    }
+
     fn finite(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
         let message = || format!("must be a finite number within ±{LARGEST:e}, got {x:?}");
         self.ensure(field, sized(x), x, message)
