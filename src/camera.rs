@@ -159,17 +159,6 @@ impl Camera {
         )
     }
 
-    /// The inverse, the notes' [[Rᵀ, 0], [q, 1]] (again transposed for glam's column vectors).
-    pub fn view_to_world(&self) -> DMat4 {
-        let Basis { u, v, n } = self.basis;
-        DMat4::from_cols(
-            u.extend(0.0),
-            v.extend(0.0),
-            n.extend(0.0),
-            self.vrp_world.extend(1.0),
-        )
-    }
-
     /// A world point in view coordinates. Subtracts the VRP first, so that a camera far from the
     /// origin keeps the precision of its neighbourhood (the matrix form loses it in −q·R).
     pub fn point_to_view(&self, world: DVec3) -> DVec3 {
@@ -229,6 +218,17 @@ mod tests {
         let mut c = a;
         c.window.y = f64::from_bits(1.0f64.to_bits() + 1);
         assert!(!a.same_bits(&c));
+    }
+
+    /// The inverse of `world_to_view`, the notes' [[Rᵀ, 0], [q, 1]] (transposed for glam).
+    fn view_to_world(cam: &Camera) -> DMat4 {
+        let Basis { u, v, n } = cam.basis;
+        DMat4::from_cols(
+            u.extend(0.0),
+            v.extend(0.0),
+            n.extend(0.0),
+            cam.vrp_world.extend(1.0),
+        )
     }
 
     /// Row-vector product p·M with the notes' matrix written out by hand.
@@ -295,7 +295,7 @@ mod tests {
             [n.x, n.y, n.z, 0.0],
             [q.x, q.y, q.z, 1.0],
         ];
-        assert_eq!(cam.view_to_world().to_cols_array_2d(), inv);
+        assert_eq!(view_to_world(&cam).to_cols_array_2d(), inv);
         for (r, row) in m.iter().enumerate() {
             let prod = row_times(*row, inv);
             for (c, x) in prod.iter().enumerate() {
@@ -378,7 +378,7 @@ mod tests {
         fn world_view_round_trip(vrp in finite_vec(), vpn in finite_vec(), p in finite_vec()) {
             prop_assume!(vpn.length() > 1e-3 && vpn.normalize().cross(DVec3::Y).length() > 1e-6);
             let cam = camera(vrp, vpn, DVec3::Y);
-            let m = cam.world_to_view() * cam.view_to_world();
+            let m = cam.world_to_view() * view_to_world(&cam);
             prop_assert!(m.abs_diff_eq(DMat4::IDENTITY, 1e-12));
             let view = cam.world_to_view().transform_point3(p);
             prop_assert!((view - cam.point_to_view(p)).length() < 1e-9);

@@ -273,20 +273,6 @@ fn cubic_controls<V: Keyable>(keys: &[Key<V>]) -> Vec<Option<Controls<V>>> {
         .collect()
 }
 
-/// Builds a splines curve over `keys` with phantom keys mirrored through both ends.
-/// Needs at least two keys with strictly increasing times.
-fn spline_with_phantoms<V: Keyable>(keys: &[Key<V>]) -> Spline<f64, Knot<V>> {
-    let n = keys.len();
-    debug_assert!(n >= 2);
-    let key =
-        |k: &Key<V>| splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation));
-    let mut out = Vec::with_capacity(n + 2);
-    out.push(key(&mirror(&keys[0], &keys[1])));
-    out.extend(keys.iter().map(key));
-    out.push(key(&mirror(&keys[n - 1], &keys[n - 2])));
-    Spline::from_vec(out)
-}
-
 /// The phantom key beyond `end`: `inner` mirrored through it, in time and value, so that a
 /// Catmull-Rom end segment has a neighbour on both sides.
 fn mirror<V: Keyable>(end: &Key<V>, inner: &Key<V>) -> Key<V> {
@@ -312,7 +298,17 @@ impl<V: Keyable> Track<V> {
     pub fn new(keys: Vec<Key<V>>) -> Self {
         assert!(!keys.is_empty(), "a track needs a key");
         debug_assert!(keys.windows(2).all(|w| w[0].t < w[1].t));
-        let spline = (keys.len() >= 2).then(|| spline_with_phantoms(&keys));
+        // A splines curve with phantom keys mirrored through both ends, given two keys or more.
+        let spline = (keys.len() >= 2).then(|| {
+            let n = keys.len();
+            let key = |k: &Key<V>| {
+                splines::Key::new(k.t, Knot(k.value), splines_interpolation(k.interpolation))
+            };
+            let mut out = vec![key(&mirror(&keys[0], &keys[1]))];
+            out.extend(keys.iter().map(key));
+            out.push(key(&mirror(&keys[n - 1], &keys[n - 2])));
+            Spline::from_vec(out)
+        });
         Track {
             controls: cubic_controls(&keys),
             spline,
@@ -503,11 +499,6 @@ impl UniformSpeed {
         self.lengths[self.lengths.len() - 1]
     }
 
-    /// The keys of the path, in time order.
-    pub fn keys(&self) -> &[Key<DVec3>] {
-        self.track.keys()
-    }
-
     /// The position at `t` seconds; held before the first and after the last key time.
     pub fn sample(&self, t: f64) -> DVec3 {
         let (t0, t1) = (self.times[0], self.times[self.times.len() - 1]);
@@ -548,7 +539,7 @@ impl PathTrack {
     pub fn keys(&self) -> &[Key<DVec3>] {
         match self {
             PathTrack::Keyed(track) => track.keys(),
-            PathTrack::Uniform(u) => u.keys(),
+            PathTrack::Uniform(u) => u.track.keys(),
         }
     }
 }

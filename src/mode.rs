@@ -48,16 +48,6 @@ impl Mode {
             Mode::Distort => "the COP's (u, v)",
         }
     }
-
-    /// A key's value as the file writes it.
-    pub fn key_value(self) -> &'static str {
-        match self {
-            Mode::Observer | Mode::Track => "(x, y, z), world units",
-            Mode::LookAround => "(x, y, z), any non-zero length",
-            Mode::Zoom => "a number < 0, view units",
-            Mode::Distort => "(u, v), view units",
-        }
-    }
 }
 
 impl fmt::Display for Mode {

@@ -64,12 +64,8 @@ pub struct Warning {
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let s = if self.frames.len() == 1 { "" } else { "s" };
-        write!(
-            f,
-            "frame{s} {}: {}",
-            list_frames(&self.frames),
-            self.message
-        )
+        let frames = list_frames(&self.frames);
+        write!(f, "frame{s} {frames}: {}", self.message)
     }
 }
 
@@ -104,19 +100,8 @@ pub fn warnings(doc: &Document) -> Result<Vec<Warning>> {
             .windows(2)
             .map(|w| angle_deg(w[0].basis.n, w[1].basis.n) * fps)
             .collect();
-        for (quantity, rate, floor, min, name, unit) in [
-            (Quantity::Speed, speed, SPEED_FLOOR, 0.0, "speed", "units/s"),
-            (
-                Quantity::TurnRate,
-                turn,
-                TURN_FLOOR,
-                TURN_MIN_DEG_S,
-                "turn rate",
-                "°/s",
-            ),
-        ] {
-            jumps(&mut out, quantity, &rate, floor, min, name, unit);
-        }
+        jumps(&mut out, Quantity::Speed, &speed);
+        jumps(&mut out, Quantity::TurnRate, &turn);
     }
     inside_spheres(&mut out, doc, &cameras);
     near_target(&mut out, doc);
@@ -139,18 +124,13 @@ fn angle_deg(a: DVec3, b: DVec3) -> f64 {
     libm::acos(c).to_degrees()
 }
 
-/// Jumps in `rate` (one value between each pair of consecutive frames): a change above
-/// [`JUMP_FACTOR`] × the median change, `floor` × the median rate and `min`.
-#[allow(clippy::too_many_arguments)]
-fn jumps(
-    out: &mut Vec<Warning>,
-    quantity: Quantity,
-    rate: &[f64],
-    floor: f64,
-    min: f64,
-    name: &str,
-    unit: &str,
-) {
+/// Jumps in `rate` (one value between each pair of consecutive frames) of the speed or the
+/// turn rate: a change above [`JUMP_FACTOR`] × the median change and the quantity's floors.
+fn jumps(out: &mut Vec<Warning>, quantity: Quantity, rate: &[f64]) {
+    let (name, unit, floor, min) = match quantity {
+        Quantity::Speed => ("speed", "units/s", SPEED_FLOOR, 0.0),
+        _ => ("turn rate", "°/s", TURN_FLOOR, TURN_MIN_DEG_S),
+    };
     let change: Vec<f64> = rate.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
     let typical = median(&change);
     let fastest = rate.iter().copied().fold(0.0, f64::max);
@@ -204,12 +184,7 @@ fn inside_spheres(out: &mut Vec<Warning>, doc: &Document, cameras: &[Camera]) {
     }
 }
 
-/// Whether `eye` lies inside sphere `s`.
-fn is_inside(eye: DVec3, s: &Sphere) -> bool {
-    (eye - s.center_world).length_squared() < s.radius * s.radius
-}
-
-/// For each eye, the first sphere it lies inside ([`is_inside`]), if any. Each sphere tests only
+/// For each eye, the first sphere it lies inside, if any. Each sphere tests only
 /// the eyes in its slab along x (widened by far more than the rounding of its bounds, so no eye
 /// inside is left out): a long shot through a million spheres costs about a search per
 /// sphere, not a test per sphere and frame. Chunks of spheres on the pool each keep their
@@ -229,7 +204,7 @@ fn first_sphere_around(spheres: &[Sphere], eyes: &[DVec3]) -> Vec<Option<usize>>
             let lo = by_x.partition_point(|e| e.0 < x - r - slack);
             let hi = by_x.partition_point(|e| e.0 <= x + r + slack);
             for &(_, k) in &by_x[lo..hi.max(lo)] {
-                if first[k].is_none() && is_inside(eyes[k], s) {
+                if first[k].is_none() && (eyes[k] - s.center_world).length_squared() < r * r {
                     first[k] = Some(i);
                 }
             }
@@ -290,6 +265,11 @@ fn near_target(out: &mut Vec<Warning>, doc: &Document) {
 mod tests {
     use super::*;
     use crate::splitmix::SplitMix;
+
+    /// Whether `eye` lies inside sphere `s`.
+    fn is_inside(eye: DVec3, s: &Sphere) -> bool {
+        (eye - s.center_world).length_squared() < s.radius * s.radius
+    }
 
     /// The first sphere around each eye, found by testing every sphere against every eye.
     fn every_pair(spheres: &[Sphere], eyes: &[DVec3]) -> Vec<Option<usize>> {

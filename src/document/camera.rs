@@ -19,12 +19,8 @@ impl Checker {
     ) -> Option<Animation> {
         let fps = spec.fps.map_or(Some(24.0), |f| self.positive("fps", f));
         let cam = &spec.camera;
-        let vrp = cam
-            .vrp
-            .map_or(Some(DVec3::ZERO), |v| self.triple("camera.vrp", v));
-        let vuv = cam
-            .vuv
-            .map_or(Some(DVec3::Y), |v| self.direction("camera.vuv", v));
+        let vrp = (cam.vrp).map_or(Some(DVec3::ZERO), |v| self.triple("camera.vrp", v));
+        let vuv = (cam.vuv).map_or(Some(DVec3::Y), |v| self.direction("camera.vuv", v));
         let cop = self.cop(cam);
         let tracks = self.tracks(&spec.animate, vuv.unwrap_or(DVec3::Y));
         let setter = spec
@@ -58,12 +54,8 @@ impl Checker {
             return Some(DVec3::new(0.0, 0.0, -1.0));
         };
         let c = self.triple("camera.cop", c)?;
-        let message = || {
-            format!(
-                "the COP's n must be < 0 (behind the view plane), got {}",
-                c.z
-            )
-        };
+        let n = c.z;
+        let message = || format!("the COP's n must be < 0 (behind the view plane), got {n}");
         self.ensure("camera.cop", c.z < 0.0, c, message)
     }
 

@@ -24,17 +24,9 @@ impl Checker {
         let mut ok = true;
         let mut side = |c: &mut Self, field: &str, value: Option<i64>, default: u32| {
             let value = value.unwrap_or(i64::from(default));
-            match u32::try_from(value) {
-                Ok(v) if (1..=MAX_SIDE).contains(&v) => v,
-                _ => {
-                    c.problem(
-                        field,
-                        format!("must lie in 1..={MAX_SIDE} pixels, got {value}"),
-                    );
-                    ok = false;
-                    1
-                }
-            }
+            let side = c.count(field, value, MAX_SIDE, ("", " pixels"));
+            ok &= side.is_some();
+            side.unwrap_or(1)
         };
         let width = side(self, "image.width", image.width, 640);
         let height = side(self, "image.height", image.height, 360);
@@ -46,21 +38,12 @@ impl Checker {
             ok = false;
         }
         let samples = image.samples.unwrap_or(1);
-        let samples = match u32::try_from(samples) {
-            Ok(s) if (1..=MAX_SAMPLES).contains(&s) => s,
-            _ => {
-                self.problem(
-                    "image.samples",
-                    format!("must lie in 1..={MAX_SAMPLES} (an s×s grid per pixel), got {samples}"),
-                );
-                ok = false;
-                1
-            }
-        };
+        let grid = ("", " (an s×s grid per pixel)");
+        let samples = self.count("image.samples", samples, MAX_SAMPLES, grid);
         ok.then_some(Raster {
             width,
             height,
-            samples,
+            samples: samples?,
             adaptive: image.adaptive.unwrap_or(false),
         })
     }
@@ -76,19 +59,13 @@ impl Checker {
             };
             self.ensure("image.motion_blur.shutter", s > 0.0 && s <= 1.0, s, message)
         });
-        let samples = match u32::try_from(spec.samples) {
-            Ok(n) if (1..=MAX_TIME_SAMPLES).contains(&n) => Some(n),
-            _ => {
-                self.problem(
-                    "image.motion_blur.samples",
-                    format!(
-                        "time samples per frame must lie in 1..={MAX_TIME_SAMPLES}, got {}",
-                        spec.samples
-                    ),
-                );
-                None
-            }
-        };
+        let per_frame = ("time samples per frame ", "");
+        let samples = self.count(
+            "image.motion_blur.samples",
+            spec.samples,
+            MAX_TIME_SAMPLES,
+            per_frame,
+        );
         Some(MotionBlur {
             shutter: shutter?,
             samples: samples?,

@@ -21,18 +21,13 @@ use crate::scene::Scene;
 /// Largest frame count.
 pub const MAX_FRAMES: u64 = 10_000_000;
 
-/// A loaded, checked keyframe file.
+/// A loaded, checked keyframe file (its fields are described at their accessors).
 #[derive(Debug, Clone)]
 pub struct Document {
-    /// Where it was read from, for messages.
     pub(crate) path: PathBuf,
-    /// Image size and sampling.
     pub(crate) raster: Raster,
-    /// Shutter motion blur (`image.motion_blur`), if any.
     pub(crate) motion_blur: Option<MotionBlur>,
-    /// The camera and its tracks, with the frame count and rate.
     pub(crate) animation: Animation,
-    /// The spheres and lights.
     pub(crate) scene: Scene,
     /// The sphere files the scene names, in order, with how many spheres each gave.
     pub(crate) sphere_files: Vec<SphereFile>,
@@ -88,11 +83,6 @@ impl Document {
     /// The spheres and lights.
     pub fn scene(&self) -> &Scene {
         &self.scene
-    }
-
-    /// The sphere files the scene names, in order, with how many spheres each gave.
-    pub fn sphere_files(&self) -> &[SphereFile] {
-        &self.sphere_files
     }
 
     /// The shot's tolerance in frame-hash tests, if it states one.
@@ -277,6 +267,27 @@ impl Checker {
         ok.then_some(value)
     }
 
+    /// `value` when it lies in 1..=`max`; else the problem "`{what}`must lie in 1..=`max``{unit}`,
+    /// got `value`" at `field`.
+    fn count(
+        &mut self,
+        field: &str,
+        value: i64,
+        max: u32,
+        (what, unit): (&str, &str),
+    ) -> Option<u32> {
+        match u32::try_from(value) {
+            Ok(n) if (1..=max).contains(&n) => Some(n),
+            _ => {
+                self.problem(
+                    field,
+                    format!("{what}must lie in 1..={max}{unit}, got {value}"),
+                );
+                None
+            }
+        }
+    }
+
     fn finite(&mut self, field: impl fmt::Display + Copy, x: f64) -> Option<f64> {
         let message = || format!("must be a finite number within ±{LARGEST:e}, got {x:?}");
         self.ensure(field, sized(x), x, message)
@@ -289,13 +300,9 @@ impl Checker {
     }
 
     fn pair(&mut self, field: &str, p: Pair) -> Option<DVec2> {
+        let ok = sized(p.0) && sized(p.1);
         let message = || format!("must be finite numbers within ±{LARGEST:e}, got {p:?}");
-        self.ensure(
-            field,
-            sized(p.0) && sized(p.1),
-            DVec2::new(p.0, p.1),
-            message,
-        )
+        self.ensure(field, ok, DVec2::new(p.0, p.1), message)
     }
 
     fn direction(&mut self, field: &str, t: Triple) -> Option<DVec3> {

@@ -214,12 +214,8 @@ impl fmt::Display for SphereField<'_> {
         match self.origin {
             Origin::Inline => write!(f, "scene.spheres[{}].{}", self.index, self.field),
             Origin::File(k, name, listing) => {
-                write!(
-                    f,
-                    "scene.sphere_files[{k}] ({name}: {}): {}",
-                    listing.location(self.index),
-                    self.field
-                )
+                let at = listing.location(self.index);
+                write!(f, "scene.sphere_files[{k}] ({name}: {at}): {}", self.field)
             }
         }
     }

@@ -112,13 +112,7 @@ impl Checker {
         arc_samples: Option<i64>,
     ) -> Option<PathTrack> {
         let samples = arc_samples.unwrap_or(i64::from(UniformSpeed::DEFAULT_SAMPLES));
-        let samples_ok = (1..=1 << 20).contains(&samples);
-        if !samples_ok {
-            self.problem(
-                format!("{field}.arc_samples"),
-                format!("must lie in 1..={}, got {samples}", 1 << 20),
-            );
-        }
+        let samples = self.count(&format!("{field}.arc_samples"), samples, 1 << 20, ("", ""));
         if arc_samples.is_some() && speed != Some(SpeedSpec::Uniform) {
             self.problem(
                 format!("{field}.arc_samples"),
@@ -126,13 +120,9 @@ impl Checker {
             );
         }
         let track = Track::new(self.keys(field, keys, interpolation, |c, f, v| c.triple(f, *v))?);
-        if !samples_ok {
-            return None;
-        }
+        let samples = samples?;
         Some(match speed {
-            Some(SpeedSpec::Uniform) => {
-                PathTrack::Uniform(UniformSpeed::new(track, samples as u32))
-            }
+            Some(SpeedSpec::Uniform) => PathTrack::Uniform(UniformSpeed::new(track, samples)),
             _ => PathTrack::Keyed(track),
         })
     }

@@ -35,33 +35,22 @@ const SENSOR_MM: f64 = 36.0;
 /// shorter one to that silently (a 176° field of view would become 173.6°).
 const SHORTEST_LENS_MM: f64 = 2.0;
 
-/// The sensor width for cameras `cams`: `SENSOR_MM`, or wider where a frame's lens would be
-/// shorter than `SHORTEST_LENS_MM` on it. The lens shift is in units of the sensor's width,
-/// so it does not change with it.
-pub fn sensor_mm(cams: impl IntoIterator<Item = Camera>) -> f64 {
-    cams.into_iter()
-        .map(|cam| SHORTEST_LENS_MM * cam.window.x / -cam.cop_view.z)
-        .fold(SENSOR_MM, f64::max)
-}
-
-/// Blender's (lens mm, shift x, shift y) for a camera, with a sensor `sensor` mm wide fitted to
-/// the width.
-pub fn lens_and_shift(cam: &Camera, sensor: f64) -> (f64, f64, f64) {
-    let d = -cam.cop_view.z;
-    let w = cam.window.x;
-    (sensor * d / w, -cam.cop_view.x / w, -cam.cop_view.y / w)
-}
-
 /// The script.
 pub fn script(doc: &Document, origin: DVec3) -> Result<String> {
     let keys = keyed_cameras(doc)?;
     let cams: Vec<Camera> = keys.iter().map(|&(_, cam)| cam).collect();
-    let sensor = sensor_mm(cams.iter().copied());
+    // The sensor is `SENSOR_MM` wide, or wider where a frame's lens would be shorter than
+    // `SHORTEST_LENS_MM` on it. The lens shift is in units of its width, so it does not change.
+    let sensor = (cams.iter())
+        .map(|cam| SHORTEST_LENS_MM * cam.window.x / -cam.cop_view.z)
+        .fold(SENSOR_MM, f64::max);
     let (near, far) = clipping_range(&doc.scene.spheres, &cams);
     let mut frames = String::new();
     for ((frame, cam), q) in keys.iter().zip(rotations(&cams)) {
         let cop = triple(relative(*cam, origin).cop_world());
-        let (lens, sx, sy) = lens_and_shift(cam, sensor);
+        // The lens in mm for the sensor fitted to the width, and the shift in window widths.
+        let (d, w) = (-cam.cop_view.z, cam.window.x);
+        let (lens, sx, sy) = (sensor * d / w, -cam.cop_view.x / w, -cam.cop_view.y / w);
         let q = quat_wxyz(q);
         let _ = writeln!(
             frames,

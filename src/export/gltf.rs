@@ -26,7 +26,7 @@ use serde_json::{json, Value};
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::export::{aim_negative_z, clipping_range, off_axis, relative, rotations};
+use crate::export::{aim_negative_z, clipping_range, off_axis, relative, rotations, yfov};
 
 /// Segments around and rings from pole to pole of the shared unit sphere.
 const SEGMENTS: u32 = 48;
@@ -130,11 +130,6 @@ pub fn camera_rotation(cam: &Camera) -> DQuat {
 
 fn f32s(v: DVec3) -> [f32; 3] {
     v.as_vec3().to_array()
-}
-
-/// The vertical field of view in radians seen from the COP.
-fn yfov(cam: &Camera) -> f64 {
-    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z)
 }
 
 /// The glTF document (JSON) and its binary buffer; the caller embeds the buffer (`.gltf`) or

@@ -39,18 +39,6 @@ pub enum PathFormat {
     Usd,
 }
 
-// `NAMES` is looked up by the variant's position: `ALL` lists the variants in their order.
-const _: () = {
-    let mut k = 0;
-    while k < PathFormat::ALL.len() {
-        assert!(
-            PathFormat::ALL[k] as usize == k,
-            "PathFormat::ALL in the variants' order"
-        );
-        k += 1;
-    }
-};
-
 impl PathFormat {
     /// Every format, in the order `--help` lists them.
     pub const ALL: [PathFormat; 6] = [
@@ -62,25 +50,26 @@ impl PathFormat {
         PathFormat::Usd,
     ];
 
-    /// Each format's name on the command line and what it is called in messages, in the
-    /// order of [`PathFormat::ALL`], which is the variants' (looked up by position).
-    const NAMES: [(&str, &str); 6] = [
-        ("csv", "CSV"),
-        ("json", "JSON"),
-        ("chan", ".chan"),
-        ("gltf", "glTF"),
-        ("blender", "Blender Python"),
-        ("usd", "USD"),
-    ];
-
     /// The format's name on the command line: `csv`, `json`, `chan`, `gltf`, `blender`, `usd`.
     pub fn name(self) -> &'static str {
-        PathFormat::NAMES[self as usize].0
+        self.names().0
     }
 
     /// What the format is called in messages.
     pub fn title(self) -> &'static str {
-        PathFormat::NAMES[self as usize].1
+        self.names().1
+    }
+
+    /// The format's name on the command line and what it is called in messages.
+    fn names(self) -> (&'static str, &'static str) {
+        match self {
+            PathFormat::Csv => ("csv", "CSV"),
+            PathFormat::Json => ("json", "JSON"),
+            PathFormat::Chan => ("chan", ".chan"),
+            PathFormat::Gltf => ("gltf", "glTF"),
+            PathFormat::Blender => ("blender", "Blender Python"),
+            PathFormat::Usd => ("usd", "USD"),
+        }
     }
 
     /// The format a file name's extension says, if it says one (`.glb` is glTF).
@@ -159,10 +148,10 @@ impl ChanAngles {
     }
 }
 
-/// Vertical field of view in degrees seen from the COP: the window's height at the COP's
-/// distance. Off-axis COPs (distort) have no place in a .chan file; their v offset is ignored.
-pub fn vertical_fov(cam: &Camera) -> f64 {
-    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z) * (180.0 / std::f64::consts::PI)
+/// Vertical field of view in radians seen from the COP: the window's height at the COP's
+/// distance. Off-axis COPs (distort) have no place in `.chan` or glTF; their v offset is ignored.
+fn yfov(cam: &Camera) -> f64 {
+    2.0 * libm::atan(cam.window.y * 0.5 / -cam.cop_view.z)
 }
 
 /// The clipping range (near, far) of a reader's camera that takes the places of `cams`:
@@ -480,7 +469,7 @@ fn json_row(frame: u64, t: f64, cam: &Camera) -> String {
 
 /// `frame tx ty tz rx ry rz vfov`, frames numbered from 1.
 fn chan_row(frame: u64, cam: &Camera, r: DVec3) -> String {
-    let (cop, fov) = (cam.cop_world(), vertical_fov(cam));
+    let (cop, fov) = (cam.cop_world(), yfov(cam).to_degrees());
     let fields = [cop.x, cop.y, cop.z, r.x, r.y, r.z, fov].map(|x| x.to_string());
     format!("{}\t{}", frame + 1, fields.join("\t"))
 }

@@ -41,18 +41,11 @@ pub fn scene(doc: &Document, finish: Finish) -> Result<String> {
     }
     let scene = &doc.scene;
     let mut pov = String::from("#version 3.7;\n");
-    let _ = writeln!(
-        pov,
-        "global_settings {{ assumed_gamma 1.0 ambient_light rgb <1, 1, 1> }}"
-    );
+    pov += "global_settings { assumed_gamma 1.0 ambient_light rgb <1, 1, 1> }\n";
     let _ = writeln!(pov, "background {{ rgb {} }}", pov3(scene.background));
     for (name, list) in [("Loc", &loc), ("Dir", &dir), ("Right", &right), ("Up", &up)] {
-        let _ = writeln!(
-            pov,
-            "#declare {name} = array[{}] {{ {} }}",
-            list.len(),
-            list.join(", ")
-        );
+        let (n, items) = (list.len(), list.join(", "));
+        let _ = writeln!(pov, "#declare {name} = array[{n}] {{ {items} }}");
     }
     // Frames are numbered from 1 in animation mode; a single frame (+KFF1) is not animation
     // mode and has frame_number 0.

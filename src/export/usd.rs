@@ -38,35 +38,19 @@ use crate::export::{
 /// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
 pub const FILM_WIDTH: f64 = 0.36;
 
-/// The USD camera of one frame: focal length, apertures and aperture offsets, all in tenths of a
-/// scene unit.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct UsdLens {
-    /// `focalLength`: [`FILM_WIDTH`] · d / w.
-    pub focal_length: f64,
-    /// `horizontalAperture`: [`FILM_WIDTH`].
-    pub horizontal_aperture: f64,
-    /// `verticalAperture`: the film back's height in the window's aspect.
-    pub vertical_aperture: f64,
-    /// `horizontalApertureOffset`: the COP's u offset on the film back, negated.
-    pub horizontal_offset: f64,
-    /// `verticalApertureOffset`: the COP's v offset on the film back, negated.
-    pub vertical_offset: f64,
-}
-
-impl UsdLens {
-    /// The lens that sees `cam`'s window from its COP.
-    pub fn of(cam: &Camera) -> UsdLens {
-        let d = -cam.cop_view.z;
-        let scale = FILM_WIDTH / cam.window.x;
-        UsdLens {
-            focal_length: d * scale,
-            horizontal_aperture: FILM_WIDTH,
-            vertical_aperture: cam.window.y * scale,
-            horizontal_offset: -cam.cop_view.x * scale,
-            vertical_offset: -cam.cop_view.y * scale,
-        }
-    }
+/// The USD lens that sees `cam`'s window from its COP, in tenths of a scene unit: `focalLength`
+/// ([`FILM_WIDTH`] · d / w), `verticalAperture` (the film back's height in the window's aspect)
+/// and `horizontalApertureOffset`, `verticalApertureOffset` (the COP's u, v on the film back,
+/// negated). `horizontalAperture` is [`FILM_WIDTH`].
+fn lens(cam: &Camera) -> [f64; 4] {
+    let scale = FILM_WIDTH / cam.window.x;
+    let c = cam.cop_view;
+    [
+        -c.z * scale,
+        cam.window.y * scale,
+        -c.x * scale,
+        -c.y * scale,
+    ]
 }
 
 /// A name USD accepts for a prim: letters, digits and `_`, not starting with a digit.
@@ -114,7 +98,7 @@ fn color3f(v: DVec3) -> String {
 pub fn usda(doc: &Document, origin: DVec3) -> Result<String> {
     let (times, cams): (Vec<f64>, Vec<Camera>) = keyed_cameras(doc)?.into_iter().unzip();
     let orients = rotations(&cams);
-    let lenses: Vec<UsdLens> = cams.iter().map(UsdLens::of).collect();
+    let lenses: Vec<[f64; 4]> = cams.iter().map(lens).collect();
     let frames = doc.animation.frames;
     let (near, far) = clipping_range(&doc.scene.spheres, &cams);
     let r = doc.raster;
@@ -176,8 +160,8 @@ def Xform "{root}" (
         end = frames - 1,
         near = near as f32,
         far = far as f32,
-        ha = first.horizontal_aperture as f32,
-        va = first.vertical_aperture as f32,
+        ha = FILM_WIDTH as f32,
+        va = first[1] as f32,
         shutter = match doc.motion_blur {
             Some(b) => format!(
                 "        double shutter:close = {:?}\n        double shutter:open = {:?}\n",
@@ -198,18 +182,15 @@ def Xform "{root}" (
         }
         let _ = writeln!(s, "        }}");
     };
+    // The lens's entries animated, by their place in `lens`.
     let names = [
-        "focalLength",
-        "horizontalApertureOffset",
-        "verticalApertureOffset",
+        (0, "focalLength"),
+        (2, "horizontalApertureOffset"),
+        (3, "verticalApertureOffset"),
     ];
-    for (i, name) in names.into_iter().enumerate() {
+    for (i, name) in names {
         samples(&mut s, &format!("float {name}"), &|k| {
-            let l = lenses[k];
-            format!(
-                "{:?}",
-                [l.focal_length, l.horizontal_offset, l.vertical_offset][i] as f32
-            )
+            format!("{:?}", lenses[k][i] as f32)
         });
     }
     samples(&mut s, "double3 xformOp:translate", &|k| {
@@ -302,13 +283,13 @@ mod tests {
             cop_view: DVec3::new(0.5, -0.25, -2.0),
             window: DVec2::new(1.6, 0.9),
         };
-        let l = UsdLens::of(&cam);
+        let [focal, vertical, h_offset, v_offset] = lens(&cam);
         // The window's edges seen from the COP, u from −0.8 − 0.5 to 0.8 − 0.5 at distance 2,
         // v from −0.45 + 0.25 to 0.45 + 0.25.
-        let left = (-l.horizontal_aperture / 2.0 + l.horizontal_offset) / l.focal_length;
-        let right = (l.horizontal_aperture / 2.0 + l.horizontal_offset) / l.focal_length;
-        let bottom = (-l.vertical_aperture / 2.0 + l.vertical_offset) / l.focal_length;
-        let top = (l.vertical_aperture / 2.0 + l.vertical_offset) / l.focal_length;
+        let left = (-FILM_WIDTH / 2.0 + h_offset) / focal;
+        let right = (FILM_WIDTH / 2.0 + h_offset) / focal;
+        let bottom = (-vertical / 2.0 + v_offset) / focal;
+        let top = (vertical / 2.0 + v_offset) / focal;
         for (got, want) in [(left, -1.3), (right, 0.3), (bottom, -0.2), (top, 0.7)] {
             assert!((got - want / 2.0).abs() < 1e-12, "{got} against {want} / 2");
         }
