@@ -317,15 +317,20 @@ pub fn claim_pictures(
 }
 
 /// Refuses `path` when it (as it resolves, links and `..` followed) is or lies inside a shot's
-/// golden (`NAME.golden` beside `NAME.ron`), or is a folder whose `hashes.txt` is a golden's.
+/// golden (`NAME.golden` beside `NAME.ron`) or pending golden (`NAME.golden.new`), or is a folder whose `hashes.txt` is a golden's.
 pub fn golden_of(path: &Path) -> std::result::Result<(), Refusal> {
     let real = resolved(path);
     // The folders on the way as written, too: a golden may itself be a link (`NAME.golden` to
     // where the frames are kept).
     let written = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     for folder in real.ancestors().chain(written.ancestors()) {
-        if folder.extension().is_some_and(|e| e == "golden") {
-            let shot = folder.with_extension("ron");
+        // A golden, or a pending golden (`NAME.golden.new`).
+        let golden = match folder.extension().is_some_and(|e| e == "new") {
+            true => folder.with_extension(""),
+            false => folder.to_path_buf(),
+        };
+        if golden.extension().is_some_and(|e| e == "golden") {
+            let shot = golden.with_extension("ron");
             if shot.is_file() {
                 return Err(Refusal::Golden {
                     golden: folder.to_path_buf(),
