@@ -341,9 +341,7 @@ impl Shot {
             // The sweep passes stems that are not UTF-8: those the shot clears itself.
             let swept = options.swept && path.file_stem().is_some_and(|s| s.to_str().is_some());
             if !swept {
-                for stale in staging_dirs(path) {
-                    std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
-                }
+                clear_left(path)?;
             }
             Some(file)
         } else {
@@ -553,6 +551,14 @@ pub fn clear_left_approvals(folder: &Path) {
     }
 }
 
+/// Removes the hidden folders of `shot` that killed runs left; the caller holds its lock.
+fn clear_left(shot: &Path) -> Result<()> {
+    for stale in staging_dirs(shot) {
+        std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
+    }
+    Ok(())
+}
+
 /// The hidden folders of `shot` that killed runs left.
 fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
     let prefix = staging_prefix(shot);
@@ -609,7 +615,8 @@ pub fn assert_shot(shot: impl AsRef<Path>) {
         return;
     }
     let mut message = format!("campath shot {}: {}", shot.display(), run.summary());
-    for line in run.frame_lines(8) {
+    let new = run.verdict() == Verdict::NoGolden;
+    for line in run.frame_lines(8).into_iter().filter(|_| !new) {
         message += &format!("\n  {line}");
     }
     let folder = shot.parent().filter(|p| !p.as_os_str().is_empty());

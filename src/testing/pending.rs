@@ -170,6 +170,7 @@ pub fn load_pending(shot: &Path) -> Result<Option<Golden>> {
 /// Returns false when the shot has no pending golden.
 pub fn accept(shot: &Path) -> Result<bool> {
     let _lock = super::lock_shot(shot)?;
+    super::clear_left(shot)?;
     let pending = pending_dir(shot);
     if load_pending(shot)?.is_none() {
         return Ok(false);
@@ -193,6 +194,7 @@ pub fn accept(shot: &Path) -> Result<bool> {
 /// when the shot has none.
 pub fn reject(shot: &Path) -> Result<bool> {
     let _lock = super::lock_shot(shot)?;
+    super::clear_left(shot)?;
     let pending = pending_dir(shot);
     let there = pending.exists();
     remove(shot, &pending)?;
