@@ -105,12 +105,12 @@ fn timed(
     let index = SceneIndex::new(scene);
     // One buffer, rendered into once before the timed runs: the runs time no allocation.
     let mut pixels = Vec::new();
-    let mut render = |pixels: &mut Vec<u8>| {
+    let mut render = || {
         r.prepare_times(cameras, &index, raster)
-            .render_into(pixels, &mut |_| {})
+            .render_into(&mut pixels, &mut |_| {})
     };
-    render(&mut pixels);
-    let (secs, _) = median_time(runs, || render(&mut pixels));
+    render();
+    let (secs, _) = median_time(runs, render);
     (secs, pixels)
 }
 
@@ -151,20 +151,23 @@ fn motion_report(
     };
     let camera = doc.camera(frame).map_err(CliError::from)?;
     let cameras = |n: u32| exposure(doc, frame, camera, blur(n));
-    let raster = Raster {
+    let (raster, simd) = (one_sample(doc), Simd::detect());
+    let exact = cameras(REFERENCE_TIME_SAMPLES)?;
+    let (_, reference) = timed(&exact, &doc.scene, raster, simd, 0);
+    let rows = [1, 2, 4, 8, 16].into_iter().map(|n| {
+        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);
+        Ok(measure(Setting::Motion(n), secs, &pixels, &reference))
+    });
+    Ok(Some((frame, shutter, rows.collect::<Result<_>>()?)))
+}
+
+/// The file's raster at one sample a pixel, not adaptive.
+fn one_sample(doc: &Document) -> Raster {
+    Raster {
         samples: 1,
         adaptive: false,
         ..doc.raster
-    };
-    let simd = Simd::detect();
-    let exact = cameras(REFERENCE_TIME_SAMPLES)?;
-    let (_, reference) = timed(&exact, &doc.scene, raster, simd, 0);
-    let mut rows = Vec::new();
-    for n in [1, 2, 4, 8, 16] {
-        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);
-        rows.push(measure(Setting::Motion(n), secs, &pixels, &reference));
     }
-    Ok(Some((frame, shutter, rows)))
 }
 
 /// `setting`'s row: `secs` a frame, and the errors of `got` against `reference`, both RGB8 sRGB.
@@ -199,41 +202,29 @@ pub fn measure(setting: Setting, secs: f64, got: &[u8], reference: &[u8]) -> Mea
 
 /// Measures every setting on frame `frame` of `doc`.
 pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Measured>> {
-    let camera = doc
-        .cameras()
-        .nth(frame as usize)
-        .ok_or_else(|| {
-            CliError::Usage(format!(
-                "--frame {frame}: the animation has frames 0..{}",
-                doc.animation.frames
-            ))
-        })?
-        .map_err(CliError::from)?
-        .1;
-    let base = Raster {
-        samples: 1,
-        adaptive: false,
-        ..doc.raster
-    };
-    let reference = Raster {
-        samples: REFERENCE_SAMPLES,
+    let frames = doc.animation.frames;
+    if frame >= frames {
+        let message = format!("--frame {frame}: the animation has frames 0..{frames}");
+        return Err(CliError::Usage(message));
+    }
+    let camera = doc.camera(frame).map_err(CliError::from)?;
+    let (base, fastest) = (one_sample(doc), Simd::detect());
+    let at = |samples, adaptive| Raster {
+        samples,
+        adaptive,
         ..base
     };
-    let fastest = Simd::detect();
-    let (_, reference) = timed(&[camera], &doc.scene, reference, fastest, 0);
-    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), Raster { samples: s, ..base }));
-    let adaptive = [2, 4, 8].map(|s| {
-        let raster = Raster {
-            samples: s,
-            adaptive: true,
-            ..base
-        };
-        (Setting::Adaptive(s), raster)
-    });
-    let grids = samples
-        .into_iter()
-        .chain(adaptive)
-        .map(|(s, r)| (s, r, fastest));
+    let (_, reference) = timed(
+        &[camera],
+        &doc.scene,
+        at(REFERENCE_SAMPLES, false),
+        fastest,
+        0,
+    );
+    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), at(s, false)));
+    let adaptive = [2, 4, 8].map(|s| (Setting::Adaptive(s), at(s, true)));
+    let grids = samples.into_iter().chain(adaptive);
+    let grids = grids.map(|(s, r)| (s, r, fastest));
     // The instruction paths: all f64, all the same bytes; only the time differs.
     let supported = Simd::ALL.into_iter().filter(|s| s.supported());
     let paths = supported.map(|simd| (Setting::Path(simd), base, simd));
@@ -341,8 +332,10 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             (MAGENTA, "N time samples (reference: 64; motion blur)"),
         ];
         for (series, (color, name)) in series.into_iter().zip(names) {
-            let dots = series.iter().map(|p| Circle::new(*p, 5, color.filled()));
-            let dots: Vec<_> = dots.collect();
+            let dots: Vec<_> = series
+                .iter()
+                .map(|p| Circle::new(*p, 5, color.filled()))
+                .collect();
             chart
                 .draw_series(LineSeries::new(series, color.stroke_width(2)))?
                 .label(name)
@@ -421,10 +414,6 @@ impl LabelBox {
         self.x < o.x + o.w && o.x < self.x + self.w && self.y < o.y + o.h && o.y < self.y + self.h
     }
 
-    fn contains(&self, (x, y): (i32, i32)) -> bool {
-        (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
-    }
-
     /// Whether the segment from `a` to `b` passes through the box (sampled every pixel or so).
     fn meets(&self, a: (i32, i32), b: (i32, i32)) -> bool {
         let steps = (a.0 - b.0).abs().max((a.1 - b.1).abs()).max(1);
@@ -432,7 +421,8 @@ impl LabelBox {
             let t = k as f64 / steps as f64;
             let x = a.0 as f64 + (b.0 - a.0) as f64 * t;
             let y = a.1 as f64 + (b.1 - a.1) as f64 * t;
-            self.contains((x.round() as i32, y.round() as i32))
+            let (x, y) = (x.round() as i32, y.round() as i32);
+            (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
         })
     }
 }
@@ -527,25 +517,20 @@ pub fn path_table(rows: &[PathRow]) -> String {
         "speed spread",
     ]);
     for r in rows {
-        t.row(if r.samples == 0 {
-            vec![
-                "keyed".into(),
-                "—".into(),
-                "—".into(),
-                format!("{:.0}", r.eval_ns),
-                "—".into(),
-                format!("{:.3}", r.speed_spread),
-            ]
-        } else {
-            vec![
-                "uniform".into(),
-                r.samples.to_string(),
-                format!("{:.1}", r.build_us),
-                format!("{:.0}", r.eval_ns),
-                format!("{:.2e}", r.max_error),
-                format!("{:.2e}", r.speed_spread),
-            ]
-        });
+        // The keyed path has no table: no size, build time or error against one.
+        let keyed = r.samples == 0;
+        let table = |cell: String| if keyed { "—".into() } else { cell };
+        t.row(vec![
+            (if keyed { "keyed" } else { "uniform" }).into(),
+            table(r.samples.to_string()),
+            table(format!("{:.1}", r.build_us)),
+            format!("{:.0}", r.eval_ns),
+            table(format!("{:.2e}", r.max_error)),
+            match keyed {
+                true => format!("{:.3}", r.speed_spread),
+                false => format!("{:.2e}", r.speed_spread),
+            },
+        ]);
     }
     t.markdown()
 }
