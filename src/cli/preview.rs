@@ -72,10 +72,9 @@ pub fn small_raster(doc: &Document, width: u32) -> Raster {
 /// `count` frame numbers spread evenly over the animation, first and last included.
 pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
     let count = count.clamp(1, frames);
-    if count == 1 {
-        return vec![0];
-    }
-    (0..count).map(|k| k * (frames - 1) / (count - 1)).collect()
+    (0..count)
+        .map(|k| k * (frames - 1) / (count - 1).max(1))
+        .collect()
 }
 
 /// Refuses a `width` outside 1 to the file's width, or a `count` outside 1 to its frame count.
@@ -125,15 +124,11 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> R
     // The GIF, encoded as its frames come: its bytes are all it holds.
     let gif_path = dir.join(crate::output::pictures::GIF);
     let mut bytes = Vec::new();
-    let mut encoder = match gif {
-        true => {
-            let mut e = image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10);
-            e.set_repeat(image::codecs::gif::Repeat::Infinite)
-                .map_err(Error::encode(gif_path.clone()))?;
-            Some(e)
-        }
-        false => None,
-    };
+    let mut encoder = gif.then(|| image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10));
+    if let Some(e) = &mut encoder {
+        e.set_repeat(image::codecs::gif::Repeat::Infinite)
+            .map_err(Error::encode(gif_path.clone()))?;
+    }
     // GIF frame k is shown from centisecond `at(k)` (GIF's unit) on: each delay rounds the
     // times, not the step, so a long GIF keeps the file's pace.
     let at = |k: u64| (100.0 * (k * step) as f64 / doc.animation.fps).round();
@@ -170,15 +165,9 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> R
         },
     )?;
     drop(encoder);
-    let png = dir.join(crate::output::pictures::SHEET);
-    label_frames(
-        &mut sheet,
-        (sheet_w, sheet_h),
-        &sheet_at,
-        (w, slot_w, h),
-        &png,
-    )?;
-    write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
+    let (png, size) = (dir.join(crate::output::pictures::SHEET), (sheet_w, sheet_h));
+    label_frames(&mut sheet, size, &sheet_at, (w, slot_w, h), &png)?;
+    write_png_atomic(&png, &sheet, size, Compression::Default)?;
     if gif {
         // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
         crate::output::write_atomic(&gif_path, &bytes)?;
