@@ -9,8 +9,7 @@ use super::error::{CliError, Result};
 use super::progress::{with_wait, Progress};
 use super::stats::{timing_line, Stats};
 use crate::document::Document;
-use crate::frames::FrameSet;
-use crate::frames::Shard;
+use crate::frames::{FrameSet, Shard};
 use crate::output::sequence::{self, RenderOptions, RenderSummary};
 use crate::output::{Compression, Use, HASHES};
 use crate::Error;
@@ -117,12 +116,8 @@ pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
     // As render: a golden or a folder of other files is refused before the lock is taken.
     crate::output::check(dir, Use::Frames).map_err(|r| CliError::refused("DIR", dir, &r))?;
     let lock = super::progress::lock_whole(dir, no_wait)?;
-    let frames = sequence::merge(&lock)?;
-    let merged = format!(
-        "merged {frames} frame(s) into {}",
-        dir.join(HASHES).display()
-    );
-    writeln!(out, "{merged}").map_err(Error::stdout)?;
+    let (frames, hashes) = (sequence::merge(&lock)?, dir.join(HASHES));
+    writeln!(out, "merged {frames} frame(s) into {}", hashes.display()).map_err(Error::stdout)?;
     Ok(())
 }
 
