@@ -71,10 +71,8 @@ impl FromStr for FrameSpec {
         let (start, end, inclusive) = if let Some((a, b)) = spec.split_once("..=") {
             (start(a)?, Some(num(b)? + 1), true)
         } else if let Some((a, b)) = spec.split_once("..") {
-            let end = match b.is_empty() {
-                true => None,
-                false => Some(bounded(b, MAX_FRAMES + 1)?),
-            };
+            let end = (!b.is_empty()).then(|| bounded(b, MAX_FRAMES + 1));
+            let end = end.transpose()?;
             (start(a)?, end, false)
         } else {
             let k = num(spec)?;

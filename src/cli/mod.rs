@@ -158,10 +158,8 @@ pub fn main() -> ExitCode {
         Err(e) => {
             let _ = out.flush();
             eprintln!("campath: error: {e}");
-            let mut source = std::error::Error::source(&e);
-            while let Some(s) = source {
+            for s in std::iter::successors(std::error::Error::source(&e), |s| s.source()) {
                 eprintln!("  caused by: {s}");
-                source = s.source();
             }
             ExitCode::from(e.exit_status())
         }

@@ -562,9 +562,7 @@ pub fn run(a: ReportArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let (frame, runs) = (a.frame.unwrap_or(doc.animation.frames / 2), a.runs as usize);
     let mut rows = renderer_report(&doc, frame, runs)?;
     let motion = motion_report(&doc, frame, runs)?;
-    if let Some((_, _, m)) = &motion {
-        rows.extend(m.iter().cloned());
-    }
+    rows.extend(motion.iter().flat_map(|m| m.2.iter().cloned()));
     let stdout = crate::Error::stdout;
     writeln!(out, "Renderer, frame {frame} of {}:\n", file.display()).map_err(stdout)?;
     write!(out, "{}", renderer_table(&rows)).map_err(stdout)?;

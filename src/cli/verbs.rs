@@ -169,19 +169,16 @@ pub fn check(c: CheckArgs, out: &mut dyn Write) -> Result<bool> {
     doc.check_path()?;
     let a = &doc.animation;
     let tracks: Vec<&str> = a.tracks().map(|m| m.name()).collect();
+    let tracks = (!tracks.is_empty()).then(|| tracks.join(", "));
+    let (w, h, s) = (doc.raster.width, doc.raster.height, doc.raster.samples);
+    let (spheres, lights) = (doc.scene.spheres.len(), doc.scene.lights.len());
     writeln!(
         out,
-        "{}: ok: {} frame(s) at {} fps, {}×{} with {}×{} samples, {} sphere(s), {} light(s), tracks: {}",
+        "{}: ok: {} frame(s) at {} fps, {w}×{h} with {s}×{s} samples, {spheres} sphere(s), {lights} light(s), tracks: {}",
         doc.path.display(),
         a.frames,
         a.fps,
-        doc.raster.width,
-        doc.raster.height,
-        doc.raster.samples,
-        doc.raster.samples,
-        doc.scene.spheres.len(),
-        doc.scene.lights.len(),
-        if tracks.is_empty() { "none".to_string() } else { tracks.join(", ") }
+        tracks.as_deref().unwrap_or("none")
     )
     .map_err(Error::stdout)?;
     for f in &doc.sphere_files {
