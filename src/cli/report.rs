@@ -91,16 +91,10 @@ pub struct Measured {
 }
 
 /// Median time of `runs` renders after one warm-up render, and the last frame: a frame averaged
-/// over `cameras` (motion blur's time samples), each run preparing every time sample and
-/// rendering the frame.
-fn timed(
-    cameras: &[Camera],
-    scene: &Scene,
-    raster: Raster,
-    simd: Simd,
-    runs: usize,
-) -> (f64, Vec<u8>) {
-    let mut r = Renderer::with_simd(simd).unwrap_or_default();
+/// over `cameras` (motion blur's time samples) at `raster` on instruction path `simd`, each run
+/// preparing every time sample and rendering the frame.
+fn timed(cameras: &[Camera], scene: &Scene, at: (Raster, Simd), runs: usize) -> (f64, Vec<u8>) {
+    let (raster, mut r) = (at.0, Renderer::with_simd(at.1).unwrap_or_default());
     // Indexed once, as a render of many frames does.
     let index = SceneIndex::new(scene);
     // One buffer, rendered into once before the timed runs: the runs time no allocation.
@@ -121,9 +115,7 @@ fn moving_frame(doc: &Document, frame: u64, blur: MotionBlur) -> Result<Option<u
     let mut moving = Vec::new();
     for item in doc.cameras() {
         let (k, camera) = item.map_err(CliError::from)?;
-        if exposure(doc, k, camera, blur)?.len() > 1 {
-            moving.push(k);
-        }
+        moving.extend((exposure(doc, k, camera, blur)?.len() > 1).then_some(k));
     }
     Ok(moving.into_iter().min_by_key(|k| (k.abs_diff(frame), *k)))
 }
@@ -153,9 +145,9 @@ fn motion_report(
     let cameras = |n: u32| exposure(doc, frame, camera, blur(n));
     let (raster, simd) = (one_sample(doc), Simd::detect());
     let exact = cameras(REFERENCE_TIME_SAMPLES)?;
-    let (_, reference) = timed(&exact, &doc.scene, raster, simd, 0);
+    let (_, reference) = timed(&exact, &doc.scene, (raster, simd), 0);
     let rows = [1, 2, 4, 8, 16].into_iter().map(|n| {
-        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);
+        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, (raster, simd), runs);
         Ok(measure(Setting::Motion(n), secs, &pixels, &reference))
     });
     Ok(Some((frame, shutter, rows.collect::<Result<_>>()?)))
@@ -209,27 +201,24 @@ pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Me
     }
     let camera = doc.camera(frame).map_err(CliError::from)?;
     let (base, fastest) = (one_sample(doc), Simd::detect());
-    let at = |samples, adaptive| Raster {
-        samples,
-        adaptive,
-        ..base
+    // A grid of samples, on the fastest instruction path.
+    let grid = |samples, adaptive| {
+        let raster = Raster {
+            samples,
+            adaptive,
+            ..base
+        };
+        (raster, fastest)
     };
-    let (_, reference) = timed(
-        &[camera],
-        &doc.scene,
-        at(REFERENCE_SAMPLES, false),
-        fastest,
-        0,
-    );
-    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), at(s, false)));
-    let adaptive = [2, 4, 8].map(|s| (Setting::Adaptive(s), at(s, true)));
-    let grids = samples.into_iter().chain(adaptive);
-    let grids = grids.map(|(s, r)| (s, r, fastest));
+    let (_, reference) = timed(&[camera], &doc.scene, grid(REFERENCE_SAMPLES, false), 0);
+    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), grid(s, false)));
+    let adaptive = [2, 4, 8].map(|s| (Setting::Adaptive(s), grid(s, true)));
     // The instruction paths: all f64, all the same bytes; only the time differs.
     let supported = Simd::ALL.into_iter().filter(|s| s.supported());
-    let paths = supported.map(|simd| (Setting::Path(simd), base, simd));
-    let measured = grids.chain(paths).map(|(setting, raster, simd)| {
-        let (secs, pixels) = timed(&[camera], &doc.scene, raster, simd, runs);
+    let paths = supported.map(|simd| (Setting::Path(simd), (base, simd)));
+    let settings = samples.into_iter().chain(adaptive).chain(paths);
+    let measured = settings.map(|(setting, how)| {
+        let (secs, pixels) = timed(&[camera], &doc.scene, how, runs);
         measure(setting, secs, &pixels, &reference)
     });
     Ok(measured.collect())
@@ -284,12 +273,8 @@ fn power_label(e: f64) -> String {
 fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
     const FLOOR: f64 = 1e-3;
-    let point = |r: &Measured| {
-        (
-            libm::log10(r.secs * 1e3),
-            libm::log10(r.rmse_levels.max(FLOOR)),
-        )
-    };
+    let log = libm::log10;
+    let point = |r: &Measured| (log(r.secs * 1e3), log(r.rmse_levels.max(FLOOR)));
     let (x0, x1) = decades(rows.iter().map(|r| r.secs * 1e3));
     let (y0, y1) = decades(rows.iter().map(|r| r.rmse_levels.max(FLOOR)));
     draw_png(path, (900, 600), |root| {
