@@ -181,19 +181,14 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .map_err(|e| Error::write(&video)(e.error))?;
     if !quiet {
         let (w, h) = (doc.raster.width, doc.raster.height);
+        // yuv420p needs even sides (`ffmpeg_args`).
+        let (crf, even_w, even_h) = (a.crf, w + w % 2, h + h % 2);
         let what = if a.lossless {
             "FFV1 lossless RGB".to_string()
-        } else if w % 2 == 1 || h % 2 == 1 {
-            // yuv420p needs even sides (`ffmpeg_args`).
-            let even = |n: u32| n + n % 2;
-            format!(
-                "H.264 yuv420p, crf {}, padded to {}×{} with black, as 4:2:0 needs even sides",
-                a.crf,
-                even(w),
-                even(h)
-            )
+        } else if (even_w, even_h) != (w, h) {
+            format!("H.264 yuv420p, crf {crf}, padded to {even_w}×{even_h} with black, as 4:2:0 needs even sides")
         } else {
-            format!("H.264 yuv420p, crf {}", a.crf)
+            format!("H.264 yuv420p, crf {crf}")
         };
         let fps = match frame_rate(doc.animation.fps) {
             ntsc if ntsc.contains('/') => format!("{} ({ntsc})", doc.animation.fps),
