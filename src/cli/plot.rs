@@ -215,8 +215,7 @@ pub fn run(a: PlotArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let locked = folder.join(LOCK).is_file();
     let _lock = (locked.then(|| super::progress::lock_whole(folder, false))).transpose()?;
     write(&doc, &png, every)?;
-    writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?;
-    Ok(())
+    Ok(writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?)
 }
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
@@ -224,6 +223,8 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
     let marks = Marks::of(doc, every)?;
     let (mid, half) = marks.region(doc);
     let h = marks.travel;
+    // Plus 0.0: −0.0 is shown as 0.00.
+    let (hx, hz) = (h.x + 0.0, h.z + 0.0);
     let (title, along) = match marks.moves {
         true => ("along the travel", "along the travel"),
         false => (
@@ -240,11 +241,7 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
             y_desc: "z (world units)".into(),
         },
         View {
-            title: format!(
-                "from the side, {title} ({:.2}, 0, {:.2})",
-                h.x + 0.0,
-                h.z + 0.0
-            ),
+            title: format!("from the side, {title} ({hx:.2}, 0, {hz:.2})"),
             right: h,
             up: DVec3::Y,
             x_desc: format!("distance {along} (world units)"),
@@ -371,10 +368,8 @@ fn spheres(
             // Half a pixel wider on each side, as the outline's stroke is.
             let (x, y) = view.project(s.center_world);
             let r = s.radius + 0.5 / px_per_unit;
-            dots.push(Rectangle::new(
-                [(x - r, y - r), (x + r, y + r)],
-                col.filled(),
-            ));
+            let square = [(x - r, y - r), (x + r, y + r)];
+            dots.push(Rectangle::new(square, col.filled()));
             continue;
         }
         chart.draw_series(dots.drain(..))?;

@@ -55,8 +55,7 @@ pub fn run(a: PreviewArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let _lock = super::progress::lock_whole(&dir, false)?;
     let png = write(&doc, &dir, width, count, true)?;
     let gif = dir.join(crate::output::pictures::GIF);
-    writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?;
-    Ok(())
+    Ok(writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?)
 }
 
 /// The small raster: `width` pixels wide, the file's aspect, one sample per pixel.
