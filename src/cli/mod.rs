@@ -171,14 +171,12 @@ pub fn main() -> ExitCode {
 /// with clap's hint, and exits 2, like any other bad input.
 fn option_error(e: clap::Error) -> ExitCode {
     match e.kind() {
-        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+        // clap's exit status: 0 for help and version, 2 for `campath` alone (a usage error).
+        ErrorKind::DisplayHelp
+        | ErrorKind::DisplayVersion
+        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             let _ = e.print();
-            return ExitCode::SUCCESS;
-        }
-        // `campath` alone: the help, on standard error, as a usage error.
-        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            let _ = e.print();
-            return ExitCode::from(2);
+            return ExitCode::from(e.exit_code() as u8);
         }
         // The benchmark against POV-Ray left the binary: say where it went.
         ErrorKind::InvalidSubcommand
