@@ -190,11 +190,8 @@ fn tile(slot: usize, slot_w: u32, row_h: u32) -> (u32, u32) {
 /// The font of the frame numbers under tiles `w` pixels wide.
 fn label_font(w: u32) -> FontDesc<'static> {
     super::chart::register_font();
-    (
-        "sans-serif",
-        (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0),
-    )
-        .into_font()
+    let size = (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0);
+    ("sans-serif", size).into_font()
 }
 
 /// The width the widest frame number of `frames` needs under tiles `w` pixels wide, with its

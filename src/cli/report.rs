@@ -259,12 +259,8 @@ fn decades(vs: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
 
 /// `10^e` written plainly: 0.01, 0.1, 1, 10, 100.
 fn power_label(e: f64) -> String {
-    let v = libm::pow(10.0, e);
-    if e < 0.0 {
-        format!("{v:.*}", (-e) as usize)
-    } else {
-        format!("{v:.0}")
-    }
+    // As many decimals as the negative exponent says.
+    format!("{:.*}", (-e).max(0.0) as usize, libm::pow(10.0, e))
 }
 
 /// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG: ticks
@@ -317,10 +313,8 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             (MAGENTA, "N time samples (reference: 64; motion blur)"),
         ];
         for (series, (color, name)) in series.into_iter().zip(names) {
-            let dots: Vec<_> = series
-                .iter()
-                .map(|p| Circle::new(*p, 5, color.filled()))
-                .collect();
+            let dots = series.iter().map(|p| Circle::new(*p, 5, color.filled()));
+            let dots: Vec<_> = dots.collect();
             chart
                 .draw_series(LineSeries::new(series, color.stroke_width(2)))?
                 .label(name)
@@ -337,9 +331,8 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .collect();
         let (xs, ys) = chart.plotting_area().get_pixel_range();
         let mut placed: Vec<LabelBox> = Vec::new();
-        for r in rows {
+        for (r, &(px, py)) in rows.iter().zip(&markers) {
             let text = r.setting.short();
-            let (px, py) = chart.backend_coord(&point(r));
             let (w, h) = (8 * text.chars().count() as i32, 15);
             let at = |(dx, dy): (i32, i32)| LabelBox {
                 x: px + dx,
