@@ -393,10 +393,8 @@ fn spheres(
 fn frustums(chart: &Chart, marks: &Marks, every: u64, reach: f64, view: &View) -> Drawn {
     let area = chart.plotting_area();
     let line = |from: DVec3, to: DVec3, style: ShapeStyle| {
-        area.draw(&PathElement::new(
-            vec![view.project(from), view.project(to)],
-            style,
-        ))
+        let ends = vec![view.project(from), view.project(to)];
+        area.draw(&PathElement::new(ends, style))
     };
     for &(k, ref cam) in &marks.cams {
         let ends = k == 0 || k == marks.last;
