@@ -71,10 +71,8 @@ impl FromStr for FrameSpec {
         let (start, end, inclusive) = if let Some((a, b)) = spec.split_once("..=") {
             (start(a)?, Some(num(b)? + 1), true)
         } else if let Some((a, b)) = spec.split_once("..") {
-            let end = match b.is_empty() {
-                true => None,
-                false => Some(bounded(b, MAX_FRAMES + 1)?),
-            };
+            let end = (!b.is_empty()).then(|| bounded(b, MAX_FRAMES + 1));
+            let end = end.transpose()?;
             (start(a)?, end, false)
         } else {
             let k = num(spec)?;
@@ -171,35 +169,31 @@ pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<
     let ext = out
         .and_then(|p| p.extension())
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let named = || out.expect("an extension comes from --out").display();
     match (format, by_name, ext.as_deref()) {
         (None, None, Some("usdc" | "usdz")) => Ok(PathFormat::Usd),
         (None, None, Some("txt") | None) => Ok(PathFormat::Csv),
         (None, None, Some(ext)) => Err(CliError::Usage(format!(
             "--out {}: no format is written as .{ext}; name the file .csv, .json, .chan, \
              .gltf, .glb, .py or .usda, or give --format",
-            out.expect("an extension comes from --out").display()
+            named()
         ))),
-        (Some(f), Some(n), _) if f != n => {
-            let out = out.expect("an extension comes from --out");
-            Err(CliError::Usage(format!(
-                "--out {} names a {} file, but --format {} writes {}: change the extension or \
-                 leave --format out",
-                out.display(),
-                n.title(),
-                f.name(),
-                f.title()
-            )))
-        }
+        (Some(f), Some(n), _) if f != n => Err(CliError::Usage(format!(
+            "--out {} names a {} file, but --format {} writes {}: change the extension or leave \
+             --format out",
+            named(),
+            n.title(),
+            f.name(),
+            f.title()
+        ))),
         (Some(f), _, _) | (None, Some(f), _) => Ok(f),
     }
 }
 
 /// A whole number ≥ 1.
 pub fn at_least_one(s: &str) -> Result<u64, String> {
-    match s.parse::<u64>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err("expected a whole number ≥ 1".into()),
-    }
+    let n = s.parse::<u64>().ok().filter(|n| *n >= 1);
+    n.ok_or_else(|| "expected a whole number ≥ 1".into())
 }
 
 /// `out/<file stem>/`, relative to the working directory.

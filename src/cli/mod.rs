@@ -163,10 +163,8 @@ pub fn main() -> ExitCode {
         Err(e) => {
             let _ = out.flush();
             eprintln!("campath: error: {e}");
-            let mut source = std::error::Error::source(&e);
-            while let Some(s) = source {
+            for s in std::iter::successors(std::error::Error::source(&e), |s| s.source()) {
                 eprintln!("  caused by: {s}");
-                source = s.source();
             }
             ExitCode::from(e.exit_status())
         }
@@ -178,14 +176,12 @@ pub fn main() -> ExitCode {
 /// with clap's hint, and exits 2, like any other bad input.
 fn option_error(e: clap::Error) -> ExitCode {
     match e.kind() {
-        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+        // clap's exit status: 0 for help and version, 2 for `campath` alone (a usage error).
+        ErrorKind::DisplayHelp
+        | ErrorKind::DisplayVersion
+        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             let _ = e.print();
-            return ExitCode::SUCCESS;
-        }
-        // `campath` alone: the help, on standard error, as a usage error.
-        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            let _ = e.print();
-            return ExitCode::from(2);
+            return ExitCode::from(e.exit_code() as u8);
         }
         // The benchmark against POV-Ray left the binary: say where it went.
         ErrorKind::InvalidSubcommand

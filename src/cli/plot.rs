@@ -80,12 +80,9 @@ impl Marks {
         let stride = doc.animation.frames.div_ceil(PATH_POINTS);
         // The frames about each Observer key, where the path may turn or jump (a Step key):
         // kept whatever the stride.
-        let fps = doc.animation.fps;
-        let turns: std::collections::BTreeSet<u64> = doc
-            .animation
-            .observer
-            .as_ref()
-            .map_or(&[][..], |o| o.keys())
+        let (a, fps) = (&doc.animation, doc.animation.fps);
+        let observer = a.observer.as_ref().map_or(&[][..], |o| o.keys());
+        let turns: std::collections::BTreeSet<u64> = observer
             .iter()
             .flat_map(|k| {
                 let at = (k.t * fps).clamp(0.0, last as f64);
@@ -94,7 +91,7 @@ impl Marks {
             })
             .collect();
         let mut cams = Vec::new();
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         let mut first: Option<Camera> = None;
         let mut moves = false;
         let mut spread = Spread::default();
@@ -103,10 +100,8 @@ impl Marks {
             let first = *first.get_or_insert(cam);
             let tol = 1e-12 * (1.0 + first.vrp_world.length());
             moves |= (cam.vrp_world - first.vrp_world).length() > tol;
-            for p in [cam.vrp_world, cam.cop_world()] {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
+            let (vrp, cop) = (cam.vrp_world, cam.cop_world());
+            (lo, hi) = (lo.min(vrp).min(cop), hi.max(vrp).max(cop));
             spread.add(cam.vrp_world);
             if k % stride == 0 || k % every.max(1) == 0 || k == last || turns.contains(&k) {
                 cams.push((k, cam));
@@ -114,11 +109,7 @@ impl Marks {
         }
         let (first, end) = (cams[0].1, cams[cams.len() - 1].1);
         let travel = spread.travel(&first, end.vrp_world - first.vrp_world);
-        let a = &doc.animation;
-        let keys = a
-            .observer
-            .as_ref()
-            .map_or_else(Vec::new, |o| o.keys().iter().map(|k| k.value).collect());
+        let keys = observer.iter().map(|k| k.value).collect();
         let mut targets: Vec<DVec3> = a
             .track
             .as_ref()
@@ -142,8 +133,7 @@ impl Marks {
     fn region(&self, doc: &Document) -> (DVec3, f64) {
         let (mut lo, mut hi) = self.bounds;
         for p in self.keys.iter().chain(&self.targets) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
+            (lo, hi) = (lo.min(*p), hi.max(*p));
         }
         let extent = (hi - lo).max_element().max(1.0);
         for s in doc.scene.spheres.iter().filter(|s| s.radius < extent) {
@@ -225,8 +215,7 @@ pub fn run(a: PlotArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let locked = folder.join(LOCK).is_file();
     let _lock = (locked.then(|| super::progress::lock_whole(folder, false))).transpose()?;
     write(&doc, &png, every)?;
-    writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?;
-    Ok(())
+    Ok(writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?)
 }
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
@@ -234,6 +223,8 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
     let marks = Marks::of(doc, every)?;
     let (mid, half) = marks.region(doc);
     let h = marks.travel;
+    // Plus 0.0: −0.0 is shown as 0.00.
+    let (hx, hz) = (h.x + 0.0, h.z + 0.0);
     let (title, along) = match marks.moves {
         true => ("along the travel", "along the travel"),
         false => (
@@ -250,11 +241,7 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
             y_desc: "z (world units)".into(),
         },
         View {
-            title: format!(
-                "from the side, {title} ({:.2}, 0, {:.2})",
-                h.x + 0.0,
-                h.z + 0.0
-            ),
+            title: format!("from the side, {title} ({hx:.2}, 0, {hz:.2})"),
             right: h,
             up: DVec3::Y,
             x_desc: format!("distance {along} (world units)"),
@@ -381,10 +368,8 @@ fn spheres(
             // Half a pixel wider on each side, as the outline's stroke is.
             let (x, y) = view.project(s.center_world);
             let r = s.radius + 0.5 / px_per_unit;
-            dots.push(Rectangle::new(
-                [(x - r, y - r), (x + r, y + r)],
-                col.filled(),
-            ));
+            let square = [(x - r, y - r), (x + r, y + r)];
+            dots.push(Rectangle::new(square, col.filled()));
             continue;
         }
         chart.draw_series(dots.drain(..))?;
@@ -408,10 +393,8 @@ fn spheres(
 fn frustums(chart: &Chart, marks: &Marks, every: u64, reach: f64, view: &View) -> Drawn {
     let area = chart.plotting_area();
     let line = |from: DVec3, to: DVec3, style: ShapeStyle| {
-        area.draw(&PathElement::new(
-            vec![view.project(from), view.project(to)],
-            style,
-        ))
+        let ends = vec![view.project(from), view.project(to)];
+        area.draw(&PathElement::new(ends, style))
     };
     for &(k, ref cam) in &marks.cams {
         let ends = k == 0 || k == marks.last;
@@ -501,47 +484,37 @@ fn legend(
 ) -> Drawn {
     let moves = marks.moves;
     let line = |c: RGBColor| PathElement::new(vec![(0, 0), (20, 0)], c.stroke_width(2)).into_dyn();
-    let start = match moves {
-        true => "start, with the direction of travel",
-        false => "camera position (it does not move)",
-    };
     let frustum = if moves {
         format!("view frustum every {every} frame(s), COP to beyond the window; heavy edges on the camera's right")
     } else {
         "view frustum at the first and last frame; heavy edges on the camera's right".to_string()
     };
-    // Each entry the file has: its label and its mark about the entry's (0, 0).
+    // Each entry, shown when the file has it: its label and its mark about the entry's (0, 0).
     let dot = |r, style: ShapeStyle| Circle::new((10, 0), r, style).into_dyn();
-    let mut entries = Vec::new();
-    if moves {
-        entries.push(("VRP path".to_string(), line(BLUE)));
-    }
-    entries.push((start.to_string(), dot(6, START.filled())));
-    if moves {
-        let end = Rectangle::new([(5, -5), (15, 5)], BLACK.filled()).into_dyn();
-        entries.push(("end".to_string(), end));
-    }
-    if !marks.keys.is_empty() {
-        entries.push(("Observer keyframes".to_string(), dot(5, RED.filled())));
-    }
-    if !marks.targets.is_empty() {
-        let cross = Cross::new((10, 0), 6, GREEN.stroke_width(2)).into_dyn();
-        entries.push(("target points (TP)".to_string(), cross));
-    }
-    if !moves {
-        entries.push((format!("view direction every {every} frame(s)"), line(GREY)));
-    }
+    let end = Rectangle::new([(5, -5), (15, 5)], BLACK.filled()).into_dyn();
+    let cross = Cross::new((10, 0), 6, GREEN.stroke_width(2)).into_dyn();
     let heavy = PathElement::new(vec![(0, 5), (20, -5)], BLACK.stroke_width(2)).into_dyn();
-    entries.push((frustum, heavy));
-    if !doc.scene.spheres.is_empty() {
-        let sphere = dot(6, BLACK.mix(0.3).filled());
-        entries.push(("spheres, true size and colour".to_string(), sphere));
-    }
+    let sphere = dot(6, BLACK.mix(0.3).filled());
+    let start = || dot(6, START.filled());
+    let has = (!marks.keys.is_empty(), !marks.targets.is_empty());
+    let views = format!("view direction every {every} frame(s)");
+    let spheres = !doc.scene.spheres.is_empty();
+    let entries = [
+        (moves, "VRP path".into(), line(BLUE)),
+        (moves, "start, with the direction of travel".into(), start()),
+        (!moves, "camera position (it does not move)".into(), start()),
+        (moves, "end".into(), end),
+        (has.0, "Observer keyframes".into(), dot(5, RED.filled())),
+        (has.1, "target points (TP)".into(), cross),
+        (!moves, views, line(GREY)),
+        (true, frustum, heavy),
+        (spheres, "spheres, true size and colour".into(), sphere),
+    ];
     // Laid out left to right, wrapping to the next row; about 7 px per character.
     let font: TextStyle = ("sans-serif", 14).into();
     let (width, _) = strip.dim_in_pixel();
     let (mut x, mut y) = (20i32, 20i32);
-    for (label, mark) in entries {
+    for (_, label, mark) in entries.into_iter().filter(|e| e.0) {
         let entry_w = 30 + strip.estimate_text_size(&label, &font)?.0 as i32 + 28;
         if x + entry_w > width as i32 && x > 20 {
             (x, y) = (20, y + 26);

@@ -3,7 +3,10 @@
 
 use std::path::{Path, PathBuf};
 
+use plotters::prelude::*;
+
 use super::args::{default_out_dir, Shot};
+use super::chart::draw_error;
 use super::error::{CliError, Result};
 use crate::document::Document;
 use crate::frames::{for_each_frame, FrameSet};
@@ -52,8 +55,7 @@ pub fn run(a: PreviewArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let _lock = super::progress::lock_whole(&dir, false)?;
     let png = write(&doc, &dir, width, count, true)?;
     let gif = dir.join(crate::output::pictures::GIF);
-    writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?;
-    Ok(())
+    Ok(writeln!(out, "wrote {} and {}", png.display(), gif.display()).map_err(Error::stdout)?)
 }
 
 /// The small raster: `width` pixels wide, the file's aspect, one sample per pixel.
@@ -72,10 +74,9 @@ pub fn small_raster(doc: &Document, width: u32) -> Raster {
 /// `count` frame numbers spread evenly over the animation, first and last included.
 pub fn sheet_frames(frames: u64, count: u64) -> Vec<u64> {
     let count = count.clamp(1, frames);
-    if count == 1 {
-        return vec![0];
-    }
-    (0..count).map(|k| k * (frames - 1) / (count - 1)).collect()
+    (0..count)
+        .map(|k| k * (frames - 1) / (count - 1).max(1))
+        .collect()
 }
 
 /// Refuses a `width` outside 1 to the file's width, or a `count` outside 1 to its frame count.
@@ -125,15 +126,11 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> R
     // The GIF, encoded as its frames come: its bytes are all it holds.
     let gif_path = dir.join(crate::output::pictures::GIF);
     let mut bytes = Vec::new();
-    let mut encoder = match gif {
-        true => {
-            let mut e = image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10);
-            e.set_repeat(image::codecs::gif::Repeat::Infinite)
-                .map_err(Error::encode(gif_path.clone()))?;
-            Some(e)
-        }
-        false => None,
-    };
+    let mut encoder = gif.then(|| image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10));
+    if let Some(e) = &mut encoder {
+        e.set_repeat(image::codecs::gif::Repeat::Infinite)
+            .map_err(Error::encode(gif_path.clone()))?;
+    }
     // GIF frame k is shown from centisecond `at(k)` (GIF's unit) on: each delay rounds the
     // times, not the step, so a long GIF keeps the file's pace.
     let at = |k: u64| (100.0 * (k * step) as f64 / doc.animation.fps).round();
@@ -144,20 +141,14 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> R
         |frame, _, pixels, _| {
             if let Some(slot) = sheet_at.iter().position(|f| *f == frame) {
                 let (cx, cy) = tile(slot, slot_w, row_h);
-                for y in 0..h {
-                    let src = (y * w * 3) as usize;
+                for (y, row) in (0..).zip(pixels.chunks(w as usize * 3)) {
                     let dst = (((cy + y) * sheet_w + cx) * 3) as usize;
-                    sheet[dst..dst + (w * 3) as usize]
-                        .copy_from_slice(&pixels[src..src + (w * 3) as usize]);
+                    sheet[dst..dst + row.len()].copy_from_slice(row);
                 }
             }
             if let Some(encoder) = encoder.as_mut().filter(|_| frame % step == 0) {
-                let rgba: Vec<u8> = pixels
-                    .chunks(3)
-                    .flat_map(|p| [p[0], p[1], p[2], 255])
-                    .collect();
-                let img =
-                    image::RgbaImage::from_raw(w, h, rgba).expect("the buffer has w×h pixels");
+                let rgb = image::RgbImage::from_raw(w, h, pixels.to_vec());
+                let img = image::DynamicImage::from(rgb.expect("w×h pixels")).into_rgba8();
                 let k = frame / step;
                 // GIF's longest delay is 655.35 s.
                 let centis = ((at(k + 1) - at(k)).clamp(2.0, 65535.0) as u32).max(2);
@@ -170,15 +161,19 @@ pub fn write(doc: &Document, dir: &Path, width: u32, count: u64, gif: bool) -> R
         },
     )?;
     drop(encoder);
-    let png = dir.join(crate::output::pictures::SHEET);
-    label_frames(
-        &mut sheet,
-        (sheet_w, sheet_h),
-        &sheet_at,
-        (w, slot_w, h),
-        &png,
-    )?;
-    write_png_atomic(&png, &sheet, (sheet_w, sheet_h), Compression::Default)?;
+    let (png, size) = (dir.join(crate::output::pictures::SHEET), (sheet_w, sheet_h));
+    // Each tile's frame number, in the band under it.
+    let root = BitMapBackend::with_buffer(&mut sheet, size).into_drawing_area();
+    let font = label_font(w).color(&BLACK);
+    for (slot, frame) in sheet_at.iter().enumerate() {
+        let (x, y) = tile(slot, slot_w, row_h);
+        let at = (x as i32 + 2, (y + h + 3) as i32);
+        let label = Text::new(format!("{frame}"), at, font.clone());
+        root.draw(&label).map_err(draw_error(&png))?;
+    }
+    root.present().map_err(draw_error(&png))?;
+    drop(root);
+    write_png_atomic(&png, &sheet, size, Compression::Default)?;
     if gif {
         // Through a temporary file, as every picture: a run stopped half-way leaves the last GIF.
         crate::output::write_atomic(&gif_path, &bytes)?;
@@ -193,14 +188,10 @@ fn tile(slot: usize, slot_w: u32, row_h: u32) -> (u32, u32) {
 }
 
 /// The font of the frame numbers under tiles `w` pixels wide.
-fn label_font(w: u32) -> plotters::style::FontDesc<'static> {
-    use plotters::prelude::*;
+fn label_font(w: u32) -> FontDesc<'static> {
     super::chart::register_font();
-    (
-        "sans-serif",
-        (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0),
-    )
-        .into_font()
+    let size = (LABEL as f64 * 0.8).min(f64::from(w) / 4.0).max(6.0);
+    ("sans-serif", size).into_font()
 }
 
 /// The width the widest frame number of `frames` needs under tiles `w` pixels wide, with its
@@ -213,24 +204,4 @@ fn label_width(frames: &[u64], w: u32) -> u32 {
         .map(|(width, _)| width + 4)
         .max()
         .unwrap_or(0)
-}
-
-/// Writes each tile's frame number in the band under it.
-fn label_frames(
-    sheet: &mut [u8],
-    size: (u32, u32),
-    frames: &[u64],
-    (w, slot_w, h): (u32, u32, u32),
-    path: &Path,
-) -> Result<()> {
-    use plotters::prelude::*;
-    let root = BitMapBackend::with_buffer(sheet, size).into_drawing_area();
-    let font = label_font(w).color(&BLACK);
-    for (slot, frame) in frames.iter().enumerate() {
-        let (x, y) = tile(slot, slot_w, h + LABEL);
-        let at = (x as i32 + 2, (y + h + 3) as i32);
-        root.draw(&Text::new(format!("{frame}"), at, font.clone()))
-            .map_err(super::chart::draw_error(path))?;
-    }
-    root.present().map_err(super::chart::draw_error(path))
 }

@@ -91,26 +91,20 @@ pub struct Measured {
 }
 
 /// Median time of `runs` renders after one warm-up render, and the last frame: a frame averaged
-/// over `cameras` (motion blur's time samples), each run preparing every time sample and
-/// rendering the frame.
-fn timed(
-    cameras: &[Camera],
-    scene: &Scene,
-    raster: Raster,
-    simd: Simd,
-    runs: usize,
-) -> (f64, Vec<u8>) {
-    let mut r = Renderer::with_simd(simd).unwrap_or_default();
+/// over `cameras` (motion blur's time samples) at `raster` on instruction path `simd`, each run
+/// preparing every time sample and rendering the frame.
+fn timed(cameras: &[Camera], scene: &Scene, at: (Raster, Simd), runs: usize) -> (f64, Vec<u8>) {
+    let (raster, mut r) = (at.0, Renderer::with_simd(at.1).unwrap_or_default());
     // Indexed once, as a render of many frames does.
     let index = SceneIndex::new(scene);
     // One buffer, rendered into once before the timed runs: the runs time no allocation.
     let mut pixels = Vec::new();
-    let mut render = |pixels: &mut Vec<u8>| {
+    let mut render = || {
         r.prepare_times(cameras, &index, raster)
-            .render_into(pixels, &mut |_| {})
+            .render_into(&mut pixels, &mut |_| {})
     };
-    render(&mut pixels);
-    let (secs, _) = median_time(runs, || render(&mut pixels));
+    render();
+    let (secs, _) = median_time(runs, render);
     (secs, pixels)
 }
 
@@ -121,9 +115,7 @@ fn moving_frame(doc: &Document, frame: u64, blur: MotionBlur) -> Result<Option<u
     let mut moving = Vec::new();
     for item in doc.cameras() {
         let (k, camera) = item.map_err(CliError::from)?;
-        if exposure(doc, k, camera, blur)?.len() > 1 {
-            moving.push(k);
-        }
+        moving.extend((exposure(doc, k, camera, blur)?.len() > 1).then_some(k));
     }
     Ok(moving.into_iter().min_by_key(|k| (k.abs_diff(frame), *k)))
 }
@@ -151,20 +143,23 @@ fn motion_report(
     };
     let camera = doc.camera(frame).map_err(CliError::from)?;
     let cameras = |n: u32| exposure(doc, frame, camera, blur(n));
-    let raster = Raster {
+    let (raster, simd) = (one_sample(doc), Simd::detect());
+    let exact = cameras(REFERENCE_TIME_SAMPLES)?;
+    let (_, reference) = timed(&exact, &doc.scene, (raster, simd), 0);
+    let rows = [1, 2, 4, 8, 16].into_iter().map(|n| {
+        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, (raster, simd), runs);
+        Ok(measure(Setting::Motion(n), secs, &pixels, &reference))
+    });
+    Ok(Some((frame, shutter, rows.collect::<Result<_>>()?)))
+}
+
+/// The file's raster at one sample a pixel, not adaptive.
+fn one_sample(doc: &Document) -> Raster {
+    Raster {
         samples: 1,
         adaptive: false,
         ..doc.raster
-    };
-    let simd = Simd::detect();
-    let exact = cameras(REFERENCE_TIME_SAMPLES)?;
-    let (_, reference) = timed(&exact, &doc.scene, raster, simd, 0);
-    let mut rows = Vec::new();
-    for n in [1, 2, 4, 8, 16] {
-        let (secs, pixels) = timed(&cameras(n)?, &doc.scene, raster, simd, runs);
-        rows.push(measure(Setting::Motion(n), secs, &pixels, &reference));
     }
-    Ok(Some((frame, shutter, rows)))
 }
 
 /// `setting`'s row: `secs` a frame, and the errors of `got` against `reference`, both RGB8 sRGB.
@@ -199,46 +194,31 @@ pub fn measure(setting: Setting, secs: f64, got: &[u8], reference: &[u8]) -> Mea
 
 /// Measures every setting on frame `frame` of `doc`.
 pub fn renderer_report(doc: &Document, frame: u64, runs: usize) -> Result<Vec<Measured>> {
-    let camera = doc
-        .cameras()
-        .nth(frame as usize)
-        .ok_or_else(|| {
-            CliError::Usage(format!(
-                "--frame {frame}: the animation has frames 0..{}",
-                doc.animation.frames
-            ))
-        })?
-        .map_err(CliError::from)?
-        .1;
-    let base = Raster {
-        samples: 1,
-        adaptive: false,
-        ..doc.raster
-    };
-    let reference = Raster {
-        samples: REFERENCE_SAMPLES,
-        ..base
-    };
-    let fastest = Simd::detect();
-    let (_, reference) = timed(&[camera], &doc.scene, reference, fastest, 0);
-    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), Raster { samples: s, ..base }));
-    let adaptive = [2, 4, 8].map(|s| {
+    let frames = doc.animation.frames;
+    if frame >= frames {
+        let message = format!("--frame {frame}: the animation has frames 0..{frames}");
+        return Err(CliError::Usage(message));
+    }
+    let camera = doc.camera(frame).map_err(CliError::from)?;
+    let (base, fastest) = (one_sample(doc), Simd::detect());
+    // A grid of samples, on the fastest instruction path.
+    let grid = |samples, adaptive| {
         let raster = Raster {
-            samples: s,
-            adaptive: true,
+            samples,
+            adaptive,
             ..base
         };
-        (Setting::Adaptive(s), raster)
-    });
-    let grids = samples
-        .into_iter()
-        .chain(adaptive)
-        .map(|(s, r)| (s, r, fastest));
+        (raster, fastest)
+    };
+    let (_, reference) = timed(&[camera], &doc.scene, grid(REFERENCE_SAMPLES, false), 0);
+    let samples = [1, 2, 3, 4, 8].map(|s| (Setting::Samples(s), grid(s, false)));
+    let adaptive = [2, 4, 8].map(|s| (Setting::Adaptive(s), grid(s, true)));
     // The instruction paths: all f64, all the same bytes; only the time differs.
     let supported = Simd::ALL.into_iter().filter(|s| s.supported());
-    let paths = supported.map(|simd| (Setting::Path(simd), base, simd));
-    let measured = grids.chain(paths).map(|(setting, raster, simd)| {
-        let (secs, pixels) = timed(&[camera], &doc.scene, raster, simd, runs);
+    let paths = supported.map(|simd| (Setting::Path(simd), (base, simd)));
+    let settings = samples.into_iter().chain(adaptive).chain(paths);
+    let measured = settings.map(|(setting, how)| {
+        let (secs, pixels) = timed(&[camera], &doc.scene, how, runs);
         measure(setting, secs, &pixels, &reference)
     });
     Ok(measured.collect())
@@ -279,12 +259,8 @@ fn decades(vs: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
 
 /// `10^e` written plainly: 0.01, 0.1, 1, 10, 100.
 fn power_label(e: f64) -> String {
-    let v = libm::pow(10.0, e);
-    if e < 0.0 {
-        format!("{v:.*}", (-e) as usize)
-    } else {
-        format!("{v:.0}")
-    }
+    // As many decimals as the negative exponent says.
+    format!("{:.*}", (-e).max(0.0) as usize, libm::pow(10.0, e))
 }
 
 /// Writes a log-log plot of RMSE (8-bit levels) against median time per frame as a PNG: ticks
@@ -293,12 +269,8 @@ fn power_label(e: f64) -> String {
 fn plot(rows: &[Measured], path: &Path) -> Result<()> {
     use plotters::prelude::*;
     const FLOOR: f64 = 1e-3;
-    let point = |r: &Measured| {
-        (
-            libm::log10(r.secs * 1e3),
-            libm::log10(r.rmse_levels.max(FLOOR)),
-        )
-    };
+    let log = libm::log10;
+    let point = |r: &Measured| (log(r.secs * 1e3), log(r.rmse_levels.max(FLOOR)));
     let (x0, x1) = decades(rows.iter().map(|r| r.secs * 1e3));
     let (y0, y1) = decades(rows.iter().map(|r| r.rmse_levels.max(FLOOR)));
     draw_png(path, (900, 600), |root| {
@@ -359,9 +331,8 @@ fn plot(rows: &[Measured], path: &Path) -> Result<()> {
             .collect();
         let (xs, ys) = chart.plotting_area().get_pixel_range();
         let mut placed: Vec<LabelBox> = Vec::new();
-        for r in rows {
+        for (r, &(px, py)) in rows.iter().zip(&markers) {
             let text = r.setting.short();
-            let (px, py) = chart.backend_coord(&point(r));
             let (w, h) = (8 * text.chars().count() as i32, 15);
             let at = |(dx, dy): (i32, i32)| LabelBox {
                 x: px + dx,
@@ -421,10 +392,6 @@ impl LabelBox {
         self.x < o.x + o.w && o.x < self.x + self.w && self.y < o.y + o.h && o.y < self.y + self.h
     }
 
-    fn contains(&self, (x, y): (i32, i32)) -> bool {
-        (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
-    }
-
     /// Whether the segment from `a` to `b` passes through the box (sampled every pixel or so).
     fn meets(&self, a: (i32, i32), b: (i32, i32)) -> bool {
         let steps = (a.0 - b.0).abs().max((a.1 - b.1).abs()).max(1);
@@ -432,7 +399,8 @@ impl LabelBox {
             let t = k as f64 / steps as f64;
             let x = a.0 as f64 + (b.0 - a.0) as f64 * t;
             let y = a.1 as f64 + (b.1 - a.1) as f64 * t;
-            self.contains((x.round() as i32, y.round() as i32))
+            let (x, y) = (x.round() as i32, y.round() as i32);
+            (self.x..self.x + self.w).contains(&x) && (self.y..self.y + self.h).contains(&y)
         })
     }
 }
@@ -527,25 +495,20 @@ pub fn path_table(rows: &[PathRow]) -> String {
         "speed spread",
     ]);
     for r in rows {
-        t.row(if r.samples == 0 {
-            vec![
-                "keyed".into(),
-                "—".into(),
-                "—".into(),
-                format!("{:.0}", r.eval_ns),
-                "—".into(),
-                format!("{:.3}", r.speed_spread),
-            ]
-        } else {
-            vec![
-                "uniform".into(),
-                r.samples.to_string(),
-                format!("{:.1}", r.build_us),
-                format!("{:.0}", r.eval_ns),
-                format!("{:.2e}", r.max_error),
-                format!("{:.2e}", r.speed_spread),
-            ]
-        });
+        // The keyed path has no table: no size, build time or error against one.
+        let keyed = r.samples == 0;
+        let table = |cell: String| if keyed { "—".into() } else { cell };
+        t.row(vec![
+            (if keyed { "keyed" } else { "uniform" }).into(),
+            table(r.samples.to_string()),
+            table(format!("{:.1}", r.build_us)),
+            format!("{:.0}", r.eval_ns),
+            table(format!("{:.2e}", r.max_error)),
+            match keyed {
+                true => format!("{:.3}", r.speed_spread),
+                false => format!("{:.2e}", r.speed_spread),
+            },
+        ]);
     }
     t.markdown()
 }
@@ -577,9 +540,7 @@ pub fn run(a: ReportArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let (frame, runs) = (a.frame.unwrap_or(doc.animation.frames / 2), a.runs as usize);
     let mut rows = renderer_report(&doc, frame, runs)?;
     let motion = motion_report(&doc, frame, runs)?;
-    if let Some((_, _, m)) = &motion {
-        rows.extend(m.iter().cloned());
-    }
+    rows.extend(motion.iter().flat_map(|m| m.2.iter().cloned()));
     let stdout = crate::Error::stdout;
     writeln!(out, "Renderer, frame {frame} of {}:\n", file.display()).map_err(stdout)?;
     write!(out, "{}", renderer_table(&rows)).map_err(stdout)?;

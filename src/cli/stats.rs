@@ -89,26 +89,21 @@ pub fn peak_memory_mb() -> Option<f64> {
 /// One line for people, e.g. `rendered 96 frame(s) of 640×360 to out/x in …`: frames, wall
 /// time, median render time, held frames and peak memory. `detail` follows the frame count.
 pub fn timing_line(verb: &str, detail: &str, t: &Timing) -> String {
-    let (frames, secs) = (t.frames, t.wall_secs);
+    let s = Stats::of(t, 0);
+    let (frames, secs) = (s.frames, s.wall_secs);
     let mut line = format!("{verb} {frames} frame(s){detail} in {secs:.2} s");
-    let mut notes = Vec::new();
-    if t.frames > 0 {
-        notes.push(format!(
-            "{:.1} ms/frame wall, median render {:.1} ms/frame",
-            t.wall_secs * 1e3 / t.frames as f64,
-            t.median_render_secs() * 1e3
-        ));
-    }
-    if let Some(at) = t.first_frame_at {
-        let ms = (at - super::started()).as_secs_f64() * 1e3;
-        notes.push(format!("first frame after {ms:.0} ms"));
-    }
-    if t.held > 0 {
-        notes.push(format!("{} held (same camera as the frame before)", t.held));
-    }
-    if let Some(mb) = peak_memory_mb() {
-        notes.push(format!("peak memory {mb:.0} MB"));
-    }
+    let (wall, median) = (s.wall_ms_per_frame, s.median_render_ms);
+    let notes: Vec<String> = [
+        (frames > 0)
+            .then(|| format!("{wall:.1} ms/frame wall, median render {median:.1} ms/frame")),
+        s.first_frame_ms
+            .map(|ms| format!("first frame after {ms:.0} ms")),
+        (t.held > 0).then(|| format!("{} held (same camera as the frame before)", t.held)),
+        s.peak_memory_mb.map(|mb| format!("peak memory {mb:.0} MB")),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     if !notes.is_empty() {
         line += &format!(" ({})", notes.join(", "));
     }

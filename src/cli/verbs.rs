@@ -9,8 +9,7 @@ use super::error::{CliError, Result};
 use super::progress::{with_wait, Progress};
 use super::stats::{timing_line, Stats};
 use crate::document::Document;
-use crate::frames::FrameSet;
-use crate::frames::Shard;
+use crate::frames::{FrameSet, Shard};
 use crate::output::sequence::{self, RenderOptions, RenderSummary};
 use crate::output::{Compression, Use, HASHES};
 use crate::Error;
@@ -117,12 +116,8 @@ pub fn merge(dir: &Path, no_wait: bool, out: &mut dyn Write) -> Result<()> {
     // As render: a golden or a folder of other files is refused before the lock is taken.
     crate::output::check(dir, Use::Frames).map_err(|r| CliError::refused("DIR", dir, &r))?;
     let lock = super::progress::lock_whole(dir, no_wait)?;
-    let frames = sequence::merge(&lock)?;
-    let merged = format!(
-        "merged {frames} frame(s) into {}",
-        dir.join(HASHES).display()
-    );
-    writeln!(out, "{merged}").map_err(Error::stdout)?;
+    let (frames, hashes) = (sequence::merge(&lock)?, dir.join(HASHES));
+    writeln!(out, "merged {frames} frame(s) into {}", hashes.display()).map_err(Error::stdout)?;
     Ok(())
 }
 
@@ -174,19 +169,16 @@ pub fn check(c: CheckArgs, out: &mut dyn Write) -> Result<bool> {
     doc.check_path()?;
     let a = &doc.animation;
     let tracks: Vec<&str> = a.tracks().map(|m| m.name()).collect();
+    let tracks = (!tracks.is_empty()).then(|| tracks.join(", "));
+    let (w, h, s) = (doc.raster.width, doc.raster.height, doc.raster.samples);
+    let (spheres, lights) = (doc.scene.spheres.len(), doc.scene.lights.len());
     writeln!(
         out,
-        "{}: ok: {} frame(s) at {} fps, {}×{} with {}×{} samples, {} sphere(s), {} light(s), tracks: {}",
+        "{}: ok: {} frame(s) at {} fps, {w}×{h} with {s}×{s} samples, {spheres} sphere(s), {lights} light(s), tracks: {}",
         doc.path.display(),
         a.frames,
         a.fps,
-        doc.raster.width,
-        doc.raster.height,
-        doc.raster.samples,
-        doc.raster.samples,
-        doc.scene.spheres.len(),
-        doc.scene.lights.len(),
-        if tracks.is_empty() { "none".to_string() } else { tracks.join(", ") }
+        tracks.as_deref().unwrap_or("none")
     )
     .map_err(Error::stdout)?;
     for f in &doc.sphere_files {

@@ -7,6 +7,7 @@
 //! manifest's hashes. The video is written under a temporary name and renamed when ffmpeg has
 //! finished, so a killed encode leaves no video under the final name.
 
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -71,9 +72,8 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
                 video.display()
             )));
         }
-        if let Err(r) = crate::output::golden_of(folder_of(video)) {
-            return Err(CliError::refused("--out", video, &r));
-        }
+        crate::output::golden_of(folder_of(video))
+            .map_err(|r| CliError::refused("--out", video, &r))?;
         super::args::check_extension("--out", video, &[ext], what)?;
     }
     let doc = Document::load(file)?;
@@ -127,22 +127,17 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
     let total = doc.animation.frames;
     let mut progress = Progress::new(quiet);
     let set = FrameSet::all(0..total);
-    let options = RenderOptions::default();
     // Held until the video is written: the frames are read back for ffmpeg.
     let lock = super::progress::with_wait(no_wait, quiet, |wait| {
         sequence::lock(&doc, frames_dir, &set, wait)
     })?;
     // Before rendering: that the video can be written where it goes.
     super::args::check_writable(&video)?;
+    let options = RenderOptions::default();
     let summary = sequence::render(&doc, &lock, &set, options, &mut |e| progress.event(e))?;
     progress.finish();
-
-    let hashes: std::collections::BTreeMap<u64, FrameHash> = summary
-        .manifest
-        .entries
-        .into_iter()
-        .map(|e| (e.frame, e.hash))
-        .collect();
+    let entries = summary.manifest.entries.into_iter();
+    let hashes: BTreeMap<u64, FrameHash> = entries.map(|e| (e.frame, e.hash)).collect();
     // ffmpeg writes over a temporary file of its own, removed unless renamed into place.
     let tmp = temp_beside(&video)?;
     // As a `file:` URL: a name that begins with `-` is not an option to ffmpeg.
@@ -186,30 +181,23 @@ pub fn run(a: VideoArgs, out: &mut dyn Write) -> Result<()> {
         .map_err(|e| Error::write(&video)(e.error))?;
     if !quiet {
         let (w, h) = (doc.raster.width, doc.raster.height);
+        // yuv420p needs even sides (`ffmpeg_args`).
+        let (crf, even_w, even_h) = (a.crf, w + w % 2, h + h % 2);
         let what = if a.lossless {
             "FFV1 lossless RGB".to_string()
-        } else if w % 2 == 1 || h % 2 == 1 {
-            // yuv420p needs even sides (`ffmpeg_args`).
-            let even = |n: u32| n + n % 2;
-            format!(
-                "H.264 yuv420p, crf {}, padded to {}×{} with black, as 4:2:0 needs even sides",
-                a.crf,
-                even(w),
-                even(h)
-            )
+        } else if (even_w, even_h) != (w, h) {
+            format!("H.264 yuv420p, crf {crf}, padded to {even_w}×{even_h} with black, as 4:2:0 needs even sides")
         } else {
-            format!("H.264 yuv420p, crf {}", a.crf)
+            format!("H.264 yuv420p, crf {crf}")
+        };
+        let fps = match frame_rate(doc.animation.fps) {
+            ntsc if ntsc.contains('/') => format!("{} ({ntsc})", doc.animation.fps),
+            _ => doc.animation.fps.to_string(),
         };
         writeln!(
             out,
-            "wrote {} ({total} frame(s) of {}×{} at {} fps, {what}) in {:.2} s",
+            "wrote {} ({total} frame(s) of {w}×{h} at {fps} fps, {what}) in {:.2} s",
             video.display(),
-            doc.raster.width,
-            doc.raster.height,
-            match frame_rate(doc.animation.fps) {
-                ntsc if ntsc.contains('/') => format!("{} ({ntsc})", doc.animation.fps),
-                _ => doc.animation.fps.to_string(),
-            },
             started.elapsed().as_secs_f64()
         )
         .map_err(Error::stdout)?;
@@ -262,7 +250,7 @@ fn ffmpeg_args(doc: &Document, lossless: bool, crf: u8) -> Vec<String> {
 fn feed(
     dir: &Path,
     total: u64,
-    hashes: &std::collections::BTreeMap<u64, FrameHash>,
+    hashes: &BTreeMap<u64, FrameHash>,
     stdin: &mut impl Write,
     progress: &mut Progress,
     stop: &AtomicBool,
