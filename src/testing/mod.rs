@@ -394,6 +394,7 @@ impl Shot {
         }
         let keep_frames = !golden_frames.is_empty() || options.keep_frames || tolerance.is_some();
         let writes = options.update != Update::No;
+        let for_review = options.update == Update::New;
         let golden_thumbs = thumbs_in(&dir);
         let staging = staging_dir(&path, "");
         let mut fresh = Vec::with_capacity(total as usize);
@@ -432,7 +433,8 @@ impl Shot {
                 }
                 let thumb =
                     (!same || !golden_thumbs.contains_key(&frame)).then(|| thumbnail(pixels, size));
-                if writes && !(same && picture_ok) {
+                // Full frames for the golden that keeps them, and for the review of a pending one.
+                if (for_review || keep_frames && always) && !(same && picture_ok) {
                     put(frame_path(&staging, frame, total), pixels, size)?;
                 }
                 if let (true, Some(t)) = (writes, &thumb) {
@@ -455,7 +457,7 @@ impl Shot {
                 if let Some(((image, diff), at, small)) = compared {
                     let small = small && at != size;
                     pictures.insert(frame, PictureDiff { diff, small });
-                    if writes {
+                    if for_review {
                         put(diff_path(&staging, frame, total), &image, at)?;
                     }
                 }
