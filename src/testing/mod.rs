@@ -433,8 +433,12 @@ impl Shot {
                 }
                 // A small picture for the golden to be written, or to compare with the golden's.
                 let has_thumb = golden_thumbs.contains_key(&frame);
-                let thumb = (writes && !(same && has_thumb) || !same && has_thumb)
-                    .then(|| thumbnail(pixels, size));
+                let needed = if same {
+                    writes && !has_thumb
+                } else {
+                    writes || has_thumb
+                };
+                let thumb = needed.then(|| thumbnail(pixels, size));
                 // Full frames for the golden that keeps them, and for the review of a pending one.
                 if (for_review || keep_frames && always) && !(same && picture_ok) {
                     put(frame_path(&staging, frame, total), pixels, size)?;
