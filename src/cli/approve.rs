@@ -360,7 +360,9 @@ fn write_page(page: &Path, pending: &[Pending], dir: &str) -> Result<PathBuf> {
         }
         shots.push(ReviewShot {
             shot: p.shot.display().to_string(),
-            summary: describe(p).lines().next().unwrap_or("").to_string(),
+            summary: (describe(p).lines().next().unwrap_or(""))
+                .split_once(": ")
+                .map_or(String::new(), |(_, what)| what.to_string()),
             frames,
         });
     }
@@ -368,5 +370,6 @@ fn write_page(page: &Path, pending: &[Pending], dir: &str) -> Result<PathBuf> {
         "Accept every shot: campath review {dir} --accept (one: add --shot NAME). Reject: \
          campath review {dir} --reject. On a terminal, campath review {dir} asks shot by shot."
     );
-    review::write(page, &shots, pending.len(), &how)
+    let title = format!("campath review: {} pending golden(s)", pending.len());
+    review::write(page, &shots, &title, &how)
 }

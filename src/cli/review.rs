@@ -105,13 +105,14 @@ window.addEventListener('load', function () {
 ";
 
 /// Writes `dir/index.html` for the failing `shots` of a run of `total` shots; returns its path.
-pub fn write(dir: &Path, shots: &[ReviewShot], total: usize, how: &str) -> Result<PathBuf> {
+/// `title` heads the page; `how` says how to approve.
+pub fn write(dir: &Path, shots: &[ReviewShot], title: &str, how: &str) -> Result<PathBuf> {
     let mut html =
         String::from("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">");
     let _ = write!(
         html,
-        "<title>campath review</title><style>{STYLE}</style></head><body>\n<h1>campath test: {} of {total} shot(s) failed</h1>\n",
-        shots.len()
+        "<title>campath review</title><style>{STYLE}</style></head><body>\n<h1>{}</h1>\n",
+        escape(title)
     );
     if shots.is_empty() {
         html += "<p class=\"passed\">Every shot matches its golden.</p>\n";

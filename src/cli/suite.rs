@@ -271,7 +271,12 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
                  campath review {d}; or campath test {d} --update to approve every shot."
             ),
         };
-        let page = review::write(dir, &shown, shots.len(), &how)?;
+        let title = format!(
+            "campath test: {} of {} shot(s) failed",
+            shown.len(),
+            shots.len()
+        );
+        let page = review::write(dir, &shown, &title, &how)?;
         writeln!(out, "review: {}", page.display()).map_err(Error::stdout)?;
     }
     if bad > 0 {
