@@ -1,4 +1,5 @@
-//! Frame-hash test suites: `campath test` over a folder of shots, approval with `--update`,
+//! Frame-hash test suites: `campath test` over a folder of shots, pending goldens, approval
+//! with `--update`,
 //! JUnit, the review page in a real browser, goldens that name their renderer, a verify that
 //! never harms a golden, and `campath::testing::assert_shot` from a cargo project of its own.
 
@@ -86,19 +87,61 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     let t = tmp.path();
     shots(t);
 
-    let o = campath(t, &["test"], &[]);
+    // Compare only: every shot is new, and nothing is written.
+    let o = campath(t, &["test", "--no-pending"], &[]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert_eq!(
-        stdout(&o).matches(": no golden (").count(),
+        stdout(&o).matches(": new shot, no golden yet (").count(),
         3,
         "{}",
         stdout(&o)
     );
-    assert!(stdout(&o).contains("3 without golden"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("3 shot(s): 0 passed, 0 differ, 3 new; 0 pending golden(s) written"),
+        "{}",
+        stdout(&o)
+    );
+    for name in ["shots/a", "shots/b", "shots/sub/c"] {
+        assert!(!t.join(format!("{name}.golden")).exists(), "{name}");
+        assert!(!t.join(format!("{name}.golden.new")).exists(), "{name}");
+    }
+    // By default each new shot leaves a pending golden, and no golden.
+    let o = campath(t, &["test"], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("3 new; 3 pending golden(s) written, 0 approved")
+            && stdout(&o).contains("campath review shots"),
+        "{}",
+        stdout(&o)
+    );
+    for (shot, name) in [
+        ("shots/a.ron", "shots/a"),
+        ("shots/b.ron", "shots/b"),
+        ("shots/sub/c.ron", "shots/sub/c"),
+    ] {
+        assert!(
+            stdout(&o).contains(&format!("{shot}: new shot, no golden yet ("))
+                && stdout(&o).contains(&format!("pending golden: {name}.golden.new")),
+            "{}",
+            stdout(&o)
+        );
+        assert!(!t.join(format!("{name}.golden")).exists(), "{name}");
+        let text =
+            std::fs::read_to_string(t.join(format!("{name}.golden.new/hashes.txt"))).unwrap();
+        assert_eq!(parse(&text), hashed(t, shot), "{name}");
+    }
 
     let o = campath(t, &["test", "--update"], &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stdout(&o).contains("3 golden(s) written"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("0 pending golden(s) written, 3 approved"),
+        "{}",
+        stdout(&o)
+    );
+    // Approval takes the place of the pending goldens.
+    for name in ["shots/a", "shots/b", "shots/sub/c"] {
+        assert!(!t.join(format!("{name}.golden.new")).exists(), "{name}");
+    }
     for (shot, golden) in [
         ("shots/a.ron", "shots/a.golden"),
         ("shots/b.ron", "shots/b.golden"),
@@ -159,6 +202,27 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
         failing.len()
     )));
     assert_eq!(out.matches(": passed (").count(), 2, "{out}");
+    // The failing run leaves b's golden as it was, and a pending golden of the new frames.
+    assert!(out.contains("pending golden: shots/b.golden.new"), "{out}");
+    let pending = t.join("shots/b.golden.new");
+    assert_eq!(
+        parse(&std::fs::read_to_string(pending.join("hashes.txt")).unwrap()),
+        fresh
+    );
+    for k in &failing {
+        assert!(
+            pending.join(format!("frame_{k:04}.png")).is_file(),
+            "frame {k}"
+        );
+        assert!(
+            pending.join(format!("frame_{k:04}.diff.png")).is_file(),
+            "frame {k}"
+        );
+    }
+    assert_eq!(
+        parse(&std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap()),
+        golden
+    );
 
     let xml = std::fs::read_to_string(t.join("report.xml")).unwrap();
     let report = roxmltree::Document::parse(&xml).unwrap();
@@ -196,7 +260,12 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     // Approving rewrites b's golden only: a's and c's files are not touched.
     let o = campath(t, &["test", "--update"], &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stdout(&o).contains("1 golden(s) written"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("0 pending golden(s) written, 1 approved"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(!t.join("shots/b.golden.new").exists());
     assert_eq!(snapshot(&t.join("shots/a.golden")), before_a);
     assert_eq!(snapshot(&t.join("shots/sub/c.golden")), before_c);
     let text = std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap();
@@ -580,7 +649,11 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
             "frame_0001.png",
             "frame_0002.png",
             "frame_0003.png",
-            "hashes.txt"
+            "hashes.txt",
+            "thumb_0000.png",
+            "thumb_0001.png",
+            "thumb_0002.png",
+            "thumb_0003.png"
         ]
     );
 
@@ -591,10 +664,16 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     std::fs::write(left.join("frame_0000.png"), b"half").unwrap();
     let approval = std::fs::File::open(t.join("shots/a.ron")).unwrap();
     approval.lock().unwrap();
-    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    assert_eq!(
+        campath(t, &["test", "--no-pending"], &[]).status.code(),
+        Some(0)
+    );
     assert!(left.exists());
     drop(approval);
-    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    assert_eq!(
+        campath(t, &["test", "--no-pending"], &[]).status.code(),
+        Some(0)
+    );
     assert!(!left.exists());
     // An approval clears it too (the folder swept once, not once a shot), also for a shot whose
     // name is not UTF-8 (which the sweep passes).
@@ -712,7 +791,7 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     std::os::unix::fs::symlink("a.ron", t.join("shots/z.ron")).unwrap();
     let o = campath(t, &["test"], &[]);
     assert!(
-        stdout(&o).contains("shots/z.ron: no golden"),
+        stdout(&o).contains("shots/z.ron: new shot, no golden yet"),
         "{}",
         stdout(&o)
     );
