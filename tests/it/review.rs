@@ -1,0 +1,554 @@
+//! Pending goldens and `campath review`: a review on a terminal, key by key; an accept killed
+//! at any moment leaves a whole golden; shots with a tolerance; goldens whose shot is gone; and
+//! the small pictures a golden keeps of its frames.
+
+use std::collections::BTreeMap;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use crate::common::{campath, root, stderr, stdout};
+
+/// A shot of `frames` frames of `width`×`height` whose first sphere has colour `red`, and a
+/// top-level `extra` (such as a tolerance).
+fn shot_sized(frames: u64, (width, height): (u32, u32), red: &str, extra: &str) -> String {
+    format!(
+        "(frames: {frames}, fps: 4.0, image: (width: {width}, height: {height}),{extra}
+    camera: (vrp: (0.0, 1.0, -6.0), tp: (0.0, 0.0, 0.0), window: (1.6, 0.9)),
+    animate: [Observer(keys: [(t: 0.0, value: (0.0, 1.0, -6.0)), (t: 1.0, value: (2.0, 1.0, -5.0))])],
+    scene: (lights: [(direction: (-1.0, -2.0, 1.0))], spheres: [
+        (center: (0.0, 0.0, 0.0), radius: 1.0, color: ({red}, 0.2, 0.2)),
+        (center: (1.5, -0.5, 1.0), radius: 0.6, color: (0.2, 0.3, 0.9))]))"
+    )
+}
+
+/// [`shot_sized`] at 40×24.
+fn shot(frames: u64, red: &str) -> String {
+    shot_sized(frames, (40, 24), red, "")
+}
+
+/// Every file of a folder (not its subfolders), by name, with its bytes; empty when the folder
+/// is not there.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let entries = std::fs::read_dir(dir).into_iter().flatten().flatten();
+    entries
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, std::fs::read(e.path()).unwrap())
+        })
+        .collect()
+}
+
+/// What a golden of hashes and small pictures holds once `pending` is accepted: its hashes.txt
+/// and small pictures, without its full frames and difference images.
+fn accepted(pending: &BTreeMap<String, Vec<u8>>) -> BTreeMap<String, Vec<u8>> {
+    let kept = |n: &String| n == "hashes.txt" || n.starts_with("thumb_");
+    (pending.iter().filter(|(n, _)| kept(n)))
+        .map(|(n, b)| (n.clone(), b.clone()))
+        .collect()
+}
+
+/// Whether two folders' files are the same, naming the files that differ when not.
+fn same_files(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>) -> Result<(), String> {
+    let differ: Vec<&String> = (a.keys().chain(b.keys()))
+        .filter(|n| a.get(*n) != b.get(*n))
+        .collect();
+    match differ.is_empty() {
+        true => Ok(()),
+        false => Err(format!("these files differ: {differ:?}")),
+    }
+}
+
+/// Runs `campath test ARGS` in `dir` and checks its exit status.
+fn test(dir: &Path, args: &[&str], code: i32) -> String {
+    let o = campath(dir, &[&["test"][..], args].concat(), &[]);
+    let text = format!("{}{}", stdout(&o), stderr(&o));
+    assert_eq!(o.status.code(), Some(code), "test {args:?}: {text}");
+    text
+}
+
+/// A pseudo-terminal: the master end to read and write, the terminal end to hand to a child.
+struct Pty {
+    master: std::fs::File,
+    terminal: std::fs::File,
+}
+
+fn pty() -> Pty {
+    use rustix::pty::{grantpt, openpt, ptsname, unlockpt, OpenptFlags};
+    let master = openpt(OpenptFlags::RDWR | OpenptFlags::NOCTTY | OpenptFlags::CLOEXEC).unwrap();
+    grantpt(&master).unwrap();
+    unlockpt(&master).unwrap();
+    let name = ptsname(&master, Vec::new()).unwrap();
+    let terminal = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(name.to_str().unwrap())
+        .unwrap();
+    Pty {
+        master: std::fs::File::from(master),
+        terminal,
+    }
+}
+
+/// Waits until `seen` holds `count` times `what`, or panics after a minute with what it holds.
+fn wait_for(seen: &Mutex<Vec<u8>>, what: &str, count: usize) {
+    let start = Instant::now();
+    loop {
+        let text = String::from_utf8_lossy(&seen.lock().unwrap()).into_owned();
+        if text.matches(what).count() >= count {
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no {what:?} ×{count}: {text}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Three shots with goldens of hashes and small pictures, each changed since: three pending
+/// goldens.
+fn three_pending(t: &Path) {
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    for (name, red) in [("a", "0.9"), ("b", "0.5"), ("c", "0.7")] {
+        std::fs::write(t.join(format!("shots/{name}.ron")), shot(3, red)).unwrap();
+    }
+    test(t, &["--update"], 0);
+    for (name, red) in [("a", "0.8"), ("b", "0.4"), ("c", "0.6")] {
+        std::fs::write(t.join(format!("shots/{name}.ron")), shot(3, red)).unwrap();
+    }
+    let out = test(t, &[], 1);
+    assert!(out.contains("3 pending golden(s) written"), "{out}");
+}
+
+/// `campath review` on a terminal asks shot by shot and reads one key, without Enter: `a`
+/// makes the first shot's pending golden its golden (and no pending golden is left), `r`
+/// removes the second's and leaves its golden, `s` leaves the third's golden and pending golden
+/// as they were; it exits 0.
+#[test]
+fn review_on_a_terminal_accepts_rejects_and_skips_key_by_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    three_pending(t);
+    let shots = t.join("shots");
+    let golden = |n: &str| files(&shots.join(format!("{n}.golden")));
+    let pending = |n: &str| files(&shots.join(format!("{n}.golden.new")));
+    let (pending_a, golden_b, pending_b) = (pending("a"), golden("b"), pending("b"));
+    let (golden_c, pending_c) = (golden("c"), pending("c"));
+    assert!(pending_a.contains_key("hashes.txt") && pending_b.contains_key("hashes.txt"));
+
+    let Pty { master, terminal } = pty();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(t)
+        .args(["review", "shots"])
+        .stdin(terminal.try_clone().unwrap())
+        .stdout(terminal.try_clone().unwrap())
+        .stderr(terminal.try_clone().unwrap())
+        .spawn()
+        .unwrap();
+    let termios_of = master.try_clone().unwrap();
+    drop(terminal);
+    // Read everything the review writes, so that it never waits on a full terminal.
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let reader = {
+        let (seen, mut master) = (seen.clone(), master.try_clone().unwrap());
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n @ 1..) = master.read(&mut buf) {
+                seen.lock().unwrap().extend_from_slice(&buf[..n]);
+            }
+        })
+    };
+    let mut keys = master;
+    // A key is sent once the review asks and reads the terminal key by key.
+    let press = |keys: &mut std::fs::File, key: &[u8], nth: usize| {
+        wait_for(&seen, "a accept, r reject, s skip, q quit: ", nth);
+        let start = Instant::now();
+        loop {
+            let modes = rustix::termios::tcgetattr(&termios_of).unwrap().local_modes;
+            if !modes.contains(rustix::termios::LocalModes::ICANON) {
+                break;
+            }
+            assert!(start.elapsed() < Duration::from_secs(60), "never raw");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        keys.write_all(key).unwrap();
+    };
+
+    press(&mut keys, b"a", 1);
+    wait_for(&seen, "accepted: ", 1);
+    // a's golden is its pending golden: its hashes and small pictures, every frame's.
+    same_files(&golden("a"), &accepted(&pending_a)).unwrap();
+    assert_eq!(accepted(&pending_a).len(), 4);
+    assert!(!shots.join("a.golden.new").exists());
+
+    press(&mut keys, b"r", 2);
+    wait_for(&seen, "rejected: ", 1);
+    assert!(!shots.join("b.golden.new").exists());
+    same_files(&golden("b"), &golden_b).unwrap();
+
+    press(&mut keys, b"s", 3);
+    let status = child.wait().unwrap();
+    drop(keys);
+    reader.join().unwrap();
+    let text = String::from_utf8_lossy(&seen.lock().unwrap()).into_owned();
+    assert_eq!(status.code(), Some(0), "{text}");
+    assert!(
+        text.contains("skipped") && text.contains("1 pending golden(s) left"),
+        "{text}"
+    );
+    // Each shot's differing frames were shown before its question.
+    assert!(
+        text.contains("3 of 3 frame(s) differ from the golden"),
+        "{text}"
+    );
+    same_files(&golden("c"), &golden_c).unwrap();
+    same_files(&pending("c"), &pending_c).unwrap();
+    // And what the review did holds: a passes now, b and c still differ.
+    let out = test(t, &["--no-pending"], 1);
+    assert!(
+        out.contains("shots/a.ron: passed")
+            && out.contains("shots/b.ron: 3 of 3 frame(s) differ")
+            && out.contains("shots/c.ron: 3 of 3 frame(s) differ"),
+        "{out}"
+    );
+}
+
+/// Off a terminal and without --accept or --reject, review lists the pending goldens and
+/// changes nothing; --accept --shot takes one shot, --reject the rest.
+#[test]
+fn review_off_a_terminal_lists_and_acts_only_when_told() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    three_pending(t);
+    let shots = t.join("shots");
+    let before: Vec<_> = ["a", "b", "c"]
+        .map(|n| files(&shots.join(format!("{n}.golden"))))
+        .into();
+    let o = campath(t, &["review", "shots"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).matches("skipped").count() == 3
+            && stdout(&o).contains("3 pending golden(s) left"),
+        "{}",
+        stdout(&o)
+    );
+    for (n, golden) in ["a", "b", "c"].iter().zip(&before) {
+        same_files(&files(&shots.join(format!("{n}.golden"))), golden).unwrap();
+        assert!(shots.join(format!("{n}.golden.new")).exists(), "{n}");
+    }
+    let pending_b = files(&shots.join("b.golden.new"));
+    let o = campath(t, &["review", "shots", "--accept", "--shot", "b"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    same_files(&files(&shots.join("b.golden")), &accepted(&pending_b)).unwrap();
+    assert!(shots.join("a.golden.new").exists() && shots.join("c.golden.new").exists());
+    let o = campath(t, &["review", "shots", "--reject"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for n in ["a", "b", "c"] {
+        assert!(!shots.join(format!("{n}.golden.new")).exists(), "{n}");
+    }
+    same_files(&files(&shots.join("a.golden")), &before[0]).unwrap();
+    let out = test(t, &["--no-pending"], 1);
+    assert!(out.contains("1 passed, 2 differ"), "{out}");
+}
+
+/// An accept killed at 20 moments spread evenly over its run (and a little past it) leaves the
+/// golden wholly the old one or wholly the new one, and the next check can always check the
+/// shot: it passes or differs (exit 0 or 1), never "could not be checked" (exit 2).
+#[test]
+fn an_accept_killed_at_any_moment_leaves_the_old_golden_or_the_new() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    // Many small frames, golden and pending golden keeping every frame: a long accept.
+    let pristine = t.join("pristine");
+    std::fs::create_dir_all(pristine.join("shots")).unwrap();
+    let file = pristine.join("shots/s.ron");
+    std::fs::write(&file, shot_sized(200, (16, 9), "0.9", "")).unwrap();
+    test(&pristine, &["--update", "--keep-frames"], 0);
+    std::fs::write(&file, shot_sized(200, (16, 9), "0.5", "")).unwrap();
+    test(&pristine, &["--pending"], 1);
+    let old = files(&pristine.join("shots/s.golden"));
+    assert!(old.contains_key("frame_0199.png"), "{:?}", old.keys());
+
+    let copy = |to: &Path| {
+        let _ = std::fs::remove_dir_all(to);
+        let o = Command::new("cp")
+            .arg("-a")
+            .arg(&pristine)
+            .arg(to)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    let accept = |dir: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_campath"))
+            .current_dir(dir)
+            .args(["review", "shots", "--accept"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    // The new golden, from an accept left to finish; and how long an accept takes.
+    let whole = t.join("whole");
+    copy(&whole);
+    let start = Instant::now();
+    assert!(accept(&whole).wait().unwrap().success());
+    let took = start.elapsed();
+    let new = files(&whole.join("shots/s.golden"));
+    assert_ne!(new["hashes.txt"], old["hashes.txt"]);
+    assert!(new.contains_key("frame_0199.png") && !new.contains_key("frame_0199.diff.png"));
+    eprintln!("an accept of 200 frames took {took:?}");
+
+    let work = t.join("work");
+    let mut seen_old_and_new = (0, 0);
+    for i in 0..20u32 {
+        copy(&work);
+        let at = took.mul_f64(1.2) * i / 19;
+        let mut child = accept(&work);
+        std::thread::sleep(at);
+        let _ = child.kill();
+        child.wait().unwrap();
+        let golden = files(&work.join("shots/s.golden"));
+        if golden == old {
+            seen_old_and_new.0 += 1;
+        } else if golden == new {
+            seen_old_and_new.1 += 1;
+        } else {
+            let differ: Vec<_> = (golden.keys().chain(old.keys()))
+                .filter(|k| golden.get(*k) != old.get(*k) && golden.get(*k) != new.get(*k))
+                .collect();
+            panic!("killed after {at:?}: a golden that is neither: {differ:?}");
+        }
+        let o = campath(&work, &["test", "--no-pending"], &[]);
+        assert!(
+            matches!(o.status.code(), Some(0 | 1)),
+            "killed after {at:?}: {}{}",
+            stdout(&o),
+            stderr(&o)
+        );
+        assert!(
+            !stdout(&o).contains("could not be checked"),
+            "{}",
+            stdout(&o)
+        );
+        // What the killed accept left is cleared by the next approval, which then passes.
+        let o = campath(&work, &["review", "shots", "--accept"], &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let golden = files(&work.join("shots/s.golden"));
+        same_files(&golden, &new).unwrap_or_else(|e| panic!("after {at:?}: {e}"));
+        test(&work, &["--no-pending"], 0);
+    }
+    eprintln!(
+        "killed accepts: {} left the old golden, {} the new",
+        seen_old_and_new.0, seen_old_and_new.1
+    );
+}
+
+/// Replaces one pixel of frame 0 of the golden by a colour `by` levels away in red, and its
+/// hash in hashes.txt by the hash of the changed picture (so the golden stays whole): the
+/// shot's frame 0 then differs from the golden in exactly that pixel.
+fn change_one_golden_pixel(golden: &Path, by: u8) {
+    let png = golden.join("frame_0000.png");
+    let mut img = image::open(&png).unwrap().to_rgb8();
+    let old = campath::frame_hash(img.as_raw()).to_string();
+    let p = img.get_pixel_mut(7, 5);
+    p.0[0] = if p.0[0] >= 128 {
+        p.0[0] - by
+    } else {
+        p.0[0] + by
+    };
+    let hash = campath::frame_hash(img.as_raw()).to_string();
+    img.save(&png).unwrap();
+    let text = std::fs::read_to_string(golden.join("hashes.txt")).unwrap();
+    assert!(text.contains(&old), "{text}");
+    std::fs::write(golden.join("hashes.txt"), text.replace(&old, &hash)).unwrap();
+}
+
+/// A shot with a tolerance: a frame one pixel off its golden frame passes within
+/// `max_pixels: 1` and says by how much, fails with `max_pixels: 0`, passes with a `max_level`
+/// above the change; a tolerance with a golden of hashes only is refused, saying why.
+#[test]
+fn a_tolerance_passes_a_frame_within_it_and_no_more() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    let file = t.join("shots/s.ron");
+    let with = |tolerance: &str| {
+        let extra = format!("\n    test: {tolerance},");
+        std::fs::write(&file, shot_sized(3, (40, 24), "0.9", &extra)).unwrap();
+    };
+    std::fs::write(&file, shot(3, "0.9")).unwrap();
+    test(t, &["--update", "--keep-frames"], 0);
+    let golden = t.join("shots/s.golden");
+    change_one_golden_pixel(&golden, 40);
+    // Checked by pictures, not by campath: the golden and the fresh frame differ in one pixel.
+    let o = campath(
+        t,
+        &["render", "shots/s.ron", "--out", "fresh", "--quiet"],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rgb = |p: PathBuf| image::open(p).unwrap().to_rgb8().into_raw();
+    let (g, f) = (
+        rgb(golden.join("frame_0000.png")),
+        rgb(t.join("fresh/frame_0000.png")),
+    );
+    let changed = g.chunks(3).zip(f.chunks(3)).filter(|(a, b)| a != b).count();
+    assert_eq!(changed, 1);
+    let before = files(&golden);
+
+    let out = test(t, &["--no-pending"], 1);
+    assert!(
+        out.contains("shots/s.ron: 1 of 3 frame(s) differ: 0"),
+        "{out}"
+    );
+    with("(max_pixels: 1)");
+    let out = test(t, &["--no-pending"], 0);
+    assert!(
+        out.contains("shots/s.ron: passed within tolerance (3 frames; 1 within max_pixels: 1, max_level: 0: frame 0: 1 pixel(s) changed, largest difference 40 level(s))"),
+        "{out}"
+    );
+    with("(max_pixels: 0)");
+    let out = test(t, &["--no-pending"], 1);
+    assert!(out.contains("1 of 3 frame(s) differ: 0"), "{out}");
+    with("(max_pixels: 0, max_level: 40)");
+    let out = test(t, &["--no-pending"], 0);
+    assert!(out.contains("passed within tolerance"), "{out}");
+    with("(max_pixels: 0, max_level: 39)");
+    test(t, &["--no-pending"], 1);
+    // A passing run within tolerance writes nothing.
+    with("(max_pixels: 1)");
+    test(t, &[], 0);
+    same_files(&files(&golden), &before).unwrap();
+    assert!(!t.join("shots/s.golden.new").exists());
+
+    // A golden of hashes and small pictures only cannot be checked within a tolerance.
+    let other = t.join("other");
+    std::fs::create_dir_all(other.join("shots")).unwrap();
+    std::fs::write(other.join("shots/s.ron"), shot(3, "0.9")).unwrap();
+    test(&other, &["--update"], 0);
+    std::fs::write(
+        other.join("shots/s.ron"),
+        shot_sized(3, (40, 24), "0.9", "\n    test: (max_pixels: 1),"),
+    )
+    .unwrap();
+    let out = test(&other, &["--no-pending"], 2);
+    assert!(
+        out.contains("shots/s.ron: cannot check: ")
+            && out.contains("states a tolerance, which compares full frames")
+            && out.contains("keeps hashes only")
+            && out.contains("1 of 1 shot(s) could not be checked"),
+        "{out}"
+    );
+    // Approval with the tolerance keeps the frames, and then it can be checked.
+    test(&other, &["--update"], 0);
+    assert!(other.join("shots/s.golden/frame_0002.png").is_file());
+    test(&other, &["--no-pending"], 0);
+}
+
+/// `--unreferenced` lists the goldens and pending goldens with no shot beside them, in any
+/// subfolder, and removes nothing; `--unreferenced=delete` removes those and only those.
+#[test]
+fn unreferenced_goldens_are_listed_and_deleted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots/sub")).unwrap();
+    std::fs::write(t.join("shots/a.ron"), shot(2, "0.9")).unwrap();
+    std::fs::write(t.join("shots/sub/b.ron"), shot(2, "0.5")).unwrap();
+    std::fs::write(t.join("shots/gone.ron"), shot(2, "0.3")).unwrap();
+    std::fs::write(t.join("shots/sub/left.ron"), shot(2, "0.4")).unwrap();
+    test(t, &["--update"], 0);
+    std::fs::write(t.join("shots/a.ron"), shot(2, "0.8")).unwrap();
+    std::fs::write(t.join("shots/sub/left.ron"), shot(2, "0.2")).unwrap();
+    test(t, &[], 1);
+    assert!(t.join("shots/a.golden.new").is_dir() && t.join("shots/sub/left.golden.new").is_dir());
+    std::fs::remove_file(t.join("shots/gone.ron")).unwrap();
+    std::fs::remove_file(t.join("shots/sub/left.ron")).unwrap();
+
+    let kept = ["shots/a.golden", "shots/a.golden.new", "shots/sub/b.golden"];
+    let gone = [
+        "shots/gone.golden",
+        "shots/sub/left.golden",
+        "shots/sub/left.golden.new",
+    ];
+    let out = test(t, &["shots", "--unreferenced"], 0);
+    let listed: Vec<&str> = out.lines().filter(|l| l.starts_with("shots/")).collect();
+    assert_eq!(listed, gone, "{out}");
+    assert!(
+        out.contains(
+            "3 unreferenced golden(s); remove them: `campath test shots --unreferenced=delete`"
+        ),
+        "{out}"
+    );
+    for d in kept.iter().chain(&gone) {
+        assert!(t.join(d).is_dir(), "{d}");
+    }
+    let out = test(t, &["shots", "--unreferenced=delete"], 0);
+    for d in gone {
+        assert!(out.contains(&format!("removed {d}")), "{out}");
+        assert!(!t.join(d).exists(), "{d}");
+    }
+    assert!(out.contains("3 unreferenced golden(s) removed"), "{out}");
+    for d in kept {
+        assert!(t.join(d).is_dir(), "{d}");
+    }
+    let out = test(t, &["shots", "--unreferenced"], 0);
+    assert!(out.contains("no unreferenced golden"), "{out}");
+}
+
+/// The small pictures of a golden keep to their budget: every `thumb_NNNN.png` of the goldens of
+/// tests/shots/orbit.ron and of a 640×360 shot is at most `THUMB_BYTES`. Prints the bytes per
+/// frame.
+#[test]
+fn a_goldens_small_pictures_keep_to_their_budget() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    std::fs::copy(
+        root().join("tests/shots/orbit.ron"),
+        t.join("shots/orbit.ron"),
+    )
+    .unwrap();
+    let orbit = std::fs::read_to_string(t.join("shots/orbit.ron")).unwrap();
+    let wide = orbit.replace("frames: 12,", "frames: 3,").replace(
+        "width: 96, height: 54, samples: 2",
+        "width: 640, height: 360",
+    );
+    assert_ne!(wide, orbit);
+    std::fs::write(t.join("shots/wide.ron"), wide).unwrap();
+    test(t, &["--update"], 0);
+    for (name, frames, size) in [("orbit", 12, (96, 54)), ("wide", 3, (640, 360))] {
+        let golden = t.join(format!("shots/{name}.golden"));
+        let thumbs: BTreeMap<String, Vec<u8>> = files(&golden)
+            .into_iter()
+            .filter(|(n, _)| n.starts_with("thumb_"))
+            .collect();
+        assert_eq!(thumbs.len(), frames, "{name}: {:?}", thumbs.keys());
+        let mut sizes = Vec::new();
+        for (file, bytes) in &thumbs {
+            assert!(
+                bytes.len() <= campath::testing::pictures::THUMB_BYTES,
+                "{name}/{file}: {} bytes",
+                bytes.len()
+            );
+            let img = image::load_from_memory(bytes).unwrap();
+            assert!(img.width() <= size.0 && img.width() <= campath::testing::pictures::THUMB_SIDE);
+            sizes.push(bytes.len());
+        }
+        let (w, h) = image::load_from_memory(&thumbs.values().next().unwrap()[..])
+            .map(|i| (i.width(), i.height()))
+            .unwrap();
+        println!(
+            "{name} ({}×{}): thumbs {w}×{h}, bytes per frame {sizes:?}, mean {}, max {} (budget {})",
+            size.0,
+            size.1,
+            sizes.iter().sum::<usize>() / sizes.len(),
+            sizes.iter().max().unwrap(),
+            campath::testing::pictures::THUMB_BYTES
+        );
+    }
+}
