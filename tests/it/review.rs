@@ -552,3 +552,173 @@ fn a_goldens_small_pictures_keep_to_their_budget() {
         );
     }
 }
+
+/// Added to a copy of a review page: once every picture has loaded, for each frame on the page,
+/// its golden and new pictures as Chromium decoded them (sizes, whether each is blank, how much
+/// they differ drawn at the golden's size, and their centres' red), and where they lie on the
+/// page; written as JSON into `<pre id="probe">`.
+const PROBE: &str = r#"<script>
+window.addEventListener('load', function () {
+  function pixels(img, w, h) {
+    var c = document.createElement('canvas');
+    c.width = w; c.height = h;
+    var g = c.getContext('2d');
+    g.imageSmoothingEnabled = true;
+    g.drawImage(img, 0, 0, w, h);
+    return g.getImageData(0, 0, w, h).data;
+  }
+  function spread(d) {
+    var lo = 255, hi = 0;
+    for (var i = 0; i < d.length; i += 4)
+      for (var c = 0; c < 3; c++) { lo = Math.min(lo, d[i + c]); hi = Math.max(hi, d[i + c]); }
+    return hi - lo;
+  }
+  var out = [];
+  document.querySelectorAll('.frame').forEach(function (f) {
+    var golden = f.querySelector('img.golden'), fresh = f.querySelector('img.new');
+    var r = { id: f.id, golden: !!golden, fresh: !!fresh };
+    if (golden && fresh) {
+      r.golden_size = [golden.naturalWidth, golden.naturalHeight];
+      r.fresh_size = [fresh.naturalWidth, fresh.naturalHeight];
+      var gr = golden.getBoundingClientRect(), fr = fresh.getBoundingClientRect();
+      r.golden_box = [gr.left, gr.top, gr.width, gr.height];
+      r.fresh_box = [fr.left, fr.top, fr.width, fr.height];
+      var w = golden.naturalWidth, h = golden.naturalHeight;
+      if (w > 0 && h > 0 && fresh.naturalWidth > 0) {
+        var a = pixels(golden, w, h), b = pixels(fresh, w, h);
+        r.golden_spread = spread(a);
+        r.fresh_spread = spread(b);
+        var changed = 0;
+        for (var i = 0; i < a.length; i += 4) {
+          var d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]));
+          if (d > 8) changed++;
+        }
+        r.changed = changed / (w * h);
+        var at = ((h >> 1) * w + (w >> 1)) * 4;
+        r.centre_red = [a[at], b[at]];
+      }
+    }
+    out.push(r);
+  });
+  var how = document.querySelector('.how');
+  var pre = document.createElement('pre');
+  pre.id = 'probe';
+  pre.textContent = JSON.stringify({ frames: out, how: how ? how.textContent : null });
+  document.body.appendChild(pre);
+});
+</script>"#;
+
+/// Loads `page` in headless Chromium with [`PROBE`] added, and returns what it found.
+fn probe_in_chromium(page: &Path, profile: &Path) -> serde_json::Value {
+    let html = std::fs::read_to_string(page).unwrap();
+    let probed = page.with_file_name("probe.html");
+    std::fs::write(&probed, html.replace("</body>", &format!("{PROBE}</body>"))).unwrap();
+    let o = Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            // The probe reads the pictures' pixels, which file:// pages may only do so.
+            "--allow-file-access-from-files",
+            "--window-size=1400,1000",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("file://{}", probed.display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&o.stdout).into_owned();
+    let start = dom.find("<pre id=\"probe\">").unwrap_or_else(|| {
+        panic!(
+            "no probe in the page: {}\n{}",
+            &dom[..dom.len().min(800)],
+            stderr(&o)
+        )
+    }) + "<pre id=\"probe\">".len();
+    let end = start + dom[start..].find("</pre>").unwrap();
+    let json = dom[start..end]
+        .replace("&quot;", "\"")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&");
+    serde_json::from_str(&json).unwrap_or_else(|e| panic!("{e}: {json}"))
+}
+
+/// The review pages of a golden of hashes and small pictures (the default approval), in
+/// Chromium: `campath test --review` and `campath review --page` show, for every failing frame,
+/// the golden's small picture and the new frame side by side, each decoded, neither blank, and
+/// differing where the shot changed (the red sphere at the centre is less red); the page says
+/// how to accept.
+#[test]
+#[ignore = "needs chromium"]
+fn the_review_pages_show_the_golden_small_picture_beside_the_new_frame_in_chromium() {
+    crate::common::need_part("chromium", "chromium", crate::common::does_not_run);
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    let file = t.join("shots/b.ron");
+    std::fs::write(&file, shot_sized(3, (320, 180), "0.9", "")).unwrap();
+    test(t, &["--update"], 0);
+    let golden = t.join("shots/b.golden");
+    assert!(!golden.join("frame_0000.png").exists());
+    assert!(golden.join("thumb_0000.png").exists());
+    std::fs::write(&file, shot_sized(3, (320, 180), "0.3", "")).unwrap();
+    test(t, &["--review", "page1"], 1);
+    let o = campath(t, &["review", "shots", "--page", "page2"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    for (page, profile) in [("page1", "chrome1"), ("page2", "chrome2")] {
+        let found = probe_in_chromium(&t.join(page).join("index.html"), &t.join(profile));
+        let frames = found["frames"].as_array().unwrap();
+        let ids: Vec<&str> = frames.iter().map(|f| f["id"].as_str().unwrap()).collect();
+        assert_eq!(ids, ["frame-0", "frame-1", "frame-2"], "{page}: {found}");
+        for f in frames {
+            let n = |k: &str, i: usize| f[k][i].as_f64().unwrap_or(0.0);
+            assert!(
+                f["golden"] == true && f["fresh"] == true,
+                "{page}: {f}: not both pictures"
+            );
+            // Decoded: the golden's small picture, the new full frame.
+            assert_eq!(
+                (n("golden_size", 0), n("golden_size", 1)),
+                (160.0, 90.0),
+                "{page}: {f}"
+            );
+            assert_eq!(
+                (n("fresh_size", 0), n("fresh_size", 1)),
+                (320.0, 180.0),
+                "{page}: {f}"
+            );
+            // Shown, at one place and size, one over the other (the slider shows each half).
+            for b in ["golden_box", "fresh_box"] {
+                assert!(
+                    n(b, 2) > 50.0 && n(b, 3) > 20.0,
+                    "{page}: {f}: {b} not shown"
+                );
+            }
+            assert_eq!(f["golden_box"], f["fresh_box"], "{page}: {f}");
+            // Neither is blank; they differ, and where the shot changed.
+            let spread = |k: &str| f[k].as_f64().unwrap();
+            assert!(
+                spread("golden_spread") > 40.0 && spread("fresh_spread") > 40.0,
+                "{page}: {f}"
+            );
+            let changed = f["changed"].as_f64().unwrap();
+            assert!(changed > 0.02 && changed < 0.9, "{page}: {f}");
+            assert!(
+                n("centre_red", 0) > n("centre_red", 1) + 60.0,
+                "{page}: {f}"
+            );
+        }
+        let how = found["how"].as_str().unwrap();
+        assert!(
+            how.contains("campath review shots --accept"),
+            "{page}: {how}"
+        );
+    }
+}
