@@ -722,3 +722,92 @@ fn the_review_pages_show_the_golden_small_picture_beside_the_new_frame_in_chromi
         );
     }
 }
+
+/// What a failing run writes: `CAMPATH_UPDATE` no (or 0) nothing, new a pending golden,
+/// always (or 1) the golden, frames the golden with every frame; `CI` set makes the default
+/// nothing, and an empty `CI` does not; `--pending` and `--update` outrank both; a value it
+/// does not know is refused naming the values. A pending golden of an earlier run is replaced
+/// whole, and a run where the shot passes removes it.
+#[test]
+fn campath_update_and_ci_decide_what_a_failing_run_writes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    let file = t.join("shots/s.ron");
+    std::fs::write(&file, shot(3, "0.9")).unwrap();
+    test(t, &["--update"], 0);
+    let (golden, pending) = (t.join("shots/s.golden"), t.join("shots/s.golden.new"));
+    let approved = files(&golden);
+    std::fs::write(&file, shot(3, "0.5")).unwrap();
+    let run = |args: &[&str], env: &[(&str, &str)], code: i32| {
+        let o = campath(t, &[&["test", "shots"][..], args].concat(), env);
+        let text = format!("{}{}", stdout(&o), stderr(&o));
+        assert_eq!(o.status.code(), Some(code), "{args:?} {env:?}: {text}");
+        text
+    };
+    for env in [
+        &[("CAMPATH_UPDATE", "no")][..],
+        &[("CAMPATH_UPDATE", "0")],
+        &[("CI", "true")],
+        &[("CI", "1"), ("CAMPATH_UPDATE", "")],
+    ] {
+        let out = run(&[], env, 1);
+        assert!(
+            out.contains("0 pending golden(s) written, 0 approved"),
+            "{env:?}: {out}"
+        );
+        assert!(out.contains("Nothing was written"), "{env:?}: {out}");
+        assert!(!pending.exists(), "{env:?}");
+        same_files(&files(&golden), &approved).unwrap();
+    }
+    let out = run(&["--pending"], &[("CI", "true")], 1);
+    assert!(out.contains("1 pending golden(s) written"), "{out}");
+    std::fs::remove_dir_all(&pending).unwrap();
+    for env in [&[("CAMPATH_UPDATE", "new")][..], &[("CI", "")], &[]] {
+        let out = run(&[], env, 1);
+        assert!(
+            out.contains("pending golden: shots/s.golden.new")
+                && out.contains("`campath review shots`"),
+            "{env:?}: {out}"
+        );
+        same_files(&files(&golden), &approved).unwrap();
+    }
+    // An earlier pending golden is replaced whole: nothing of it is left.
+    std::fs::write(pending.join("frame_0099.png"), b"of an earlier run").unwrap();
+    std::fs::write(&file, shot(3, "0.4")).unwrap();
+    run(&[], &[], 1);
+    let now = files(&pending);
+    assert!(!now.contains_key("frame_0099.png"), "{:?}", now.keys());
+    let hashes = std::fs::read_to_string(pending.join("hashes.txt")).unwrap();
+    let o = campath(t, &["hash", "shots/s.ron"], &[]);
+    for line in crate::common::frame_lines(&stdout(&o)) {
+        assert!(hashes.contains(line.trim()), "{line}: {hashes}");
+    }
+    // A passing run removes it.
+    std::fs::write(&file, shot(3, "0.9")).unwrap();
+    run(&[], &[], 0);
+    assert!(!pending.exists());
+    // Approval in place: always, 1, frames (with every frame), --update under CI.
+    for (args, env, red, frames) in [
+        (&[][..], &[("CAMPATH_UPDATE", "always")][..], "0.71", false),
+        (&[], &[("CAMPATH_UPDATE", "1")], "0.72", false),
+        (&[], &[("CAMPATH_UPDATE", "frames")], "0.73", true),
+        // A golden that keeps its frames keeps them.
+        (&["--update"], &[("CI", "true")], "0.74", true),
+    ] {
+        std::fs::write(&file, shot(3, red)).unwrap();
+        let out = run(args, env, 0);
+        assert!(
+            out.contains("golden written: shots/s.golden") && out.contains("1 approved"),
+            "{args:?} {env:?}: {out}"
+        );
+        assert!(!pending.exists());
+        assert_eq!(golden.join("frame_0002.png").is_file(), frames, "{env:?}");
+        run(&["--no-pending"], &[], 0);
+    }
+    let out = run(&[], &[("CAMPATH_UPDATE", "yes")], 2);
+    assert!(
+        out.contains("CAMPATH_UPDATE=yes: it takes no, new or always"),
+        "{out}"
+    );
+}
