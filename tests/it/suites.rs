@@ -517,10 +517,13 @@ fn the_repositorys_own_shots_pass() {
 }
 
 /// A cargo project of its own depends on campath by path without the command line and uses
-/// `assert_shot`: it fails without a golden, `CAMPATH_UPDATE=frames cargo test` writes it with
-/// its frames, then it passes, after a change to the shot it fails naming the frames and
-/// `CAMPATH_UPDATE`, and a value of `CAMPATH_UPDATE` it does not know fails too. It builds
-/// campath and its dependencies again (minutes on a fresh machine), so `.ci/run` runs it.
+/// `campath::assert_shot!`: without a golden it fails and writes a pending golden;
+/// `campath review --accept` makes it pass; after a change to the shot it fails naming the
+/// frames and `campath review`, its golden's bytes unchanged and the pending golden holding the
+/// differing frames; under CI nothing is written; `CAMPATH_UPDATE=always` rewrites the golden,
+/// a value it does not know fails naming the values, and run from another folder
+/// (`--manifest-path`) it finds the shot. It builds campath and its dependencies again (minutes
+/// on a fresh machine), so `.ci/run` runs it.
 #[test]
 #[ignore = "builds campath in a cargo project of its own; .ci/run runs it"]
 fn assert_shot_in_a_cargo_project_of_its_own() {
@@ -541,7 +544,7 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     std::fs::write(
         p.join("tests/frames.rs"),
         "#[test]\nfn the_shot_looks_as_approved() {\n    \
-         campath::testing::assert_shot(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/shots/fly.ron\"));\n}\n",
+         campath::assert_shot!(\"shots/fly.ron\");\n}\n",
     )
     .unwrap();
     std::fs::create_dir_all(p.join("shots")).unwrap();
@@ -550,12 +553,14 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     // fetched and little is compiled again.
     std::fs::copy(root().join("Cargo.lock"), p.join("Cargo.lock")).unwrap();
     let target = root().join("target/assert-shot");
-    let cargo = |env: &[(&str, &str)]| {
+    let cargo_in = |dir: &Path, extra: &[&str], env: &[(&str, &str)]| {
         let mut c = Command::new(env!("CARGO"));
-        c.current_dir(&p)
+        c.current_dir(dir)
             .args(["test", "--offline", "--quiet"])
+            .args(extra)
             .env("CARGO_TARGET_DIR", &target)
-            .env_remove("CAMPATH_UPDATE");
+            .env_remove("CAMPATH_UPDATE")
+            .env_remove("CI");
         for (k, v) in env {
             c.env(k, v);
         }
@@ -563,34 +568,98 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
         let text = format!("{}{}", stdout(&o), stderr(&o));
         (o.status.success(), text)
     };
+    let cargo = |env: &[(&str, &str)]| cargo_in(&p, &[], env);
+    let golden = p.join("shots/fly.golden");
+    let pending = p.join("shots/fly.golden.new");
+
     let (ok, text) = cargo(&[]);
     assert!(!ok, "passed without a golden: {text}");
     assert!(
-        text.contains("no golden yet") && text.contains("CAMPATH_UPDATE=frames"),
+        text.contains("no golden yet") && text.contains("campath review"),
         "{text}"
     );
+    assert!(!golden.exists());
+    let written = std::fs::read_to_string(pending.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&written), hashed(&p, "shots/fly.ron"));
     let (ok, text) = cargo(&[("CAMPATH_UPDATE", "yes")]);
     assert!(
-        !ok && text.contains("CAMPATH_UPDATE=yes: set it to 1"),
+        !ok && text.contains("CAMPATH_UPDATE=yes: it takes no, new or always"),
         "{text}"
     );
 
-    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "frames")]);
-    assert!(ok, "{text}");
-    let golden = std::fs::read_to_string(p.join("shots/fly.golden/hashes.txt")).unwrap();
-    assert_eq!(parse(&golden), hashed(&p, "shots/fly.ron"));
-    assert!(p.join("shots/fly.golden/frame_0003.png").is_file());
+    let o = campath(&p, &["review", "shots", "--accept"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!pending.exists());
+    let text = std::fs::read_to_string(golden.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&text), hashed(&p, "shots/fly.ron"));
     let (ok, text) = cargo(&[]);
     assert!(ok, "{text}");
 
+    // A change: the test fails, the golden stays, the pending golden holds what differs.
     std::fs::write(p.join("shots/fly.ron"), shot(4, "0.4")).unwrap();
+    let bytes = |dir: &Path| {
+        let mut all: Vec<(String, Vec<u8>)> = (std::fs::read_dir(dir).unwrap().flatten())
+            .map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                (name, std::fs::read(e.path()).unwrap())
+            })
+            .collect();
+        all.sort();
+        all
+    };
+    let before = bytes(&golden);
     let (ok, text) = cargo(&[]);
     assert!(!ok, "passed after a change: {text}");
     assert!(
         text.contains("4 of 4 frame(s) differ: 0, 1, 2, 3")
-            && text.contains("CAMPATH_UPDATE=frames"),
+            && text.contains("pixel(s) changed")
+            && text.contains("campath review ")
+            && text.contains("fly.golden.new"),
         "{text}"
     );
+    assert_eq!(bytes(&golden), before);
+    let fresh = hashed(&p, "shots/fly.ron");
+    let written = std::fs::read_to_string(pending.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&written), fresh);
+    for f in 0..4 {
+        assert!(pending.join(format!("frame_{f:04}.png")).is_file(), "{f}");
+        assert!(
+            pending.join(format!("frame_{f:04}.diff.png")).is_file(),
+            "{f}"
+        );
+    }
+
+    // Under CI nothing is written.
+    std::fs::remove_dir_all(&pending).unwrap();
+    let (ok, text) = cargo(&[("CI", "true")]);
+    assert!(!ok && text.contains("Nothing was written"), "{text}");
+    assert!(!pending.exists());
+    assert_eq!(bytes(&golden), before);
+
+    // CAMPATH_UPDATE=always approves in place.
+    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "always")]);
+    assert!(ok, "{text}");
+    let text = std::fs::read_to_string(golden.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&text), fresh);
+    assert!(!pending.exists());
+
+    // From another folder, the shot is the crate's.
+    let manifest = p.join("Cargo.toml");
+    let (ok, text) = cargo_in(
+        tmp.path(),
+        &["--manifest-path", manifest.to_str().unwrap()],
+        &[],
+    );
+    assert!(ok, "{text}");
+    std::fs::write(p.join("shots/fly.ron"), shot(4, "0.9")).unwrap();
+    let (ok, text) = cargo_in(
+        tmp.path(),
+        &["--manifest-path", manifest.to_str().unwrap()],
+        &[],
+    );
+    assert!(!ok && text.contains("4 of 4 frame(s) differ"), "{text}");
+    assert!(!tmp.path().join("shots").exists());
+
     // The library alone: no command-line crate was built for it.
     let deps = std::fs::read_dir(target.join("debug/deps")).unwrap();
     let names: Vec<String> = deps
