@@ -860,3 +860,24 @@ fn approving_a_shot_with_frames_within_tolerance_keeps_their_pictures() {
         assert!(out.contains("shots/s.ron: passed"), "{approve}: {out}");
     }
 }
+
+/// `--unreferenced` searches a folder reached twice through a link once, as `campath test`
+/// does: with a link back up the tree, an unreferenced golden is listed once, and
+/// `--unreferenced=delete` removes it once and succeeds.
+#[test]
+#[ignore = "waits for: --unreferenced searching each folder once (src/cli/suite.rs, unreferenced)"]
+fn unreferenced_goldens_are_found_once_through_a_link_back_up_the_tree() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots/sub")).unwrap();
+    std::fs::write(t.join("shots/a.ron"), shot(2, "0.9")).unwrap();
+    std::fs::create_dir(t.join("shots/gone.golden")).unwrap();
+    std::os::unix::fs::symlink("..", t.join("shots/sub/up")).unwrap();
+    let out = test(t, &["shots", "--unreferenced"], 0);
+    assert_eq!(out.matches("gone.golden").count(), 1, "{out}");
+    assert!(out.contains("1 unreferenced golden(s)"), "{out}");
+    let out = test(t, &["shots", "--unreferenced=delete"], 0);
+    assert!(out.contains("1 unreferenced golden(s) removed"), "{out}");
+    assert!(!t.join("shots/gone.golden").exists());
+    assert!(t.join("shots/a.ron").is_file());
+}
