@@ -341,6 +341,11 @@ fn an_accept_killed_at_any_moment_leaves_the_old_golden_or_the_new() {
         let golden = files(&work.join("shots/s.golden"));
         same_files(&golden, &new).unwrap_or_else(|e| panic!("after {at:?}: {e}"));
         test(&work, &["--no-pending"], 0);
+        let hidden: Vec<String> = (std::fs::read_dir(work.join("shots")).unwrap().flatten())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with('.') || n.ends_with(".golden.new"))
+            .collect();
+        assert!(hidden.is_empty(), "after {at:?}: left {hidden:?}");
     }
     eprintln!(
         "killed accepts: {} left the old golden, {} the new",
