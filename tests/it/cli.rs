@@ -743,11 +743,28 @@ fn distort_names_the_frames_whose_cop_chan_drops() {
     assert!(stderr(&csv).is_empty());
 }
 
+/// The manual's ENVIRONMENT names what decides what a failing frame-hash test writes.
+#[test]
+#[ignore = "waits for: the manual's ENVIRONMENT section names CAMPATH_UPDATE and CI"]
+fn the_manual_names_the_variables_of_frame_hash_tests() {
+    let tmp = tempfile::tempdir().unwrap();
+    let man = stdout(&campath(tmp.path(), &["man"], &[]));
+    let env = man.split(".SH ENVIRONMENT").nth(1).unwrap_or("");
+    let env = env.split(".SH ").next().unwrap_or("");
+    for var in ["\\fBCAMPATH_UPDATE\\fR", "\\fBCI\\fR"] {
+        assert!(
+            env.contains(var),
+            "the manual's ENVIRONMENT lacks {var}: {env}"
+        );
+    }
+}
+
 #[test]
 fn completions_and_the_manual_come_from_the_clap_definitions() {
     let tmp = tempfile::tempdir().unwrap();
     let verbs = [
-        "render", "merge", "preview", "plot", "hash", "verify", "path", "check", "report",
+        "render", "merge", "preview", "plot", "hash", "verify", "path", "check", "report", "test",
+        "review",
     ];
     // The benchmark against POV-Ray is no verb: the refusal says where it is.
     let bench = campath(tmp.path(), &["bench", "--help"], &[]);
@@ -764,7 +781,7 @@ fn completions_and_the_manual_come_from_the_clap_definitions() {
             assert!(stdout(&o).contains(verb), "{shell} completion lacks {verb}");
         }
     }
-    // bash itself completes `campath re` to the two verbs that start so.
+    // bash itself completes `campath re` to the three verbs that start so.
     let script = stdout(&campath(tmp.path(), &["completions", "bash"], &[]));
     std::fs::write(tmp.path().join("campath.bash"), script).unwrap();
     let o = std::process::Command::new("bash")
@@ -776,7 +793,7 @@ fn completions_and_the_manual_come_from_the_clap_definitions() {
         ])
         .output()
         .unwrap();
-    assert_eq!(stdout(&o).trim(), "render report", "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), "render review report", "{}", stderr(&o));
     let man = stdout(&campath(tmp.path(), &["man"], &[]));
     assert!(man.contains(".TH campath 1"), "{man}");
     // One page holds everything: every command with its options, exit status, the file.

@@ -19,6 +19,7 @@ mod motion_blur;
 mod povray;
 mod production;
 mod reference;
+mod review;
 mod simd;
 mod sphere_files;
 mod suites;

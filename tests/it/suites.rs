@@ -1,4 +1,5 @@
-//! Frame-hash test suites: `campath test` over a folder of shots, approval with `--update`,
+//! Frame-hash test suites: `campath test` over a folder of shots, pending goldens, approval
+//! with `--update`,
 //! JUnit, the review page in a real browser, goldens that name their renderer, a verify that
 //! never harms a golden, and `campath::testing::assert_shot` from a cargo project of its own.
 
@@ -86,19 +87,61 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     let t = tmp.path();
     shots(t);
 
-    let o = campath(t, &["test"], &[]);
+    // Compare only: every shot is new, and nothing is written.
+    let o = campath(t, &["test", "--no-pending"], &[]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert_eq!(
-        stdout(&o).matches(": no golden (").count(),
+        stdout(&o).matches(": new shot, no golden yet (").count(),
         3,
         "{}",
         stdout(&o)
     );
-    assert!(stdout(&o).contains("3 without golden"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("3 shot(s): 0 passed, 0 differ, 3 new; 0 pending golden(s) written"),
+        "{}",
+        stdout(&o)
+    );
+    for name in ["shots/a", "shots/b", "shots/sub/c"] {
+        assert!(!t.join(format!("{name}.golden")).exists(), "{name}");
+        assert!(!t.join(format!("{name}.golden.new")).exists(), "{name}");
+    }
+    // By default each new shot leaves a pending golden, and no golden.
+    let o = campath(t, &["test"], &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("3 new; 3 pending golden(s) written, 0 approved")
+            && stdout(&o).contains("campath review shots"),
+        "{}",
+        stdout(&o)
+    );
+    for (shot, name) in [
+        ("shots/a.ron", "shots/a"),
+        ("shots/b.ron", "shots/b"),
+        ("shots/sub/c.ron", "shots/sub/c"),
+    ] {
+        assert!(
+            stdout(&o).contains(&format!("{shot}: new shot, no golden yet ("))
+                && stdout(&o).contains(&format!("pending golden: {name}.golden.new")),
+            "{}",
+            stdout(&o)
+        );
+        assert!(!t.join(format!("{name}.golden")).exists(), "{name}");
+        let text =
+            std::fs::read_to_string(t.join(format!("{name}.golden.new/hashes.txt"))).unwrap();
+        assert_eq!(parse(&text), hashed(t, shot), "{name}");
+    }
 
     let o = campath(t, &["test", "--update"], &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stdout(&o).contains("3 golden(s) written"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("0 pending golden(s) written, 3 approved"),
+        "{}",
+        stdout(&o)
+    );
+    // Approval takes the place of the pending goldens.
+    for name in ["shots/a", "shots/b", "shots/sub/c"] {
+        assert!(!t.join(format!("{name}.golden.new")).exists(), "{name}");
+    }
     for (shot, golden) in [
         ("shots/a.ron", "shots/a.golden"),
         ("shots/b.ron", "shots/b.golden"),
@@ -159,6 +202,27 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
         failing.len()
     )));
     assert_eq!(out.matches(": passed (").count(), 2, "{out}");
+    // The failing run leaves b's golden as it was, and a pending golden of the new frames.
+    assert!(out.contains("pending golden: shots/b.golden.new"), "{out}");
+    let pending = t.join("shots/b.golden.new");
+    assert_eq!(
+        parse(&std::fs::read_to_string(pending.join("hashes.txt")).unwrap()),
+        fresh
+    );
+    for k in &failing {
+        assert!(
+            pending.join(format!("frame_{k:04}.png")).is_file(),
+            "frame {k}"
+        );
+        assert!(
+            pending.join(format!("frame_{k:04}.diff.png")).is_file(),
+            "frame {k}"
+        );
+    }
+    assert_eq!(
+        parse(&std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap()),
+        golden
+    );
 
     let xml = std::fs::read_to_string(t.join("report.xml")).unwrap();
     let report = roxmltree::Document::parse(&xml).unwrap();
@@ -196,7 +260,12 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     // Approving rewrites b's golden only: a's and c's files are not touched.
     let o = campath(t, &["test", "--update"], &[]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stdout(&o).contains("1 golden(s) written"), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("0 pending golden(s) written, 1 approved"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(!t.join("shots/b.golden.new").exists());
     assert_eq!(snapshot(&t.join("shots/a.golden")), before_a);
     assert_eq!(snapshot(&t.join("shots/sub/c.golden")), before_c);
     let text = std::fs::read_to_string(golden_b.join("hashes.txt")).unwrap();
@@ -448,10 +517,13 @@ fn the_repositorys_own_shots_pass() {
 }
 
 /// A cargo project of its own depends on campath by path without the command line and uses
-/// `assert_shot`: it fails without a golden, `CAMPATH_UPDATE=frames cargo test` writes it with
-/// its frames, then it passes, after a change to the shot it fails naming the frames and
-/// `CAMPATH_UPDATE`, and a value of `CAMPATH_UPDATE` it does not know fails too. It builds
-/// campath and its dependencies again (minutes on a fresh machine), so `.ci/run` runs it.
+/// `campath::assert_shot!`: without a golden it fails and writes a pending golden;
+/// `campath review --accept` makes it pass; after a change to the shot it fails naming the
+/// frames and `campath review`, its golden's bytes unchanged and the pending golden holding the
+/// differing frames; under CI nothing is written; `CAMPATH_UPDATE=always` rewrites the golden,
+/// a value it does not know fails naming the values, and run from another folder
+/// (`--manifest-path`) it finds the shot. It builds campath and its dependencies again (minutes
+/// on a fresh machine), so `.ci/run` runs it.
 #[test]
 #[ignore = "builds campath in a cargo project of its own; .ci/run runs it"]
 fn assert_shot_in_a_cargo_project_of_its_own() {
@@ -472,7 +544,7 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     std::fs::write(
         p.join("tests/frames.rs"),
         "#[test]\nfn the_shot_looks_as_approved() {\n    \
-         campath::testing::assert_shot(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/shots/fly.ron\"));\n}\n",
+         campath::assert_shot!(\"shots/fly.ron\");\n}\n",
     )
     .unwrap();
     std::fs::create_dir_all(p.join("shots")).unwrap();
@@ -481,12 +553,14 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
     // fetched and little is compiled again.
     std::fs::copy(root().join("Cargo.lock"), p.join("Cargo.lock")).unwrap();
     let target = root().join("target/assert-shot");
-    let cargo = |env: &[(&str, &str)]| {
+    let cargo_in = |dir: &Path, extra: &[&str], env: &[(&str, &str)]| {
         let mut c = Command::new(env!("CARGO"));
-        c.current_dir(&p)
+        c.current_dir(dir)
             .args(["test", "--offline", "--quiet"])
+            .args(extra)
             .env("CARGO_TARGET_DIR", &target)
-            .env_remove("CAMPATH_UPDATE");
+            .env_remove("CAMPATH_UPDATE")
+            .env_remove("CI");
         for (k, v) in env {
             c.env(k, v);
         }
@@ -494,34 +568,98 @@ fn assert_shot_in_a_cargo_project_of_its_own() {
         let text = format!("{}{}", stdout(&o), stderr(&o));
         (o.status.success(), text)
     };
+    let cargo = |env: &[(&str, &str)]| cargo_in(&p, &[], env);
+    let golden = p.join("shots/fly.golden");
+    let pending = p.join("shots/fly.golden.new");
+
     let (ok, text) = cargo(&[]);
     assert!(!ok, "passed without a golden: {text}");
     assert!(
-        text.contains("no golden yet") && text.contains("CAMPATH_UPDATE=frames"),
+        text.contains("no golden yet") && text.contains("campath review"),
         "{text}"
     );
+    assert!(!golden.exists());
+    let written = std::fs::read_to_string(pending.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&written), hashed(&p, "shots/fly.ron"));
     let (ok, text) = cargo(&[("CAMPATH_UPDATE", "yes")]);
     assert!(
-        !ok && text.contains("CAMPATH_UPDATE=yes: set it to 1"),
+        !ok && text.contains("CAMPATH_UPDATE=yes: it takes no, new or always"),
         "{text}"
     );
 
-    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "frames")]);
-    assert!(ok, "{text}");
-    let golden = std::fs::read_to_string(p.join("shots/fly.golden/hashes.txt")).unwrap();
-    assert_eq!(parse(&golden), hashed(&p, "shots/fly.ron"));
-    assert!(p.join("shots/fly.golden/frame_0003.png").is_file());
+    let o = campath(&p, &["review", "shots", "--accept"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!pending.exists());
+    let text = std::fs::read_to_string(golden.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&text), hashed(&p, "shots/fly.ron"));
     let (ok, text) = cargo(&[]);
     assert!(ok, "{text}");
 
+    // A change: the test fails, the golden stays, the pending golden holds what differs.
     std::fs::write(p.join("shots/fly.ron"), shot(4, "0.4")).unwrap();
+    let bytes = |dir: &Path| {
+        let mut all: Vec<(String, Vec<u8>)> = (std::fs::read_dir(dir).unwrap().flatten())
+            .map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                (name, std::fs::read(e.path()).unwrap())
+            })
+            .collect();
+        all.sort();
+        all
+    };
+    let before = bytes(&golden);
     let (ok, text) = cargo(&[]);
     assert!(!ok, "passed after a change: {text}");
     assert!(
         text.contains("4 of 4 frame(s) differ: 0, 1, 2, 3")
-            && text.contains("CAMPATH_UPDATE=frames"),
+            && text.contains("pixel(s) changed")
+            && text.contains("campath review ")
+            && text.contains("fly.golden.new"),
         "{text}"
     );
+    assert_eq!(bytes(&golden), before);
+    let fresh = hashed(&p, "shots/fly.ron");
+    let written = std::fs::read_to_string(pending.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&written), fresh);
+    for f in 0..4 {
+        assert!(pending.join(format!("frame_{f:04}.png")).is_file(), "{f}");
+        assert!(
+            pending.join(format!("frame_{f:04}.diff.png")).is_file(),
+            "{f}"
+        );
+    }
+
+    // Under CI nothing is written.
+    std::fs::remove_dir_all(&pending).unwrap();
+    let (ok, text) = cargo(&[("CI", "true")]);
+    assert!(!ok && text.contains("Nothing was written"), "{text}");
+    assert!(!pending.exists());
+    assert_eq!(bytes(&golden), before);
+
+    // CAMPATH_UPDATE=always approves in place.
+    let (ok, text) = cargo(&[("CAMPATH_UPDATE", "always")]);
+    assert!(ok, "{text}");
+    let text = std::fs::read_to_string(golden.join("hashes.txt")).unwrap();
+    assert_eq!(parse(&text), fresh);
+    assert!(!pending.exists());
+
+    // From another folder, the shot is the crate's.
+    let manifest = p.join("Cargo.toml");
+    let (ok, text) = cargo_in(
+        tmp.path(),
+        &["--manifest-path", manifest.to_str().unwrap()],
+        &[],
+    );
+    assert!(ok, "{text}");
+    std::fs::write(p.join("shots/fly.ron"), shot(4, "0.9")).unwrap();
+    let (ok, text) = cargo_in(
+        tmp.path(),
+        &["--manifest-path", manifest.to_str().unwrap()],
+        &[],
+    );
+    assert!(!ok && text.contains("4 of 4 frame(s) differ"), "{text}");
+    assert!(!tmp.path().join("shots").exists());
+
     // The library alone: no command-line crate was built for it.
     let deps = std::fs::read_dir(target.join("debug/deps")).unwrap();
     let names: Vec<String> = deps
@@ -580,7 +718,11 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
             "frame_0001.png",
             "frame_0002.png",
             "frame_0003.png",
-            "hashes.txt"
+            "hashes.txt",
+            "thumb_0000.png",
+            "thumb_0001.png",
+            "thumb_0002.png",
+            "thumb_0003.png"
         ]
     );
 
@@ -591,10 +733,16 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     std::fs::write(left.join("frame_0000.png"), b"half").unwrap();
     let approval = std::fs::File::open(t.join("shots/a.ron")).unwrap();
     approval.lock().unwrap();
-    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    assert_eq!(
+        campath(t, &["test", "--no-pending"], &[]).status.code(),
+        Some(0)
+    );
     assert!(left.exists());
     drop(approval);
-    assert_eq!(campath(t, &["test"], &[]).status.code(), Some(0));
+    assert_eq!(
+        campath(t, &["test", "--no-pending"], &[]).status.code(),
+        Some(0)
+    );
     assert!(!left.exists());
     // An approval clears it too (the folder swept once, not once a shot), also for a shot whose
     // name is not UTF-8 (which the sweep passes).
@@ -712,7 +860,7 @@ fn stale_golden_frames_newer_goldens_and_unkind_paths_are_caught() {
     std::os::unix::fs::symlink("a.ron", t.join("shots/z.ron")).unwrap();
     let o = campath(t, &["test"], &[]);
     assert!(
-        stdout(&o).contains("shots/z.ron: no golden"),
+        stdout(&o).contains("shots/z.ron: new shot, no golden yet"),
         "{}",
         stdout(&o)
     );
