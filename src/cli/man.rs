@@ -41,6 +41,13 @@ widest the CPU runs). Every path gives the same bytes.
 Seconds between progress lines when standard error is not a terminal (default 5; 0: a line per
 frame).
 .TP
+\fBCAMPATH_UPDATE\fR
+What \fBtest\fR, \fBverify\fR and assert_shot write for a failing shot: no (nothing), new (a
+pending golden \fINAME\fR.golden.new for \fBreview\fR; the default) or always (approve in place).
+.TP
+\fBCI\fR
+When set and not empty, the default of \fBCAMPATH_UPDATE\fR is no.
+.TP
 \fBRAYON_NUM_THREADS\fR
 Threads to render on (default: every core). The bytes do not depend on it.
 .SH FILES

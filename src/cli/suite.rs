@@ -293,7 +293,12 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
 fn unreferenced(dir: &Path, delete: bool, out: &mut dyn Write) -> Result<bool> {
     let mut found = Vec::new();
     let mut folders = vec![dir.to_path_buf()];
+    // A folder reached twice through symbolic links is searched once.
+    let mut seen = std::collections::BTreeSet::new();
     while let Some(folder) = folders.pop() {
+        if !seen.insert(folder.canonicalize().map_err(Error::read(&folder))?) {
+            continue;
+        }
         for e in std::fs::read_dir(&folder)
             .map_err(Error::read(&folder))?
             .flatten()

@@ -30,7 +30,7 @@ pub use crate::document::Tolerance;
 pub use pending::{accept, golden_dir, load_pending, pending_dir, reject, thumbs_in};
 pub use pictures::PixelDiff;
 
-use pending::{diff_path, install_golden, staging_dir, staging_prefix, swap_in, thumb_path};
+use pending::{clear_left, diff_path, install_golden, lock_shot, staging_dir, swap_in, thumb_path};
 use pictures::{changed_over, difference, pixels_of, thumbnail};
 
 /// The environment variable that says what a failing shot writes: [`Update`].
@@ -318,13 +318,6 @@ pub struct Shot {
     _lock: Option<std::fs::File>,
 }
 
-/// The shot's lock: an advisory lock on the shot file, waited for.
-pub(crate) fn lock_shot(path: &Path) -> Result<std::fs::File> {
-    let file = std::fs::File::open(path).map_err(Error::read(path))?;
-    file.lock().map_err(Error::read(path))?;
-    Ok(file)
-}
-
 impl Shot {
     /// Loads the shot file and its golden. A file that does not load, or a golden that does not
     /// parse, is an error.
@@ -513,7 +506,14 @@ impl Shot {
             return Ok(run);
         }
         std::fs::create_dir_all(&staging).map_err(Error::write(&staging))?;
-        golden::write(&staging.join(HASHES), &run.fresh)?;
+        // A frame within the tolerance keeps its golden hash and pictures, as it passed.
+        let golden_hash = |f: u64| run.golden.as_ref().and_then(|g| g.hash(f));
+        let kept = |&(f, h): &(u64, FrameHash)| {
+            let tolerated = run.tolerated.iter().any(|t| t.0 == f);
+            (f, golden_hash(f).filter(|_| tolerated).unwrap_or(h))
+        };
+        let hashes: Vec<(u64, FrameHash)> = run.fresh.iter().map(kept).collect();
+        golden::write(&staging.join(HASHES), &hashes)?;
         if always {
             install_golden(&run.shot, &staging, keep_frames)?;
             pending::remove(&run.shot, &pending)?;
@@ -557,31 +557,6 @@ pub fn clear_left_approvals(folder: &Path) {
             let _ = std::fs::remove_dir_all(entry.path());
         }
     }
-}
-
-/// Removes the hidden folders of `shot` that killed runs left; the caller holds its lock.
-fn clear_left(shot: &Path) -> Result<()> {
-    for stale in staging_dirs(shot) {
-        std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
-    }
-    Ok(())
-}
-
-/// The hidden folders of `shot` that killed runs left.
-fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
-    let prefix = staging_prefix(shot);
-    let prefix = prefix.as_encoded_bytes();
-    let parent = shot
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::read_dir(parent)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter(|e| e.file_name().as_encoded_bytes().starts_with(prefix))
-        .map(|e| e.path())
-        .collect()
 }
 
 /// Renders the shot `shot` and compares every frame with the golden `NAME.golden/` beside it;

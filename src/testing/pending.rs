@@ -39,7 +39,7 @@ fn beside(shot: &Path, prefix: &str, suffix: &str) -> PathBuf {
 
 /// `.STEM.golden.update-`: the start of the hidden folders where a golden or pending golden is
 /// put together.
-pub(super) fn staging_prefix(shot: &Path) -> OsString {
+fn staging_prefix(shot: &Path) -> OsString {
     let name = beside(shot, ".", ".golden.update-");
     name.file_name().unwrap_or_default().to_os_string()
 }
@@ -75,7 +75,7 @@ pub fn thumbs_in(dir: &Path) -> BTreeMap<u64, PathBuf> {
 }
 
 /// Removes a folder whole or not at all, as seen from its name: it is renamed out of the way
-/// first, so a removal killed half-way leaves only a hidden folder ([`super::clear_left_approvals`]).
+/// first, so a removal killed half-way leaves only a hidden folder, which the next run of the shot removes.
 pub(super) fn remove(shot: &Path, dir: &Path) -> Result<()> {
     let aside = staging_dir(shot, "-removed");
     match std::fs::rename(dir, &aside) {
@@ -169,8 +169,8 @@ pub fn load_pending(shot: &Path) -> Result<Option<Golden>> {
 /// The golden keeps full frames when it kept them before or the shot states a tolerance.
 /// Returns false when the shot has no pending golden.
 pub fn accept(shot: &Path) -> Result<bool> {
-    let _lock = super::lock_shot(shot)?;
-    super::clear_left(shot)?;
+    let _lock = lock_shot(shot)?;
+    clear_left(shot)?;
     let pending = pending_dir(shot);
     if load_pending(shot)?.is_none() {
         return Ok(false);
@@ -193,10 +193,42 @@ pub fn accept(shot: &Path) -> Result<bool> {
 /// Rejects the shot's pending golden: it is removed, under the shot's lock. Returns false
 /// when the shot has none.
 pub fn reject(shot: &Path) -> Result<bool> {
-    let _lock = super::lock_shot(shot)?;
-    super::clear_left(shot)?;
+    let _lock = lock_shot(shot)?;
+    clear_left(shot)?;
     let pending = pending_dir(shot);
     let there = pending.exists();
     remove(shot, &pending)?;
     Ok(there)
+}
+
+/// The shot's lock: an advisory lock on the shot file, waited for.
+pub(crate) fn lock_shot(path: &Path) -> Result<std::fs::File> {
+    let file = std::fs::File::open(path).map_err(Error::read(path))?;
+    file.lock().map_err(Error::read(path))?;
+    Ok(file)
+}
+
+/// Removes the hidden folders of `shot` that killed runs left; the caller holds its lock.
+pub(super) fn clear_left(shot: &Path) -> Result<()> {
+    for stale in staging_dirs(shot) {
+        std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
+    }
+    Ok(())
+}
+
+/// The hidden folders of `shot` that killed runs left.
+fn staging_dirs(shot: &Path) -> Vec<PathBuf> {
+    let prefix = staging_prefix(shot);
+    let prefix = prefix.as_encoded_bytes();
+    let parent = shot
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::read_dir(parent)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.file_name().as_encoded_bytes().starts_with(prefix))
+        .map(|e| e.path())
+        .collect()
 }

@@ -230,8 +230,6 @@ fn file_imports() -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
 }
 
 #[test]
-#[ignore = "waits for: src/testing/pending.rs no longer importing back from src/testing/mod.rs \
-            (super::lock_shot in accept and reject)"]
 fn no_file_imports_one_that_imports_it_back() {
     let deps = file_imports();
     let name = |m: &Vec<String>| m.join("::");

@@ -745,7 +745,6 @@ fn distort_names_the_frames_whose_cop_chan_drops() {
 
 /// The manual's ENVIRONMENT names what decides what a failing frame-hash test writes.
 #[test]
-#[ignore = "waits for: the manual's ENVIRONMENT section names CAMPATH_UPDATE and CI"]
 fn the_manual_names_the_variables_of_frame_hash_tests() {
     let tmp = tempfile::tempdir().unwrap();
     let man = stdout(&campath(tmp.path(), &["man"], &[]));

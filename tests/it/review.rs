@@ -828,8 +828,6 @@ fn campath_update_and_ci_decide_what_a_failing_run_writes() {
 /// (accepting its pending golden, or `--update`) leaves a golden the next check passes, with a
 /// picture of every frame.
 #[test]
-#[ignore = "waits for: an approval keeps the pictures of frames that passed within tolerance \
-            (src/testing/mod.rs, Shot::run)"]
 fn approving_a_shot_with_frames_within_tolerance_keeps_their_pictures() {
     for approve in ["accept", "update"] {
         let tmp = tempfile::tempdir().unwrap();
@@ -870,7 +868,6 @@ fn approving_a_shot_with_frames_within_tolerance_keeps_their_pictures() {
 /// does: with a link back up the tree, an unreferenced golden is listed once, and
 /// `--unreferenced=delete` removes it once and succeeds.
 #[test]
-#[ignore = "waits for: --unreferenced searching each folder once (src/cli/suite.rs, unreferenced)"]
 fn unreferenced_goldens_are_found_once_through_a_link_back_up_the_tree() {
     let tmp = tempfile::tempdir().unwrap();
     let t = tmp.path();
