@@ -312,7 +312,8 @@ impl Raw {
             return Raw(None);
         };
         let mut raw = old.clone();
-        raw.local_modes -= LocalModes::ICANON | LocalModes::ECHO;
+        // Ctrl-C arrives as a key (quit), so the terminal is always restored.
+        raw.local_modes -= LocalModes::ICANON | LocalModes::ECHO | LocalModes::ISIG;
         let _ = tcsetattr(&stdin, OptionalActions::Now, &raw);
         Raw(Some(old))
     }

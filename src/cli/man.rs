@@ -42,8 +42,9 @@ Seconds between progress lines when standard error is not a terminal (default 5;
 frame).
 .TP
 \fBCAMPATH_UPDATE\fR
-What \fBtest\fR, \fBverify\fR and assert_shot write for a failing shot: no (nothing), new (a
-pending golden \fINAME\fR.golden.new for \fBreview\fR; the default) or always (approve in place).
+What \fBtest\fR and assert_shot write for a failing shot: no (nothing), new (a pending golden
+\fINAME\fR.golden.new for \fBreview\fR; the default) or always (approve in place). \fBverify\fR
+writes the pending golden under new.
 .TP
 \fBCI\fR
 When set and not empty, the default of \fBCAMPATH_UPDATE\fR is no.

@@ -303,7 +303,11 @@ fn unreferenced(dir: &Path, delete: bool, out: &mut dyn Write) -> Result<bool> {
             .map_err(Error::read(&folder))?
             .flatten()
         {
-            let (path, name) = (e.path(), e.file_name().to_string_lossy().into_owned());
+            // A name that is not UTF-8 is never taken for an unreferenced golden.
+            let Some(name) = e.file_name().to_str().map(str::to_owned) else {
+                continue;
+            };
+            let path = e.path();
             let stem = (name.strip_suffix(".golden.new")).or_else(|| name.strip_suffix(".golden"));
             match stem {
                 _ if !path.is_dir() || name.starts_with('.') => {}

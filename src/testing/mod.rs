@@ -276,7 +276,8 @@ pub fn renderer_note(golden: &Path, renderer: u32) -> String {
         format!(
             "note: {} was made by campath renderer {renderer}, and this campath is renderer \
              {VERSION}: its pictures changed, not necessarily the shot. If the new frames are \
-             right, approve them: `campath test --update`, or render into the golden again.",
+             right, approve them: `campath review` after a check writes the pending golden, or \
+             `campath test --update` in the shot's folder.",
             golden.display()
         )
     } else {
@@ -376,10 +377,13 @@ impl Shot {
         let always = options.update == Update::Always;
         if let (Some(_), Some(g), true) = (tolerance, &golden, golden_frames.is_empty()) {
             if !always {
+                let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
+                let folder = shell_word(&folder.unwrap_or(Path::new(".")).display().to_string());
                 return Err(Error::Usage(format!(
                     "{}: the shot states a tolerance, which compares full frames, and its golden \
                      {} keeps hashes only: approve it again with its frames (`campath test \
-                     --update --keep-frames`, or CAMPATH_UPDATE=frames)",
+                     {folder} --update --keep-frames` approves every failing shot there, or \
+                     CAMPATH_UPDATE=frames)",
                     path.display(),
                     g.path.display()
                 )));
@@ -495,7 +499,8 @@ impl Shot {
             pending: None,
         };
         let verdict = run.verdict();
-        let newer = matches!(verdict, Verdict::OtherRenderer(r) if r > VERSION);
+        // A newer campath's golden is never written, whatever the verdict.
+        let newer = (run.golden.as_ref()).is_some_and(|g| g.renderer.is_some_and(|r| r > VERSION));
         let pending = pending_dir(&run.shot);
         if verdict == Verdict::Passed || newer || !writes {
             remove_staging()?;
@@ -515,8 +520,9 @@ impl Shot {
         let hashes: Vec<(u64, FrameHash)> = run.fresh.iter().map(kept).collect();
         golden::write(&staging.join(HASHES), &hashes)?;
         if always {
-            install_golden(&run.shot, &staging, keep_frames)?;
+            // The pending golden first: left behind, it would undo this approval if accepted.
             pending::remove(&run.shot, &pending)?;
+            install_golden(&run.shot, &staging, keep_frames)?;
             run.updated = true;
         } else {
             swap_in(&run.shot, &staging, &pending)?;
@@ -553,7 +559,11 @@ pub fn clear_left_approvals(folder: &Path) {
             continue;
         };
         let shot = folder.join(format!("{stem}.ron"));
-        if std::fs::File::open(&shot).is_ok_and(|f| f.try_lock().is_ok()) {
+        // Held while it removes, so no run starts writing for the shot meanwhile.
+        let Ok(lock) = std::fs::File::open(&shot) else {
+            continue;
+        };
+        if lock.try_lock().is_ok() && golden_dir(&shot).exists() {
             let _ = std::fs::remove_dir_all(entry.path());
         }
     }
@@ -710,7 +720,7 @@ fn slow_build_note() {
     if env!("CAMPATH_OPT_LEVEL") == "0" {
         ONCE.call_once(|| {
             eprintln!(
-                "campath: this build renders shots unoptimised, some 30× slower; add to \
+                "campath: this build renders shots unoptimised, about 50× slower; add to \
                  Cargo.toml: [profile.dev.package.campath] opt-level = 3"
             )
         });

@@ -102,7 +102,8 @@ fn exchange(_: &Path, a: &Path, b: &Path) -> Result<()> {
 }
 
 /// Without an atomic exchange: the old folder aside, then the new one in; a run killed
-/// between the two leaves the old one hidden, and no golden.
+/// between the two leaves the old one hidden, and no golden, until the shot's next run puts
+/// it back ([`clear_left`]).
 #[cfg(not(target_os = "linux"))]
 fn exchange(shot: &Path, a: &Path, b: &Path) -> Result<()> {
     let aside = staging_dir(shot, "-old");
@@ -145,12 +146,31 @@ pub(super) fn install_golden(shot: &Path, staged: &Path, keep_frames: bool) -> R
         let pictures = [(&thumbs, &old_thumbs, thumb_path(staged, frame, total))];
         let full = (&frames, &old_frames, frame_path(staged, frame, total));
         for (staged_ones, old_ones, to) in pictures.into_iter().chain(keep_frames.then_some(full)) {
-            if let (false, Some(from)) = (staged_ones.contains_key(&frame), old_ones.get(&frame)) {
-                if same(frame) {
-                    link(from, &to)?;
+            if staged_ones.contains_key(&frame) {
+                continue;
+            }
+            match old_ones.get(&frame).filter(|_| same(frame)) {
+                Some(from) => link(from, &to)?,
+                // Made against a golden that has changed since: its unchanged frames are not.
+                None => {
+                    return Err(Error::Usage(format!(
+                        "{}: the golden changed after this was written, so it lacks frame \
+                         {frame}'s picture; nothing was accepted (run the shot's test again)",
+                        pending_dir(shot).display()
+                    )))
                 }
             }
         }
+    }
+    // A golden kept elsewhere through a link is replaced where it is kept.
+    if dir.is_symlink() {
+        let target = std::fs::canonicalize(&dir).map_err(Error::read(&dir))?;
+        let mut name = OsString::from(".");
+        name.push(target.file_name().unwrap_or_default());
+        name.push(format!(".update-{}", std::process::id()));
+        let beside = target.with_file_name(name);
+        std::fs::rename(staged, &beside).map_err(Error::write(&beside))?;
+        return swap_in(shot, &beside, &target);
     }
     swap_in(shot, staged, &dir)
 }
@@ -174,6 +194,22 @@ pub fn accept(shot: &Path) -> Result<bool> {
     let pending = pending_dir(shot);
     if load_pending(shot)?.is_none() {
         return Ok(false);
+    }
+    let golden = golden_dir(shot);
+    let old = golden
+        .join(HASHES)
+        .exists()
+        .then(|| Golden::load(&golden))
+        .transpose()?;
+    if let Some(r) = old
+        .and_then(|g| g.renderer)
+        .filter(|r| *r > crate::key::VERSION)
+    {
+        return Err(Error::Usage(format!(
+            "{} was made by campath renderer {r}, newer than this campath's: update campath; \
+             nothing was accepted",
+            golden.display()
+        )));
     }
     let keep_frames = !frames_in(&golden_dir(shot)).is_empty()
         || crate::document::Document::load(shot).is_ok_and(|d| d.tolerance().is_some());
@@ -210,6 +246,16 @@ pub(crate) fn lock_shot(path: &Path) -> Result<std::fs::File> {
 
 /// Removes the hidden folders of `shot` that killed runs left; the caller holds its lock.
 pub(super) fn clear_left(shot: &Path) -> Result<()> {
+    // A golden moved aside by an approval killed before its successor moved in goes back.
+    let golden = golden_dir(shot);
+    if !golden.exists() {
+        let aside = staging_dirs(shot).into_iter().find(|d| {
+            d.as_os_str().as_encoded_bytes().ends_with(b"-old") && d.join(HASHES).exists()
+        });
+        if let Some(aside) = aside {
+            std::fs::rename(&aside, &golden).map_err(Error::write(&golden))?;
+        }
+    }
     for stale in staging_dirs(shot) {
         std::fs::remove_dir_all(&stale).map_err(Error::write(&stale))?;
     }

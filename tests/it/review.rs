@@ -883,3 +883,73 @@ fn unreferenced_goldens_are_found_once_through_a_link_back_up_the_tree() {
     assert!(!t.join("shots/gone.golden").exists());
     assert!(t.join("shots/a.ron").is_file());
 }
+
+/// An accept never writes over what it was not made against: a golden from a newer renderer,
+/// or a golden that changed after the pending golden was written. A golden kept elsewhere
+/// through a link is replaced where it is kept, and the link stays.
+#[test]
+fn an_accept_refuses_a_newer_or_changed_golden_and_keeps_a_linked_one_in_place() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    let file = t.join("shots/s.ron");
+    let golden = t.join("shots/s.golden");
+    std::fs::write(&file, shot(3, "0.9")).unwrap();
+    test(t, &["--update"], 0);
+    std::fs::write(&file, shot(3, "0.5")).unwrap();
+    test(t, &[], 1);
+    let pending = files(&t.join("shots/s.golden.new"));
+
+    // A newer renderer's golden.
+    let before = files(&golden);
+    let text = String::from_utf8(before["hashes.txt"].clone()).unwrap();
+    let newer = text.replacen(
+        &format!("renderer {}", campath::RENDERER_VERSION),
+        &format!("renderer {}", campath::RENDERER_VERSION + 1),
+        1,
+    );
+    std::fs::write(golden.join("hashes.txt"), &newer).unwrap();
+    let o = campath(t, &["review", "shots", "--accept"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("newer than this campath's"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(files(&golden)["hashes.txt"], newer.as_bytes());
+    std::fs::write(golden.join("hashes.txt"), &text).unwrap();
+
+    // A golden that changed since: frame 1 approved anew, so the pending golden lacks its
+    // picture.
+    let changed: String = (text.lines())
+        .map(|l| match l.starts_with("1 ") {
+            true => format!("1 {}\n", "0".repeat(64)),
+            false => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(golden.join("hashes.txt"), &changed).unwrap();
+    let frame1 = pending.get("thumb_0001.png").cloned();
+    std::fs::remove_file(t.join("shots/s.golden.new/thumb_0001.png")).ok();
+    let o = campath(t, &["review", "shots", "--accept"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("the golden changed after"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(files(&golden)["hashes.txt"], changed.as_bytes());
+    std::fs::write(golden.join("hashes.txt"), &text).unwrap();
+    if let Some(bytes) = frame1 {
+        std::fs::write(t.join("shots/s.golden.new/thumb_0001.png"), bytes).unwrap();
+    }
+
+    // A linked golden: accepted where it is kept.
+    let kept = t.join("kept");
+    std::fs::rename(&golden, &kept).unwrap();
+    std::os::unix::fs::symlink(&kept, &golden).unwrap();
+    let o = campath(t, &["review", "shots", "--accept"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(golden.is_symlink());
+    same_files(&files(&kept), &accepted(&pending)).unwrap();
+    test(t, &["--no-pending"], 0);
+}
