@@ -174,7 +174,7 @@ pub fn run(a: ReviewArgs, out: &mut dyn Write) -> Result<bool> {
             _ => b's',
         };
         let line = match choice {
-            b'a' | b'A' if testing::accept(&p.shot)? => {
+            b'a' | b'A' if testing::accept(&p.shot, Some(&p.new))? => {
                 format!(
                     "accepted: {} is the golden now",
                     golden_dir(&p.shot).display()

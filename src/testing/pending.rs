@@ -187,13 +187,22 @@ pub fn load_pending(shot: &Path) -> Result<Option<Golden>> {
 
 /// Accepts the shot's pending golden: it becomes the golden, whole, under the shot's lock.
 /// The golden keeps full frames when it kept them before or the shot states a tolerance.
-/// Returns false when the shot has no pending golden.
-pub fn accept(shot: &Path) -> Result<bool> {
+/// With `seen`, the pending golden is accepted only if it still holds those hashes (another
+/// run may have replaced it since it was shown). Returns false when the shot has no pending
+/// golden.
+pub fn accept(shot: &Path, seen: Option<&Golden>) -> Result<bool> {
     let _lock = lock_shot(shot)?;
     clear_left(shot)?;
     let pending = pending_dir(shot);
-    if load_pending(shot)?.is_none() {
+    let Some(now) = load_pending(shot)? else {
         return Ok(false);
+    };
+    if seen.is_some_and(|s| s.hashes != now.hashes) {
+        return Err(Error::Usage(format!(
+            "{} changed while it was shown (another run wrote it); nothing was accepted: \
+             review it again",
+            pending.display()
+        )));
     }
     let golden = golden_dir(shot);
     let old = golden
