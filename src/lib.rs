@@ -10,8 +10,9 @@
 //! `campath = { default-features = false }` and pulls in no command-line crate.
 //!
 //! A frame-hash test in one line is [`assert_shot!`]: a shot file against its golden folder
-//! beside it; a failure leaves a pending golden for `campath review`. By hand, in a few lines: load a file, evaluate frame 12's camera, render and hash
-//! its pixels, and compare with a `hashes.txt`:
+//! beside it; a failure leaves a pending golden for `campath review`. By hand, in a few lines:
+//! load a file, evaluate frame 12's camera, render and hash its pixels, and compare with a
+//! `hashes.txt`:
 //!
 //! ```
 //! use campath::document::Document;
