@@ -14,6 +14,7 @@ use super::junit;
 use crate::document::Document;
 use crate::frames::{compare_each, list_first, list_frames, Difference};
 use crate::golden::Golden;
+use crate::key::VERSION;
 use crate::output::{frame_path, pad_width, write_png, Compression, HASHES};
 use crate::testing::pictures::{difference, pixels_of as golden_pixels, PixelDiff};
 use crate::testing::{golden_dir, shell_word, Options, Update};
@@ -112,8 +113,7 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         writeln!(out, "{note}").map_err(Error::stdout)?;
     }
     if let (Some(r), false) = (golden.other_renderer(), differ.is_empty()) {
-        writeln!(out, "{}", crate::testing::renderer_note(&golden.path, r))
-            .map_err(Error::stdout)?;
+        writeln!(out, "{}", renderer_note(&golden.path, r)).map_err(Error::stdout)?;
     }
     if let Some(path) = &a.junit {
         let mut suite = junit::Suite::new(&a.shot.file.display().to_string());
@@ -152,6 +152,25 @@ pub fn verify(a: VerifyArgs, out: &mut dyn Write) -> Result<bool> {
         }
     }
     Ok(differ.is_empty())
+}
+
+/// Why a golden from another renderer may differ, and what to do, for `verify`'s report.
+fn renderer_note(golden: &Path, renderer: u32) -> String {
+    if renderer < VERSION {
+        format!(
+            "note: {} was made by campath renderer {renderer}, and this campath is renderer \
+             {VERSION}: its pictures changed, not necessarily the shot. If the new frames are \
+             right, approve them: `campath review` after a check writes the pending golden, or \
+             `campath test --update` in the shot's folder.",
+            golden.display()
+        )
+    } else {
+        format!(
+            "note: {} was made by campath renderer {renderer}, newer than this campath's \
+             renderer {VERSION}: update campath.",
+            golden.display()
+        )
+    }
 }
 
 /// The frames of the animation that the golden does not list, which verify does not check (a

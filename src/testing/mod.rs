@@ -27,7 +27,8 @@ pub mod pictures;
 use std::collections::BTreeMap;
 
 pub use crate::document::Tolerance;
-pub use pending::{accept, golden_dir, load_pending, pending_dir, reject, thumbs_in};
+pub(crate) use pending::thumbs_in;
+pub use pending::{accept, golden_dir, load_pending, pending_dir, reject};
 pub use pictures::PixelDiff;
 
 use pending::{clear_left, diff_path, install_golden, lock_shot, staging_dir, swap_in, thumb_path};
@@ -267,25 +268,6 @@ impl ShotRun {
             lines.push(format!("… and {} more frame(s)", self.differ.len() - most));
         }
         lines
-    }
-}
-
-/// Why a golden from another renderer may differ, and what to do, for `verify`'s report.
-pub fn renderer_note(golden: &Path, renderer: u32) -> String {
-    if renderer < VERSION {
-        format!(
-            "note: {} was made by campath renderer {renderer}, and this campath is renderer \
-             {VERSION}: its pictures changed, not necessarily the shot. If the new frames are \
-             right, approve them: `campath review` after a check writes the pending golden, or \
-             `campath test --update` in the shot's folder.",
-            golden.display()
-        )
-    } else {
-        format!(
-            "note: {} was made by campath renderer {renderer}, newer than this campath's \
-             renderer {VERSION}: update campath.",
-            golden.display()
-        )
     }
 }
 
@@ -545,7 +527,7 @@ pub fn run_shot(
 /// putting a golden together: those of shots no run holds the lock of now. The folder is
 /// listed once, so a check of every shot of a folder costs one listing. A check writes nothing
 /// it must: a folder that cannot be read or removed is left.
-pub fn clear_left_approvals(folder: &Path) {
+pub(crate) fn clear_left_approvals(folder: &Path) {
     let folder = Some(folder).filter(|f| !f.as_os_str().is_empty());
     let folder = folder.unwrap_or(Path::new("."));
     for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {

@@ -102,11 +102,11 @@ impl std::fmt::Display for PixelDiff {
 
 /// Marks a changed pixel in a difference image; unchanged pixels are the golden frame at a
 /// third of its brightness, so they never take this colour.
-pub const CHANGED: [u8; 3] = [255, 0, 255];
+pub(crate) const CHANGED: [u8; 3] = [255, 0, 255];
 
 /// The difference image (changed pixels in [`CHANGED`] over the golden frame dimmed to a third)
 /// and the changed-pixel count and largest per-channel difference.
-pub fn difference(golden: &[u8], actual: &[u8]) -> (Vec<u8>, PixelDiff) {
+pub(crate) fn difference(golden: &[u8], actual: &[u8]) -> (Vec<u8>, PixelDiff) {
     let mut image = Vec::with_capacity(golden.len());
     let mut diff = PixelDiff::default();
     for (g, a) in golden.chunks_exact(3).zip(actual.chunks_exact(3)) {
@@ -124,14 +124,14 @@ pub fn difference(golden: &[u8], actual: &[u8]) -> (Vec<u8>, PixelDiff) {
 }
 
 /// Pixels where some channel differs by more than `level`.
-pub fn changed_over(golden: &[u8], actual: &[u8], level: u8) -> u64 {
+pub(crate) fn changed_over(golden: &[u8], actual: &[u8], level: u8) -> u64 {
     let pixels = golden.chunks_exact(3).zip(actual.chunks_exact(3));
     let over = |(g, a): (&[u8], &[u8])| g.iter().zip(a).any(|(x, y)| x.abs_diff(*y) > level);
     pixels.filter(|&p| over(p)).count() as u64
 }
 
 /// A picture's RGB8 pixels, when it exists, decodes, and has `size`.
-pub fn pixels_of(path: &Path, size: (u32, u32)) -> Option<Vec<u8>> {
+pub(crate) fn pixels_of(path: &Path, size: (u32, u32)) -> Option<Vec<u8>> {
     let img = image::open(path).ok()?.to_rgb8();
     (img.dimensions() == size).then(|| img.into_raw())
 }
