@@ -68,6 +68,14 @@ impl Golden {
         })
     }
 
+    /// [`Golden::load`] of a golden folder, or None when it holds no `hashes.txt`.
+    pub fn find(dir: &Path) -> Result<Option<Golden>> {
+        dir.join(HASHES)
+            .exists()
+            .then(|| Golden::load(dir))
+            .transpose()
+    }
+
     /// The golden hash of `frame`, if the golden lists it.
     pub fn hash(&self, frame: u64) -> Option<FrameHash> {
         self.hashes.get(&frame).copied()

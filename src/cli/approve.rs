@@ -59,8 +59,7 @@ fn pending_of(shot: &Path) -> Result<Option<Pending>> {
         return Ok(None);
     };
     let dir = golden_dir(shot);
-    let golden = dir.join(crate::output::HASHES).exists();
-    let golden = golden.then(|| Golden::load(&dir)).transpose()?;
+    let golden = Golden::find(&dir)?;
     let (full, thumbs) = (frames_in(&dir), thumbs_in(&dir));
     let new_frames = frames_in(&pending_dir(shot));
     let old = golden

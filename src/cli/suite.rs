@@ -57,30 +57,40 @@ pub struct TestArgs {
     pub jobs: Option<u64>,
 }
 
-/// Every `*.ron` under `dir`, recursively, in name order; golden folders and hidden folders are
-/// not searched, and a folder reached twice through symbolic links is searched once.
-pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut found = Vec::new();
-    let mut folders = vec![dir.to_path_buf()];
+/// Every entry of the folders searched for shots under `dir`, as (folder, name, path): hidden
+/// folders, goldens and pending goldens are not entered, and a folder reached twice through
+/// symbolic links is searched once.
+fn entries_under(dir: &Path) -> Result<Vec<(PathBuf, std::ffi::OsString, PathBuf)>> {
+    let (mut all, mut folders) = (Vec::new(), vec![dir.to_path_buf()]);
     let mut seen = std::collections::BTreeSet::new();
     while let Some(folder) = folders.pop() {
         if !seen.insert(folder.canonicalize().map_err(Error::read(&folder))?) {
             continue;
         }
-        let entries = std::fs::read_dir(&folder).map_err(Error::read(&folder))?;
-        for e in entries.flatten() {
-            let path = e.path();
-            let name = e.file_name().to_string_lossy().into_owned();
-            if path.is_dir() {
-                let golden = name.ends_with(".golden") || name.ends_with(".golden.new");
-                if !name.starts_with('.') && !golden {
-                    folders.push(path);
-                }
-            } else if name.ends_with(".ron") {
-                found.push(path);
+        for e in std::fs::read_dir(&folder)
+            .map_err(Error::read(&folder))?
+            .flatten()
+        {
+            let (name, path) = (e.file_name(), e.path());
+            let shown = name.to_string_lossy();
+            let golden = shown.ends_with(".golden") || shown.ends_with(".golden.new");
+            if path.is_dir() && !shown.starts_with('.') && !golden {
+                folders.push(path.clone());
             }
+            all.push((folder.clone(), name, path));
         }
     }
+    Ok(all)
+}
+
+/// Every `*.ron` under `dir`, recursively, in name order, in the folders [`entries_under`]
+/// searches.
+pub fn shots(dir: &Path) -> Result<Vec<PathBuf>> {
+    let entries = entries_under(dir)?.into_iter();
+    let ron = |(_, name, path): &(PathBuf, std::ffi::OsString, PathBuf)| {
+        !path.is_dir() && name.to_string_lossy().ends_with(".ron")
+    };
+    let mut found: Vec<PathBuf> = entries.filter(ron).map(|(.., path)| path).collect();
     found.sort();
     // A shot reached twice, with one golden (through a linked folder), is one shot; a linked
     // file has a golden of its own beside it, and is checked against it too. Two shots with
@@ -292,29 +302,17 @@ pub fn run(a: TestArgs, out: &mut dyn Write) -> Result<bool> {
 /// them, listed, and with `delete` removed.
 fn unreferenced(dir: &Path, delete: bool, out: &mut dyn Write) -> Result<bool> {
     let mut found = Vec::new();
-    let mut folders = vec![dir.to_path_buf()];
-    // A folder reached twice through symbolic links is searched once.
-    let mut seen = std::collections::BTreeSet::new();
-    while let Some(folder) = folders.pop() {
-        if !seen.insert(folder.canonicalize().map_err(Error::read(&folder))?) {
+    for (folder, name, path) in entries_under(dir)? {
+        // A name that is not UTF-8 is never taken for an unreferenced golden.
+        let Some(name) = name
+            .to_str()
+            .filter(|n| path.is_dir() && !n.starts_with('.'))
+        else {
             continue;
-        }
-        for e in std::fs::read_dir(&folder)
-            .map_err(Error::read(&folder))?
-            .flatten()
-        {
-            // A name that is not UTF-8 is never taken for an unreferenced golden.
-            let Some(name) = e.file_name().to_str().map(str::to_owned) else {
-                continue;
-            };
-            let path = e.path();
-            let stem = (name.strip_suffix(".golden.new")).or_else(|| name.strip_suffix(".golden"));
-            match stem {
-                _ if !path.is_dir() || name.starts_with('.') => {}
-                Some(stem) if !folder.join(format!("{stem}.ron")).is_file() => found.push(path),
-                Some(_) => {}
-                None => folders.push(path),
-            }
+        };
+        let stem = (name.strip_suffix(".golden.new")).or_else(|| name.strip_suffix(".golden"));
+        if stem.is_some_and(|stem| !folder.join(format!("{stem}.ron")).is_file()) {
+            found.push(path);
         }
     }
     found.sort();

@@ -325,8 +325,7 @@ impl Shot {
         };
         let doc = Document::load(path)?;
         let dir = golden_dir(path);
-        let hashes = dir.join(HASHES);
-        let golden = hashes.exists().then(|| Golden::load(&dir)).transpose()?;
+        let golden = Golden::find(&dir)?;
         let golden_frames = crate::output::frames_in(&dir);
         Ok(Shot {
             path: path.to_path_buf(),

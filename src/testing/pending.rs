@@ -127,11 +127,7 @@ pub(super) fn install_golden(shot: &Path, staged: &Path, keep_frames: bool) -> R
     let new = Golden::load(staged)?;
     let total = new.hashes.keys().next_back().map_or(0, |f| f + 1);
     let dir = golden_dir(shot);
-    let old = dir
-        .join(HASHES)
-        .exists()
-        .then(|| Golden::load(&dir))
-        .transpose()?;
+    let old = Golden::find(&dir)?;
     let same = |frame: u64| old.as_ref().and_then(|g| g.hash(frame)) == new.hash(frame);
     let (old_frames, old_thumbs) = (frames_in(&dir), thumbs_in(&dir));
     let (frames, thumbs) = (frames_in(staged), thumbs_in(staged));
@@ -175,14 +171,9 @@ pub(super) fn install_golden(shot: &Path, staged: &Path, keep_frames: bool) -> R
     swap_in(shot, staged, &dir)
 }
 
-/// Whether `dir` holds a pending golden whose pictures are complete enough to accept: its
-/// `hashes.txt` parses.
+/// The shot's pending golden, when it has one (its `hashes.txt` parses).
 pub fn load_pending(shot: &Path) -> Result<Option<Golden>> {
-    let dir = pending_dir(shot);
-    if !dir.join(HASHES).exists() {
-        return Ok(None);
-    }
-    Golden::load(&dir).map(Some)
+    Golden::find(&pending_dir(shot))
 }
 
 /// Accepts the shot's pending golden: it becomes the golden, whole, under the shot's lock.
@@ -205,11 +196,7 @@ pub fn accept(shot: &Path, seen: Option<&Golden>) -> Result<bool> {
         )));
     }
     let golden = golden_dir(shot);
-    let old = golden
-        .join(HASHES)
-        .exists()
-        .then(|| Golden::load(&golden))
-        .transpose()?;
+    let old = Golden::find(&golden)?;
     if let Some(r) = old
         .and_then(|g| g.renderer)
         .filter(|r| *r > crate::key::VERSION)
