@@ -16,7 +16,9 @@ use super::review::{self, ReviewFrame, ReviewShot};
 use crate::key::VERSION;
 use crate::output::{write_png, Compression};
 use crate::testing::pictures::{difference, pixels_of};
-use crate::testing::{golden_dir, shell_word, Difference, Options, Shot, ShotRun, Update, Verdict};
+use crate::testing::{
+    golden_dir, shell_word, stem_of_golden, Difference, Options, Shot, ShotRun, Update, Verdict,
+};
 use crate::Error;
 
 /// The options of `campath test`.
@@ -73,7 +75,7 @@ fn entries_under(dir: &Path) -> Result<Vec<(PathBuf, std::ffi::OsString, PathBuf
         {
             let (name, path) = (e.file_name(), e.path());
             let shown = name.to_string_lossy();
-            let golden = shown.ends_with(".golden") || shown.ends_with(".golden.new");
+            let golden = stem_of_golden(&shown).is_some();
             if path.is_dir() && !shown.starts_with('.') && !golden {
                 folders.push(path.clone());
             }
@@ -310,8 +312,7 @@ fn unreferenced(dir: &Path, delete: bool, out: &mut dyn Write) -> Result<bool> {
         else {
             continue;
         };
-        let stem = (name.strip_suffix(".golden.new")).or_else(|| name.strip_suffix(".golden"));
-        if stem.is_some_and(|stem| !folder.join(format!("{stem}.ron")).is_file()) {
+        if stem_of_golden(name).is_some_and(|stem| !folder.join(format!("{stem}.ron")).is_file()) {
             found.push(path);
         }
     }

@@ -27,8 +27,8 @@ pub mod pictures;
 use std::collections::BTreeMap;
 
 pub use crate::document::Tolerance;
-pub(crate) use pending::thumbs_in;
 pub use pending::{accept, golden_dir, load_pending, pending_dir, reject};
+pub(crate) use pending::{stem_of_golden, thumbs_in};
 pub use pictures::PixelDiff;
 
 use pending::{clear_left, diff_path, install_golden, lock_shot, staging_dir, swap_in, thumb_path};

@@ -28,6 +28,12 @@ pub fn pending_dir(shot: &Path) -> PathBuf {
     beside(shot, "", ".golden.new")
 }
 
+/// The shot's stem of a golden's or pending golden's folder name: `orbit` of `orbit.golden` and
+/// of `orbit.golden.new`.
+pub(crate) fn stem_of_golden(name: &str) -> Option<&str> {
+    (name.strip_suffix(".golden.new")).or_else(|| name.strip_suffix(".golden"))
+}
+
 /// `PREFIX STEM SUFFIX` beside the shot; the stem as it is (a name that is not UTF-8 stays
 /// apart from others).
 fn beside(shot: &Path, prefix: &str, suffix: &str) -> PathBuf {
