@@ -46,6 +46,24 @@ pub fn campath(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
     cmd.output().expect("campath runs")
 }
 
+/// Headless Chromium, quiet and offline, with its profile in `profile` and then `args`.
+pub fn chromium(profile: &Path, args: &[&str]) -> Output {
+    Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(args)
+        .output()
+        .expect("chromium runs")
+}
+
 pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }

@@ -625,25 +625,18 @@ fn probe_in_chromium(page: &Path, profile: &Path) -> serde_json::Value {
     let html = std::fs::read_to_string(page).unwrap();
     let probed = page.with_file_name("probe.html");
     std::fs::write(&probed, html.replace("</body>", &format!("{PROBE}</body>"))).unwrap();
-    let o = Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
+    let url = format!("file://{}", probed.display());
+    let o = crate::common::chromium(
+        profile,
+        &[
             // The probe reads the pictures' pixels, which file:// pages may only do so.
             "--allow-file-access-from-files",
             "--window-size=1400,1000",
             "--virtual-time-budget=5000",
             "--dump-dom",
-        ])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(format!("file://{}", probed.display()))
-        .output()
-        .unwrap();
+            &url,
+        ],
+    );
     let dom = String::from_utf8_lossy(&o.stdout).into_owned();
     let start = dom.find("<pre id=\"probe\">").unwrap_or_else(|| {
         panic!(

@@ -299,20 +299,8 @@ fn the_review_page_shows_every_picture_and_the_differences_in_chromium() {
     let page = t.join("review/index.html");
     let url = format!("file://{}", page.display());
     let chromium = |extra: &[&str]| {
-        let mut args = vec![
-            "--headless".to_string(),
-            "--no-sandbox".into(),
-            "--disable-gpu".into(),
-            "--no-first-run".into(),
-            "--disable-background-networking".into(),
-            "--disable-component-update".into(),
-            "--disable-sync".into(),
-            format!("--user-data-dir={}", t.join("chrome").display()),
-            "--virtual-time-budget=3000".into(),
-        ];
-        args.extend(extra.iter().map(|s| s.to_string()));
-        args.push(url.clone());
-        Command::new("chromium").args(&args).output().unwrap()
+        let args = [&["--virtual-time-budget=3000"][..], extra, &[&url]].concat();
+        crate::common::chromium(&t.join("chrome"), &args)
     };
     let dom = String::from_utf8_lossy(&chromium(&["--dump-dom"]).stdout).into_owned();
     // Golden, new and difference for every failing frame.

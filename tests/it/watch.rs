@@ -120,23 +120,15 @@ fn a_save_updates_the_preview_and_a_broken_save_keeps_watching() {
 fn screenshot(tmp: &Path, page: &Path) -> impl Fn([u8; 3]) -> usize {
     let shot = tmp.join("shot.png");
     let url = format!("file://{}", page.join("preview.html").display());
-    let o = Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            &format!("--user-data-dir={}", tmp.join("chrome").display()),
+    let o = crate::common::chromium(
+        &tmp.join("chrome"),
+        &[
             "--window-size=1300,2400",
             "--virtual-time-budget=3000",
             &format!("--screenshot={}", shot.display()),
             &url,
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     let img = image::open(&shot)
         .unwrap_or_else(|e| {
             panic!(
