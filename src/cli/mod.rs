@@ -16,6 +16,7 @@ mod progress;
 mod report;
 mod review;
 pub(crate) mod stats;
+mod studio;
 mod suite;
 pub(crate) mod table;
 mod verbs;
@@ -84,6 +85,9 @@ enum Command {
     /// or with --lossless an FFV1 RGB Matroska file whose frames hash to hashes.txt. Ctrl-C
     /// during the encode removes the partial video (exit 130).
     Video(video::VideoArgs),
+    /// Serve a page on 127.0.0.1 to scrub, play and fly the shot and set its keys into FILE,
+    /// following FILE's saves; prints the page's address with its token. Ctrl-C stops.
+    Studio(studio::StudioArgs),
     /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
     /// it and reloads its pictures; Ctrl-C stops.
     Watch(watch::WatchArgs),
@@ -126,6 +130,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
         Command::Check(a) => return verbs::check(a, out),
         Command::Report(a) => report::run(a, out)?,
         Command::Video(a) => video::run(a, out)?,
+        Command::Studio(a) => studio::run(a, out)?,
         Command::Watch(a) => watch::run(a, out)?,
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();

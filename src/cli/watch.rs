@@ -184,7 +184,7 @@ fn last_run(dir: &Path) -> u64 {
 
 /// What tells the file's versions apart: the file its path resolves to, its size and times,
 /// and the link's own when the path is a link. None while nothing is there.
-fn stamp(file: &Path) -> Option<Vec<i128>> {
+pub(super) fn stamp(file: &Path) -> Option<Vec<i128>> {
     let target = std::fs::metadata(file).ok()?;
     let link = std::fs::symlink_metadata(file).ok()?;
     Some([target, link].iter().flat_map(identity).collect())

@@ -8,6 +8,7 @@ mod blocks;
 mod pieces;
 mod quick;
 pub mod sphere_files;
+pub mod splice;
 
 use crate::keyframes::Interpolation;
 use crate::mode::Mode;
