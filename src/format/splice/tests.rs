@@ -643,7 +643,8 @@ proptest! {
         let _ = edit_keys(&pieces.concat(), mode, &edit);
     }
 
-    /// The example files with a piece cut out and others put in: an answer, never a panic.
+    /// The example files with a piece cut out and others put in: an answer, never a panic;
+    /// and where the result is still RON, a key set in it is RON's too.
     #[test]
     fn mutated_files_are_answered(
         file in 0..10usize,
@@ -659,5 +660,13 @@ proptest! {
         let end = boundary((start + cut).min(text.len()));
         let mutated = format!("{}{}{}", &text[..start], put.concat(), &text[end..]);
         let _ = edit_keys(&mutated, mode, &edit);
+        let (p, t) = (Path::new("mutated.ron"), (at * 8.0 - 2.0).round() / 4.0);
+        let set = KeyEdit::Set { t, value: value(mode).to_string() };
+        if let (Ok(_), Ok(after)) = (parse(p, &mutated), edit_keys(&mutated, mode, &set)) {
+            let spec = parse(p, &after).map_err(|e| TestCaseError::fail(format!("{e}\n{after}")))?;
+            let key = (t, value(mode).to_string());
+            let keys = keys(&spec, mode).unwrap_or_default();
+            prop_assert!(keys.iter().any(|k| (k.0, k.1.clone()) == key), "{keys:?}\n{after}");
+        }
     }
 }
