@@ -22,6 +22,7 @@ mod reference;
 mod review;
 mod simd;
 mod sphere_files;
+mod studio;
 mod suites;
 mod usd;
 mod video;

@@ -36,9 +36,9 @@ try {
     const read = () => {
       if (canvas.dataset.frame !== String(frame) || canvas.dataset.kind !== kind || canvas.dataset.flown !== "0") return false;
       const data = canvas.getContext("2d").getImageData(0, 0, canvas.width, canvas.height).data;
-      const rgb = [];
-      for (let i = 0; i < data.length; i += 4) rgb.push(data[i], data[i + 1], data[i + 2]);
-      resolve({ width: canvas.width, height: canvas.height, rgb: btoa(String.fromCharCode(...new Uint8Array(rgb).slice(0, 0))) , raw: rgb });
+      let rgb = "";
+      for (let i = 0; i < data.length; i += 4) rgb += String.fromCharCode(data[i], data[i + 1], data[i + 2]);
+      resolve({ width: canvas.width, height: canvas.height, rgb: btoa(rgb) });
       return true;
     };
     if (read()) return;
@@ -52,7 +52,7 @@ try {
   if (mode === "flow") {
     const [file, out, frame] = rest;
     fs.mkdirSync(out, { recursive: true });
-    const save = (name, p) => fs.writeFileSync(path.join(out, name), JSON.stringify({ width: p.width, height: p.height }) + "\n" + Buffer.from(p.raw).toString("base64"));
+    const save = (name, p) => fs.writeFileSync(path.join(out, name), JSON.stringify({ width: p.width, height: p.height }) + "\n" + p.rgb);
     // Scrub: the scrubber's input event, as a drag of it gives.
     const preview = pixels(+frame, "preview");
     await page.$eval("[data-testid=scrubber]", (s, f) => { s.value = f; s.dispatchEvent(new Event("input", { bubbles: true })); }, frame);
@@ -87,9 +87,10 @@ try {
     const held = [];
     let holding = true;
     page.on("request", r => (holding && r.url().includes("/api/state") ? held.push(r) : r.continue()));
-    // The state request in flight when holding began was sent before it: let it answer, so
-    // that the next (held) one is the page's only way to hear of the edit.
-    await new Promise(res => setTimeout(res, 300));
+    // The state request in flight when holding began was sent before it: it answers at the
+    // latest when its long poll ends (10 s), and the page's next one is held, its only way to
+    // hear of the edit.
+    await new Promise(res => { const t = setInterval(() => { if (held.length) { clearInterval(t); res(); } }, 50); });
     const edited = fs.readFileSync(file, "utf8").replace("// ", "// edited in the editor: ");
     fs.writeFileSync(file, edited);
     await new Promise(res => setTimeout(res, 1500));

@@ -158,12 +158,20 @@ fn key_edit(bytes: &[u8], r: &KeyRequest) -> Result<(String, String), Refused> {
     let mode = Mode::ALL
         .into_iter()
         .find(|m| m.name() == r.track)
-        .ok_or_else(|| bad(format!("track {:?}: one of Observer, LookAround, Track, Zoom, Distort", r.track)))?;
+        .ok_or_else(|| {
+            bad(format!(
+                "track {:?}: one of Observer, LookAround, Track, Zoom, Distort",
+                r.track
+            ))
+        })?;
     let t = |t: Option<f64>| match t {
         Some(t) if t.is_finite() && t >= 0.0 => Ok(t),
         _ => Err(bad("t: a time in seconds, ≥ 0".into())),
     };
-    let index = || r.index.ok_or_else(|| bad("index: the key's number, from 0".into()));
+    let index = || {
+        r.index
+            .ok_or_else(|| bad("index: the key's number, from 0".into()))
+    };
     let (edit, what) = match r.op.as_str() {
         "set" => {
             let t = t(r.t)?;
@@ -178,7 +186,10 @@ fn key_edit(bytes: &[u8], r: &KeyRequest) -> Result<(String, String), Refused> {
         }
         "delete" => {
             let index = index()?;
-            (KeyEdit::Delete { index }, format!("deleted {mode} key {index}"))
+            (
+                KeyEdit::Delete { index },
+                format!("deleted {mode} key {index}"),
+            )
         }
         op => return Err(bad(format!("op {op:?}: set, move or delete"))),
     };

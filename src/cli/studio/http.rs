@@ -59,7 +59,11 @@ fn answer(status: u16, content_type: &str, body: Vec<u8>) -> Answer {
 }
 
 pub fn text(status: u16, body: &str) -> Answer {
-    answer(status, "text/plain; charset=utf-8", body.as_bytes().to_vec())
+    answer(
+        status,
+        "text/plain; charset=utf-8",
+        body.as_bytes().to_vec(),
+    )
 }
 
 pub fn json(status: u16, body: String) -> Answer {
@@ -96,16 +100,14 @@ fn decode(v: &str) -> std::borrow::Cow<'_, str> {
     while i < b.len() {
         let hex = |c: u8| (c as char).to_digit(16);
         match b[i] {
-            b'%' if i + 2 < b.len() => {
-                match (hex(b[i + 1]), hex(b[i + 2])) {
-                    (Some(h), Some(l)) => {
-                        out.push((h * 16 + l) as u8);
-                        i += 3;
-                        continue;
-                    }
-                    _ => out.push(b'%'),
+            b'%' if i + 2 < b.len() => match (hex(b[i + 1]), hex(b[i + 2])) {
+                (Some(h), Some(l)) => {
+                    out.push((h * 16 + l) as u8);
+                    i += 3;
+                    continue;
                 }
-            }
+                _ => out.push(b'%'),
+            },
             b'+' => out.push(b' '),
             c => out.push(c),
         }
@@ -116,7 +118,11 @@ fn decode(v: &str) -> std::borrow::Cow<'_, str> {
 
 /// Equal strings, compared in a time that does not depend on where they differ.
 fn same(a: &str, b: &str) -> bool {
-    a.len() == b.len() && a.bytes().zip(b.bytes()).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+    a.len() == b.len()
+        && a.bytes()
+            .zip(b.bytes())
+            .fold(0u8, |acc, (x, y)| acc | (x ^ y))
+            == 0
 }
 
 /// Why a request may not be served (403), or None.
@@ -177,16 +183,20 @@ fn route(studio: &Arc<Studio>, request: &mut Request) -> Answer {
                 .is_err()
                 || body.len() as u64 > MAX_BODY
             {
-                return text(400, "the request's body is not UTF-8 text of at most 64 KiB");
+                return text(
+                    400,
+                    "the request's body is not UTF-8 text of at most 64 KiB",
+                );
             }
             if studio.read_only {
                 return text(403, "read-only: this studio does not write the file");
             }
             super::edit::apply(studio, path, &body)
         }
-        (_, "/" | "/api/state" | "/api/shot" | "/api/view" | "/api/key" | "/api/undo" | "/api/redo") => {
-            text(405, "method not allowed")
-        }
+        (
+            _,
+            "/" | "/api/state" | "/api/shot" | "/api/view" | "/api/key" | "/api/undo" | "/api/redo",
+        ) => text(405, "method not allowed"),
         _ => text(404, "no such page"),
     }
 }
@@ -245,7 +255,13 @@ fn view(studio: &Studio, url: &str) -> Answer {
         Some(Ok(k)) if k < frames => k,
         _ => return text(400, &format!("frame: a frame from 0 to {}", frames - 1)),
     };
-    let flown = (|| Ok::<_, String>((triple(url, "vrp")?, triple(url, "vpn")?, triple(url, "cop")?)))();
+    let flown = (|| {
+        Ok::<_, String>((
+            triple(url, "vrp")?,
+            triple(url, "vpn")?,
+            triple(url, "cop")?,
+        ))
+    })();
     let (vrp, vpn, cop) = match flown {
         Ok(parts) => parts,
         Err(e) => return text(400, &e),
@@ -280,9 +296,19 @@ fn view(studio: &Studio, url: &str) -> Answer {
     };
     let mut png = Vec::new();
     let size = (raster.width, raster.height);
-    if encode_png(std::path::Path::new("<view>"), &mut png, &pixels, size, Compression::Fast).is_err() {
+    if encode_png(
+        std::path::Path::new("<view>"),
+        &mut png,
+        &pixels,
+        size,
+        Compression::Fast,
+    )
+    .is_err()
+    {
         return text(500, "cannot encode the picture");
     }
-    answer(200, "image/png", png)
-        .with_header(header("X-Campath-Size", &format!("{}x{}", raster.width, raster.height)))
+    answer(200, "image/png", png).with_header(header(
+        "X-Campath-Size",
+        &format!("{}x{}", raster.width, raster.height),
+    ))
 }

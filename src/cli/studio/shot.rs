@@ -42,7 +42,10 @@ impl Good {
     /// its render thread (which indexes the spheres before its first render).
     pub fn new(doc: Document) -> crate::Result<Good> {
         doc.check_path()?;
-        let cameras: Vec<Camera> = doc.cameras().map(|c| c.map(|(_, cam)| cam)).collect::<crate::Result<_>>()?;
+        let cameras: Vec<Camera> = doc
+            .cameras()
+            .map(|c| c.map(|(_, cam)| cam))
+            .collect::<crate::Result<_>>()?;
         let warnings = crate::motion::warnings(&doc)?;
         let json = describe(&doc, &cameras, &warnings);
         let doc = Arc::new(doc);
@@ -124,11 +127,36 @@ fn describe(doc: &Document, cameras: &[Camera], warnings: &[crate::motion::Warni
     let a = &doc.animation;
     let keys = |mode: crate::mode::Mode| -> Vec<Value> {
         let times_values: Vec<(f64, Value)> = match mode {
-            crate::mode::Mode::Observer => a.observer.iter().flat_map(|t| t.keys()).map(|k| (k.t, json!(triple(k.value)))).collect(),
-            crate::mode::Mode::LookAround => a.look_around.iter().flat_map(|t| t.keys()).map(|k| (k.t, json!(triple(k.value)))).collect(),
-            crate::mode::Mode::Track => a.track.iter().flat_map(|t| t.keys()).map(|k| (k.t, json!(triple(k.value)))).collect(),
-            crate::mode::Mode::Zoom => a.zoom.iter().flat_map(|t| t.keys()).map(|k| (k.t, json!(k.value))).collect(),
-            crate::mode::Mode::Distort => a.distort.iter().flat_map(|t| t.keys()).map(|k| (k.t, json!([k.value.x, k.value.y]))).collect(),
+            crate::mode::Mode::Observer => a
+                .observer
+                .iter()
+                .flat_map(|t| t.keys())
+                .map(|k| (k.t, json!(triple(k.value))))
+                .collect(),
+            crate::mode::Mode::LookAround => a
+                .look_around
+                .iter()
+                .flat_map(|t| t.keys())
+                .map(|k| (k.t, json!(triple(k.value))))
+                .collect(),
+            crate::mode::Mode::Track => a
+                .track
+                .iter()
+                .flat_map(|t| t.keys())
+                .map(|k| (k.t, json!(triple(k.value))))
+                .collect(),
+            crate::mode::Mode::Zoom => a
+                .zoom
+                .iter()
+                .flat_map(|t| t.keys())
+                .map(|k| (k.t, json!(k.value)))
+                .collect(),
+            crate::mode::Mode::Distort => a
+                .distort
+                .iter()
+                .flat_map(|t| t.keys())
+                .map(|k| (k.t, json!([k.value.x, k.value.y])))
+                .collect(),
         };
         times_values
             .into_iter()
@@ -180,7 +208,15 @@ fn describe(doc: &Document, cameras: &[Camera], warnings: &[crate::motion::Warni
         .map(|s| {
             let c = s.center_world;
             let srgb = |x: f64| f64::from(crate::render::srgb_encoder().encode(x));
-            [c.x, c.y, c.z, s.radius, srgb(s.color.x), srgb(s.color.y), srgb(s.color.z)]
+            [
+                c.x,
+                c.y,
+                c.z,
+                s.radius,
+                srgb(s.color.x),
+                srgb(s.color.y),
+                srgb(s.color.z),
+            ]
         })
         .collect();
     let r = doc.raster;
