@@ -27,4 +27,3 @@ mod suites;
 mod usd;
 mod video;
 mod warnings;
-mod watch;

@@ -722,3 +722,102 @@ fn the_timeline_shows_check_s_warnings_at_their_frames() {
         .find(|m| m["text"].as_str().unwrap().contains("COP is inside"));
     assert_eq!(inside.unwrap()["frame"], 7);
 }
+
+/// The file's sphere in colour `k`.
+fn coloured(k: u8) -> String {
+    FILE.replace("(0.9, 0.2, 0.2)", &format!("(0.9, 0.2, 0.{k})"))
+}
+
+/// Sends `child` SIGINT, as Ctrl-C does, through the shell's own `kill` (a machine with only
+/// Rust may have no `kill` program).
+fn ctrl_c(child: &Child) {
+    let kill = Command::new("sh")
+        .args(["-c", &format!("kill -INT {}", child.id())])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+}
+
+/// `campath watch` is the studio's page, read-only: it follows the file through a link, its
+/// target edited, its folder removed and made again, and a save in two steps (the file emptied,
+/// then written) is never shown as an error; Ctrl-C exits 0; an earlier watch's options are
+/// refused with the fix.
+#[test]
+fn watch_is_the_read_only_studio_and_follows_the_file_however_it_is_replaced() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    std::fs::create_dir_all(t.join("real")).unwrap();
+    std::fs::create_dir_all(t.join("shots")).unwrap();
+    std::fs::write(t.join("real/w.ron"), coloured(1)).unwrap();
+    std::os::unix::fs::symlink("../real/w.ron", t.join("shots/w.ron")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_campath"))
+        .current_dir(t)
+        .args(["watch", "shots/w.ron"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let head = lines.next().unwrap().unwrap();
+    assert!(head.contains("(read-only)"), "{head}");
+    let url = lines.next().unwrap().unwrap();
+    std::thread::spawn(move || lines.for_each(drop));
+    let rest = url.strip_prefix("open http://127.0.0.1:").unwrap();
+    let (port, token) = rest.split_once("/?token=").unwrap();
+    let s = Studio {
+        child,
+        port: port.parse().unwrap(),
+        token: token.to_string(),
+        url: url.clone(),
+    };
+    let shows =
+        |k: u8| s.state_where(|v| v["text"] == coloured(k).as_str() && v["error"].is_null());
+    shows(1);
+    let set = format!(
+        r#"{{"base":"{}","track":"Observer","op":"set","t":0.5,"value":[1.0,1.0,-6.0]}}"#,
+        s.sha()
+    );
+    assert_eq!(s.post("/api/key", &set).0, 403, "read-only");
+    // The link's target edited in place.
+    std::fs::write(t.join("real/w.ron"), coloured(2)).unwrap();
+    shows(2);
+    // The target's folder removed and made again.
+    std::fs::remove_dir_all(t.join("real")).unwrap();
+    s.state_where(|v| v["error"].is_string());
+    std::fs::create_dir_all(t.join("real")).unwrap();
+    std::fs::write(t.join("real/w.ron"), coloured(3)).unwrap();
+    let good = shows(3)["good_version"].as_u64().unwrap();
+    // A save in two steps, 100 ms apart: the empty file is never shown as an error.
+    let mut f = std::fs::File::create(t.join("real/w.ron")).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    f.write_all(coloured(4).as_bytes()).unwrap();
+    drop(f);
+    let state = shows(4);
+    assert!(state["good_version"].as_u64() > Some(good));
+    assert_eq!(
+        std::fs::read_to_string(t.join("real/w.ron")).unwrap(),
+        coloured(4)
+    );
+    let mut s = s;
+    ctrl_c(&s.child);
+    assert_eq!(s.child.wait().unwrap().code(), Some(0));
+
+    // An earlier watch's options: refused, naming the fix; a file that is not there: exit 2.
+    for args in [
+        &["watch", "shots/w.ron", "--out", "page"][..],
+        &["watch", "shots/w.ron", "--width", "48"],
+        &["watch", "nowhere/w.ron"],
+    ] {
+        let o = campath(t, args, &[]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = crate::common::stderr(&o);
+        assert!(err.lines().count() == 1, "{err}");
+        if args.len() > 2 {
+            assert!(
+                err.contains("leave") && err.contains("out and open the address"),
+                "{err}"
+            );
+        }
+    }
+    assert!(!t.join("page").exists());
+}

@@ -103,7 +103,8 @@ pub(crate) struct Studio {
 /// Serves the page until Ctrl-C.
 pub fn run(a: StudioArgs, out: &mut dyn Write) -> Result<()> {
     let file = a.shot.file.clone();
-    let bytes = std::fs::read(&file).map_err(Error::read(&file))?;
+    let bytes = std::fs::read(&file)
+        .map_err(|e| CliError::Usage(format!("{}: cannot read the shot: {e}", file.display())))?;
     let stop = super::progress::ctrl_c_flag()?;
     let server = tiny_http::Server::http(("127.0.0.1", a.port)).map_err(|e| {
         CliError::Usage(format!(
