@@ -88,8 +88,8 @@ enum Command {
     /// Serve a page on 127.0.0.1 to scrub, play and fly the shot and set its keys into FILE,
     /// following FILE's saves; prints the page's address with its token. Ctrl-C stops.
     Studio(studio::StudioArgs),
-    /// Re-render a small preview on every save of FILE, with a page (preview.html) that shows
-    /// it and reloads its pictures; Ctrl-C stops.
+    /// The studio's page, read-only: follow FILE's saves beside your editor, scrub, play and
+    /// fly the shot; never writes. Ctrl-C stops.
     Watch(watch::WatchArgs),
     /// Print a shell completion script: `campath completions bash > /etc/bash_completion.d/campath`.
     Completions {

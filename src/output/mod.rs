@@ -43,7 +43,7 @@ pub const LOCK: &str = "campath.lock";
 
 /// The pictures and pages the other verbs write into an output folder (`out/STEM/` by default).
 pub mod pictures {
-    /// `preview`'s and `watch`'s contact sheet.
+    /// `preview`'s contact sheet (and an earlier `watch`'s).
     pub const SHEET: &str = "preview.png";
     /// `preview`'s animated GIF.
     pub const GIF: &str = "preview.gif";
@@ -51,11 +51,11 @@ pub mod pictures {
     pub const PLOT: &str = "plot.png";
     /// `report`'s chart.
     pub const REPORT: &str = "report.png";
-    /// `watch`'s page and the script it reloads.
+    /// An earlier `watch`'s page (today's is the studio's, served): still campath's name.
     pub const PAGE: &str = "preview.html";
-    /// The state `watch`'s page reloads.
+    /// The state an earlier `watch`'s page reloaded.
     pub const STATUS: &str = "status.js";
-    /// `watch`'s first, middle and last frames.
+    /// An earlier `watch`'s first, middle and last frames.
     pub const FRAMES: [&str; 3] = ["first.png", "middle.png", "last.png"];
 }
 
@@ -192,7 +192,7 @@ pub fn within(path: &Path, dir: &Path) -> bool {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Use {
     /// A folder of rendered frames (render, video's frames, merge) or of the other verbs'
-    /// pictures (preview, watch).
+    /// pictures (preview).
     Frames,
     /// A file of its own: an export, a video named apart from its frames, a run's statistics.
     File,

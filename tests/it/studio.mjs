@@ -8,6 +8,9 @@
 //   node studio.mjs screenshot URL OUT.png    the page as a user sees it
 //   node studio.mjs bench URL OUT.json N      N scrubs, each timed from the input event to the
 //                                              new picture on screen
+//   node studio.mjs bench-file CAMPATH FILE N  the same, of a studio it starts on FILE with the
+//                                              binary CAMPATH; prints the numbers
+import { spawn } from "node:child_process";
 import fs from "node:fs";
 import { createRequire } from "node:module";
 import path from "node:path";
@@ -16,7 +19,23 @@ import path from "node:path";
 const require = createRequire(path.join(process.cwd(), "noop.js"));
 const puppeteer = require("puppeteer-core");
 
-const [mode, url, ...rest] = process.argv.slice(2);
+let [mode, url, ...rest] = process.argv.slice(2);
+let studio = null;
+if (mode === "bench-file") {
+  const [file, count] = rest;
+  studio = spawn(url, ["studio", file], { stdio: ["ignore", "pipe", "inherit"] });
+  url = await new Promise((resolve, reject) => {
+    let text = "";
+    studio.stdout.on("data", d => {
+      text += d;
+      const m = text.match(/open (http\S+)/);
+      if (m) resolve(m[1]);
+    });
+    studio.on("exit", code => reject(new Error("the studio exited: " + code)));
+  });
+  mode = "bench";
+  rest = ["/dev/stdout", count];
+}
 const browser = await puppeteer.launch({
   executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
   headless: true,
@@ -147,6 +166,7 @@ try {
   }
 } finally {
   await browser.close();
+  if (studio) studio.kill();
 }
 if (errors.length) {
   console.error("errors on the page: " + errors.join("; "));
