@@ -8,8 +8,9 @@
 //   node studio.mjs screenshot URL OUT.png    the page as a user sees it
 //   node studio.mjs bench URL OUT.json N      N scrubs, each timed from the input event to the
 //                                              new picture on screen
-//   node studio.mjs bench-file CAMPATH FILE N  the same, of a studio it starts on FILE with the
-//                                              binary CAMPATH; prints the numbers
+//   node studio.mjs bench-file CAMPATH FILE N [S]  the same, of a studio it starts on FILE with
+//                                              the binary CAMPATH, after S seconds (default 0:
+//                                              the render cache still filling); prints the numbers
 import { spawn } from "node:child_process";
 import fs from "node:fs";
 import { createRequire } from "node:module";
@@ -22,7 +23,7 @@ const puppeteer = require("puppeteer-core");
 let [mode, url, ...rest] = process.argv.slice(2);
 let studio = null;
 if (mode === "bench-file") {
-  const [file, count] = rest;
+  const [file, count, settle] = rest;
   studio = spawn(url, ["studio", file], { stdio: ["ignore", "pipe", "inherit"] });
   url = await new Promise((resolve, reject) => {
     let text = "";
@@ -34,7 +35,7 @@ if (mode === "bench-file") {
     studio.on("exit", code => reject(new Error("the studio exited: " + code)));
   });
   mode = "bench";
-  rest = ["/dev/stdout", count];
+  rest = ["/dev/stdout", count, settle || "0"];
 }
 const browser = await puppeteer.launch({
   executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
@@ -134,7 +135,8 @@ try {
     const [out] = rest;
     await page.screenshot({ path: out });
   } else if (mode === "bench") {
-    const [out, count] = rest;
+    const [out, count, settle] = rest;
+    await new Promise(res => setTimeout(res, +(settle || 0) * 1000));
     const frames = await page.evaluate(() => window.campathStudio.shot.frames);
     const times = [];
     for (let i = 0; i < +count; i++) {

@@ -2,6 +2,7 @@
 //! Every request is answered; a bad one gets a 4xx, never a panic.
 
 use std::io::Read;
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -267,8 +268,9 @@ fn view(studio: &Studio, url: &str) -> Answer {
         Err(e) => return text(400, &e),
     };
     let full = query(url, "full").is_some_and(|f| f == "1");
+    let still = (vrp, vpn, cop) == (None, None, None);
     let (cameras, raster) = if full {
-        let cameras = if (vrp, vpn, cop) == (None, None, None) {
+        let cameras = if still {
             match doc.exposure(frame) {
                 Ok(e) => e.renders().to_vec(),
                 Err(e) => return text(409, &e.to_string()),
@@ -291,24 +293,39 @@ fn view(studio: &Studio, url: &str) -> Answer {
             Err(e) => return text(400, &e),
         }
     };
-    let Some(pixels) = good.render(cameras, raster) else {
+    let started = Instant::now();
+    let pixels = match (full, still) {
+        (false, true) => good.preview(frame, raster),
+        _ => good.render(cameras, raster),
+    };
+    let Some(pixels) = pixels else {
         return text(503, "the renderer stopped");
     };
-    let mut png = Vec::new();
+    let rendered = started.elapsed().as_secs_f64() * 1e3;
     let size = (raster.width, raster.height);
-    if encode_png(
-        std::path::Path::new("<view>"),
-        &mut png,
-        &pixels,
-        size,
-        Compression::Fast,
-    )
-    .is_err()
-    {
-        return text(500, "cannot encode the picture");
-    }
-    answer(200, "image/png", png).with_header(header(
-        "X-Campath-Size",
-        &format!("{}x{}", raster.width, raster.height),
-    ))
+    // `format=rgb`: the pixels as they are (RGB8, rows top first), which the page draws with no
+    // encoding or decoding on the way; else a PNG.
+    let (body, kind) = if query(url, "format").is_some_and(|f| f == "rgb") {
+        (pixels.to_vec(), "application/octet-stream")
+    } else {
+        let mut png = Vec::new();
+        let encoded = encode_png(
+            Path::new("<view>"),
+            &mut png,
+            &pixels,
+            size,
+            Compression::Fast,
+        );
+        if encoded.is_err() {
+            return text(500, "cannot encode the picture");
+        }
+        (png, "image/png")
+    };
+    let timing = format!(
+        "render;dur={rendered:.1}, total;dur={:.1}",
+        started.elapsed().as_secs_f64() * 1e3
+    );
+    answer(200, kind, body)
+        .with_header(header("X-Campath-Size", &format!("{}x{}", size.0, size.1)))
+        .with_header(header("Server-Timing", &timing))
 }

@@ -17,12 +17,103 @@ use crate::FrameHash;
 /// At most this many spheres are sent to the page's plot; a larger scene sends every k-th.
 const PLOT_SPHERES: usize = 20_000;
 
-/// One render the page asked for: the cameras whose renders the frame averages (one, or a time
-/// sample each with motion blur), and the raster.
-pub struct Job {
-    pub cameras: Vec<Camera>,
-    pub raster: Raster,
-    pub reply: mpsc::Sender<Vec<u8>>,
+/// The most the preview cache holds: 256 MiB of pixels (370 frames at 640 × 360).
+const CACHE_BYTES: usize = 256 << 20;
+
+/// One render the page asked for.
+pub enum Job {
+    /// The cameras whose renders the frame averages (one, or a time sample each with motion
+    /// blur), at a raster.
+    Cameras {
+        cameras: Vec<Camera>,
+        raster: Raster,
+        reply: mpsc::Sender<Arc<Vec<u8>>>,
+    },
+    /// A frame's own camera at the preview raster: from the cache, which fills from here on.
+    Preview {
+        frame: u64,
+        raster: Raster,
+        reply: mpsc::Sender<Arc<Vec<u8>>>,
+    },
+}
+
+/// The render thread: it owns the sphere index, answers jobs in order, and between them fills
+/// a cache of the frames at the last preview raster asked for, from the last frame asked on,
+/// so that scrubbing and playing over frames seen or coming is a copy, not a render.
+fn render_thread(doc: &Document, cameras: &[Camera], jobs: mpsc::Receiver<Job>) {
+    let index = SceneIndex::new(&doc.scene);
+    let mut renderer = Renderer::new();
+    let mut render = |cameras: &[Camera], raster: Raster| {
+        let mut pixels = Vec::new();
+        let frame = renderer.prepare_times(cameras, &index, raster);
+        frame.render_into(&mut pixels, &mut |_| {});
+        renderer.recycle(frame);
+        Arc::new(pixels)
+    };
+    let frames = cameras.len() as u64;
+    let mut cache: std::collections::HashMap<u64, Arc<Vec<u8>>> = Default::default();
+    let mut cache_raster: Option<Raster> = None;
+    let mut next = 0u64;
+    loop {
+        let room = cache_raster.map_or(0, |r| {
+            CACHE_BYTES / (r.width as usize * r.height as usize * 3).max(1)
+        });
+        let filling = cache_raster.is_some() && cache.len() < room.min(frames as usize);
+        let job = if filling {
+            match jobs.try_recv() {
+                Ok(job) => Some(job),
+                Err(mpsc::TryRecvError::Empty) => None,
+                Err(mpsc::TryRecvError::Disconnected) => return,
+            }
+        } else {
+            match jobs.recv() {
+                Ok(job) => Some(job),
+                Err(_) => return,
+            }
+        };
+        match job {
+            Some(Job::Cameras {
+                cameras,
+                raster,
+                reply,
+            }) => {
+                let _ = reply.send(render(&cameras, raster));
+            }
+            Some(Job::Preview {
+                frame,
+                raster,
+                reply,
+            }) => {
+                if cache_raster != Some(raster) {
+                    cache.clear();
+                    cache_raster = Some(raster);
+                }
+                let pixels = match cache.get(&frame) {
+                    Some(p) => Arc::clone(p),
+                    None => {
+                        let p = render(&cameras[frame as usize..=frame as usize], raster);
+                        cache.insert(frame, Arc::clone(&p));
+                        p
+                    }
+                };
+                let _ = reply.send(pixels);
+                next = (frame + 1) % frames;
+            }
+            None => {
+                // The next frame not yet cached, from the last one asked for on.
+                let Some(raster) = cache_raster else { continue };
+                let Some(frame) = (0..frames)
+                    .map(|k| (next + k) % frames)
+                    .find(|k| !cache.contains_key(k))
+                else {
+                    continue;
+                };
+                let p = render(&cameras[frame as usize..=frame as usize], raster);
+                cache.insert(frame, p);
+                next = (frame + 1) % frames;
+            }
+        }
+    }
 }
 
 /// A valid document and what the page needs of it.
@@ -51,20 +142,11 @@ impl Good {
         let doc = Arc::new(doc);
         let (jobs, rx) = mpsc::channel::<Job>();
         let owned = Arc::clone(&doc);
+        let frame_cameras = cameras.clone();
         std::thread::Builder::new()
             .name("studio-render".into())
-            .spawn(move || {
-                let index = SceneIndex::new(&owned.scene);
-                let mut renderer = Renderer::new();
-                for job in rx {
-                    let mut pixels = Vec::new();
-                    let frame = renderer.prepare_times(&job.cameras, &index, job.raster);
-                    frame.render_into(&mut pixels, &mut |_| {});
-                    renderer.recycle(frame);
-                    let _ = job.reply.send(pixels);
-                }
-            })
-            .map_err(|e| crate::Error::write("<render thread>")(e))?;
+            .spawn(move || render_thread(&owned, &frame_cameras, rx))
+            .map_err(crate::Error::write("<render thread>"))?;
         Ok(Good {
             doc,
             cameras,
@@ -74,14 +156,28 @@ impl Good {
     }
 
     /// The RGB8 pixels of `cameras` (averaged, as a frame with motion blur is) at `raster`.
-    pub fn render(&self, cameras: Vec<Camera>, raster: Raster) -> Option<Vec<u8>> {
+    pub fn render(&self, cameras: Vec<Camera>, raster: Raster) -> Option<Arc<Vec<u8>>> {
         let (reply, answer) = mpsc::channel();
-        let job = Job {
+        let job = Job::Cameras {
             cameras,
             raster,
             reply,
         };
         self.jobs.send(job).ok()?;
+        answer.recv().ok()
+    }
+
+    /// Frame `frame`'s own camera at the preview `raster` (one sample, no motion blur), from
+    /// the render thread's cache when it has it.
+    pub fn preview(&self, frame: u64, raster: Raster) -> Option<Arc<Vec<u8>>> {
+        let (reply, answer) = mpsc::channel();
+        self.jobs
+            .send(Job::Preview {
+                frame,
+                raster,
+                reply,
+            })
+            .ok()?;
         answer.recv().ok()
     }
 
