@@ -387,7 +387,7 @@ fn a_key_changes_only_its_tracks_keys_and_undo_gives_back_every_byte() {
         .to_string();
     assert!(line.starts_with("9,0.75,1.25,2,-5.5,"), "{line}");
     let state = s.state_where(|v| v["undo"].is_string());
-    assert_eq!(state["undo"], "set a Observer key at 0.75 s");
+    assert_eq!(state["undo"], "set the Observer key at 0.75 s");
 
     let base = state["sha"].as_str().unwrap().to_string();
     let (status, answer) = s.post("/api/undo", &format!(r#"{{"base":"{base}"}}"#));
@@ -479,6 +479,27 @@ fn an_edit_from_the_editor_is_never_written_over() {
     let undo = format!(r#"{{"base":"{}"}}"#, state["sha"].as_str().unwrap());
     assert_eq!(s.post("/api/undo", &undo).0, 422);
     assert_eq!(std::fs::read_to_string(&file).unwrap(), FILE);
+
+    // A read-only file, and one with another hard link (which a rename would part from it),
+    // are refused, naming why; nothing is written.
+    use std::os::unix::fs::PermissionsExt;
+    let key = |sha: &str| {
+        format!(r#"{{"base":"{sha}","track":"Zoom","op":"set","t":0.5,"value":[-2.0]}}"#)
+    };
+    std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let (status, answer) = s.post("/api/key", &key(&s.sha()));
+    assert_eq!(status, 422, "{answer}");
+    assert!(answer.contains("read-only"), "{answer}");
+    std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o640)).unwrap();
+    std::fs::hard_link(&file, tmp.path().join("other.ron")).unwrap();
+    let (status, answer) = s.post("/api/key", &key(&s.sha()));
+    assert!(status == 422 && answer.contains("hard links"), "{answer}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), FILE);
+    // Once alone again, the key is written, and the file keeps its permissions.
+    std::fs::remove_file(tmp.path().join("other.ron")).unwrap();
+    assert_eq!(s.post("/api/key", &key(&s.sha())).0, 200);
+    let mode = std::fs::metadata(&file).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o640);
 }
 
 #[test]
@@ -649,7 +670,7 @@ fn the_page_scrubs_to_render_s_pixels_flies_a_key_undoes_and_refuses_a_stale_edi
         flow["afterSet"]
             .as_str()
             .unwrap()
-            .contains("set a Observer key"),
+            .contains("set the Observer key"),
         "{flow}"
     );
     // Undo: the file byte for byte as it was.

@@ -68,15 +68,7 @@ fn write(studio: &Studio, path: &str, body: &str) -> Result<String, Refused> {
         let s = studio.lock();
         (Arc::clone(&s.bytes), s.sha.clone())
     };
-    let on_disk = std::fs::read(&studio.file).unwrap_or_default();
-    if *on_disk != **bytes {
-        let stamp = super::super::watch::stamp(&studio.file);
-        let why = "the file changed on disk since the page loaded it: nothing was written, and \
-                   the page now shows the file as it is; make the edit again"
-            .to_string();
-        studio.publish(on_disk, stamp, Some(why.clone()));
-        return Err((409, why));
-    }
+    // The page's copy first; the disk's is compared last, just before the rename (`save`).
     if base != sha {
         return Err((
             409,
@@ -115,8 +107,12 @@ fn write(studio: &Studio, path: &str, body: &str) -> Result<String, Refused> {
             format!("the edit would make the file invalid, so nothing was written: {e}"),
         )
     })?;
-    save(&studio.file, &after).map_err(|e| (500, e))?;
-    let stamp = super::super::watch::stamp(&studio.file);
+    // The new text is checked before the disk's bytes are compared, so that the compare and the
+    // rename come one straight after the other (a check of a large scene takes seconds).
+    save(&studio.file, &bytes, &after)?;
+    // No stamp: the watch reads the file once more and finds the bytes the studio holds (or an
+    // editor's save, made since, which it then shows).
+    let stamp = None;
     let notice = match undoing {
         Some(true) => format!("undone: {what}"),
         Some(false) => format!("redone: {what}"),
@@ -176,7 +172,7 @@ fn key_edit(bytes: &[u8], r: &KeyRequest) -> Result<(String, String), Refused> {
         "set" => {
             let t = t(r.t)?;
             let value = value_text(mode, r.value.as_deref().unwrap_or(&[])).map_err(bad)?;
-            let what = format!("set a {mode} key at {} s", splice::number(t));
+            let what = format!("set the {mode} key at {} s", splice::number(t));
             (KeyEdit::Set { t, value }, what)
         }
         "move" => {
@@ -217,18 +213,41 @@ fn value_text(mode: Mode, value: &[f64]) -> Result<String, String> {
     })
 }
 
-/// Writes `bytes` to the shot file through a temporary file beside it (beside a link's target,
-/// for a link), with the file's permissions, renamed into place.
-fn save(file: &std::path::Path, bytes: &[u8]) -> Result<(), String> {
+/// Writes `after` to the shot file through a temporary file beside it (beside a link's
+/// target, for a link), with the file's permissions, renamed into place, but only while the file
+/// still holds `before`: compared once the temporary file is written, just before the rename.
+/// A read-only file, or one with other hard links (which a rename would part from it), is
+/// refused.
+fn save(file: &std::path::Path, before: &[u8], after: &[u8]) -> Result<(), Refused> {
     use std::io::Write;
     let target = crate::output::resolved(file);
-    let said = |e: &dyn std::fmt::Display| format!("{}: cannot write: {e}", target.display());
-    let permissions = std::fs::metadata(&target).map(|m| m.permissions());
+    let said =
+        |e: &dyn std::fmt::Display| (500, format!("{}: cannot write: {e}", target.display()));
+    let meta = std::fs::metadata(&target).map_err(|e| said(&e))?;
+    if meta.permissions().readonly() {
+        return Err((
+            422,
+            format!("{}: the file is read-only; nothing was written (make it writable, or run the studio with --read-only)", target.display()),
+        ));
+    }
+    #[cfg(unix)]
+    if std::os::unix::fs::MetadataExt::nlink(&meta) > 1 {
+        return Err((
+            422,
+            format!("{}: the file has other hard links, which a write by rename would part from it; nothing was written (edit a copy, or a symbolic link to it)", target.display()),
+        ));
+    }
     let mut tmp = crate::output::temp_beside(&target).map_err(|e| said(&e))?;
-    tmp.write_all(bytes).map_err(|e| said(&e))?;
+    tmp.write_all(after).map_err(|e| said(&e))?;
     tmp.as_file().sync_all().map_err(|e| said(&e))?;
-    if let Ok(p) = permissions {
-        std::fs::set_permissions(tmp.path(), p).map_err(|e| said(&e))?;
+    std::fs::set_permissions(tmp.path(), meta.permissions()).map_err(|e| said(&e))?;
+    if std::fs::read(&target).map_err(|e| said(&e))? != before {
+        return Err((
+            409,
+            "the file changed on disk since the page loaded it: nothing was written, and the \
+             page now shows the file as it is; make the edit again"
+                .into(),
+        ));
     }
     tmp.persist(&target).map_err(|e| said(&e.error))?;
     Ok(())

@@ -146,16 +146,16 @@ pub fn run(a: StudioArgs, out: &mut dyn Write) -> Result<()> {
         writing: Mutex::new(()),
         busy: AtomicUsize::new(0),
     });
-    studio.publish(bytes, super::watch::stamp(&file), None);
+    // No stamp: the watch reads the file once more, so a save made while it was read shows.
+    studio.publish(bytes, None, None);
     let address = format!("http://127.0.0.1:{port}/?token={}", studio.token);
     let mode = if a.read_only { " (read-only)" } else { "" };
     writeln!(out, "campath studio{mode}: {}", file.display()).map_err(Error::stdout)?;
     writeln!(out, "open {address}").map_err(Error::stdout)?;
     writeln!(out, "Ctrl-C stops").map_err(Error::stdout)?;
     out.flush().map_err(Error::stdout)?;
-    if a.open {
-        open_browser(&address);
-    }
+    // Held while the studio runs: the page that leads the browser to the address.
+    let _redirect = if a.open { open_browser(&address) } else { None };
     let watcher = Arc::clone(&studio);
     let watching = Arc::clone(&stop);
     std::thread::Builder::new()
@@ -190,8 +190,11 @@ pub fn run(a: StudioArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// Opens `address` in the user's browser; a failure is said, not fatal.
-fn open_browser(address: &str) {
+/// Opens `address` in the user's browser, through a page in a file only the user can read that
+/// leads to it (as Jupyter does): the address with its token never appears in a command line,
+/// which other local users can read. A failure is said, not fatal. Returns the file, removed
+/// when dropped.
+fn open_browser(address: &str) -> Option<tempfile::NamedTempFile> {
     let opener = if cfg!(target_os = "macos") {
         "open"
     } else if cfg!(windows) {
@@ -199,8 +202,30 @@ fn open_browser(address: &str) {
     } else {
         "xdg-open"
     };
+    let page = format!(
+        "<!doctype html><meta charset=\"utf-8\"><meta http-equiv=\"refresh\" content=\"0;url={address}\">\
+         <title>campath studio</title><a href=\"{address}\">campath studio</a>\n"
+    );
+    // A new temporary file is readable by its owner only.
+    let made = tempfile::Builder::new()
+        .prefix("campath-studio-")
+        .suffix(".html")
+        .tempfile()
+        .and_then(|mut f| {
+            std::io::Write::write_all(&mut f, page.as_bytes())?;
+            Ok(f)
+        });
+    let file = match made {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!(
+                "campath: cannot write the page that opens the studio: {e}; open the address above"
+            );
+            return None;
+        }
+    };
     let spawned = std::process::Command::new(opener)
-        .arg(address)
+        .arg(file.path())
         .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -208,6 +233,7 @@ fn open_browser(address: &str) {
     if let Err(e) = spawned {
         eprintln!("campath: cannot open a browser with {opener}: {e}; open the address above");
     }
+    Some(file)
 }
 
 impl Studio {
@@ -277,7 +303,8 @@ impl Studio {
             drop(s);
             // A file that fails to load may be half written (emptied, then written): it must
             // stay as it is a moment before its error is shown.
-            if load(&self.file, &bytes).is_err() {
+            let loaded = load(&self.file, &bytes);
+            if loaded.is_err() {
                 std::thread::sleep(Duration::from_millis(300));
                 if super::watch::stamp(&self.file) != stamp {
                     continue;
@@ -291,7 +318,7 @@ impl Studio {
                     ""
                 }
             );
-            self.publish(bytes, stamp, Some(notice));
+            self.install(bytes, stamp, Some(notice), loaded);
         }
     }
 }

@@ -92,6 +92,13 @@ fn render_thread(doc: &Document, cameras: &[Camera], jobs: mpsc::Receiver<Job>) 
                     Some(p) => Arc::clone(p),
                     None => {
                         let p = render(&cameras[frame as usize..=frame as usize], raster);
+                        // Full: the frame that comes last from here on goes.
+                        if cache.len() >= room.max(1) {
+                            let ahead = |k: &u64| (k + frames - frame) % frames;
+                            if let Some(&last) = cache.keys().max_by_key(|k| ahead(k)) {
+                                cache.remove(&last);
+                            }
+                        }
                         cache.insert(frame, Arc::clone(&p));
                         p
                     }
