@@ -273,12 +273,7 @@ fn field_order(text: &str) -> Vec<String> {
                     i += 1 + usize::from(s[i] == b'\\');
                 }
             }
-            b'/' if s.get(i + 1) == Some(&b'/') => {
-                i = s[i..]
-                    .iter()
-                    .position(|&c| c == b'\n')
-                    .map_or(s.len(), |n| i + n);
-            }
+            b'/' if s.get(i + 1) == Some(&b'/') => i = pieces::line_comment_end(s, i),
             b'/' if s.get(i + 1) == Some(&b'*') => {
                 // Block comments nest, as RON reads them.
                 i = pieces::block_comment_end(s, i).unwrap_or(s.len());

@@ -366,10 +366,7 @@ fn find_open(s: &[u8]) -> Option<usize> {
         match s[i] {
             b'"' | b'\'' | b'#' => return None,
             b'/' if s.get(i + 1) == Some(&b'/') => {
-                i = s[i..]
-                    .iter()
-                    .position(|&c| c == b'\n')
-                    .map_or(s.len(), |n| i + n);
+                i = line_comment_end(s, i);
                 continue;
             }
             b'/' if s.get(i + 1) == Some(&b'*') => {
@@ -390,6 +387,14 @@ fn find_open(s: &[u8]) -> Option<usize> {
         i += 1;
     }
     None
+}
+
+/// The end of the line comment at `i` (its `\n`, or the text's end).
+pub(super) fn line_comment_end(s: &[u8], i: usize) -> usize {
+    s[i..]
+        .iter()
+        .position(|&c| c == b'\n')
+        .map_or(s.len(), |n| i + n)
 }
 
 /// The byte after the block comment that starts at `i` (RON's block comments nest).

@@ -200,10 +200,7 @@ impl<'a> Scan<'a> {
                     continue;
                 }
                 b'/' if s.get(i + 1) == Some(&b'/') => {
-                    i = s[i..]
-                        .iter()
-                        .position(|&c| c == b'\n')
-                        .map_or(s.len(), |n| i + n);
+                    i = super::pieces::line_comment_end(s, i);
                     continue;
                 }
                 b'/' if s.get(i + 1) == Some(&b'*') => {

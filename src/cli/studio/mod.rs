@@ -42,17 +42,24 @@ const LONG_POLL: Duration = Duration::from_secs(10);
 /// one state at a time).
 const MAX_REQUESTS: usize = 512;
 
-/// The options of `campath studio`.
+/// Where the page is served, for `studio` and `watch`.
 #[derive(clap::Args)]
-pub struct StudioArgs {
-    #[command(flatten)]
-    pub shot: Shot,
+pub struct Serve {
     /// The port on 127.0.0.1 [default: a free one the system picks].
     #[arg(long, default_value_t = 0)]
     pub port: u16,
     /// Open the page in the default browser.
     #[arg(long)]
     pub open: bool,
+}
+
+/// The options of `campath studio`.
+#[derive(clap::Args)]
+pub struct StudioArgs {
+    #[command(flatten)]
+    pub shot: Shot,
+    #[command(flatten)]
+    pub serve: Serve,
     /// Show the shot and follow its saves, but never write the file.
     #[arg(long)]
     pub read_only: bool,
@@ -79,7 +86,7 @@ pub(crate) struct State {
     /// The studio's own edits, for undo and redo: each the bytes before and after.
     undo: Vec<edit::Change>,
     redo: Vec<edit::Change>,
-    /// What tells the file's versions apart (see `watch`), when last read.
+    /// What tells the file's versions apart ([`file_stamp`]), when last read.
     stamp: Option<Vec<i128>>,
 }
 
@@ -106,11 +113,11 @@ pub fn run(a: StudioArgs, out: &mut dyn Write) -> Result<()> {
     let bytes = std::fs::read(&file)
         .map_err(|e| CliError::Usage(format!("{}: cannot read the shot: {e}", file.display())))?;
     let stop = super::progress::ctrl_c_flag()?;
-    let listener = std::net::TcpListener::bind(("127.0.0.1", a.port)).map_err(|e| {
+    let listener = std::net::TcpListener::bind(("127.0.0.1", a.serve.port)).map_err(|e| {
         CliError::Usage(format!(
             "--port {}: cannot listen on 127.0.0.1:{}: {e}; choose another port, or leave \
              --port out for a free one",
-            a.port, a.port
+            a.serve.port, a.serve.port
         ))
     })?;
     // A picture is sent as two writes (headers, body): with Nagle's algorithm the body's last
@@ -119,11 +126,11 @@ pub fn run(a: StudioArgs, out: &mut dyn Write) -> Result<()> {
     rustix::net::sockopt::set_tcp_nodelay(&listener, true)
         .map_err(|e| Error::read("<the studio's socket>")(e.into()))?;
     let server = tiny_http::Server::from_listener(listener, None)
-        .map_err(|e| CliError::Usage(format!("cannot serve on 127.0.0.1:{}: {e}", a.port)))?;
+        .map_err(|e| CliError::Usage(format!("cannot serve on 127.0.0.1:{}: {e}", a.serve.port)))?;
     let port = server
         .server_addr()
         .to_ip()
-        .map_or(a.port, |addr| addr.port());
+        .map_or(a.serve.port, |addr| addr.port());
     let studio = Arc::new(Studio {
         file: file.clone(),
         token: http::new_token()?,
@@ -155,7 +162,11 @@ pub fn run(a: StudioArgs, out: &mut dyn Write) -> Result<()> {
     writeln!(out, "Ctrl-C stops").map_err(Error::stdout)?;
     out.flush().map_err(Error::stdout)?;
     // Held while the studio runs: the page that leads the browser to the address.
-    let _redirect = if a.open { open_browser(&address) } else { None };
+    let _redirect = if a.serve.open {
+        open_browser(&address)
+    } else {
+        None
+    };
     let watcher = Arc::clone(&studio);
     let watching = Arc::clone(&stop);
     std::thread::Builder::new()
@@ -283,14 +294,14 @@ impl Studio {
     fn follow(&self, stop: &std::sync::atomic::AtomicBool) {
         while !stop.load(Ordering::SeqCst) {
             std::thread::sleep(Duration::from_millis(100));
-            let stamp = super::watch::stamp(&self.file);
+            let stamp = file_stamp(&self.file);
             if stamp == self.lock().stamp {
                 continue;
             }
             let _writing = self.writing.lock().unwrap_or_else(|p| p.into_inner());
             // An editor's save is often several writes: let them settle.
             std::thread::sleep(Duration::from_millis(30));
-            let stamp = super::watch::stamp(&self.file);
+            let stamp = file_stamp(&self.file);
             let bytes = std::fs::read(&self.file).unwrap_or_default();
             let mut s = self.lock();
             if *s.bytes == bytes {
@@ -306,7 +317,7 @@ impl Studio {
             let loaded = load(&self.file, &bytes);
             if loaded.is_err() {
                 std::thread::sleep(Duration::from_millis(300));
-                if super::watch::stamp(&self.file) != stamp {
+                if file_stamp(&self.file) != stamp {
                     continue;
                 }
             }
@@ -334,4 +345,37 @@ fn load(file: &Path, bytes: &[u8]) -> std::result::Result<Good, String> {
     })?;
     let doc = Document::from_str(file, text).map_err(|e| e.to_string())?;
     Good::new(doc).map_err(|e| e.to_string())
+}
+
+/// What tells the file's versions apart: the file its path resolves to, its size and times,
+/// and the link's own when the path is a link. None while nothing is there.
+fn file_stamp(file: &Path) -> Option<Vec<i128>> {
+    let target = std::fs::metadata(file).ok()?;
+    let link = std::fs::symlink_metadata(file).ok()?;
+    Some([target, link].iter().flat_map(identity).collect())
+}
+
+#[cfg(unix)]
+fn identity(m: &std::fs::Metadata) -> [i128; 7] {
+    use std::os::unix::fs::MetadataExt;
+    let ns = |s: i64, n: i64| i128::from(s) * 1_000_000_000 + i128::from(n);
+    [
+        m.dev().into(),
+        m.ino().into(),
+        m.len().into(),
+        ns(m.mtime(), m.mtime_nsec()),
+        ns(m.ctime(), m.ctime_nsec()),
+        m.mode().into(),
+        m.nlink().into(),
+    ]
+}
+
+#[cfg(not(unix))]
+fn identity(m: &std::fs::Metadata) -> [i128; 2] {
+    let since = |t: std::io::Result<std::time::SystemTime>| {
+        t.ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos() as i128)
+    };
+    [m.len().into(), since(m.modified())]
 }
