@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
 use super::files::{
-    png_hash, remove_if_there as remove, remove_temps_of, write_atomic, write_png_atomic,
+    png_hash, remove_if_there as remove, remove_temps_of, temp_of, write_atomic, write_png_atomic,
 };
 use super::lock::{Claim, FolderLock, Wait};
 use super::manifest::{Entry, Manifest, PartHeader, Writer};
@@ -114,8 +114,9 @@ fn recorded(dir: &Path) -> (BTreeMap<u64, Vec<Entry>>, BTreeMap<u64, Entry>) {
     (out, aside)
 }
 
-/// The frames on disk under this animation's names, and the frame files named for no frame of it
-/// (past its end, or padded for another frame count).
+/// The frames on disk under this animation's names, and what a whole run removes: the frame
+/// files named for no frame of it (past its end, or padded for another frame count), and files
+/// a killed run left under temporary names.
 fn frame_files(dir: &Path, total: u64) -> (BTreeSet<u64>, Vec<PathBuf>) {
     let mut files = BTreeSet::new();
     let mut foreign = Vec::new();
@@ -126,6 +127,10 @@ fn frame_files(dir: &Path, total: u64) -> (BTreeSet<u64>, Vec<PathBuf>) {
             } else {
                 foreign.push(e.path());
             }
+        } else if temp_of(&name).is_some() {
+            // What a run killed while writing left under a temporary name: a whole run, the
+            // folder's only writer, removes it.
+            foreign.push(e.path());
         }
     }
     (files, foreign)

@@ -251,3 +251,31 @@ fn shards_of_one_count_run_side_by_side_and_exclude_everything_else() {
     assert!(merged.status.success(), "{}", stderr(&merged));
     assert_whole_render_of(tmp.path(), "slow.ron", "farm", 96);
 }
+
+/// A run killed while writing a frame leaves it under a temporary name; the next whole run,
+/// the folder's only writer, removes it (and a shard, which shares the folder, leaves it).
+#[test]
+fn a_whole_run_removes_what_a_killed_run_left_under_temporary_names() {
+    let tmp = setup();
+    let dir = tmp.path().join("o");
+    std::fs::create_dir_all(&dir).unwrap();
+    let left = [
+        ".frame_0003.png.aZ09xy.tmp",
+        ".frame_0500.png.000000.tmp",
+        ".hashes.txt.q1w2e3.tmp",
+    ];
+    for name in left {
+        std::fs::write(dir.join(name), "half a picture").unwrap();
+    }
+    let shard = campath(
+        tmp.path(),
+        &["render", "long.ron", "--out", "o", "--shard", "0/2"],
+        &[],
+    );
+    assert!(shard.status.success(), "{}", stderr(&shard));
+    assert!(left.iter().all(|n| dir.join(n).exists()));
+    let o = campath(tmp.path(), &["render", "long.ron", "--out", "o"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(left.iter().all(|n| !dir.join(n).exists()), "{}", stdout(&o));
+    assert_whole_render_of(tmp.path(), "long.ron", "o", 48);
+}
