@@ -182,7 +182,12 @@ pub fn check(c: CheckArgs, out: &mut dyn Write) -> Result<bool> {
     )
     .map_err(Error::stdout)?;
     for f in &doc.sphere_files {
-        writeln!(out, "  {}: {} sphere(s)", f.name, f.spheres).map_err(Error::stdout)?;
+        let ignored = &f.listing.ignored;
+        let past = match ignored.is_empty() {
+            true => String::new(),
+            false => format!(" (columns read past: {})", ignored.join(", ")),
+        };
+        writeln!(out, "  {}: {} sphere(s){past}", f.name, f.spheres).map_err(Error::stdout)?;
     }
     if let Some(blur) = doc.motion_blur {
         writeln!(

@@ -13,7 +13,7 @@ use std::sync::{Mutex, PoisonError};
 
 use super::{Checker, SphereFile};
 use crate::format::sphere_files::{self, FileProblem, Listing};
-use crate::format::{self, LightSpec, SphereSpec};
+use crate::format::{self, ColorBySpec, LightSpec, Pair, RadiusBySpec, SphereFileSpec, SphereSpec};
 use crate::scene::{Light, Scene, Sphere};
 
 impl Checker {
@@ -41,11 +41,16 @@ impl Checker {
         spheres.shrink_to_fit();
         refused.name(self, Origin::Inline, &mut spheres, &[], |_, _| {});
         let mut files = Vec::with_capacity(spec.sphere_files.len());
-        for (k, name) in spec.sphere_files.iter().enumerate() {
+        for (k, file) in spec.sphere_files.iter().enumerate() {
+            let name = &file.path;
             let path = folder.join(name);
+            if !self.sphere_file(k, file) {
+                // Rules that are wrong read nothing: the file's spheres would be wrong too.
+                continue;
+            }
             let refused = Refused::default();
             let start = spheres.len();
-            let listing = sphere_files::read(&path, &mut spheres, |i, s| refused.check(i, s));
+            let listing = sphere_files::read(&path, file, &mut spheres, |i, s| refused.check(i, s));
             let origin = Origin::File(k, name, &listing);
             let form = |checker: &mut Checker, e: &FileProblem| {
                 let at = e.at.map_or(String::new(), |at| format!(": {at}"));
@@ -71,6 +76,60 @@ impl Checker {
             _ => None,
         };
         (scene, files)
+    }
+
+    /// Whether a `sphere_files` entry's rules are sound: its radius and colour, its type
+    /// tables' radii and colours, its colormap's name, its ranges finite and not empty.
+    fn sphere_file(&mut self, k: usize, file: &SphereFileSpec) -> bool {
+        let before = self.problems.len();
+        let at = |field: &str| format!("scene.sphere_files[{k}].{field}");
+        if let Some(r) = file.radius {
+            self.positive(&at("radius") as &str, r);
+        }
+        if let Some(c) = file.color {
+            self.color(&at("color") as &str, c);
+        }
+        let range = |checker: &mut Checker, field: &str, range: Pair| {
+            if let Some(r) = checker.pair(field, range) {
+                checker.ensure(field, r.x != r.y, (), || {
+                    format!("the range's ends must differ, got {range:?}")
+                });
+            }
+        };
+        match &file.color_by {
+            Some(ColorBySpec::Types { colors, .. }) => {
+                for (name, c) in colors {
+                    self.color(&at(&format!("color_by.colors[{name:?}]")) as &str, *c);
+                }
+            }
+            Some(ColorBySpec::Colormap { map, range: r, .. }) => {
+                if sphere_files::colormap(map).is_none() {
+                    let names: Vec<&str> = sphere_files::COLORMAPS.iter().map(|m| m.0).collect();
+                    self.problem(
+                        at("color_by.map"),
+                        format!("no colormap {map:?}: the maps are {}", names.join(", ")),
+                    );
+                }
+                range(self, &at("color_by.range"), *r);
+            }
+            None => {}
+        }
+        match &file.radius_by {
+            Some(RadiusBySpec::Types { radii, .. }) => {
+                for (name, r) in radii {
+                    self.positive(&at(&format!("radius_by.radii[{name:?}]")) as &str, *r);
+                }
+            }
+            Some(RadiusBySpec::Range {
+                range: r, radii, ..
+            }) => {
+                range(self, &at("radius_by.range"), *r);
+                self.positive(&at("radius_by.radii.0") as &str, radii.0);
+                self.positive(&at("radius_by.radii.1") as &str, radii.1);
+            }
+            None => {}
+        }
+        self.problems.len() == before
     }
 
     /// ≥ 0; without lights, ambient alone lights the scene, so the default is flat colours.

@@ -201,10 +201,125 @@ pub struct SceneSpec {
     /// The spheres.
     #[serde(default)]
     pub spheres: Vec<SphereSpec>,
-    /// PLY or CSV files of more spheres, relative to the keyframe file; their spheres follow
-    /// `spheres`, file by file.
+    /// PLY, CSV or XYZ files of more spheres, relative to the keyframe file; their spheres
+    /// follow `spheres`, file by file.
     #[serde(default)]
-    pub sphere_files: Vec<String>,
+    pub sphere_files: Vec<SphereFileSpec>,
+}
+
+/// An entry of `sphere_files`: a file's path alone (`"cloud.ply"`), or with how its columns
+/// become spheres (`(path: "cloud.csv", radius: 0.1, color_by: …)`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SphereFileSpec {
+    /// Relative to the keyframe file.
+    pub path: String,
+    /// The columns that hold a sphere's fields, where the file's names are not the usual ones.
+    pub columns: ColumnsSpec,
+    /// World units, > 0: the radius of the file's spheres where it has no radius column.
+    pub radius: Option<f64>,
+    /// Linear RGB in [0, 1]: the colour of its spheres where it has no colour columns.
+    pub color: Option<Triple>,
+    /// A colour from a column: a type's colour, or a colormap over a number.
+    pub color_by: Option<ColorBySpec>,
+    /// A radius from a column: a type's radius, or a range over a number.
+    pub radius_by: Option<RadiusBySpec>,
+}
+
+/// The struct form of a `sphere_files` entry, as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "sphere_file")]
+struct SphereFileFields {
+    path: String,
+    #[serde(default)]
+    columns: ColumnsSpec,
+    radius: Option<f64>,
+    color: Option<Triple>,
+    color_by: Option<ColorBySpec>,
+    radius_by: Option<RadiusBySpec>,
+}
+
+impl<'de> Deserialize<'de> for SphereFileSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        use serde::de::{self, MapAccess, Visitor};
+        struct Entry;
+        impl<'de> Visitor<'de> for Entry {
+            type Value = SphereFileSpec;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a file's path, or (path: \"…\", …)")
+            }
+            fn visit_str<E: de::Error>(self, path: &str) -> std::result::Result<Self::Value, E> {
+                Ok(SphereFileSpec {
+                    path: path.to_string(),
+                    ..SphereFileSpec::default()
+                })
+            }
+            fn visit_map<A: MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> std::result::Result<Self::Value, A::Error> {
+                let f = SphereFileFields::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(SphereFileSpec {
+                    path: f.path,
+                    columns: f.columns,
+                    radius: f.radius,
+                    color: f.color,
+                    color_by: f.color_by,
+                    radius_by: f.radius_by,
+                })
+            }
+        }
+        d.deserialize_any(Entry)
+    }
+}
+
+/// A sphere file's columns by the names its header gives them (compared without regard to
+/// case); a field not named here is found by its usual names (docs/format.md).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "columns")]
+pub struct ColumnsSpec {
+    pub x: Option<String>,
+    pub y: Option<String>,
+    pub z: Option<String>,
+    pub radius: Option<String>,
+    pub red: Option<String>,
+    pub green: Option<String>,
+    pub blue: Option<String>,
+}
+
+/// A sphere's colour from one of its file's columns.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "color_by")]
+pub enum ColorBySpec {
+    /// A colour per type: the column's text (a whole number as written without a point)
+    /// names the type; every type in the file must be in `colors`.
+    Types {
+        column: String,
+        colors: std::collections::BTreeMap<String, Triple>,
+    },
+    /// A named colormap over a numeric column: `range.0` maps to its start and `range.1` to
+    /// its end, values beyond held at the ends.
+    Colormap {
+        column: String,
+        map: String,
+        range: Pair,
+    },
+}
+
+/// A sphere's radius from one of its file's columns.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "radius_by")]
+pub enum RadiusBySpec {
+    /// A radius per type, as [`ColorBySpec::Types`].
+    Types {
+        column: String,
+        radii: std::collections::BTreeMap<String, f64>,
+    },
+    /// A numeric column's `range` mapped linearly onto `radii`, values beyond held at the ends.
+    Range {
+        column: String,
+        range: Pair,
+        radii: Pair,
+    },
 }
 
 /// A directional light.

@@ -1,5 +1,7 @@
-//! Sphere files: the same spheres inline, as ASCII PLY, binary PLY and CSV hash alike; `check`
-//! counts each file's spheres; editing a sphere file renders its frames again. (Bad files are
+//! Sphere files: the same spheres inline, as ASCII PLY, binary PLY, CSV and XYZ in the forms
+//! tools write (columns in any order, other names, extra columns, no radius, rules for a
+//! radius and a colour) hash alike; `check` counts each file's spheres and names the columns
+//! it reads past; editing a sphere file renders its frames again. (Bad files are
 //! data cases in tests/data/bad, run by `cli::bad_input_cases_are_refused_with_their_messages`.)
 
 use std::fmt::Write as _;
@@ -236,7 +238,7 @@ fn rows_that_cannot_be_read_hide_no_other_problem() {
         .collect();
     let want = [
         "scene.sphere_files[0] (a.csv: line 2): radius: must be greater than 0, got -1",
-        "scene.sphere_files[0] (a.csv: line 4): x: not a number: \"foo\"",
+        "scene.sphere_files[0] (a.csv: line 4): column 1 (x): not a number: \"foo\"",
         "scene.sphere_files[0] (a.csv: line 5): radius: must be greater than 0, got -2",
         "scene.sphere_files[0] (a.csv: line 6): expected 4 fields (x,y,z,radius), got 2",
         "scene.sphere_files[1] (b.ply: vertex 0): radius: must be greater than 0, got -1",
@@ -274,4 +276,223 @@ fn many_bad_spheres_are_named_first_and_counted() {
     assert!(named[0].contains("bad.csv: line 2): radius"), "{err}");
     assert!(named[99].contains("bad.csv: line 101): radius"), "{err}");
     assert!(err.trim_end().ends_with("… and 150 more"), "{err}");
+}
+
+/// The shot with `inline` sphere lines and `entries` as `sphere_files`' text.
+fn shot_with(inline: &str, entries: &str) -> String {
+    let lines = shot(inline, &[]);
+    lines.replace("sphere_files: []", &format!("sphere_files: [{entries}]"))
+}
+
+/// A sphere's RON line with this radius and colour (None: white).
+fn ron_sphere(c: [f64; 3], r: f64, color: Option<[f64; 3]>) -> String {
+    let [x, y, z] = c;
+    let color = color.map_or(String::new(), |[a, b, c]| {
+        format!(", color: ({a:?}, {b:?}, {c:?})")
+    });
+    format!("(center: ({x:?}, {y:?}, {z:?}), radius: {r:?}{color}),")
+}
+
+/// An 8-bit sRGB level as linear light, by the sRGB standard's formula.
+fn srgb_linear(k: u8) -> f64 {
+    let c = f64::from(k) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        // libm's pow, as campath's (the standard library's may round its last bit otherwise).
+        libm::pow((c + 0.055) / 1.055, 2.4)
+    }
+}
+
+#[test]
+fn every_form_tools_write_hashes_like_the_same_spheres_inline() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let all = spheres(40);
+    let colour = |s: &S| Some(s.2.map(unit));
+    let inline = |line: &dyn Fn(&S) -> String| -> String {
+        let lines: String = all.iter().map(line).collect();
+        std::fs::write(t.join("inline.ron"), shot(&lines, &[])).unwrap();
+        hash(t, "inline.ron")
+    };
+    let mut cases: Vec<(&str, String, String)> = Vec::new();
+    let file = |name: &str, text: Vec<u8>| std::fs::write(t.join(name), text).unwrap();
+
+    // CSV with other names, extra columns, columns in any order, quotes and a comment mark.
+    let rows = |f: &dyn Fn(&S) -> String| -> String { all.iter().map(f).collect() };
+    let csv_full = |s: &S| {
+        let ([x, y, z], r, c) = *s;
+        let [a, b, cc] = c.map(unit);
+        format!("{x:?},{y:?},{z:?},{r:?},{a:?},{b:?},{cc:?}\n")
+    };
+    file(
+        "long.csv",
+        format!("x,y,z,radius,red,green,blue\n{}", rows(&csv_full)).into_bytes(),
+    );
+    let with_id = |s: &S| format!("{},7\n", csv_full(s).trim_end());
+    file(
+        "id.csv",
+        format!("x,y,z,radius,r,g,b,id\n{}", rows(&with_id)).into_bytes(),
+    );
+    let shuffled = |s: &S| {
+        let ([x, y, z], r, c) = *s;
+        let [a, b, cc] = c.map(unit);
+        format!("3,\"{cc:?}\",{x:?},{r:?},{z:?},{y:?},{b:?},{a:?},\"a, note\"\n")
+    };
+    file(
+        "shuffled.csv",
+        format!("//\"id\",\"B\",x,Radius,Z,y,G,R,note\n{}", rows(&shuffled)).into_bytes(),
+    );
+    let mapped = |s: &S| csv_full(s);
+    file(
+        "mapped.csv",
+        format!("PosX,PosY,PosZ,Size,cr,cg,cb\n{}", rows(&mapped)).into_bytes(),
+    );
+    let full = inline(&|s: &S| ron_sphere(s.0, s.1, colour(s)));
+    cases.push(("long.csv", "\"long.csv\"".into(), full.clone()));
+    cases.push(("id.csv", "\"id.csv\"".into(), full.clone()));
+    cases.push(("shuffled.csv", "\"shuffled.csv\"".into(), full.clone()));
+    cases.push((
+        "mapped.csv",
+        "(path: \"mapped.csv\", columns: (x: \"posx\", y: \"POSY\", z: \"PosZ\", radius: \"Size\", red: \"cr\", green: \"cg\", blue: \"cb\"))".into(),
+        full.clone(),
+    ));
+
+    // `X,Y,Z,R`: R is the radius; white.
+    let xyzr = |s: &S| {
+        let ([x, y, z], r, _) = *s;
+        format!("{x:?},{y:?},{z:?},{r:?}\n")
+    };
+    file(
+        "upper.csv",
+        format!("X,Y,Z,R\n{}", rows(&xyzr)).into_bytes(),
+    );
+    let white = inline(&|s: &S| ron_sphere(s.0, s.1, None));
+    cases.push(("upper.csv", "\"upper.csv\"".into(), white));
+
+    // `x,y,z`: the entry's radius and colour.
+    let xyz = |s: &S| {
+        let [x, y, z] = s.0;
+        format!("{x:?},{y:?},{z:?}\n")
+    };
+    file("points.csv", format!("x,y,z\n{}", rows(&xyz)).into_bytes());
+    let given = inline(&|s: &S| ron_sphere(s.0, 0.25, Some([0.5, 0.25, 1.0])));
+    cases.push((
+        "points.csv",
+        "(path: \"points.csv\", radius: 0.25, color: (0.5, 0.25, 1.0))".into(),
+        given,
+    ));
+
+    // PLY without a radius: binary with doubles and byte colours, and ASCII floats alone (a
+    // float is the f32 nearest the text, as a binary file holds it).
+    let mut bin = format!("ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int id\nend_header\n", all.len()).into_bytes();
+    let mut ascii = format!("ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n", all.len());
+    for s in &all {
+        for v in s.0 {
+            bin.extend(v.to_le_bytes());
+        }
+        bin.extend(s.2);
+        bin.extend(9i32.to_le_bytes());
+        let [x, y, z] = s.0.map(|v| v as f32);
+        ascii.push_str(&format!("{x} {y} {z}\n"));
+    }
+    file("norad.ply", bin);
+    file("cloud.ply", ascii.into_bytes());
+    let bin_want = inline(&|s: &S| ron_sphere(s.0, 0.25, colour(s)));
+    cases.push((
+        "norad.ply",
+        "(path: \"norad.ply\", radius: 0.25)".into(),
+        bin_want,
+    ));
+    let f32s = inline(&|s: &S| ron_sphere(s.0.map(|v| f64::from(v as f32)), 0.1, None));
+    cases.push((
+        "cloud.ply",
+        "(path: \"cloud.ply\", radius: 0.1)".into(),
+        f32s,
+    ));
+
+    // Extended XYZ with a radius and colours, and plain XYZ by species.
+    let mut ext = format!(
+        "{}\nLattice=\"10 0 0 0 10 0 0 0 10\" Properties=species:S:1:pos:R:3:radius:R:1:color:R:3:id:I:1 pbc=\"T T T\"\n",
+        all.len()
+    );
+    let mut plain = format!("{}\nwater, plain\n", all.len());
+    for (k, s) in all.iter().enumerate() {
+        let ([x, y, z], r, c) = *s;
+        let [a, b, cc] = c.map(unit);
+        ext.push_str(&format!(
+            "C {x:?} {y:?}\t{z:?} {r:?} {a:?} {b:?} {cc:?} {k}\n"
+        ));
+        let species = ["O", "H", "H"][k % 3];
+        plain.push_str(&format!("{species} {x:?} {y:?} {z:?}\n"));
+    }
+    file("ext.xyz", ext.into_bytes());
+    file("plain.xyz", plain.into_bytes());
+    cases.push(("ext.xyz", "\"ext.xyz\"".into(), full.clone()));
+    let by_species = inline(&|s: &S| {
+        let k = all.iter().position(|o| o == s).unwrap();
+        match k % 3 {
+            0 => ron_sphere(s.0, 0.6, Some([0.9, 0.1, 0.1])),
+            _ => ron_sphere(s.0, 0.3, Some([1.0, 1.0, 1.0])),
+        }
+    });
+    cases.push((
+        "plain.xyz",
+        "(path: \"plain.xyz\", radius_by: Types(column: \"species\", radii: {\"O\": 0.6, \"H\": 0.3}), color_by: Types(column: \"SPECIES\", colors: {\"O\": (0.9, 0.1, 0.1), \"H\": (1.0, 1.0, 1.0)}))".into(),
+        by_species,
+    ));
+
+    // A colormap's ends (viridis: #440154 and #fde725), and values past them held there; a
+    // radius over a range.
+    let ends = |s: &S| {
+        let ([x, y, z], r, _) = *s;
+        let speed = if s.2[0] < 128 { -1.0 - r } else { 2.0 + r };
+        format!("{x:?},{y:?},{z:?},{speed:?},{r:?}\n")
+    };
+    file(
+        "speed.csv",
+        format!("x,y,z,speed,mass\n{}", rows(&ends)).into_bytes(),
+    );
+    let viridis = inline(&|s: &S| {
+        let rgb = match s.2[0] < 128 {
+            true => [0x44, 0x01, 0x54],
+            false => [0xfd, 0xe7, 0x25],
+        };
+        let radius = 0.1 + ((s.1 - 0.1) / (0.6 - 0.1)).clamp(0.0, 1.0) * (0.3 - 0.1);
+        ron_sphere(s.0, radius, Some(rgb.map(srgb_linear)))
+    });
+    cases.push((
+        "speed.csv",
+        "(path: \"speed.csv\", color_by: Colormap(column: \"speed\", map: \"viridis\", range: (0.0, 1.0)), radius_by: Range(column: \"mass\", range: (0.1, 0.6), radii: (0.1, 0.3)))".into(),
+        viridis,
+    ));
+
+    for (name, entry, want) in &cases {
+        std::fs::write(t.join("f.ron"), shot_with("", entry)).unwrap();
+        assert_eq!(&hash(t, "f.ron"), want, "{name}: {entry}");
+    }
+    // `check` names the columns each file reads past, once.
+    std::fs::write(
+        t.join("f.ron"),
+        shot_with(
+            "",
+            "\"shuffled.csv\", (path: \"norad.ply\", radius: 0.25), \"ext.xyz\"",
+        ),
+    )
+    .unwrap();
+    let o = campath(t, &["check", "f.ron"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("shuffled.csv: 40 sphere(s) (columns read past: id, note)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("norad.ply: 40 sphere(s) (columns read past: id)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("ext.xyz: 40 sphere(s) (columns read past: species, id)"),
+        "{out}"
+    );
 }

@@ -161,7 +161,7 @@ fn a_suite_fails_without_goldens_is_approved_and_then_catches_one_changed_shot()
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
     assert_eq!(
         stdout(&o).matches(": passed (").count(),
-        3,
+        5,
         "{}",
         stdout(&o)
     );
@@ -498,7 +498,7 @@ fn the_repositorys_own_shots_pass() {
     assert_eq!(o.status.code(), Some(0), "{}{}", stdout(&o), stderr(&o));
     assert_eq!(
         stdout(&o).matches(": passed (").count(),
-        3,
+        5,
         "{}",
         stdout(&o)
     );

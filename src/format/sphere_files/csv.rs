@@ -1,22 +1,22 @@
-//! The CSV form: a header `x,y,z,radius` or `x,y,z,radius,r,g,b`, then a sphere a line. A line
-//! is split at its commas, each field trimmed; a line that does not read so and holds a `"` is
-//! read again as CSV with quotes (RFC 4180), by the csv crate. Since no field with a `"` is a
-//! number or a header name, a line without quotes reads as it always did.
+//! The CSV form: a header line naming the columns, then a sphere a line. Columns are found by
+//! name in any order, extra ones read past ([`Layout`]). A line is split at its commas, each
+//! field trimmed; a line that does not read so and holds a `"` is read again as CSV with quotes
+//! (RFC 4180), by the csv crate. Since no field with a `"` is a number, a line without quotes
+//! reads as it always did.
 
 use std::io::BufRead;
 
-use super::header::{quoted, HeaderLines, CR_ALONE};
+use super::header::{HeaderLines, CR_ALONE};
 use super::listing::{FileProblem, Listing, Location};
-use super::text::{text_f64, text_records, Rows};
-use crate::format::SphereSpec;
-
-/// A CSV file's columns, in the order its header names them.
-const CSV_NAMES: [&str; 7] = ["x", "y", "z", "radius", "r", "g", "b"];
+use super::look::{Column, Kind, Layout, Words, SLOTS};
+use super::text::{text_records, Rows};
+use crate::format::{SphereFileSpec, SphereSpec};
 
 /// The CSV form read from `file`: the header line, then the body's lines in blocks on the
 /// pool ([`text_records`]).
 pub(super) fn csv_from<T>(
     mut file: impl BufRead + Send,
+    spec: &SphereFileSpec,
     out: &mut Vec<T>,
     make: &impl Fn(usize, &SphereSpec) -> T,
     listing: &mut Listing,
@@ -24,7 +24,11 @@ pub(super) fn csv_from<T>(
     let mut lines = HeaderLines::new("is it a CSV file?", false);
     let (n, header) = loop {
         match lines.next(&mut file)? {
-            None => return Err(FileProblem::whole("empty: expected a header x,y,z,radius")),
+            None => {
+                return Err(FileProblem::whole(
+                    "empty: expected a header line, as x,y,z,radius",
+                ))
+            }
             // A byte-order mark starts the file, whatever line holds the header.
             Some((1, l)) if l.trim_start_matches('\u{feff}').trim().is_empty() => continue,
             Some((_, l)) if l.is_empty() => continue,
@@ -38,33 +42,47 @@ pub(super) fn csv_from<T>(
             .to_string(),
         _ => header,
     };
-    let record;
-    let mut names: Vec<&str> = header.split(',').map(str::trim).collect();
-    if header.contains('"') {
-        record = with_quotes(&header).map_err(|e| FileProblem::at(Location::Line(n), e))?;
-        names = record.iter().map(str::trim).collect();
-    }
-    let colours = match names.as_slice() {
-        ["x", "y", "z", "radius"] => false,
-        ["x", "y", "z", "radius", "r", "g", "b"] => true,
-        _ => {
-            // A line that still holds a CR: lines end in CR alone.
-            let cr = match header.contains('\r') {
-                true => format!(" ({CR_ALONE})"),
-                false => String::new(),
-            };
-            return Err(FileProblem::at(
-                Location::Line(n),
-                format!(
-                    "the header must be x,y,z,radius or x,y,z,radius,r,g,b, got {}{cr}",
-                    quoted(&header)
-                ),
-            ));
-        }
+    // A header some tools mark as a comment: `# x,y,z` (NumPy), `//X,Y,Z` (CloudCompare).
+    let names_text = (header
+        .strip_prefix("//")
+        .or_else(|| header.strip_prefix('#')))
+    .unwrap_or(&header);
+    let bad_header = |e: String| {
+        // A line that still holds a CR: lines end in CR alone.
+        let cr = match header.contains('\r') {
+            true => format!(" ({CR_ALONE})"),
+            false => String::new(),
+        };
+        FileProblem::at(Location::Line(n), format!("{e}{cr}"))
     };
-    let parse = |line: &str, _: &mut Vec<f64>| match sphere(line.split(','), colours) {
-        Err(_) if line.contains('"') => requoted(line, colours),
-        read => read,
+    let names: Vec<String> = match names_text.contains('"') {
+        true => with_quotes(names_text)
+            .map_err(bad_header)?
+            .iter()
+            .map(|f| f.trim().to_string())
+            .collect(),
+        false => names_text
+            .split(',')
+            .map(|f| f.trim().to_string())
+            .collect(),
+    };
+    let columns: Vec<Column> = (names.iter())
+        .map(|name| Column {
+            name: name.clone(),
+            kind: Kind::Number,
+        })
+        .collect();
+    let layout = Layout::resolve(spec, &columns).map_err(bad_header)?;
+    listing.ignored = layout.ignored.clone();
+    let fields = Fields::new(&layout, &names);
+    let parse = |line: &str, _: &mut Vec<f64>| {
+        let read = fields
+            .words(line.split(','))
+            .and_then(|w| layout.sphere(&w));
+        match read {
+            Err(_) if line.contains('"') => fields.requoted(line, &layout),
+            read => read,
+        }
     };
     let first = n + 1;
     listing.first_line = Some(first);
@@ -99,46 +117,66 @@ pub(super) fn csv_from<T>(
     ended.map(|_| ())
 }
 
-/// The sphere of a line's fields (trimmed here), with colours or without.
-#[inline(always)]
-fn sphere<'a>(line: impl Iterator<Item = &'a str>, colours: bool) -> Result<SphereSpec, String> {
-    let fields = if colours { 7 } else { 4 };
-    let mut words = [""; 7];
-    let mut got = 0;
-    for (k, field) in line.enumerate() {
-        if let Some(word) = words.get_mut(k) {
-            *word = field.trim();
-        }
-        got = k + 1;
-    }
-    if got != fields {
-        return Err(format!(
-            "expected {fields} fields ({}), got {got}",
-            CSV_NAMES[..fields].join(",")
-        ));
-    }
-    let mut values = [0.0; 7];
-    for (k, (value, word)) in values.iter_mut().zip(words).take(fields).enumerate() {
-        *value = text_f64(word).ok_or_else(|| {
-            let hint = match word.starts_with('"') {
-                true => " (a quoted field starts with its quote: no space before it)",
-                false => "",
-            };
-            format!("{}: not a number: {}{hint}", CSV_NAMES[k], quoted(word))
-        })?;
-    }
-    let [x, y, z, radius, r, g, b] = values;
-    Ok(SphereSpec {
-        center: (x, y, z),
-        radius,
-        color: colours.then_some((r, g, b)),
-    })
+/// Which of a line's fields each slot reads.
+pub(super) struct Fields {
+    /// (column, slot), by column.
+    wanted: Vec<(usize, usize)>,
+    /// How many fields a line holds, and the header's names for a message.
+    count: usize,
+    names: String,
 }
 
-/// The sphere of a line that holds a quote, read as CSV with quotes.
-#[cold]
-fn requoted(line: &str, colours: bool) -> Result<SphereSpec, String> {
-    sphere(with_quotes(line)?.iter(), colours)
+impl Fields {
+    pub(super) fn new(layout: &Layout, names: &[String]) -> Fields {
+        let mut wanted: Vec<(usize, usize)> = (layout.cols.iter().enumerate())
+            .filter_map(|(slot, col)| col.map(|k| (k, slot)))
+            .collect();
+        wanted.sort_unstable();
+        let joined = names.join(",");
+        Fields {
+            wanted,
+            count: names.len(),
+            names: match joined.chars().count() <= 60 {
+                true => joined,
+                false => "as the header names them".to_string(),
+            },
+        }
+    }
+
+    /// A line's fields (trimmed here), one a slot; the line must have the header's count.
+    #[inline(always)]
+    pub(super) fn words<'a>(
+        &self,
+        line: impl Iterator<Item = &'a str>,
+    ) -> Result<Words<'a>, String> {
+        let mut words = [""; SLOTS];
+        let mut next = 0;
+        let mut got = 0;
+        for (k, field) in line.enumerate() {
+            while let Some(&(col, slot)) = self.wanted.get(next) {
+                if col != k {
+                    break;
+                }
+                words[slot] = field.trim();
+                next += 1;
+            }
+            got = k + 1;
+        }
+        if got != self.count {
+            return Err(format!(
+                "expected {} fields ({}), got {got}",
+                self.count, self.names
+            ));
+        }
+        Ok(Words(words))
+    }
+
+    /// The sphere of a line that holds a quote, read as CSV with quotes.
+    #[cold]
+    fn requoted(&self, line: &str, layout: &Layout) -> Result<SphereSpec, String> {
+        let record = with_quotes(line)?;
+        layout.sphere(&self.words(record.iter())?)
+    }
 }
 
 /// A line's fields read as CSV with quotes: a field in quotes may hold commas, and `""` stands

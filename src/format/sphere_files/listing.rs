@@ -66,6 +66,8 @@ pub struct Listing {
     /// checked too; an ASCII PLY's keeps its vertex's place with a stand-in sphere), then what
     /// ended the reading early, if anything.
     pub problems: Vec<(usize, FileProblem)>,
+    /// The file's columns that no field reads, as its header names them.
+    pub ignored: Vec<String>,
     /// Rows that could not be read past the first [`PROBLEMS_SHOWN`] − 1 named: counted, not
     /// kept (a file of a million bad rows costs no message a row), and named as a count in
     /// the hundredth place, which a message shows.

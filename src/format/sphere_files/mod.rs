@@ -1,6 +1,7 @@
-//! Sphere files: spheres kept outside the keyframe file, as PLY (ASCII or binary little-endian)
-//! or CSV, the forms particle systems, point clouds and molecule tools write; docs/format.md
-//! says what each may hold.
+//! Sphere files: spheres kept outside the keyframe file, as PLY (ASCII or binary little-endian),
+//! CSV or (extended) XYZ, the forms particle systems, point clouds and molecule tools write;
+//! docs/format.md says what each may hold. Columns are found by name ([`look`]), and what a
+//! file lacks comes from its entry in the keyframe file.
 //!
 //! Numbers are read exactly: a `double` in PLY, or a number in CSV (the value `f64::from_str`
 //! gives, as RON reads its floats), gives the same bits as the same number in RON. Nothing is
@@ -14,30 +15,35 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::Path;
 
-use super::SphereSpec;
+use super::{SphereFileSpec, SphereSpec};
 
 mod csv;
 mod header;
 mod listing;
+mod look;
 mod ply_body;
 mod ply_header;
 #[cfg(test)]
 mod tests;
 mod text;
+mod xyz;
 
 use listing::listed;
 pub use listing::{FileProblem, Listing};
+pub use look::{colormap, COLORMAPS};
 
 /// The most bytes of a sphere file's body read at a time (a binary PLY's: whole vertices, at
 /// least one): a million spheres' 56 MB pass through 4 MiB.
 pub const BLOCK_BYTES: usize = 4 << 20;
 
-/// Reads a sphere file, by its extension (`.ply` or `.csv`), appending `make(i, sphere)` to
-/// `out` for each sphere `i` in file order; `make` runs on the rayon pool for a binary PLY.
+/// Reads a sphere file, by its extension (`.ply`, `.csv`, `.xyz` or `.extxyz`), as `spec`
+/// says, appending `make(i, sphere)` to `out` for each sphere `i` in file order; `make` runs on
+/// the rayon pool for a binary PLY.
 /// The spheres read stay in `out` whatever the file's problems (the listing's), so their own
 /// problems can be named too.
 pub fn read<T: Send>(
     path: &Path,
+    spec: &SphereFileSpec,
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T + Sync,
 ) -> Listing {
@@ -49,13 +55,16 @@ pub fn read<T: Send>(
             .map_err(|e| FileProblem::whole(format!("cannot open {}: {e}", path.display())))?;
         let len = file.metadata().map_err(FileProblem::io)?.len();
         match ext.as_deref() {
-            Some("ply") => ply_body::ply_from(BufReader::new(file), len, out, &make, listing),
-            Some("csv") => csv::csv_from(BufReader::new(file), out, &make, listing),
+            Some("ply") => ply_body::ply_from(BufReader::new(file), len, spec, out, &make, listing),
+            Some("csv") => csv::csv_from(BufReader::new(file), spec, out, &make, listing),
+            Some("xyz" | "extxyz") => {
+                xyz::xyz_from(BufReader::new(file), spec, out, &make, listing)
+            }
             _ => {
                 // A folder, or a file that cannot be read, is named as such whatever its name.
                 file.read(&mut [0]).map_err(FileProblem::io)?;
                 Err(FileProblem::whole(
-                    "a sphere file is .ply or .csv (by its extension)",
+                    "a sphere file is .ply, .csv, .xyz or .extxyz (by its extension)",
                 ))
             }
         }

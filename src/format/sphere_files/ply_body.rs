@@ -2,16 +2,18 @@
 //! elements before the vertices read past.
 
 use std::io::{self, BufRead, Read};
+use std::sync::{Mutex, PoisonError};
 
 use rayon::prelude::*;
 
 use super::header::quoted;
 use super::listing::{FileProblem, Listing, Location};
-use super::ply_header::{self, fixed_offsets, Columns, Element, Header, Property, Scalar};
+use super::look::{Layout, SLOTS};
+use super::ply_header::{self, fixed_offsets, Element, Header, Property, Scalar};
 use super::text::{text_records, Rows};
 use super::BLOCK_BYTES;
 use crate::format::blocks::{self, Blocks};
-use crate::format::SphereSpec;
+use crate::format::{SphereFileSpec, SphereSpec};
 
 /// The fewest vertices a pool task parses: a small file stays one task.
 const TASK_VERTICES: usize = 4096;
@@ -21,18 +23,20 @@ const TASK_VERTICES: usize = 4096;
 pub(super) fn ply_from<T: Send>(
     mut file: impl BufRead + Send,
     len: u64,
+    spec: &SphereFileSpec,
     out: &mut Vec<T>,
     make: &(impl Fn(usize, &SphereSpec) -> T + Sync),
     listing: &mut Listing,
 ) -> Result<(), FileProblem> {
-    let header = ply_header::header(&mut file)?;
+    let header = ply_header::header(&mut file, spec)?;
     let Header {
         elements,
         vertex,
-        columns,
+        layout,
         last,
         ..
     } = &header;
+    listing.ignored = layout.ignored.clone();
     let v = &elements[*vertex];
     if !header.binary {
         return ascii_vertices(&mut file, &header, out, make, listing);
@@ -44,16 +48,32 @@ pub(super) fn ply_from<T: Send>(
             // Room for the vertices the file can hold, not for whatever the header claims.
             let room = usize::try_from(len / stride as u64).unwrap_or(usize::MAX);
             out.reserve(v.count.min(room));
-            let at = columns.fields.map(|k| offsets[k]);
-            fixed_vertices(&mut file, v.count, stride, out, |i, vertex| {
-                let mut fields = [0.0; 7];
-                for (f, (o, t)) in fields.iter_mut().zip(at) {
-                    *f = t.le(&vertex[o..o + t.size()]);
+            let at = layout.cols.map(|k| k.map(|k| offsets[k]));
+            // A row a type table does not name: noted from the pool's tasks, a stand-in in
+            // its place, named afterwards in file order.
+            let unread = Mutex::new(Vec::new());
+            let read = fixed_vertices(&mut file, v.count, stride, out, |i, vertex| {
+                let mut fields = [0.0; SLOTS];
+                for (f, at) in fields.iter_mut().zip(at) {
+                    if let Some((o, t)) = at {
+                        *f = t.le(&vertex[o..o + t.size()]);
+                    }
                 }
-                make(i, &columns.sphere(fields))
-            })
+                let sphere = layout.sphere(&fields).unwrap_or_else(|what| {
+                    let mut unread = unread.lock().unwrap_or_else(PoisonError::into_inner);
+                    unread.push((i, what));
+                    STAND_IN
+                });
+                make(i, &sphere)
+            });
+            let mut unread = unread.into_inner().unwrap_or_else(PoisonError::into_inner);
+            unread.sort_unstable_by_key(|(i, _)| *i);
+            for (i, what) in unread {
+                listing.unreadable(i, FileProblem::at(Location::Vertex(i), what));
+            }
+            read
         }
-        None => listed_vertices(&mut file, v, columns, out, make),
+        None => listed_vertices(&mut file, v, layout, out, make, listing),
     }?;
     if *last && !file.fill_buf().map_err(FileProblem::io)?.is_empty() {
         return Err(FileProblem::whole(format!(
@@ -176,9 +196,10 @@ fn fixed_vertices<T: Send>(
 fn listed_vertices<T>(
     body: &mut impl BufRead,
     v: &Element,
-    columns: &Columns,
+    layout: &Layout,
     out: &mut Vec<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
+    listing: &mut Listing,
 ) -> Result<(), FileProblem> {
     let mut values = vec![0.0; v.properties.len()];
     let mut bytes = [0; 8];
@@ -206,7 +227,12 @@ fn listed_vertices<T>(
                 }
             }
         }
-        out.push(make(i, &columns.sphere(columns.fields(&values))));
+        let row = layout.cols.map(|k| k.map_or(0.0, |k| values[k]));
+        let sphere = layout.sphere(&row).unwrap_or_else(|what| {
+            listing.unreadable(i, FileProblem::at(Location::Vertex(i), what));
+            STAND_IN
+        });
+        out.push(make(i, &sphere));
     }
     Ok(())
 }
@@ -233,7 +259,7 @@ fn ascii_vertices<T>(
     let Header {
         ref elements,
         vertex,
-        ref columns,
+        ref layout,
         first_line,
         last,
         ..
@@ -302,7 +328,7 @@ fn ascii_vertices<T>(
         if words.next().is_some() {
             return Err("more values than the header's properties".to_string());
         }
-        Ok(columns.sphere(columns.fields(values)))
+        layout.sphere(&layout.cols.map(|k| k.map_or(0.0, |k| values[k])))
     };
     let problem = |i, at, what: String| {
         let what = match i < v.count {

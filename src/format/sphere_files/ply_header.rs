@@ -5,8 +5,9 @@ use std::io::BufRead;
 
 use super::header::{quoted, HeaderLines, CR_ALONE};
 use super::listing::{FileProblem, Location};
+use super::look::{Column, Kind, Layout};
 use super::text::{text_f32, text_f64};
-use crate::format::SphereSpec;
+use crate::format::SphereFileSpec;
 
 /// A PLY property's scalar type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -130,7 +131,7 @@ pub(super) struct Header {
     pub elements: Vec<Element>,
     /// Which element is `vertex`.
     pub vertex: usize,
-    pub columns: Columns,
+    pub layout: Layout,
     /// The body's first line.
     pub first_line: usize,
     /// Whether nothing follows the vertices.
@@ -138,7 +139,7 @@ pub(super) struct Header {
 }
 
 /// The header of a PLY file, read up to its `end_header` line.
-pub(super) fn header(mut file: impl BufRead) -> Result<Header, FileProblem> {
+pub(super) fn header(mut file: impl BufRead, spec: &SphereFileSpec) -> Result<Header, FileProblem> {
     // The header is ASCII lines up to `end_header`.
     let mut lines = HeaderLines::new("is `end_header` missing?", true);
     let bad = |n: usize, m: String| FileProblem::at(Location::Line(n), m);
@@ -238,14 +239,14 @@ pub(super) fn header(mut file: impl BufRead) -> Result<Header, FileProblem> {
         .iter()
         .position(|e| e.name == "vertex")
         .ok_or_else(|| FileProblem::whole("the header has no `element vertex`"))?;
-    let columns = Columns::of(&elements[vertex])?;
+    let layout = layout(&elements[vertex], spec)?;
     // Whether the vertices end the body: then nothing may follow them.
     let last = (elements[vertex + 1..].iter()).all(|e| e.count == 0 || e.properties.is_empty());
     Ok(Header {
         binary,
         elements,
         vertex,
-        columns,
+        layout,
         first_line: lines.line + 1,
         last,
     })
@@ -266,86 +267,37 @@ fn last_element<'a>(elements: &'a mut [Element], name: &str) -> Result<&'a mut E
     }
 }
 
-/// Which scalar of a vertex holds each sphere field, and whether colours are bytes.
-pub(super) struct Columns {
-    /// The properties holding x, y, z, radius, red, green and blue (without colours, the last
-    /// three are x's, read and not used).
-    pub fields: [usize; 7],
-    colours: bool,
-    rgb_bytes: bool,
-}
-
-impl Columns {
-    fn of(vertex: &Element) -> Result<Columns, FileProblem> {
-        let find = |name: &str| {
-            vertex.properties.iter().position(|p| match p {
-                Property::Scalar(_, n) => n == name,
-                Property::List(..) => false,
-            })
-        };
-        let mut xyz_radius = [0; 4];
-        for (slot, name) in xyz_radius.iter_mut().zip(["x", "y", "z", "radius"]) {
-            *slot = find(name).ok_or_else(|| {
-                FileProblem::whole(format!("element vertex has no property {name}"))
-            })?;
-        }
-        let rgb = match (find("red"), find("green"), find("blue")) {
-            (Some(r), Some(g), Some(b)) => Some([r, g, b]),
-            (None, None, None) => None,
-            _ => {
-                return Err(FileProblem::whole(
-                    "element vertex has some of red, green, blue but not all three",
-                ))
-            }
-        };
-        let rgb_bytes = match rgb {
-            Some(c) => {
-                let types: Vec<Scalar> = c
-                    .iter()
-                    .map(|&k| match &vertex.properties[k] {
-                        Property::Scalar(t, _) => *t,
-                        Property::List(..) => unreachable!("found among scalars"),
-                    })
-                    .collect();
-                if types.iter().all(|t| *t == Scalar::U8) {
-                    true
-                } else if types.iter().all(|t| matches!(t, Scalar::F32 | Scalar::F64)) {
-                    false
-                } else {
-                    return Err(FileProblem::whole(
-                        "red, green and blue must all be uchar (0–255) or all float or double (0–1)",
-                    ));
-                }
-            }
-            None => false,
-        };
-        let [x, y, z, radius] = xyz_radius;
-        let [red, green, blue] = rgb.unwrap_or([x; 3]);
-        Ok(Columns {
-            fields: [x, y, z, radius, red, green, blue],
-            colours: rgb.is_some(),
-            rgb_bytes,
+/// The layout of a vertex's properties ([`Layout`]): colours of `uchar` are bytes (0–255),
+/// of `float` or `double` levels (0–1).
+fn layout(vertex: &Element, spec: &SphereFileSpec) -> Result<Layout, FileProblem> {
+    let columns: Vec<Column> = (vertex.properties.iter())
+        .map(|p| match p {
+            Property::Scalar(_, name) => Column {
+                name: name.clone(),
+                kind: Kind::Number,
+            },
+            Property::List(_, _, name) => Column {
+                name: name.clone(),
+                kind: Kind::List,
+            },
         })
-    }
-
-    /// A vertex's fields, in the order of [`Columns::fields`], from its properties' values.
-    pub fn fields(&self, values: &[f64]) -> [f64; 7] {
-        self.fields.map(|k| values[k])
-    }
-
-    /// The sphere of a vertex's fields, in the order of [`Columns::fields`].
-    #[inline(always)]
-    pub fn sphere(&self, [x, y, z, radius, red, green, blue]: [f64; 7]) -> SphereSpec {
-        // A byte's level k is k / 255, as the same colour written in RON.
-        let level = |v: f64| if self.rgb_bytes { v / 255.0 } else { v };
-        SphereSpec {
-            center: (x, y, z),
-            radius,
-            color: self
-                .colours
-                .then(|| (level(red), level(green), level(blue))),
+        .collect();
+    let mut layout = Layout::resolve(spec, &columns)
+        .map_err(|m| FileProblem::whole(format!("element vertex: {m}")))?;
+    if let Some(rgb) = layout.color_columns() {
+        let types = rgb.map(|k| match &vertex.properties[k] {
+            Property::Scalar(t, _) => *t,
+            Property::List(..) => unreachable!("a list is never a colour"),
+        });
+        if types.iter().all(|t| *t == Scalar::U8) {
+            layout.color_bytes();
+        } else if !types.iter().all(|t| matches!(t, Scalar::F32 | Scalar::F64)) {
+            return Err(FileProblem::whole(
+                "red, green and blue must all be uchar (0–255) or all float or double (0–1)",
+            ));
         }
     }
+    Ok(layout)
 }
 
 /// Each vertex property's byte offset and type, when all are scalars: a vertex is then a

@@ -9,8 +9,9 @@ use listing::Location;
 
 /// The CSV form of `bytes`, appending `make(i, sphere)` to `out` for each sphere.
 fn read_csv<T>(bytes: &[u8], out: &mut Vec<T>, make: impl Fn(usize, &SphereSpec) -> T) -> Listing {
+    let spec = SphereFileSpec::default();
     listed(out, |out, listing| {
-        csv::csv_from(bytes, out, &make, listing)
+        csv::csv_from(bytes, &spec, out, &make, listing)
     })
 }
 
@@ -21,8 +22,9 @@ fn read_ply<T: Send>(
     make: impl Fn(usize, &SphereSpec) -> T + Sync,
 ) -> Listing {
     let len = bytes.len() as u64;
+    let spec = SphereFileSpec::default();
     listed(out, |out, listing| {
-        ply_body::ply_from(bytes, len, out, &make, listing)
+        ply_body::ply_from(bytes, len, &spec, out, &make, listing)
     })
 }
 
@@ -102,10 +104,10 @@ fn csv_quoted_fields() {
     let quoted = csv(b"\"x\",\"y\",z,\" radius\",r,g,\"b\"\r\n\"1.5\",2,\"3\",0.5,0,\"0.5\",1\n");
     assert_eq!(quoted.unwrap(), plain);
     for (text, want) in [
-        (&b"x,y,z,radius\n\"1,5\",2,3,4\n"[..], "x: not a number: \"1,5\""),
+        (&b"x,y,z,radius\n\"1,5\",2,3,4\n"[..], "column 1 (x): not a number: \"1,5\""),
         (
             b"x,y,z,radius\n1, \"2\",3,4\n",
-            "y: not a number: \"\\\"2\\\"\" (a quoted field starts with its quote: no space before it)",
+            "column 2 (y): not a number: \"\\\"2\\\"\" (a quoted field starts with its quote: no space before it)",
         ),
         (b"x,y,z,radius\n\"1,2,3,4\n", "a quote is not closed: close it on the same line"),
         (b"x,y,z,radius\n\"1\",2,3\n", "expected 4 fields (x,y,z,radius), got 3"),
@@ -114,7 +116,17 @@ fn csv_quoted_fields() {
         assert_eq!((e.at, e.message.as_str()), (Some(Location::Line(2)), want));
     }
     let e = csv(b"\"x,y\",z,radius\n").unwrap_err();
-    assert!(e.message.starts_with("the header must be"), "{e:?}");
+    assert!(
+        e.message
+            .starts_with("no column for x in the header \"x,y,z,radius\""),
+        "{e:?}"
+    );
+    let e = csv(b"1,2,3,4\n").unwrap_err();
+    assert!(
+        e.message
+            .starts_with("no header: the first line must name the columns"),
+        "{e:?}"
+    );
 }
 
 fn header(format: &str, props: &str, n: usize) -> Vec<u8> {
@@ -172,7 +184,7 @@ fn ply_problems_name_what_is_missing() {
         0,
     ))
     .unwrap_err();
-    assert!(e.message.contains("no property radius"), "{e:?}");
+    assert!(e.message.contains("no radius column"), "{e:?}");
     let props = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
     let mut short = header("ascii", props, 1);
     short.extend_from_slice(b"1 2 3\n");
@@ -424,7 +436,7 @@ fn text_blocks_keep_file_order_and_name_the_first_bad_line() {
         .replacen(&format!("\n{b},0,0,1\n"), &format!("\n{b},0\n"), 1);
     let e = csv(bad.as_bytes()).unwrap_err();
     assert_eq!(e.at, Some(Location::Line(line_of[a])), "{e:?}");
-    assert_eq!(e.message, "z: not a number: \"zero\"");
+    assert_eq!(e.message, "column 3 (z): not a number: \"zero\"");
 
     let xyzr = "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
     let mut ply_text =
@@ -482,7 +494,11 @@ fn every_bad_row_is_named_and_the_rest_still_read() {
     assert_eq!(
         problems(listing),
         [
-            (1, line(3), "x: not a number: \"foo\"".to_string()),
+            (
+                1,
+                line(3),
+                "column 1 (x): not a number: \"foo\"".to_string()
+            ),
             (
                 2,
                 line(6),
@@ -673,4 +689,126 @@ fn text_numbers_are_what_from_str_reads() {
     ] {
         check(field);
     }
+}
+
+fn read_with(name: &str, bytes: &[u8], spec: &SphereFileSpec) -> Read {
+    let mut out = Vec::new();
+    let make = |_: usize, s: &SphereSpec| s.clone();
+    let listing = listed(&mut out, |out, listing| match name {
+        "csv" => csv::csv_from(bytes, spec, out, &make, listing),
+        _ => xyz::xyz_from(bytes, spec, out, &make, listing),
+    });
+    first(out, listing)
+}
+
+/// Columns by their usual names, in any order and case: `r` is the radius beside x, y, z
+/// alone and red beside `g` and `b`; two columns that could be one field, some colour columns
+/// without the rest, and a rule's column the header lacks are each named with the fix.
+#[test]
+fn columns_are_found_by_name_or_named_with_the_fix() {
+    let spec = SphereFileSpec::default();
+    let one = |text: &[u8]| read_with("csv", text, &spec).map(|(s, _)| s[0].clone());
+    assert_eq!(
+        one(b"X,Y,Z,R\n1,2,3,4\n").unwrap(),
+        sphere((1.0, 2.0, 3.0), 4.0, None)
+    );
+    assert_eq!(
+        one(b"b,g,r,Radius,z,y,x\n0.25,0.5,1,4,3,2,1\n").unwrap(),
+        sphere((1.0, 2.0, 3.0), 4.0, Some((1.0, 0.5, 0.25)))
+    );
+    assert_eq!(
+        one(b"# x,y,z,radius,id\n1,2,3,4,x\n").unwrap(),
+        sphere((1.0, 2.0, 3.0), 4.0, None)
+    );
+    let message =
+        |text: &[u8], spec: &SphereFileSpec| read_with("csv", text, spec).unwrap_err().message;
+    let m = message(b"x,y,z,radius,radii\n", &spec);
+    assert!(m.starts_with("columns \"radius\" and \"radii\" could both be radius: name one with columns: (radius:"), "{m}");
+    let m = message(b"x,y,z,radius,red,green\n", &spec);
+    assert!(m.contains("has some colour columns but no blue"), "{m}");
+    let m = message(b"x,y,z\n", &spec);
+    assert!(
+        m.contains("no radius column") && m.contains("radius: …"),
+        "{m}"
+    );
+    let named = SphereFileSpec {
+        columns: crate::format::ColumnsSpec {
+            x: Some("PosX".into()),
+            ..Default::default()
+        },
+        ..SphereFileSpec::default()
+    };
+    let m = message(b"x,y,z,radius\n", &named);
+    assert!(
+        m.starts_with("columns.x names \"PosX\", which the header"),
+        "{m}"
+    );
+    let by = SphereFileSpec {
+        radius: Some(1.0),
+        color_by: Some(crate::format::ColorBySpec::Colormap {
+            column: "speed".into(),
+            map: "viridis".into(),
+            range: (0.0, 1.0),
+        }),
+        ..SphereFileSpec::default()
+    };
+    let m = message(b"x,y,z\n", &by);
+    assert!(
+        m.starts_with("color_by's column \"speed\" is not in the header"),
+        "{m}"
+    );
+    // A colormap over a value that is not finite.
+    let e = read_with("csv", b"x,y,z,speed\n1,2,3,inf\n", &by).unwrap_err();
+    assert_eq!(e.message, "column 4 (speed): not a finite number: inf");
+}
+
+/// Extended XYZ: `Properties=` among other keys with quoted and braced values, in any case,
+/// widths giving `name[k]` columns; a plain file's species and position; a row that does not
+/// match its properties, a bad property and a short file are named.
+#[test]
+fn xyz_reads_its_properties() {
+    let spec = SphereFileSpec {
+        radius: Some(0.5),
+        ..SphereFileSpec::default()
+    };
+    let ext = b"2\nLattice=\"1 0 0 0 1 0 0 0 1\" info={a b} properties=species:S:1:pos:R:3:Color:R:3 pbc=\"T T T\"\nO 1 2 3 1 0 0\nH\t4 5 6 0 1 0\n";
+    let (s, listing) = read_with("xyz", ext, &spec).unwrap();
+    assert_eq!(s[1], sphere((4.0, 5.0, 6.0), 0.5, Some((0.0, 1.0, 0.0))));
+    assert_eq!(listing.ignored, ["species"]);
+    let (s, _) = read_with("xyz", b"1\n\nC 1 2 3\n2\nnext frame\n", &spec).unwrap();
+    assert_eq!(s, [sphere((1.0, 2.0, 3.0), 0.5, None)]);
+    let bad = |text: &[u8]| {
+        let e = read_with("xyz", text, &spec).unwrap_err();
+        (e.at, e.message)
+    };
+    assert_eq!(
+        bad(b"2\nProperties=species:S:1:pos:R:3:radius:R:1\nO 0 0 0 1\nH 1 1 1\n"),
+        (
+            Some(Location::Line(4)),
+            "expected 5 values (species pos[0] pos[1] pos[2] radius), got 4".to_string()
+        )
+    );
+    assert_eq!(
+        bad(b"1\nProperties=species:S:1:pos:X:3\nO 0 0 0\n"),
+        (
+            Some(Location::Line(2)),
+            "property \"pos\": type \"X\" is not R, I, S or L".to_string()
+        )
+    );
+    assert_eq!(
+        bad(b"1\nProperties=species:S:1:pos:R\nO 0 0 0\n").1,
+        "Properties=\"species:S:1:pos:R\" is not name:type:width triples"
+    );
+    assert_eq!(
+        bad(b"3\n\nO 0 0 0\n").1,
+        "truncated: the file ends at atom 1 of the 3 its first line gives"
+    );
+    assert_eq!(
+        bad(b"atoms\n").1,
+        "the first line must be the number of atoms, got \"atoms\""
+    );
+    assert_eq!(
+        bad(b"1\n\nO 0 0 0 9\n").1,
+        "expected 4 values (species pos[0] pos[1] pos[2]), got 5: name the columns with Properties= on the comment line"
+    );
 }

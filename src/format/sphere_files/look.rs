@@ -1,0 +1,508 @@
+//! How a sphere file's columns become spheres ([`Layout`]): which column holds each field,
+//! found by its usual names or by the keyframe file's `columns`, and what the file lacks given
+//! by the keyframe file (one radius, one colour, a colour or radius by type or over a number).
+//! Each form (CSV, PLY, XYZ) names its columns; a row's values reach [`Layout::sphere`] as
+//! text or as numbers ([`Row`]), one slot a field.
+
+use std::borrow::Cow;
+use std::collections::HashMap;
+
+use super::header::quoted;
+use super::text::text_f64;
+use crate::format::{ColorBySpec, RadiusBySpec, SphereFileSpec, SphereSpec, Triple};
+
+/// The slots of a row: the fields a sphere reads, each from one column.
+pub(super) const X: usize = 0;
+pub(super) const RADIUS: usize = 3;
+pub(super) const RED: usize = 4;
+/// The column `color_by` reads.
+pub(super) const COLOR_KEY: usize = 7;
+/// The column `radius_by` reads.
+pub(super) const RADIUS_KEY: usize = 8;
+pub(super) const SLOTS: usize = 9;
+
+/// The fields x, y, z, radius, red, green, blue as the keyframe file's `columns` names them.
+const FIELDS: [&str; 7] = ["x", "y", "z", "radius", "red", "green", "blue"];
+
+/// Each field's usual names in a header, compared in lower case. `r` is red in a header that
+/// also has `g` and `b`, and the radius in one that does not (`X,Y,Z,R`).
+const USUAL: [&[&str]; 7] = [
+    &[
+        "x",
+        "pos.x",
+        "position.x",
+        "pos_x",
+        "position_x",
+        "pos[0]",
+        "position[0]",
+        "positions[0]",
+    ],
+    &[
+        "y",
+        "pos.y",
+        "position.y",
+        "pos_y",
+        "position_y",
+        "pos[1]",
+        "position[1]",
+        "positions[1]",
+    ],
+    &[
+        "z",
+        "pos.z",
+        "position.z",
+        "pos_z",
+        "position_z",
+        "pos[2]",
+        "position[2]",
+        "positions[2]",
+    ],
+    &["radius", "radii"],
+    &[
+        "red",
+        "color.r",
+        "colour.r",
+        "color.red",
+        "color[0]",
+        "colors[0]",
+        "colour[0]",
+        "rgb[0]",
+    ],
+    &[
+        "green",
+        "color.g",
+        "colour.g",
+        "color.green",
+        "color[1]",
+        "colors[1]",
+        "colour[1]",
+        "rgb[1]",
+    ],
+    &[
+        "blue",
+        "color.b",
+        "colour.b",
+        "color.blue",
+        "color[2]",
+        "colors[2]",
+        "colour[2]",
+        "rgb[2]",
+    ],
+];
+
+/// The named colormaps of `color_by: Colormap(map: …)`.
+pub const COLORMAPS: [(&str, colorous::Gradient); 14] = [
+    ("viridis", colorous::VIRIDIS),
+    ("plasma", colorous::PLASMA),
+    ("inferno", colorous::INFERNO),
+    ("magma", colorous::MAGMA),
+    ("cividis", colorous::CIVIDIS),
+    ("turbo", colorous::TURBO),
+    ("cubehelix", colorous::CUBEHELIX),
+    ("rainbow", colorous::RAINBOW),
+    ("greys", colorous::GREYS),
+    ("blues", colorous::BLUES),
+    ("reds", colorous::REDS),
+    ("spectral", colorous::SPECTRAL),
+    ("red_blue", colorous::RED_BLUE),
+    ("cool", colorous::COOL),
+];
+
+/// The colormap of a name, in any case.
+pub fn colormap(name: &str) -> Option<colorous::Gradient> {
+    (COLORMAPS.iter())
+        .find(|(n, _)| n.eq_ignore_ascii_case(name))
+        .map(|(_, g)| *g)
+}
+
+/// What a column can hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Kind {
+    /// A number (CSV's text is read as one where a number is wanted).
+    Number,
+    /// Text only (an XYZ `S` or `L` property): a type's name.
+    Text,
+    /// A PLY list: nothing a sphere reads.
+    List,
+}
+
+/// A file's column as its header names it.
+pub(super) struct Column {
+    pub name: String,
+    pub kind: Kind,
+}
+
+/// How a sphere's radius is found.
+enum Radius {
+    Column,
+    Fixed(f64),
+    Types(HashMap<String, f64>),
+    /// `range.0 + t (range.1 − range.0)` ↦ `radii.0 + t (radii.1 − radii.0)`.
+    Range {
+        range: (f64, f64),
+        radii: (f64, f64),
+    },
+}
+
+/// How a sphere's colour is found.
+enum Color {
+    /// Red, green and blue columns: levels 0–1, or bytes 0–255 (`bytes`).
+    Columns {
+        bytes: bool,
+    },
+    /// The keyframe file's colour, or white.
+    Fixed(Option<Triple>),
+    Types(HashMap<String, Triple>),
+    Map {
+        map: colorous::Gradient,
+        range: (f64, f64),
+    },
+}
+
+/// How a file's rows become spheres: the column of each slot, and the rules for radius and
+/// colour.
+pub(super) struct Layout {
+    /// The column each slot reads ([`X`] … [`RADIUS_KEY`]); None where none is read.
+    pub cols: [Option<usize>; SLOTS],
+    /// Each read slot's column, for messages: `column 4 (radius)`.
+    labels: [String; SLOTS],
+    radius: Radius,
+    color: Color,
+    /// The columns nothing reads, named once.
+    pub ignored: Vec<String>,
+}
+
+/// A row's values, slot by slot.
+pub(super) trait Row {
+    /// The slot's number, or None where its text is not one.
+    fn number(&self, slot: usize) -> Option<f64>;
+    /// The slot's text: a type's name, and what a message quotes.
+    fn text(&self, slot: usize) -> Cow<'_, str>;
+}
+
+/// A text row's fields, one a slot (CSV, XYZ).
+pub(super) struct Words<'a>(pub [&'a str; SLOTS]);
+
+impl Row for Words<'_> {
+    #[inline(always)]
+    fn number(&self, slot: usize) -> Option<f64> {
+        text_f64(self.0[slot])
+    }
+
+    fn text(&self, slot: usize) -> Cow<'_, str> {
+        Cow::Borrowed(self.0[slot])
+    }
+}
+
+/// A binary or typed row's values, one a slot (PLY).
+impl Row for [f64; SLOTS] {
+    #[inline(always)]
+    fn number(&self, slot: usize) -> Option<f64> {
+        Some(self[slot])
+    }
+
+    fn text(&self, slot: usize) -> Cow<'_, str> {
+        Cow::Owned(number_name(self[slot]))
+    }
+}
+
+/// A number as a type's name: a whole number without a point (`3`), any other as Rust
+/// writes it.
+fn number_name(v: f64) -> String {
+    match v == v.trunc() && v.abs() < 1e15 {
+        true => format!("{}", v as i64),
+        false => format!("{v}"),
+    }
+}
+
+/// A level of 8-bit sRGB as linear light (IEC 61966-2-1).
+fn linear(level: u8) -> f64 {
+    let c = f64::from(level) / 255.0;
+    match c <= 0.04045 {
+        true => c / 12.92,
+        false => libm::pow((c + 0.055) / 1.055, 2.4),
+    }
+}
+
+impl Layout {
+    /// The layout of a file whose header names `columns`, by `spec`'s rules (checked by
+    /// [`crate::document`]: radii > 0, colours in [0, 1], colormaps known, ranges not empty).
+    pub(super) fn resolve(spec: &SphereFileSpec, columns: &[Column]) -> Result<Layout, String> {
+        let lower: Vec<String> = columns.iter().map(|c| c.name.to_lowercase()).collect();
+        let has = |n: &str| lower.iter().any(|l| l == n);
+        let r_is_red = has("g") && has("b");
+        let header = || {
+            let names: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
+            quoted(&names.join(","))
+        };
+        // The column a name picks (given), or the one of the field's usual names (None where
+        // there is none); two picked is a question the keyframe file answers.
+        let find = |field: usize, given: Option<&str>| -> Result<Option<usize>, String> {
+            let hits: Vec<usize> = match given {
+                Some(name) => {
+                    let name = name.to_lowercase();
+                    (0..columns.len()).filter(|&k| lower[k] == name).collect()
+                }
+                None => (0..columns.len())
+                    .filter(|&k| {
+                        let l = lower[k].as_str();
+                        USUAL[field].contains(&l)
+                            || (l == "r" && field == if r_is_red { 4 } else { RADIUS })
+                            || (l == "g" && field == 5)
+                            || (l == "b" && field == 6)
+                    })
+                    .collect(),
+            };
+            match (hits.as_slice(), given) {
+                ([], Some(name)) => Err(format!(
+                    "columns.{} names {}, which the header {} does not have",
+                    FIELDS[field],
+                    quoted(name),
+                    header()
+                )),
+                ([], None) => Ok(None),
+                ([k], _) => Ok(Some(*k)),
+                ([a, b, ..], _) => Err(format!(
+                    "columns {} and {} could both be {}: name one with columns: ({}: \"…\")",
+                    quoted(&columns[*a].name),
+                    quoted(&columns[*b].name),
+                    FIELDS[field],
+                    FIELDS[field]
+                )),
+            }
+        };
+        let c = &spec.columns;
+        let given = [&c.x, &c.y, &c.z, &c.radius, &c.red, &c.green, &c.blue];
+        let mut cols = [None; SLOTS];
+        for (field, name) in given.iter().enumerate() {
+            cols[field] = find(field, name.as_deref())?;
+        }
+        // A column a rule names.
+        let named = |rule: &str, name: &str| -> Result<usize, String> {
+            let l = name.to_lowercase();
+            lower.iter().position(|c| *c == l).ok_or_else(|| {
+                format!(
+                    "{rule}'s column {} is not in the header {}",
+                    quoted(name),
+                    header()
+                )
+            })
+        };
+        if let Some(all) = no_header(columns) {
+            return Err(all);
+        }
+        for (field, axis) in ["x", "y", "z"].iter().enumerate() {
+            if cols[field].is_none() {
+                return Err(format!(
+                    "no column for {axis} in the header {}: name it with columns: ({axis}: \"…\")",
+                    header()
+                ));
+            }
+        }
+        let radius = match &spec.radius_by {
+            Some(RadiusBySpec::Types { column, radii }) => {
+                cols[RADIUS_KEY] = Some(named("radius_by", column)?);
+                Radius::Types(radii.iter().map(|(k, v)| (k.clone(), *v)).collect())
+            }
+            Some(RadiusBySpec::Range {
+                column,
+                range,
+                radii,
+            }) => {
+                cols[RADIUS_KEY] = Some(named("radius_by", column)?);
+                Radius::Range {
+                    range: *range,
+                    radii: *radii,
+                }
+            }
+            None => match (cols[RADIUS], spec.radius) {
+                (Some(_), _) => Radius::Column,
+                (None, Some(r)) => Radius::Fixed(r),
+                (None, None) => {
+                    return Err(format!(
+                        "no radius column in the header {}: give one radius with (path: {}, radius: …), or name the column with columns: (radius: \"…\")",
+                        header(),
+                        quoted(&spec.path)
+                    ))
+                }
+            },
+        };
+        if spec.radius_by.is_some() {
+            cols[RADIUS] = None;
+        }
+        let rgb = [cols[4], cols[5], cols[6]];
+        let color = match &spec.color_by {
+            Some(ColorBySpec::Types { column, colors }) => {
+                cols[COLOR_KEY] = Some(named("color_by", column)?);
+                Color::Types(colors.iter().map(|(k, v)| (k.clone(), *v)).collect())
+            }
+            Some(ColorBySpec::Colormap { column, map, range }) => {
+                cols[COLOR_KEY] = Some(named("color_by", column)?);
+                let map = colormap(map).ok_or_else(|| format!("no colormap {}", quoted(map)))?;
+                Color::Map { map, range: *range }
+            }
+            None => match rgb {
+                [Some(_), Some(_), Some(_)] => Color::Columns { bytes: false },
+                [None, None, None] => Color::Fixed(spec.color),
+                _ => {
+                    let missing: Vec<&str> = (4..7)
+                        .filter(|&f| cols[f].is_none())
+                        .map(|f| FIELDS[f])
+                        .collect();
+                    return Err(format!(
+                        "the header {} has some colour columns but no {}: name it with columns: ({}: \"…\")",
+                        header(),
+                        missing.join(" or "),
+                        missing[0]
+                    ));
+                }
+            },
+        };
+        if spec.color_by.is_some() {
+            cols[4..7].fill(None);
+        }
+        let mut labels: [String; SLOTS] = Default::default();
+        for (slot, col) in cols.iter().enumerate() {
+            if let Some(k) = *col {
+                let column = &columns[k];
+                let wanted = match slot {
+                    COLOR_KEY if matches!(color, Color::Types(_)) => Kind::Text,
+                    RADIUS_KEY if matches!(radius, Radius::Types(_)) => Kind::Text,
+                    _ => Kind::Number,
+                };
+                match (column.kind, wanted) {
+                    (Kind::List, _) => {
+                        return Err(format!("column {} is a list", quoted(&column.name)))
+                    }
+                    (Kind::Text, Kind::Number) => {
+                        return Err(format!(
+                            "column {} holds text, not numbers",
+                            quoted(&column.name)
+                        ))
+                    }
+                    _ => {}
+                }
+                labels[slot] = format!("column {} ({})", k + 1, column.name);
+            }
+        }
+        let ignored = (0..columns.len())
+            .filter(|k| !cols.contains(&Some(*k)))
+            .map(|k| columns[k].name.clone())
+            .collect();
+        Ok(Layout {
+            cols,
+            labels,
+            radius,
+            color,
+            ignored,
+        })
+    }
+
+    /// The red, green and blue columns a sphere's colour is read from, if it is.
+    pub(super) fn color_columns(&self) -> Option<[usize; 3]> {
+        match (
+            &self.color,
+            self.cols[RED],
+            self.cols[RED + 1],
+            self.cols[RED + 2],
+        ) {
+            (Color::Columns { .. }, Some(r), Some(g), Some(b)) => Some([r, g, b]),
+            _ => None,
+        }
+    }
+
+    /// Reads the colour columns as bytes, each level k as k / 255.
+    pub(super) fn color_bytes(&mut self) {
+        if let Color::Columns { bytes } = &mut self.color {
+            *bytes = true;
+        }
+    }
+
+    /// The sphere of a row; or what is wrong with it, naming the column.
+    #[inline(always)]
+    pub(super) fn sphere(&self, row: &impl Row) -> Result<SphereSpec, String> {
+        let number = |slot: usize| {
+            row.number(slot).ok_or_else(|| {
+                let text = row.text(slot);
+                let hint = match text.starts_with('"') {
+                    true => " (a quoted field starts with its quote: no space before it)",
+                    false => "",
+                };
+                format!(
+                    "{}: not a number: {}{hint}",
+                    self.labels[slot],
+                    quoted(&text)
+                )
+            })
+        };
+        let center = (number(X)?, number(X + 1)?, number(X + 2)?);
+        let radius = match &self.radius {
+            Radius::Column => number(RADIUS)?,
+            Radius::Fixed(r) => *r,
+            Radius::Types(radii) => *self.of_type(row, RADIUS_KEY, radii, "radius_by's radii")?,
+            Radius::Range { range, radii } => {
+                let t = self.along(number(RADIUS_KEY)?, *range, RADIUS_KEY)?;
+                radii.0 + t * (radii.1 - radii.0)
+            }
+        };
+        let color = match &self.color {
+            Color::Columns { bytes } => {
+                let level = |v: f64| if *bytes { v / 255.0 } else { v };
+                let [r, g, b] = [number(RED)?, number(RED + 1)?, number(RED + 2)?];
+                Some((level(r), level(g), level(b)))
+            }
+            Color::Fixed(c) => *c,
+            Color::Types(colors) => {
+                Some(*self.of_type(row, COLOR_KEY, colors, "color_by's colors")?)
+            }
+            Color::Map { map, range } => {
+                let t = self.along(number(COLOR_KEY)?, *range, COLOR_KEY)?;
+                let c = map.eval_continuous(t);
+                Some((linear(c.r), linear(c.g), linear(c.b)))
+            }
+        };
+        Ok(SphereSpec {
+            center,
+            radius,
+            color,
+        })
+    }
+
+    /// A type's entry in `table`.
+    fn of_type<'t, V>(
+        &self,
+        row: &impl Row,
+        slot: usize,
+        table: &'t HashMap<String, V>,
+        named: &str,
+    ) -> Result<&'t V, String> {
+        let name = row.text(slot);
+        table.get(name.as_ref()).ok_or_else(|| {
+            format!(
+                "{}: type {} is not in {named}",
+                self.labels[slot],
+                quoted(&name)
+            )
+        })
+    }
+
+    /// Where `v` lies along `range`, from 0 at its start to 1 at its end, held there beyond.
+    fn along(&self, v: f64, range: (f64, f64), slot: usize) -> Result<f64, String> {
+        if !v.is_finite() {
+            return Err(format!("{}: not a finite number: {v}", self.labels[slot]));
+        }
+        Ok(((v - range.0) / (range.1 - range.0)).clamp(0.0, 1.0))
+    }
+}
+
+/// Whether a header is a row of numbers: a file without a header line.
+fn no_header(columns: &[Column]) -> Option<String> {
+    let numbers = columns.iter().all(|c| text_f64(c.name.trim()).is_some());
+    numbers.then(|| {
+        let names: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
+        format!(
+            "no header: the first line must name the columns (x,y,z,radius and more), got {}",
+            quoted(&names.join(","))
+        )
+    })
+}
