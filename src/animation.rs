@@ -114,6 +114,19 @@ impl Animation {
         frame as f64 / self.fps
     }
 
+    /// The point the camera looks at in frame `frame`: the Track's, or the fixed target
+    /// point; None where it looks along a direction (a LookAround track, or a VPN).
+    pub fn target(&self, frame: u64) -> Option<DVec3> {
+        if self.look_around.is_some() {
+            return None;
+        }
+        match (&self.track, self.pointing) {
+            (Some(track), _) => Some(track.sample(self.time(frame))),
+            (None, Pointing::Target(tp)) => Some(tp),
+            _ => None,
+        }
+    }
+
     /// The camera at `t` seconds, continuing from the previous frame's v (see
     /// [`Basis::following`]).
     pub fn camera_at(&self, t: f64, previous_v: Option<DVec3>) -> Result<Camera, CameraError> {

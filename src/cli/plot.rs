@@ -72,6 +72,8 @@ struct Marks {
     keys: Vec<DVec3>,
     /// The Track keys, or the fixed target point.
     targets: Vec<DVec3>,
+    /// The target point at each of `cams`, where a Track moves it.
+    target_path: Vec<DVec3>,
 }
 
 impl Marks {
@@ -117,6 +119,10 @@ impl Marks {
         if let (Pointing::Target(tp), None, None) = (a.pointing, &a.track, &a.look_around) {
             targets.push(tp);
         }
+        let target_path = match a.track.is_some() {
+            true => cams.iter().filter_map(|(k, _)| a.target(*k)).collect(),
+            false => Vec::new(),
+        };
         Ok(Marks {
             cams,
             last,
@@ -125,6 +131,7 @@ impl Marks {
             travel,
             keys,
             targets,
+            target_path,
         })
     }
 
@@ -364,20 +371,36 @@ fn spheres(
     for s in &doc.scene.spheres {
         let [r, g, b] = (s.color * 255.0).to_array().map(|c| c as u8);
         let col = RGBColor(r, g, b);
+        // The outline half as bright: a white sphere shows on the white page.
+        let [r, g, b] = (s.color * 127.5).to_array().map(|c| c as u8);
+        let edge_col = RGBColor(r, g, b);
         if s.radius * px_per_unit < 1.25 {
-            // Half a pixel wider on each side, as the outline's stroke is.
+            // Half a pixel wider on each side, as the outline's stroke is; the outline's shade
+            // a pixel wider again, under the colour.
             let (x, y) = view.project(s.center_world);
             let r = s.radius + 0.5 / px_per_unit;
-            let square = [(x - r, y - r), (x + r, y + r)];
-            dots.push(Rectangle::new(square, col.filled()));
+            let rim = r + 1.0 / px_per_unit;
+            dots.push(Rectangle::new(
+                [(x - rim, y - rim), (x + rim, y + rim)],
+                edge_col.filled(),
+            ));
+            dots.push(Rectangle::new(
+                [(x - r, y - r), (x + r, y + r)],
+                col.filled(),
+            ));
             continue;
         }
         chart.draw_series(dots.drain(..))?;
         let (region, edge) = outline(s, view, panel);
-        chart
-            .plotting_area()
-            .draw(&Polygon::new(region, col.mix(0.3)))?;
-        chart.plotting_area().draw(&PathElement::new(edge, col))?;
+        // A ring of the shade a pixel outside the colour's outline.
+        let ring = Sphere {
+            radius: s.radius + 1.0 / px_per_unit,
+            ..*s
+        };
+        let area = chart.plotting_area();
+        area.draw(&PathElement::new(outline(&ring, view, panel).1, edge_col))?;
+        area.draw(&Polygon::new(region, col.mix(0.3)))?;
+        area.draw(&PathElement::new(edge, col))?;
     }
     chart.draw_series(dots)?;
     Ok(())
@@ -469,6 +492,10 @@ fn path_and_keys(chart: &Chart, marks: &Marks, view: &View, half: f64) -> Drawn 
     for k in &marks.keys {
         area.draw(&Circle::new(view.project(*k), 5, RED.filled()))?;
     }
+    if marks.target_path.len() > 1 {
+        let path: Points = marks.target_path.iter().map(|p| view.project(*p)).collect();
+        area.draw(&PathElement::new(path, GREEN.mix(0.8).stroke_width(2)))?;
+    }
     for t in &marks.targets {
         area.draw(&Cross::new(view.project(*t), 6, GREEN.stroke_width(2)))?;
     }
@@ -506,9 +533,18 @@ fn legend(
         (moves, "end".into(), end),
         (has.0, "Observer keyframes".into(), dot(5, RED.filled())),
         (has.1, "target points (TP)".into(), cross),
+        (
+            marks.target_path.len() > 1,
+            "target path".into(),
+            line(GREEN),
+        ),
         (!moves, views, line(GREY)),
         (true, frustum, heavy),
-        (spheres, "spheres, true size and colour".into(), sphere),
+        (
+            spheres,
+            "spheres, true size and colour, outlined".into(),
+            sphere,
+        ),
     ];
     // Laid out left to right, wrapping to the next row; about 7 px per character.
     let font: TextStyle = ("sans-serif", 14).into();

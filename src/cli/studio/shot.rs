@@ -270,20 +270,6 @@ fn describe(doc: &Document, cameras: &[Camera], warnings: &[crate::motion::Warni
         .iter()
         .map(|&m| json!({"mode": m.name(), "sets": m.sets(), "present": a.tracks().any(|t| t == m), "keys": keys(m)}))
         .collect();
-    let target = |frame: usize, cam: &Camera| -> Option<[f64; 3]> {
-        let t = a.time(frame as u64);
-        if a.look_around.is_some() {
-            return None;
-        }
-        match (&a.track, a.pointing) {
-            (Some(track), _) => Some(triple(track.sample(t))),
-            (None, crate::animation::Pointing::Target(tp)) => Some(triple(tp)),
-            _ => {
-                let _ = cam;
-                None
-            }
-        }
-    };
     let frames: Vec<Value> = cameras
         .iter()
         .enumerate()
@@ -295,7 +281,7 @@ fn describe(doc: &Document, cameras: &[Camera], warnings: &[crate::motion::Warni
                 "n": triple(c.basis.n),
                 "cop": triple(c.cop_view),
                 "eye": triple(c.cop_world()),
-                "tp": target(k, c),
+                "tp": a.target(k as u64).map(triple),
             })
         })
         .collect();
