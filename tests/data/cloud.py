@@ -5,12 +5,13 @@ side grows with the cube root of N (100 at 100,000), placed by the R3 low-discre
 runs and no two machines differ; each sphere coloured by its place in the cube (red along x,
 green along y, blue along z) and of radius 0.2 to 0.5. The same formula as cloud() in
 tests/it/common.rs."""
+import math
 import sys
 
 n = int(sys.argv[1])
 g = 1.2207440846057596
-a = (1 / g, 1 / g**2, 1 / g**3)
-side = 100.0 * (n / 100000) ** (1 / 3)
+a = (1 / g, 1 / (g * g), 1 / (g * g * g))
+side = 100.0 * math.cbrt(n / 100000)
 print("x,y,z,radius,r,g,b")
 for i in range(n):
     u = [(0.5 + a[k] * i) % 1.0 for k in range(3)]
