@@ -8,8 +8,8 @@
 //! are little-endian f32 in base64 at the script's end, each set with one `foreach_set`: a
 //! sphere each through `bpy.ops` took 8 minutes to open 2,000 spheres; this opens 100,000 in a
 //! few seconds (docs/performance.md). f32 is what Blender keeps. The Solid view and Workbench
-//! do not read an instance's attributes: the script's `REALIZE` makes one mesh of the instances
-//! for them, at about 500 vertices a sphere.
+//! do not read an instance's attributes: the script's `REALIZE` makes one mesh of coarser
+//! spheres for them.
 //!
 //! Blender's camera looks down its local −Z with +Y up, like the camera here with axes u, v, −n,
 //! so its location is the COP and its rotation the quaternion of [u, v, −n]. The lens and
@@ -49,6 +49,12 @@ const SHORTEST_LENS_MM: f64 = 2.0;
 /// triangles, smooth-shaded (a sphere each had 48 × 24, 2,304, when there were a few).
 const SEGMENTS: u32 = 32;
 const RINGS: u32 = 16;
+
+/// The same for the script's `REALIZE`, which makes every sphere's vertices real: 62 vertices
+/// and 120 triangles a sphere, 6.2 million vertices for 100,000 spheres (of 32 × 16, 48 million
+/// took 23 GB).
+const REALIZED_SEGMENTS: u32 = 12;
+const REALIZED_RINGS: u32 = 6;
 
 /// Bytes of f32 per base64 line: 57 make 76 characters, MIME's line, and a whole number of
 /// 3-byte groups, so each line encodes on its own without padding.
@@ -139,8 +145,9 @@ SPHERE_COUNT = {sphere_count}
 # the one sphere every sphere instances: segments around, rings from pole to pole
 SPHERE_SEGMENTS, SPHERE_RINGS = {segments}, {rings}
 # True makes the instances one mesh, whose colours the Solid view and Workbench show (they do not
-# read an instance's); it costs about SPHERE_SEGMENTS * SPHERE_RINGS vertices a sphere
+# read an instance's), of coarser spheres: a mesh of 100,000 spheres of 32 x 16 took 23 GB
 REALIZE = False
+REALIZED_SEGMENTS, REALIZED_RINGS = {realized_segments}, {realized_rings}
 # direction the light travels, linear RGB, shadows
 LIGHTS = [
 {lights}]
@@ -197,8 +204,9 @@ def instancer(material):
     nodes, link = tree.nodes, tree.links.new
     points, out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
     sphere = nodes.new("GeometryNodeMeshUVSphere")
-    sphere.inputs["Segments"].default_value = SPHERE_SEGMENTS
-    sphere.inputs["Rings"].default_value = SPHERE_RINGS
+    segments, rings = (REALIZED_SEGMENTS, REALIZED_RINGS) if REALIZE else (SPHERE_SEGMENTS, SPHERE_RINGS)
+    sphere.inputs["Segments"].default_value = segments
+    sphere.inputs["Rings"].default_value = rings
     sphere.inputs["Radius"].default_value = 1.0
     smooth = nodes.new("GeometryNodeSetShadeSmooth")
     link(sphere.outputs["Mesh"], smooth.inputs["Geometry"])
@@ -366,6 +374,8 @@ build()
         sphere_count = spheres.len(),
         segments = SEGMENTS,
         rings = RINGS,
+        realized_segments = REALIZED_SEGMENTS,
+        realized_rings = REALIZED_RINGS,
         motion_blur = match doc.motion_blur {
             Some(b) => format!("({:?}, {})", b.shutter, b.samples),
             None => "None".to_string(),
