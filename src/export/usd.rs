@@ -387,6 +387,17 @@ mod tests {
     }
 
     #[test]
+    fn extents_round_outward_to_f32() {
+        // 0.1 is between two f32s: the one below for a lower bound, above for an upper bound.
+        let (down, up) = (f32_outward(0.1, -1.0), f32_outward(0.1, 1.0));
+        assert!(f64::from(down) < 0.1 && f64::from(up) > 0.1);
+        assert_eq!(down.next_up(), up);
+        // One an f32 holds stays.
+        assert_eq!(f32_outward(0.5, -1.0), 0.5);
+        assert_eq!(f32_outward(-2.0, 1.0), -2.0);
+    }
+
+    #[test]
     fn strings_are_quoted_for_usda() {
         assert_eq!(quoted(r#"a "b" \c"#), r#""a \"b\" \\c""#);
         assert_eq!(quoted("é\nx"), "\"é x\"");

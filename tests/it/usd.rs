@@ -902,3 +902,43 @@ fn blender_imports_100k_spheres_as_instances_where_campath_has_them() {
         );
     }
 }
+
+/// Instanced spheres are f32 in USD (a `PointInstancer`'s `positions` are `point3f`): from
+/// [`campath::export::INSTANCED_FROM`] spheres on, an origin that puts them past f32's range is
+/// refused before anything is written, as in glTF; below it the `Sphere` prims keep f64.
+#[test]
+fn usd_refuses_instanced_spheres_past_f32_and_keeps_single_ones_in_f64() {
+    let tmp = tempfile::tempdir().unwrap();
+    let from = campath::export::INSTANCED_FROM;
+    for n in [from - 1, from] {
+        let ron = crate::common::cloud(tmp.path(), n);
+        let out = tmp.path().join(format!("far_{n}.usda"));
+        let o = campath(
+            tmp.path(),
+            &[
+                "path",
+                ron.to_str().unwrap(),
+                "--format",
+                "usd",
+                "--origin=-1e300,0,0",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            &[],
+        );
+        if n < from {
+            assert!(o.status.success(), "{}", stderr(&o));
+            let text = std::fs::read_to_string(&out).unwrap();
+            assert!(text.contains("double3 xformOp:translate = (1e300, "), "{n}");
+        } else {
+            assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+            assert!(
+                stderr(&o).contains("the centre of")
+                    && stderr(&o).contains("lies past f32's range"),
+                "{}",
+                stderr(&o)
+            );
+            assert!(!out.exists());
+        }
+    }
+}
