@@ -246,7 +246,6 @@ def spheres(scene):
     for k in range(3):
         rgba[k::4] = rgb[k::3]
     mesh.attributes.new("color", "FLOAT_COLOR", "POINT").data.foreach_set("color", rgba)
-    mesh.attributes.active_color = mesh.attributes["color"]
     mesh.update()
     cloud = bpy.data.objects.new("campath spheres", mesh)
     scene.collection.objects.link(cloud)

@@ -14,7 +14,7 @@
 //!   `EXT_mesh_gpu_instancing` (required: a viewer without it would draw one sphere), with a
 //!   TRANSLATION, a SCALE (the radius) and a colour (`_COLOR_0`, linear RGB, which three.js
 //!   takes as the instance's colour) per instance, over a white material: 36 bytes a sphere,
-//!   where a node, mesh and material each took about 350.
+//!   where its own node, mesh and material took about 350.
 //! - Lights are `KHR_lights_punctual` directional lights, pointing their node's −Z along the
 //!   light's direction.
 //!

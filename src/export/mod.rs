@@ -18,10 +18,10 @@ use crate::scene::Sphere;
 
 /// From this many spheres on, the USD and glTF exports write the spheres as instances of one
 /// sphere (a `PointInstancer`; one node with `EXT_mesh_gpu_instancing`) instead of a prim or a
-/// node each. Below it every reader takes the file as it always has (Blender's USD importer
-/// before 4.x and glTF viewers without the extension, which the file then requires, included),
-/// and a prim or node a sphere costs little (about 400 bytes); at 200,000 spheres it cost 76 MB
-/// of USD and 69 MB of glTF. The Blender script instances at any count.
+/// node each. Below it every reader takes the file as it always has, one that knows neither
+/// the `PointInstancer` nor the extension (which the file then requires) included, and a prim
+/// or a node a sphere costs little (about 400 bytes); at 200,000 spheres it cost 76 MB of USD
+/// and 69 MB of glTF. The Blender script instances at any count.
 pub const INSTANCED_FROM: usize = 1000;
 
 /// What the camera is exported as (`campath path --format`).
