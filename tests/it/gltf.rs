@@ -348,3 +348,27 @@ fn three_js_loads_100k_spheres_as_one_instanced_mesh() {
         r["counts"][0]
     );
 }
+
+/// [`three_missing`] tells a node that cannot load the packages from one that can (stand-ins
+/// that fail and succeed as `node -e` does), and names what to install.
+#[test]
+fn a_node_without_three_is_told_apart() {
+    use std::os::unix::fs::PermissionsExt;
+    let tmp = tempfile::tempdir().unwrap();
+    let script = |name: &str, body: &str| {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let without = script(
+        "node-without",
+        "echo \"Error: Cannot find module 'three'\" >&2; exit 1",
+    );
+    let why = three_missing(&without).unwrap();
+    assert!(
+        why.contains("npm install") && why.contains("NODE_PATH"),
+        "{why}"
+    );
+    assert_eq!(three_missing(&script("node-with", "exit 0")), None);
+}
