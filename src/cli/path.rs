@@ -62,8 +62,7 @@ pub fn path(a: PathArgs, out: &mut dyn Write) -> Result<()> {
         format,
         PathFormat::Gltf | PathFormat::Blender | PathFormat::Usd
     ) {
-        let past = (format != PathFormat::Usd).then(|| crate::export::past_f32(&doc, origin));
-        if let Some(place) = past.flatten() {
+        if let Some(place) = crate::export::past_f32_in(&doc, format, origin) {
             return Err(CliError::Usage(format!(
                 "{place} lies past f32's range (±3.4e38){}, which {} keeps; nothing was written",
                 if origin == glam::DVec3::ZERO {

@@ -8,8 +8,13 @@
 //!   `KHR_animation_pointer` (used, not required). An off-axis COP has no place in glTF. Its
 //!   `znear` is the USD export's near (`clipping_range`), its far infinite: nothing campath
 //!   draws is clipped.
-//! - Spheres share one unit sphere's geometry; each is a node scaled by its radius, with a mesh
-//!   that pairs the shared geometry with its own colour.
+//! - Spheres share one unit sphere's geometry. Below [`INSTANCED_FROM`] spheres each is a node
+//!   scaled by its radius, with a mesh that pairs the shared geometry with its own colour: every
+//!   viewer reads that. From it on, one node instances one mesh of a coarser sphere through
+//!   `EXT_mesh_gpu_instancing` (required: a viewer without it would draw one sphere), with a
+//!   TRANSLATION, a SCALE (the radius) and a colour (`_COLOR_0`, linear RGB, which three.js
+//!   takes as the instance's colour) per instance, over a white material: 36 bytes a sphere,
+//!   where its own node, mesh and material took about 350.
 //! - Lights are `KHR_lights_punctual` directional lights, pointing their node's −Z along the
 //!   light's direction.
 //!
@@ -26,11 +31,23 @@ use serde_json::{json, Value};
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::export::{aim_negative_z, clipping_range, off_axis, relative, rotations, yfov};
+use crate::export::{
+    aim_negative_z, clipping_range, off_axis, relative, rotations, yfov, INSTANCED_FROM,
+};
 
-/// Segments around and rings from pole to pole of the shared unit sphere.
+/// Segments around and rings from pole to pole of the shared unit sphere: 2,304 triangles.
 const SEGMENTS: u32 = 48;
 const RINGS: u32 = 24;
+
+/// The same for the instanced sphere, drawn up to a million times: 960 triangles, as the
+/// Blender script's.
+const INSTANCED_SEGMENTS: u32 = 32;
+const INSTANCED_RINGS: u32 = 16;
+
+/// glTF's component type of f32, and the buffer views' targets.
+const FLOAT: u32 = 5126;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 
 /// The binary buffer being laid out, with its views and accessors.
 #[derive(Default)]
@@ -94,27 +111,27 @@ impl Buffer {
             json!({})
         };
         let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        self.push(&bytes, values.len() / width, kind, 5126, target, extra)
+        self.push(&bytes, values.len() / width, kind, FLOAT, target, extra)
     }
 }
 
-/// The unit sphere: positions (also its normals) and triangle indices, counter-clockwise seen
-/// from outside.
-fn unit_sphere() -> (Vec<f32>, Vec<u16>) {
+/// The unit sphere of `segments` around and `rings` from pole to pole: positions (also its
+/// normals) and triangle indices, counter-clockwise seen from outside.
+fn unit_sphere(segments: u32, rings: u32) -> (Vec<f32>, Vec<u16>) {
     let mut positions = Vec::new();
-    for r in 0..=RINGS {
-        let polar = std::f64::consts::PI * r as f64 / RINGS as f64;
-        for s in 0..=SEGMENTS {
-            let azimuth = std::f64::consts::TAU * s as f64 / SEGMENTS as f64;
+    for r in 0..=rings {
+        let polar = std::f64::consts::PI * r as f64 / rings as f64;
+        for s in 0..=segments {
+            let azimuth = std::f64::consts::TAU * s as f64 / segments as f64;
             let (sp, cp) = (libm::sin(polar), libm::cos(polar));
             let p = [sp * libm::cos(azimuth), cp, -sp * libm::sin(azimuth)];
             positions.extend(p.map(|x| x as f32));
         }
     }
-    let row = (SEGMENTS + 1) as u16;
+    let row = (segments + 1) as u16;
     let mut indices = Vec::new();
-    for r in 0..RINGS as u16 {
-        for s in 0..SEGMENTS as u16 {
+    for r in 0..rings as u16 {
+        for s in 0..segments as u16 {
             let (a, b) = (r * row + s, (r + 1) * row + s);
             indices.extend([a, b, a + 1, a + 1, b, b + 1]);
         }
@@ -136,20 +153,25 @@ fn f32s(v: DVec3) -> [f32; 3] {
 /// appends it (`.glb`). Also returns the frames with an off-axis COP that glTF cannot carry.
 fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u64)> {
     let mut buf = Buffer::default();
+    let spheres = &doc.scene.spheres;
+    let instanced = spheres.len() >= INSTANCED_FROM;
     // The unit sphere every sphere's mesh scales: positions, normals, indices (none without
     // spheres: an accessor nothing uses).
     let (mut position, mut normal, mut index) = (0, 0, 0);
-    if !doc.scene.spheres.is_empty() {
-        let (positions, indices) = unit_sphere();
-        position = buf.floats(&positions, 3, Some(34962), true);
-        normal = buf.floats(&positions, 3, Some(34962), false);
+    if !spheres.is_empty() {
+        let (positions, indices) = match instanced {
+            true => unit_sphere(INSTANCED_SEGMENTS, INSTANCED_RINGS),
+            false => unit_sphere(SEGMENTS, RINGS),
+        };
+        position = buf.floats(&positions, 3, Some(ARRAY_BUFFER), true);
+        normal = buf.floats(&positions, 3, Some(ARRAY_BUFFER), false);
         let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         index = buf.push(
             &index_bytes,
             indices.len(),
             "SCALAR",
             5123,
-            Some(34963),
+            Some(ELEMENT_ARRAY_BUFFER),
             json!({}),
         );
     }
@@ -198,30 +220,60 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         "rotation": camera_rotation(&first).as_quat().to_array(),
     }))];
     let (mut meshes, mut materials) = (vec![], vec![]);
-    for (i, s) in doc.scene.spheres.iter().enumerate() {
-        materials.push(Material {
-            name: format!("sphere {i}"),
+    let sphere = |i: usize, name: String, color: DVec3| {
+        let material = Material {
+            name: name.clone(),
             pbr_metallic_roughness: Pbr {
-                base_color_factor: s.color.as_vec3().extend(1.0).to_array(),
+                base_color_factor: color.as_vec3().extend(1.0).to_array(),
                 metallic_factor: 0.0,
                 roughness_factor: 1.0,
             },
-        });
-        meshes.push(Mesh {
-            name: format!("sphere {i}"),
+        };
+        let mesh = Mesh {
+            name,
             primitives: [Primitive {
                 attributes: Attributes { position, normal },
                 indices: index,
                 material: i,
             }],
+        };
+        (material, mesh)
+    };
+    if instanced {
+        // One white sphere, coloured per instance: three.js multiplies the material's colour
+        // by `_COLOR_0`.
+        let (material, mesh) = sphere(0, "spheres".into(), DVec3::ONE);
+        materials.push(material);
+        meshes.push(mesh);
+        let per_instance = |f: &dyn Fn(&crate::scene::Sphere) -> [f32; 3]| -> Vec<f32> {
+            spheres.iter().flat_map(f).collect()
+        };
+        let translation = per_instance(&|s| f32s(s.center_world - origin));
+        let scale = per_instance(&|s| [s.radius as f32; 3]);
+        let color = per_instance(&|s| f32s(s.color));
+        let attributes = json!({
+            "TRANSLATION": buf.floats(&translation, 3, None, false),
+            "SCALE": buf.floats(&scale, 3, None, false),
+            "_COLOR_0": buf.floats(&color, 3, None, false),
         });
-        let r = s.radius as f32;
-        nodes.push(Node::Sphere(SphereNode {
-            name: format!("sphere {i}"),
-            mesh: i,
-            translation: f32s(s.center_world - origin),
-            scale: [r, r, r],
-        }));
+        nodes.push(Node::Other(json!({
+            "name": "spheres",
+            "mesh": 0,
+            "extensions": {"EXT_mesh_gpu_instancing": {"attributes": attributes}},
+        })));
+    } else {
+        for (i, s) in spheres.iter().enumerate() {
+            let (material, mesh) = sphere(i, format!("sphere {i}"), s.color);
+            materials.push(material);
+            meshes.push(mesh);
+            let r = s.radius as f32;
+            nodes.push(Node::Sphere(SphereNode {
+                name: format!("sphere {i}"),
+                mesh: i,
+                translation: f32s(s.center_world - origin),
+                scale: [r, r, r],
+            }));
+        }
     }
     let mut lights = vec![];
     for (i, l) in doc.scene.lights.iter().enumerate() {
@@ -241,6 +293,7 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     let used: Vec<&str> = [
         (!lights.is_empty(), "KHR_lights_punctual"),
         (zoom, "KHR_animation_pointer"),
+        (instanced, "EXT_mesh_gpu_instancing"),
     ]
     .into_iter()
     .filter_map(|(on, name)| on.then_some(name))
@@ -271,6 +324,9 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     }
     if !used.is_empty() {
         gltf["extensionsUsed"] = json!(used);
+    }
+    if instanced {
+        gltf["extensionsRequired"] = json!(["EXT_mesh_gpu_instancing"]);
     }
     let Value::Object(rest) = gltf else {
         unreachable!("json! of an object")

@@ -20,9 +20,15 @@
 //!   draws (`clipping_range`).
 //! - **Image.** A `UsdRender.Settings` prim carries the image size; a window whose aspect differs
 //!   from the image's becomes its pixel aspect.
-//! - **Scene.** Each sphere is a `UsdGeom.Sphere` with its radius and colour
-//!   (`primvars:displayColor`, linear); each light a `UsdLux.DistantLight`, whose −Z is the way
-//!   the light travels, with its shadow switch (`ShadowAPI`).
+//! - **Scene.** Below [`INSTANCED_FROM`] spheres each sphere is a `UsdGeom.Sphere` with its
+//!   radius and colour (`primvars:displayColor`, linear), its centre in f64. From it on, one
+//!   `UsdGeom.PointInstancer`, `spheres`, instances a Sphere of radius 1: `positions` the centres
+//!   and `scales` the radii (both f32, as the schema has them), `protoIndices` all 0, and the
+//!   colours as `primvars:displayColor` with "vertex" interpolation, which OpenUSD applies one
+//!   element to each instance. The prototype sits beneath the instancer under an `over`, as
+//!   OpenUSD suggests, so that traversals which do not know instancers do not draw it at the
+//!   origin. Each light is a `UsdLux.DistantLight`, whose −Z is the way the light travels, with
+//!   its shadow switch (`ShadowAPI`).
 
 use std::fmt::Write as _;
 
@@ -33,7 +39,9 @@ use crate::document::Document;
 use crate::error::Result;
 use crate::export::{
     aim_negative_z, clipping_range, keyed_cameras, quat_wxyz, relative, rotations, triple,
+    INSTANCED_FROM,
 };
+use crate::scene::Sphere;
 
 /// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
 pub const FILM_WIDTH: f64 = 0.36;
@@ -89,9 +97,84 @@ fn quoted(s: &str) -> String {
     out + "\""
 }
 
-fn color3f(v: DVec3) -> String {
+/// `(x, y, z)` in f32: USDA's `color3f`, `point3f`, `float3`.
+fn float3(v: DVec3) -> String {
     let v = v.as_vec3();
     format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
+}
+
+/// `x` as the nearest f32 on the side of `towards` (−∞ or +∞): an extent rounded outward.
+fn f32_outward(x: f64, towards: f64) -> f32 {
+    let y = x as f32;
+    match f64::from(y) {
+        z if towards < 0.0 && z > x => y.next_down(),
+        z if towards > 0.0 && z < x => y.next_up(),
+        _ => y,
+    }
+}
+
+/// Writes `spheres` (relative to `origin`) as one `PointInstancer` beneath the shot's top prim
+/// `root`, its arrays an instance a line.
+fn point_instancer(s: &mut String, spheres: &[Sphere], origin: DVec3, root: &str) {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for sphere in spheres {
+        let c = sphere.center_world - origin;
+        lo = lo.min(c - sphere.radius);
+        hi = hi.max(c + sphere.radius);
+    }
+    let lo = lo.to_array().map(|x| f32_outward(x, -1.0));
+    let hi = hi.to_array().map(|x| f32_outward(x, 1.0));
+    let _ = write!(
+        s,
+        r#"
+    def PointInstancer "spheres"
+    {{
+        float3[] extent = [({:?}, {:?}, {:?}), ({:?}, {:?}, {:?})]
+"#,
+        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+    );
+    // An array of a value per sphere, then the attribute's metadata, if any.
+    let array = |s: &mut String, decl: &str, value: &dyn Fn(&Sphere) -> String, meta: &str| {
+        let _ = writeln!(s, "        {decl} = [");
+        for sphere in spheres {
+            let _ = writeln!(s, "            {},", value(sphere));
+        }
+        let _ = writeln!(s, "        ]{meta}");
+    };
+    let position = |sphere: &Sphere| float3(sphere.center_world - origin);
+    array(s, "point3f[] positions", &position, "");
+    let vertex = " (\n            interpolation = \"vertex\"\n        )";
+    array(
+        s,
+        "color3f[] primvars:displayColor",
+        &|sphere| float3(sphere.color),
+        vertex,
+    );
+    let _ = writeln!(
+        s,
+        "        int[] protoIndices = [{}]",
+        vec!["0"; spheres.len()].join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "        rel prototypes = </{root}/spheres/prototypes/sphere>"
+    );
+    let scale = |sphere: &Sphere| float3(DVec3::splat(sphere.radius));
+    array(s, "float3[] scales", &scale, "");
+    let _ = write!(
+        s,
+        r#"
+        over "prototypes"
+        {{
+            def Sphere "sphere"
+            {{
+                float3[] extent = [(-1, -1, -1), (1, 1, 1)]
+                double radius = 1
+            }}
+        }}
+    }}
+"#
+    );
 }
 
 /// The stage as USDA text.
@@ -202,7 +285,15 @@ def Xform "{root}" (
         "        uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:orient\"]\n    }}"
     );
 
-    for (i, sphere) in doc.scene.spheres.iter().enumerate() {
+    let spheres = &doc.scene.spheres;
+    let one_by_one = match spheres.len() >= INSTANCED_FROM {
+        true => {
+            point_instancer(&mut s, spheres, origin, &root);
+            &[][..]
+        }
+        false => &spheres[..],
+    };
+    for (i, sphere) in one_by_one.iter().enumerate() {
         let r = sphere.radius;
         let e = r as f32;
         let _ = write!(
@@ -220,7 +311,7 @@ def Xform "{root}" (
     }}
 "#,
             m = -e,
-            color = color3f(sphere.color),
+            color = float3(sphere.color),
             centre = triple(sphere.center_world - origin),
         );
     }
@@ -241,7 +332,7 @@ def Xform "{root}" (
         uniform token[] xformOpOrder = ["xformOp:orient"]
     }}
 "#,
-            color = color3f(light.color / intensity),
+            color = float3(light.color / intensity),
             intensity = intensity as f32,
             shadows = light.shadows,
             orient = quat_wxyz(aim_negative_z(light.direction_world)),
@@ -293,6 +384,17 @@ mod tests {
         for (got, want) in [(left, -1.3), (right, 0.3), (bottom, -0.2), (top, 0.7)] {
             assert!((got - want / 2.0).abs() < 1e-12, "{got} against {want} / 2");
         }
+    }
+
+    #[test]
+    fn extents_round_outward_to_f32() {
+        // 0.1 is between two f32s: the one below for a lower bound, above for an upper bound.
+        let (down, up) = (f32_outward(0.1, -1.0), f32_outward(0.1, 1.0));
+        assert!(f64::from(down) < 0.1 && f64::from(up) > 0.1);
+        assert_eq!(down.next_up(), up);
+        // One an f32 holds stays.
+        assert_eq!(f32_outward(0.5, -1.0), 0.5);
+        assert_eq!(f32_outward(-2.0, 1.0), -2.0);
     }
 
     #[test]

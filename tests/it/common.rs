@@ -323,3 +323,34 @@ pub fn frame_stamps(dir: &Path) -> std::collections::BTreeMap<String, (u64, i64,
         })
         .collect()
 }
+
+/// The spheres of the instanced exports' checks: `n` of them in cloud.csv beside a copy of
+/// tests/data/cloud.ron in `dir` (whose path this returns), by the formula of
+/// tests/data/cloud.py: the R3 low-discrepancy sequence places them in a cube (side 100 at
+/// 100,000), each coloured by its place (red along x, green along y, blue along z), radii 0.2
+/// to 0.5. No entropy: the same file on every run.
+pub fn cloud(dir: &Path, n: usize) -> PathBuf {
+    use std::fmt::Write as _;
+    // The plastic number's generalisation for three dimensions (Roberts 2018).
+    const G: f64 = 1.2207440846057596;
+    let a = [1.0 / G, 1.0 / (G * G), 1.0 / (G * G * G)];
+    let side = 100.0 * libm::cbrt(n as f64 / 1e5);
+    let mut csv = String::from("x,y,z,radius,r,g,b\n");
+    for i in 0..n {
+        let u = a.map(|a| (0.5 + a * i as f64) % 1.0);
+        let radius = 0.2 + 0.3 * ((0.5 + 0.6180339887498949 * i as f64) % 1.0);
+        let [x, y, z] = u.map(|c| (c - 0.5) * side);
+        let [r, g, b] = u;
+        let _ = writeln!(csv, "{x:.4},{y:.4},{z:.4},{radius:.4},{r:.4},{g:.4},{b:.4}");
+    }
+    std::fs::write(dir.join("cloud.csv"), csv).unwrap();
+    let ron = dir.join("cloud.ron");
+    std::fs::copy(root().join("tests/data/cloud.ron"), &ron).unwrap();
+    ron
+}
+
+/// 100 indices spread over `n` spheres, the first and the last included: the ones whose
+/// instances the checks compare with campath's.
+pub fn cloud_sample(n: usize) -> Vec<usize> {
+    (0..100).map(|k| k * (n - 1) / 99).collect()
+}
