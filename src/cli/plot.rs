@@ -139,7 +139,12 @@ impl Marks {
     /// region, as a centre and a half-width.
     fn region(&self, doc: &Document) -> (DVec3, f64) {
         let (mut lo, mut hi) = self.bounds;
-        for p in self.keys.iter().chain(&self.targets) {
+        for p in self
+            .keys
+            .iter()
+            .chain(&self.targets)
+            .chain(&self.target_path)
+        {
             (lo, hi) = (lo.min(*p), hi.max(*p));
         }
         let extent = (hi - lo).max_element().max(1.0);
@@ -367,7 +372,9 @@ fn spheres(
     panel: (DVec2, f64),
     px_per_unit: f64,
 ) -> Drawn {
-    let mut dots = Vec::new();
+    // The small ones' squares: every outline's, then every colour's over them, so a dense
+    // cloud shows its colours, not its outlines.
+    let (mut rims, mut dots) = (Vec::new(), Vec::new());
     for s in &doc.scene.spheres {
         let [r, g, b] = (s.color * 255.0).to_array().map(|c| c as u8);
         let col = RGBColor(r, g, b);
@@ -380,7 +387,7 @@ fn spheres(
             let (x, y) = view.project(s.center_world);
             let r = s.radius + 0.5 / px_per_unit;
             let rim = r + 1.0 / px_per_unit;
-            dots.push(Rectangle::new(
+            rims.push(Rectangle::new(
                 [(x - rim, y - rim), (x + rim, y + rim)],
                 edge_col.filled(),
             ));
@@ -390,6 +397,7 @@ fn spheres(
             ));
             continue;
         }
+        chart.draw_series(rims.drain(..))?;
         chart.draw_series(dots.drain(..))?;
         let (region, edge) = outline(s, view, panel);
         // A ring of the shade a pixel outside the colour's outline.
@@ -402,6 +410,7 @@ fn spheres(
         area.draw(&Polygon::new(region, col.mix(0.3)))?;
         area.draw(&PathElement::new(edge, col))?;
     }
+    chart.draw_series(rims)?;
     chart.draw_series(dots)?;
     Ok(())
 }

@@ -185,7 +185,10 @@ pub fn check(c: CheckArgs, out: &mut dyn Write) -> Result<bool> {
         let ignored = &f.listing.ignored;
         let past = match ignored.is_empty() {
             true => String::new(),
-            false => format!(" (columns read past: {})", ignored.join(", ")),
+            false => {
+                let names: Vec<String> = ignored.iter().map(|n| format!("{n:?}")).collect();
+                format!(" (columns read past: {})", names.join(", "))
+            }
         };
         writeln!(out, "  {}: {} sphere(s){past}", f.name, f.spheres).map_err(Error::stdout)?;
     }

@@ -458,7 +458,8 @@ fn every_form_tools_write_hashes_like_the_same_spheres_inline() {
             true => [0x44, 0x01, 0x54],
             false => [0xfd, 0xe7, 0x25],
         };
-        let radius = 0.1 + ((s.1 - 0.1) / (0.6 - 0.1)).clamp(0.0, 1.0) * (0.3 - 0.1);
+        let t = ((s.1 - 0.1) / (0.6 - 0.1)).clamp(0.0, 1.0);
+        let radius = (1.0 - t) * 0.1 + t * 0.3;
         ron_sphere(s.0, radius, Some(rgb.map(srgb_linear)))
     });
     cases.push((
@@ -484,15 +485,15 @@ fn every_form_tools_write_hashes_like_the_same_spheres_inline() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     assert!(
-        out.contains("shuffled.csv: 40 sphere(s) (columns read past: id, note)"),
+        out.contains("shuffled.csv: 40 sphere(s) (columns read past: \"id\", \"note\")"),
         "{out}"
     );
     assert!(
-        out.contains("norad.ply: 40 sphere(s) (columns read past: id)"),
+        out.contains("norad.ply: 40 sphere(s) (columns read past: \"id\")"),
         "{out}"
     );
     assert!(
-        out.contains("ext.xyz: 40 sphere(s) (columns read past: species, id)"),
+        out.contains("ext.xyz: 40 sphere(s) (columns read past: \"species\", \"id\")"),
         "{out}"
     );
 }

@@ -8,7 +8,7 @@ use std::io::BufRead;
 
 use super::header::{HeaderLines, CR_ALONE};
 use super::listing::{FileProblem, Listing, Location};
-use super::look::{Column, Kind, Layout, Words, SLOTS};
+use super::look::{Column, Fields, Kind, Layout};
 use super::text::{text_records, Rows};
 use crate::format::{SphereFileSpec, SphereSpec};
 
@@ -74,13 +74,13 @@ pub(super) fn csv_from<T>(
         .collect();
     let layout = Layout::resolve(spec, &columns).map_err(bad_header)?;
     listing.ignored = layout.ignored.clone();
-    let fields = Fields::new(&layout, &names);
+    let fields = Fields::new(&layout, &names, false);
     let parse = |line: &str, _: &mut Vec<f64>| {
         let read = fields
             .words(line.split(','))
             .and_then(|w| layout.sphere(&w));
         match read {
-            Err(_) if line.contains('"') => fields.requoted(line, &layout),
+            Err(_) if line.contains('"') => requoted(&fields, line, &layout),
             read => read,
         }
     };
@@ -117,66 +117,11 @@ pub(super) fn csv_from<T>(
     ended.map(|_| ())
 }
 
-/// Which of a line's fields each slot reads.
-pub(super) struct Fields {
-    /// (column, slot), by column.
-    wanted: Vec<(usize, usize)>,
-    /// How many fields a line holds, and the header's names for a message.
-    count: usize,
-    names: String,
-}
-
-impl Fields {
-    pub(super) fn new(layout: &Layout, names: &[String]) -> Fields {
-        let mut wanted: Vec<(usize, usize)> = (layout.cols.iter().enumerate())
-            .filter_map(|(slot, col)| col.map(|k| (k, slot)))
-            .collect();
-        wanted.sort_unstable();
-        let joined = names.join(",");
-        Fields {
-            wanted,
-            count: names.len(),
-            names: match joined.chars().count() <= 60 {
-                true => joined,
-                false => "as the header names them".to_string(),
-            },
-        }
-    }
-
-    /// A line's fields (trimmed here), one a slot; the line must have the header's count.
-    #[inline(always)]
-    pub(super) fn words<'a>(
-        &self,
-        line: impl Iterator<Item = &'a str>,
-    ) -> Result<Words<'a>, String> {
-        let mut words = [""; SLOTS];
-        let mut next = 0;
-        let mut got = 0;
-        for (k, field) in line.enumerate() {
-            while let Some(&(col, slot)) = self.wanted.get(next) {
-                if col != k {
-                    break;
-                }
-                words[slot] = field.trim();
-                next += 1;
-            }
-            got = k + 1;
-        }
-        if got != self.count {
-            return Err(format!(
-                "expected {} fields ({}), got {got}",
-                self.count, self.names
-            ));
-        }
-        Ok(Words(words))
-    }
-
-    /// The sphere of a line that holds a quote, read as CSV with quotes.
-    #[cold]
-    fn requoted(&self, line: &str, layout: &Layout) -> Result<SphereSpec, String> {
-        let record = with_quotes(line)?;
-        layout.sphere(&self.words(record.iter())?)
-    }
+/// The sphere of a line that holds a quote, read as CSV with quotes.
+#[cold]
+fn requoted(fields: &Fields, line: &str, layout: &Layout) -> Result<SphereSpec, String> {
+    let record = with_quotes(line)?;
+    layout.sphere(&fields.words(record.iter())?)
 }
 
 /// A line's fields read as CSV with quotes: a field in quotes may hold commas, and `""` stands

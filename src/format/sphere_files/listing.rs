@@ -83,6 +83,11 @@ impl Listing {
         }
     }
 
+    /// Counts `n` rows that cannot be read, past those named.
+    pub(super) fn unreadable_unnamed(&mut self, n: usize) {
+        self.unlisted += n;
+    }
+
     /// Where sphere `i` is in its file.
     pub fn location(&self, i: usize) -> Location {
         match (self.first_line, self.lines.get(i)) {

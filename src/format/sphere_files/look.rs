@@ -5,7 +5,7 @@
 //! text or as numbers ([`Row`]), one slot a field.
 
 use std::borrow::Cow;
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 
 use super::header::quoted;
 use super::text::text_f64;
@@ -15,6 +15,7 @@ use crate::format::{ColorBySpec, RadiusBySpec, SphereFileSpec, SphereSpec, Tripl
 pub(super) const X: usize = 0;
 pub(super) const RADIUS: usize = 3;
 pub(super) const RED: usize = 4;
+pub(super) const BLUE: usize = 6;
 /// The column `color_by` reads.
 pub(super) const COLOR_KEY: usize = 7;
 /// The column `radius_by` reads.
@@ -24,8 +25,7 @@ pub(super) const SLOTS: usize = 9;
 /// The fields x, y, z, radius, red, green, blue as the keyframe file's `columns` names them.
 const FIELDS: [&str; 7] = ["x", "y", "z", "radius", "red", "green", "blue"];
 
-/// Each field's usual names in a header, compared in lower case. `r` is red in a header that
-/// also has `g` and `b`, and the radius in one that does not (`X,Y,Z,R`).
+/// Each field's usual names in a header, compared in lower case.
 const USUAL: [&[&str]; 7] = [
     &[
         "x",
@@ -90,22 +90,26 @@ const USUAL: [&[&str]; 7] = [
     ],
 ];
 
-/// The named colormaps of `color_by: Colormap(map: …)`.
-pub const COLORMAPS: [(&str, colorous::Gradient); 14] = [
+/// The one-letter names, where no usual name is there: `r`, `g` and `b` are red, green and blue
+/// when all three are in the header (`x,y,z,radius,r,g,b`); `r` without `g` and `b` is the radius
+/// (`X,Y,Z,R`); a lone `g` or `b` (a B-factor) is nothing's.
+const LETTERS: [Option<&str>; 7] = [None, None, None, Some("r"), Some("r"), Some("g"), Some("b")];
+
+/// The named colormaps of `color_by: Colormap(map: …)`: those colorous computes with
+/// arithmetic alone (its cubehelix maps call the platform's sine and cosine, so they are not
+/// here: the same file must give the same bytes on every machine).
+pub const COLORMAPS: [(&str, colorous::Gradient); 11] = [
     ("viridis", colorous::VIRIDIS),
     ("plasma", colorous::PLASMA),
     ("inferno", colorous::INFERNO),
     ("magma", colorous::MAGMA),
     ("cividis", colorous::CIVIDIS),
     ("turbo", colorous::TURBO),
-    ("cubehelix", colorous::CUBEHELIX),
-    ("rainbow", colorous::RAINBOW),
     ("greys", colorous::GREYS),
     ("blues", colorous::BLUES),
     ("reds", colorous::REDS),
     ("spectral", colorous::SPECTRAL),
     ("red_blue", colorous::RED_BLUE),
-    ("cool", colorous::COOL),
 ];
 
 /// The colormap of a name, in any case.
@@ -136,7 +140,7 @@ pub(super) struct Column {
 enum Radius {
     Column,
     Fixed(f64),
-    Types(HashMap<String, f64>),
+    Types(BTreeMap<String, f64>),
     /// `range.0 + t (range.1 − range.0)` ↦ `radii.0 + t (radii.1 − radii.0)`.
     Range {
         range: (f64, f64),
@@ -152,7 +156,7 @@ enum Color {
     },
     /// The keyframe file's colour, or white.
     Fixed(Option<Triple>),
-    Types(HashMap<String, Triple>),
+    Types(BTreeMap<String, Triple>),
     Map {
         map: colorous::Gradient,
         range: (f64, f64),
@@ -228,13 +232,23 @@ impl Layout {
     /// The layout of a file whose header names `columns`, by `spec`'s rules (checked by
     /// [`crate::document`]: radii > 0, colours in [0, 1], colormaps known, ranges not empty).
     pub(super) fn resolve(spec: &SphereFileSpec, columns: &[Column]) -> Result<Layout, String> {
+        if let Some(all) = no_header(columns) {
+            return Err(all);
+        }
         let lower: Vec<String> = columns.iter().map(|c| c.name.to_lowercase()).collect();
         let has = |n: &str| lower.iter().any(|l| l == n);
-        let r_is_red = has("g") && has("b");
+        // `r`, `g` and `b` are colours only all three together; `r` alone is a radius.
+        let rgb_letters = has("r") && has("g") && has("b");
         let header = || {
             let names: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
             quoted(&names.join(","))
         };
+        let c = &spec.columns;
+        let given = [&c.x, &c.y, &c.z, &c.radius, &c.red, &c.green, &c.blue];
+        // Columns the keyframe file names for a field are no other field's by their usual names.
+        let claimed: Vec<String> = (given.iter())
+            .filter_map(|g| g.as_deref().map(str::to_lowercase))
+            .collect();
         // The column a name picks (given), or the one of the field's usual names (None where
         // there is none); two picked is a question the keyframe file answers.
         let find = |field: usize, given: Option<&str>| -> Result<Option<usize>, String> {
@@ -243,15 +257,26 @@ impl Layout {
                     let name = name.to_lowercase();
                     (0..columns.len()).filter(|&k| lower[k] == name).collect()
                 }
-                None => (0..columns.len())
-                    .filter(|&k| {
-                        let l = lower[k].as_str();
-                        USUAL[field].contains(&l)
-                            || (l == "r" && field == if r_is_red { 4 } else { RADIUS })
-                            || (l == "g" && field == 5)
-                            || (l == "b" && field == 6)
-                    })
-                    .collect(),
+                None => {
+                    let usual = |letters: bool| {
+                        (0..columns.len())
+                            .filter(|&k| !claimed.contains(&lower[k]))
+                            .filter(|&k| {
+                                let l = lower[k].as_str();
+                                match letters {
+                                    false => USUAL[field].contains(&l),
+                                    true => LETTERS[field] == Some(l),
+                                }
+                            })
+                            .collect::<Vec<usize>>()
+                    };
+                    match usual(false) {
+                        // A letter only where no full name is there: `r` beside `radius` is
+                        // read past, not a second radius.
+                        hits if hits.is_empty() && (field == RADIUS) != rgb_letters => usual(true),
+                        hits => hits,
+                    }
+                }
             };
             match (hits.as_slice(), given) {
                 ([], Some(name)) => Err(format!(
@@ -262,6 +287,11 @@ impl Layout {
                 )),
                 ([], None) => Ok(None),
                 ([k], _) => Ok(Some(*k)),
+                ([a, b, ..], _) if columns[*a].name == columns[*b].name => Err(format!(
+                    "the header {} names {} twice: rename one",
+                    header(),
+                    quoted(&columns[*a].name)
+                )),
                 ([a, b, ..], _) => Err(format!(
                     "columns {} and {} could both be {}: name one with columns: ({}: \"…\")",
                     quoted(&columns[*a].name),
@@ -271,11 +301,32 @@ impl Layout {
                 )),
             }
         };
-        let c = &spec.columns;
-        let given = [&c.x, &c.y, &c.z, &c.radius, &c.red, &c.green, &c.blue];
         let mut cols = [None; SLOTS];
         for (field, name) in given.iter().enumerate() {
-            cols[field] = find(field, name.as_deref())?;
+            // A field a rule decides is not looked for: its columns, if any, are read past.
+            let ruled = match field {
+                RADIUS => spec.radius_by.is_some(),
+                RED..=BLUE => spec.color_by.is_some(),
+                _ => false,
+            };
+            if !ruled {
+                cols[field] = find(field, name.as_deref())?;
+            }
+        }
+        // One column is one field's.
+        for a in X..=BLUE {
+            for b in a + 1..=BLUE {
+                if let (Some(k), true) = (cols[a], cols[a] == cols[b]) {
+                    return Err(format!(
+                        "column {} would be both {} and {}: name each with columns: ({}: \"…\", {}: \"…\")",
+                        quoted(&columns[k].name),
+                        FIELDS[a],
+                        FIELDS[b],
+                        FIELDS[a],
+                        FIELDS[b]
+                    ));
+                }
+            }
         }
         // A column a rule names.
         let named = |rule: &str, name: &str| -> Result<usize, String> {
@@ -288,9 +339,6 @@ impl Layout {
                 )
             })
         };
-        if let Some(all) = no_header(columns) {
-            return Err(all);
-        }
         for (field, axis) in ["x", "y", "z"].iter().enumerate() {
             if cols[field].is_none() {
                 return Err(format!(
@@ -330,7 +378,7 @@ impl Layout {
         if spec.radius_by.is_some() {
             cols[RADIUS] = None;
         }
-        let rgb = [cols[4], cols[5], cols[6]];
+        let rgb = [cols[RED], cols[RED + 1], cols[BLUE]];
         let color = match &spec.color_by {
             Some(ColorBySpec::Types { column, colors }) => {
                 cols[COLOR_KEY] = Some(named("color_by", column)?);
@@ -345,7 +393,7 @@ impl Layout {
                 [Some(_), Some(_), Some(_)] => Color::Columns { bytes: false },
                 [None, None, None] => Color::Fixed(spec.color),
                 _ => {
-                    let missing: Vec<&str> = (4..7)
+                    let missing: Vec<&str> = (RED..=BLUE)
                         .filter(|&f| cols[f].is_none())
                         .map(|f| FIELDS[f])
                         .collect();
@@ -359,7 +407,7 @@ impl Layout {
             },
         };
         if spec.color_by.is_some() {
-            cols[4..7].fill(None);
+            cols[RED..=BLUE].fill(None);
         }
         let mut labels: [String; SLOTS] = Default::default();
         for (slot, col) in cols.iter().enumerate() {
@@ -442,7 +490,8 @@ impl Layout {
             Radius::Types(radii) => *self.of_type(row, RADIUS_KEY, radii, "radius_by's radii")?,
             Radius::Range { range, radii } => {
                 let t = self.along(number(RADIUS_KEY)?, *range, RADIUS_KEY)?;
-                radii.0 + t * (radii.1 - radii.0)
+                // Exact at both ends.
+                (1.0 - t) * radii.0 + t * radii.1
             }
         };
         let color = match &self.color {
@@ -473,15 +522,17 @@ impl Layout {
         &self,
         row: &impl Row,
         slot: usize,
-        table: &'t HashMap<String, V>,
+        table: &'t BTreeMap<String, V>,
         named: &str,
     ) -> Result<&'t V, String> {
         let name = row.text(slot);
         table.get(name.as_ref()).ok_or_else(|| {
+            let known: Vec<String> = table.keys().map(|k| quoted(k)).collect();
             format!(
-                "{}: type {} is not in {named}",
+                "{}: type {} is not in {named} ({}): add it",
                 self.labels[slot],
-                quoted(&name)
+                quoted(&name),
+                known.join(", ")
             )
         })
     }
@@ -505,4 +556,63 @@ fn no_header(columns: &[Column]) -> Option<String> {
             quoted(&names.join(","))
         )
     })
+}
+
+/// Which of a line's fields each slot reads.
+pub(super) struct Fields {
+    /// (column, slot), by column.
+    wanted: Vec<(usize, usize)>,
+    /// How many fields a line holds, and the header's names for a message.
+    count: usize,
+    names: String,
+    /// Whether a line may hold more fields than the header names (read past).
+    more: bool,
+}
+
+impl Fields {
+    pub(super) fn new(layout: &Layout, names: &[String], more: bool) -> Fields {
+        let mut wanted: Vec<(usize, usize)> = (layout.cols.iter().enumerate())
+            .filter_map(|(slot, col)| col.map(|k| (k, slot)))
+            .collect();
+        wanted.sort_unstable();
+        let joined = names.join(",");
+        Fields {
+            wanted,
+            count: names.len(),
+            more,
+            names: match joined.chars().count() <= 60 {
+                true => joined,
+                false => "as the header names them".to_string(),
+            },
+        }
+    }
+
+    /// A line's fields (trimmed here), one a slot; the line must have the header's count (or
+    /// more, where more are read past).
+    #[inline(always)]
+    pub(super) fn words<'a>(
+        &self,
+        line: impl Iterator<Item = &'a str>,
+    ) -> Result<Words<'a>, String> {
+        let mut words = [""; SLOTS];
+        let mut next = 0;
+        let mut got = 0;
+        for (k, field) in line.enumerate() {
+            while let Some(&(col, slot)) = self.wanted.get(next) {
+                if col != k {
+                    break;
+                }
+                words[slot] = field.trim();
+                next += 1;
+            }
+            got = k + 1;
+        }
+        if got != self.count && !(self.more && got > self.count) {
+            return Err(format!(
+                "expected {} fields ({}), got {got}",
+                self.count, self.names
+            ));
+        }
+        Ok(Words(words))
+    }
 }

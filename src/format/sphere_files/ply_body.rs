@@ -1,6 +1,7 @@
 //! A PLY body: binary vertices in blocks on the pool, or ASCII lines ([`text_records`]); the
 //! elements before the vertices read past.
 
+use std::collections::BinaryHeap;
 use std::io::{self, BufRead, Read};
 use std::sync::{Mutex, PoisonError};
 
@@ -12,6 +13,7 @@ use super::look::{Layout, SLOTS};
 use super::ply_header::{self, fixed_offsets, Element, Header, Property, Scalar};
 use super::text::{text_records, Rows};
 use super::BLOCK_BYTES;
+use crate::error::PROBLEMS_SHOWN;
 use crate::format::blocks::{self, Blocks};
 use crate::format::{SphereFileSpec, SphereSpec};
 
@@ -50,8 +52,9 @@ pub(super) fn ply_from<T: Send>(
             out.reserve(v.count.min(room));
             let at = layout.cols.map(|k| k.map(|k| offsets[k]));
             // A row a type table does not name: noted from the pool's tasks, a stand-in in
-            // its place, named afterwards in file order.
-            let unread = Mutex::new(Vec::new());
+            // its place, named afterwards in file order; only the first ones named are kept
+            // (the rest counted), so a million bad rows cost no message each.
+            let unread = Mutex::new((BinaryHeap::new(), 0usize));
             let read = fixed_vertices(&mut file, v.count, stride, out, |i, vertex| {
                 let mut fields = [0.0; SLOTS];
                 for (f, at) in fields.iter_mut().zip(at) {
@@ -61,16 +64,22 @@ pub(super) fn ply_from<T: Send>(
                 }
                 let sphere = layout.sphere(&fields).unwrap_or_else(|what| {
                     let mut unread = unread.lock().unwrap_or_else(PoisonError::into_inner);
-                    unread.push((i, what));
+                    let (first, count) = &mut *unread;
+                    *count += 1;
+                    first.push((i, what));
+                    if first.len() > PROBLEMS_SHOWN {
+                        first.pop();
+                    }
                     STAND_IN
                 });
                 make(i, &sphere)
             });
-            let mut unread = unread.into_inner().unwrap_or_else(PoisonError::into_inner);
-            unread.sort_unstable_by_key(|(i, _)| *i);
-            for (i, what) in unread {
-                listing.unreadable(i, FileProblem::at(Location::Vertex(i), what));
+            let (first, count) = unread.into_inner().unwrap_or_else(PoisonError::into_inner);
+            let first = first.into_sorted_vec();
+            for (i, what) in &first {
+                listing.unreadable(*i, FileProblem::at(Location::Vertex(*i), what.clone()));
             }
+            listing.unreadable_unnamed(count - first.len());
             read
         }
         None => listed_vertices(&mut file, v, layout, out, make, listing),

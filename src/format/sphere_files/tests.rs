@@ -722,6 +722,22 @@ fn columns_are_found_by_name_or_named_with_the_fix() {
     );
     let message =
         |text: &[u8], spec: &SphereFileSpec| read_with("csv", text, spec).unwrap_err().message;
+    let m = message(b"x,y,z,radius,X\n", &spec);
+    assert!(
+        m.starts_with("the header \"x,y,z,radius,X\" names \"x\" twice")
+            || m.contains("could both be x"),
+        "{m}"
+    );
+    let twice = SphereFileSpec {
+        columns: crate::format::ColumnsSpec {
+            x: Some("a".into()),
+            y: Some("A".into()),
+            ..Default::default()
+        },
+        ..SphereFileSpec::default()
+    };
+    let m = message(b"a,z,radius\n", &twice);
+    assert!(m.starts_with("column \"a\" would be both x and y"), "{m}");
     let m = message(b"x,y,z,radius,radii\n", &spec);
     assert!(m.starts_with("columns \"radius\" and \"radii\" could both be radius: name one with columns: (radius:"), "{m}");
     let m = message(b"x,y,z,radius,red,green\n", &spec);
@@ -785,7 +801,7 @@ fn xyz_reads_its_properties() {
         bad(b"2\nProperties=species:S:1:pos:R:3:radius:R:1\nO 0 0 0 1\nH 1 1 1\n"),
         (
             Some(Location::Line(4)),
-            "expected 5 values (species pos[0] pos[1] pos[2] radius), got 4".to_string()
+            "expected 5 values (species pos[0] pos[1] pos[2] radius), got 4: does Properties= on line 2 match the rows?".to_string()
         )
     );
     assert_eq!(
@@ -808,7 +824,63 @@ fn xyz_reads_its_properties() {
         "the first line must be the number of atoms, got \"atoms\""
     );
     assert_eq!(
-        bad(b"1\n\nO 0 0 0 9\n").1,
-        "expected 4 values (species pos[0] pos[1] pos[2]), got 5: name the columns with Properties= on the comment line"
+        bad(b"1\n\nO 0 0\n").1,
+        "expected 4 values (species pos[0] pos[1] pos[2]), got 3: name the columns with Properties= on the comment line"
+    );
+    // A plain file's values past its four are read past.
+    let (s, _) = read_with("xyz", b"1\n\nO 0 0 0 -0.8 1.5\n", &spec).unwrap();
+    assert_eq!(s, [sphere((0.0, 0.0, 0.0), 0.5, None)]);
+}
+
+/// A binary PLY whose every vertex names a type the table lacks: the first ones named in
+/// vertex order, the rest counted, however the pool's tasks met them.
+#[test]
+fn a_million_unknown_types_cost_no_message_each() {
+    let n = 3 * PROBLEMS_SHOWN + 7;
+    let mut bin = header(
+        "binary_little_endian",
+        "property float x\nproperty float y\nproperty float z\nproperty int kind\n",
+        n,
+    );
+    for i in 0..n {
+        for v in [i as f32, 0.0, 0.0] {
+            bin.extend(v.to_le_bytes());
+        }
+        bin.extend(5i32.to_le_bytes());
+    }
+    let spec = SphereFileSpec {
+        radius: Some(1.0),
+        color_by: Some(crate::format::ColorBySpec::Types {
+            column: "kind".into(),
+            colors: [("1".to_string(), (1.0, 0.0, 0.0))].into(),
+        }),
+        ..SphereFileSpec::default()
+    };
+    let mut out = Vec::new();
+    let len = bin.len() as u64;
+    let listing = listed(&mut out, |out, listing| {
+        ply_body::ply_from(
+            &bin[..],
+            len,
+            &spec,
+            out,
+            &|_, s: &SphereSpec| s.clone(),
+            listing,
+        )
+    });
+    assert_eq!(out.len(), n);
+    let p = problems(listing);
+    assert_eq!(p.len(), PROBLEMS_SHOWN);
+    for (k, (i, at, m)) in p[..PROBLEMS_SHOWN - 1].iter().enumerate() {
+        assert_eq!((*i, *at), (k, Some(Location::Vertex(k))));
+        assert_eq!(
+            m,
+            "column 4 (kind): type \"5\" is not in color_by's colors (\"1\"): add it"
+        );
+    }
+    let more = n - (PROBLEMS_SHOWN - 1);
+    assert_eq!(
+        p[PROBLEMS_SHOWN - 1].2,
+        format!("and {more} more row(s) that cannot be read")
     );
 }

@@ -2,14 +2,15 @@
 //! atoms, a comment line, then an atom a line, its values separated by white space. An
 //! extended comment line's `Properties=` names the columns, with their types and widths
 //! (`species:S:1:pos:R:3:radius:R:1`); a plain file's columns are `species:S:1:pos:R:3`. A
-//! property `name` of width n > 1 gives columns `name[0]` … `name[n−1]`. The first frame is
-//! read; what follows it (the next frames of a trajectory) is not.
+//! property `name` of width n > 1 gives columns `name[0]` … `name[n−1]`; a plain file's values
+//! past those four are read past. The first frame is read; what follows it (the next frames of
+//! a trajectory) is not.
 
 use std::io::BufRead;
 
 use super::header::{quoted, HeaderLines};
 use super::listing::{FileProblem, Listing, Location};
-use super::look::{Column, Kind, Layout};
+use super::look::{Column, Fields, Kind, Layout};
 use super::text::{text_records, Rows};
 use crate::format::{SphereFileSpec, SphereSpec};
 
@@ -54,13 +55,14 @@ pub(super) fn xyz_from<T>(
     let width = columns.len();
     let plain = properties.is_none();
     let names: Vec<String> = columns.iter().map(|c| c.name.clone()).collect();
-    let fields = super::csv::Fields::new(&layout, &names);
+    // A plain file's values past its four are read past (charges, velocities).
+    let fields = Fields::new(&layout, &names, plain);
     let parse = |line: &str, _: &mut Vec<f64>| {
         let words = fields.words(line.split_ascii_whitespace()).map_err(|_| {
             let got = line.split_ascii_whitespace().count();
             let fix = match plain {
                 true => ": name the columns with Properties= on the comment line",
-                false => "",
+                false => ": does Properties= on line 2 match the rows?",
             };
             format!(
                 "expected {width} values ({}), got {got}{fix}",
@@ -115,7 +117,7 @@ const STAND_IN: SphereSpec = SphereSpec {
     color: None,
 };
 
-/// The columns' names, for a message: `species,x,y,z`.
+/// The columns' names, for a message: `species pos[0] pos[1] pos[2]`.
 fn fields_of(columns: &[Column]) -> String {
     let names: Vec<&str> = columns.iter().map(|c| c.name.as_str()).collect();
     let joined = names.join(" ");
