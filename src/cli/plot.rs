@@ -80,14 +80,16 @@ impl Marks {
     fn of(doc: &Document, every: u64) -> Result<Marks> {
         let last = doc.animation.frames - 1;
         let stride = doc.animation.frames.div_ceil(PATH_POINTS);
-        // The frames about each Observer key, where the path may turn or jump (a Step key):
-        // kept whatever the stride.
+        // The frames about each Observer and Track key, where a path may turn or jump (a Step
+        // key): kept whatever the stride.
         let (a, fps) = (&doc.animation, doc.animation.fps);
         let observer = a.observer.as_ref().map_or(&[][..], |o| o.keys());
-        let turns: std::collections::BTreeSet<u64> = observer
-            .iter()
-            .flat_map(|k| {
-                let at = (k.t * fps).clamp(0.0, last as f64);
+        // The Track's keys too: its target's path turns or jumps there.
+        let track = a.track.as_ref().map_or(&[][..], |t| t.keys());
+        let key_times = (observer.iter().map(|k| k.t)).chain(track.iter().map(|k| k.t));
+        let turns: std::collections::BTreeSet<u64> = key_times
+            .flat_map(|t| {
+                let at = (t * fps).clamp(0.0, last as f64);
                 let (lo, hi) = (at.floor() as u64, at.ceil() as u64);
                 lo.saturating_sub(1)..=(hi + 1).min(last)
             })

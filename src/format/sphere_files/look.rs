@@ -398,7 +398,7 @@ impl Layout {
                         .map(|f| FIELDS[f])
                         .collect();
                     return Err(format!(
-                        "the header {} has some colour columns but no {}: name it with columns: ({}: \"…\")",
+                        "the header {} has some colour columns but no {}: name it with columns: ({}: \"…\"), or colour the file with color_by",
                         header(),
                         missing.join(" or "),
                         missing[0]
@@ -418,13 +418,21 @@ impl Layout {
                     RADIUS_KEY if matches!(radius, Radius::Types(_)) => Kind::Text,
                     _ => Kind::Number,
                 };
+                let reader = match slot {
+                    COLOR_KEY => "color_by",
+                    RADIUS_KEY => "radius_by",
+                    field => FIELDS[field],
+                };
                 match (column.kind, wanted) {
                     (Kind::List, _) => {
-                        return Err(format!("column {} is a list", quoted(&column.name)))
+                        return Err(format!(
+                            "column {} is a list, which {reader} cannot read",
+                            quoted(&column.name)
+                        ))
                     }
                     (Kind::Text, Kind::Number) => {
                         return Err(format!(
-                            "column {} holds text, not numbers",
+                            "column {} holds text, not the numbers {reader} needs",
                             quoted(&column.name)
                         ))
                     }

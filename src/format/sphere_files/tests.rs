@@ -819,6 +819,15 @@ fn xyz_reads_its_properties() {
         bad(b"3\n\nO 0 0 0\n").1,
         "truncated: the file ends at atom 1 of the 3 its first line gives"
     );
+    let text_x = SphereFileSpec {
+        columns: crate::format::ColumnsSpec {
+            x: Some("species".into()),
+            ..Default::default()
+        },
+        ..spec.clone()
+    };
+    let e = read_with("xyz", b"1\n\nO 0 0 0\n", &text_x).unwrap_err();
+    assert_eq!(e.message, "column \"species\" holds text, not the numbers x needs");
     assert_eq!(
         bad(b"atoms\n").1,
         "the first line must be the number of atoms, got \"atoms\""
