@@ -374,9 +374,10 @@ fn spheres(
     panel: (DVec2, f64),
     px_per_unit: f64,
 ) -> Drawn {
-    // The small ones' squares: every outline's, then every colour's over them, so a dense
-    // cloud shows its colours, not its outlines.
-    let (mut rims, mut dots) = (Vec::new(), Vec::new());
+    // The small ones' squares, each outline's under its colour's, sphere by sphere: a dense
+    // white cloud shows as its outlines' shade (every outline first, then every colour, left
+    // its core as white as the page).
+    let mut dots = Vec::new();
     for s in &doc.scene.spheres {
         let [r, g, b] = (s.color * 255.0).to_array().map(|c| c as u8);
         let col = RGBColor(r, g, b);
@@ -389,7 +390,7 @@ fn spheres(
             let (x, y) = view.project(s.center_world);
             let r = s.radius + 0.5 / px_per_unit;
             let rim = r + 1.0 / px_per_unit;
-            rims.push(Rectangle::new(
+            dots.push(Rectangle::new(
                 [(x - rim, y - rim), (x + rim, y + rim)],
                 edge_col.filled(),
             ));
@@ -399,7 +400,6 @@ fn spheres(
             ));
             continue;
         }
-        chart.draw_series(rims.drain(..))?;
         chart.draw_series(dots.drain(..))?;
         let (region, edge) = outline(s, view, panel);
         // A ring of the shade a pixel outside the colour's outline.
@@ -412,7 +412,6 @@ fn spheres(
         area.draw(&Polygon::new(region, col.mix(0.3)))?;
         area.draw(&PathElement::new(edge, col))?;
     }
-    chart.draw_series(rims)?;
     chart.draw_series(dots)?;
     Ok(())
 }

@@ -827,7 +827,10 @@ fn xyz_reads_its_properties() {
         ..spec.clone()
     };
     let e = read_with("xyz", b"1\n\nO 0 0 0\n", &text_x).unwrap_err();
-    assert_eq!(e.message, "column \"species\" holds text, not the numbers x needs");
+    assert_eq!(
+        e.message,
+        "column \"species\" holds text, not the numbers x needs"
+    );
     assert_eq!(
         bad(b"atoms\n").1,
         "the first line must be the number of atoms, got \"atoms\""
