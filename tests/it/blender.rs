@@ -11,8 +11,8 @@ use campath::document::Document;
 use glam::DVec3;
 
 use crate::common::{
-    blender_lacks_module, campath, cloud, cloud_sample, export_edge_shots, need_part, need_tool,
-    reach_of_views, root, shutter_ends, stderr, EXAMPLES,
+    blender_lacks_module, campath, cloud, cloud_export, cloud_sample, export_edge_shots, need_part,
+    need_tool, reach_of_views, root, shutter_ends, stderr, EXAMPLES,
 };
 
 /// Runs every job in one Blender process: build the shot from the script and record
@@ -571,20 +571,7 @@ fn blender_5_opens_100k_spheres_as_instances_where_campath_has_them() {
 /// The 100,000-sphere cloud's script in `dir`, and the job of [`CHECK_CLOUD`] for it, which
 /// reads a list of one job.
 fn cloud_job(dir: &std::path::Path) -> (serde_json::Value, Document) {
-    let ron = cloud(dir, 100_000);
-    let script = dir.join("cloud.py");
-    let o = campath(
-        dir,
-        &[
-            "path",
-            ron.to_str().unwrap(),
-            "--out",
-            script.to_str().unwrap(),
-        ],
-        &[],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let doc = Document::load(&ron).unwrap();
+    let (script, doc) = cloud_export(dir, 100_000, "cloud.py");
     let job = serde_json::json!({
         "script": script, "sample": cloud_sample(doc.scene().spheres.len()),
         "out": dir.join("cloud.json"),

@@ -177,16 +177,10 @@ pub fn ffmpeg_lacks_encoder(ffmpeg: &str, encoder: &str) -> Option<String> {
 
 #[test]
 fn a_program_present_without_the_part_a_check_needs_is_told_apart() {
-    use std::os::unix::fs::PermissionsExt;
     // Stand-ins that answer the probes as the real programs do: Blender exits 1 on a failed
     // import under --python-exit-code 1, ffmpeg lists encoders in columns after a flags column.
     let tmp = tempfile::tempdir().unwrap();
-    let script = |name: &str, body: &str| {
-        let path = tmp.path().join(name);
-        std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
-        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
-        path.to_str().unwrap().to_string()
-    };
+    let script = |name: &str, body: &str| stand_in(tmp.path(), name, body);
     let without = script(
         "blender-without",
         "echo \"ModuleNotFoundError: No module named 'numpy'\" >&2; exit 1",
@@ -347,6 +341,35 @@ pub fn cloud(dir: &Path, n: usize) -> PathBuf {
     let ron = dir.join("cloud.ron");
     std::fs::copy(root().join("tests/data/cloud.ron"), &ron).unwrap();
     ron
+}
+
+/// The `n`-sphere [`cloud`] in `dir` written by `campath path` to `dir/name` (its extension
+/// names the format), and the cloud's document.
+pub fn cloud_export(dir: &Path, n: usize, name: &str) -> (PathBuf, Document) {
+    let ron = cloud(dir, n);
+    let out = dir.join(name);
+    let o = campath(
+        dir,
+        &[
+            "path",
+            ron.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    (out, Document::load(&ron).unwrap())
+}
+
+/// An executable shell script in `dir` with `body`, standing in for a program a probe runs:
+/// its path.
+pub fn stand_in(dir: &Path, name: &str, body: &str) -> String {
+    use std::os::unix::fs::PermissionsExt;
+    let path = dir.join(name);
+    std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    path.to_str().unwrap().to_string()
 }
 
 /// 100 indices spread over `n` spheres, the first and the last included: the ones whose

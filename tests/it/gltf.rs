@@ -8,7 +8,7 @@ use base64::Engine as _;
 use glam::{DQuat, DVec3};
 
 use crate::common::{
-    campath, cloud_sample, does_not_run, need_part, root, stderr, stdout, EXAMPLES,
+    campath, cloud_sample, does_not_run, need_part, root, stand_in, stderr, stdout, EXAMPLES,
 };
 
 /// Validates with the npm package gltf-validator (found through NODE_PATH); fails, saying why,
@@ -353,14 +353,8 @@ fn three_js_loads_100k_spheres_as_one_instanced_mesh() {
 /// that fail and succeed as `node -e` does), and names what to install.
 #[test]
 fn a_node_without_three_is_told_apart() {
-    use std::os::unix::fs::PermissionsExt;
     let tmp = tempfile::tempdir().unwrap();
-    let script = |name: &str, body: &str| {
-        let path = tmp.path().join(name);
-        std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
-        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
-        path.to_str().unwrap().to_string()
-    };
+    let script = |name: &str, body: &str| stand_in(tmp.path(), name, body);
     let without = script(
         "node-without",
         "echo \"Error: Cannot find module 'three'\" >&2; exit 1",

@@ -770,20 +770,7 @@ json.dump({"problems": problems, "instancers": len(instancers),
 
 /// The 100,000-sphere cloud's stage in `dir`, its document, and the sampled spheres.
 fn cloud_stage(dir: &Path) -> (PathBuf, Document, Vec<usize>) {
-    let ron = crate::common::cloud(dir, 100_000);
-    let usda = dir.join("cloud.usda");
-    let o = campath(
-        dir,
-        &[
-            "path",
-            ron.to_str().unwrap(),
-            "--out",
-            usda.to_str().unwrap(),
-        ],
-        &[],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let doc = Document::load(&ron).unwrap();
+    let (usda, doc) = crate::common::cloud_export(dir, 100_000, "cloud.usda");
     let sample = crate::common::cloud_sample(doc.scene().spheres.len());
     (usda, doc, sample)
 }
