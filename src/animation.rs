@@ -8,6 +8,7 @@
 //! | track | TP; VPN = TP − VRP |
 //! | zoom | the COP's n (along VPN) |
 //! | distort | the COP's (u, v) (orthogonal to VPN) |
+//! | roll | the camera's turn about the VPN, after the up-vector rule |
 //!
 //! With motion blur a frame also has a camera per time sample ([`Animation::exposure`]).
 
@@ -54,6 +55,10 @@ pub struct Animation {
     pub zoom: Option<Track<f64>>,
     /// Animates the COP's (u, v).
     pub distort: Option<Track<DVec2>>,
+    /// The roll in degrees when no Roll track sets it (0: the notes' basis).
+    pub roll: f64,
+    /// Animates the roll, degrees.
+    pub roll_track: Option<Track<f64>>,
 }
 
 /// A frame's cameras: its own, at the frame's time, and with motion blur one per time sample.
@@ -106,6 +111,7 @@ impl Animation {
             Mode::Track => self.track.is_some(),
             Mode::Zoom => self.zoom.is_some(),
             Mode::Distort => self.distort.is_some(),
+            Mode::Roll => self.roll_track.is_some(),
         })
     }
 
@@ -127,8 +133,32 @@ impl Animation {
         }
     }
 
-    /// The camera at `t` seconds, continuing from the previous frame's v (see
-    /// [`Basis::following`]).
+    /// The roll at `t` seconds, degrees: the Roll track's, or the camera's.
+    pub fn roll_at(&self, t: f64) -> f64 {
+        self.roll_track.as_ref().map_or(self.roll, |r| r.sample(t))
+    }
+
+    /// The up vector `camera` (the camera at `t` seconds) had before its roll: what the next
+    /// camera's basis continues from, so that the up-vector rule at the pole does not see the
+    /// roll. Without roll it is the camera's v, bit for bit.
+    pub fn up_before_roll(&self, camera: &Camera, t: f64) -> DVec3 {
+        camera.basis.rolled(-self.roll_at(t)).v
+    }
+
+    /// The basis at `t` seconds for the view plane normal `vpn`: the notes' basis, continued
+    /// from the previous camera's up before its roll ([`Basis::following`],
+    /// [`Animation::up_before_roll`]), then turned by the roll ([`Basis::rolled`]).
+    pub fn basis_at(
+        &self,
+        t: f64,
+        vpn: DVec3,
+        previous_v: Option<DVec3>,
+    ) -> Result<Basis, CameraError> {
+        Ok(Basis::following(vpn, self.vuv, previous_v)?.rolled(self.roll_at(t)))
+    }
+
+    /// The camera at `t` seconds, continuing from the previous frame's up before its roll
+    /// ([`Animation::basis_at`]).
     pub fn camera_at(&self, t: f64, previous_v: Option<DVec3>) -> Result<Camera, CameraError> {
         let vrp = self.observer.as_ref().map_or(self.vrp, |tr| tr.sample(t));
         let vpn = if let Some(look) = &self.look_around {
@@ -153,7 +183,7 @@ impl Animation {
         }
         Ok(Camera {
             vrp_world: vrp,
-            basis: Basis::following(vpn, self.vuv, previous_v)?,
+            basis: self.basis_at(t, vpn, previous_v)?,
             cop_view: cop,
             window: self.window,
         })
@@ -173,21 +203,26 @@ impl Animation {
     ) -> Result<Exposure, FrameError> {
         let n = blur.samples;
         let mut times = vec![camera; n as usize];
-        let at = |j: u32, previous: &Camera| {
+        // The previous camera's up before its roll, from the camera and its time.
+        let up = |(camera, time): (Camera, f64)| self.up_before_roll(&camera, time);
+        let at = |j: u32, previous: (Camera, f64)| {
             let time = blur.time(frame, j, self.fps);
-            let camera = self.camera_at(time, Some(previous.basis.v));
-            camera.map_err(|cause| FrameError { frame, time, cause })
+            let camera = self.camera_at(time, Some(up(previous)));
+            camera
+                .map(|c| (c, time))
+                .map_err(|cause| FrameError { frame, time, cause })
         };
         // Forwards from the frame's time, then backwards from it.
-        let mut previous = camera;
+        let own = (camera, self.time(frame));
+        let mut previous = own;
         for j in (0..n).filter(|&j| blur.offset(j) > 0.0) {
-            previous = at(j, &previous)?;
-            times[j as usize] = previous;
+            previous = at(j, previous)?;
+            times[j as usize] = previous.0;
         }
-        let mut previous = camera;
+        let mut previous = own;
         for j in (0..n).rev().filter(|&j| blur.offset(j) < 0.0) {
-            previous = at(j, &previous)?;
-            times[j as usize] = previous;
+            previous = at(j, previous)?;
+            times[j as usize] = previous.0;
         }
         Ok(Exposure { camera, times })
     }
@@ -200,7 +235,10 @@ impl Animation {
         (0..self.frames).map_while(move |frame| {
             let time = self.time(frame);
             let camera = self.camera_at(time, previous?);
-            previous = camera.as_ref().ok().map(|c| Some(c.basis.v));
+            previous = camera
+                .as_ref()
+                .ok()
+                .map(|c| Some(self.up_before_roll(c, time)));
             Some(match camera {
                 Ok(cam) => Ok((frame, cam)),
                 Err(cause) => Err(FrameError { frame, time, cause }),

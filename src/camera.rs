@@ -101,6 +101,23 @@ impl Basis {
         })
     }
 
+    /// The basis turned `degrees` about n, counterclockwise as seen from behind the camera
+    /// (looking along n): v turns towards −u, and the scene in the picture turns clockwise.
+    /// Blender's roll (its camera's turn about local Z), Cinemachine's Dutch. Zero degrees is
+    /// the basis itself, bit for bit.
+    pub fn rolled(self, degrees: f64) -> Basis {
+        if degrees == 0.0 {
+            return self;
+        }
+        let radians = degrees * (std::f64::consts::PI / 180.0);
+        let (s, c) = (libm::sin(radians), libm::cos(radians));
+        Basis {
+            u: self.u * c + self.v * s,
+            v: self.v * c - self.u * s,
+            n: self.n,
+        }
+    }
+
     /// World direction to view coordinates (rotation only).
     pub fn to_view(&self, world: DVec3) -> DVec3 {
         DVec3::new(world.dot(self.u), world.dot(self.v), world.dot(self.n))

@@ -457,6 +457,8 @@ pub fn exp_map(p: DVec3, w: DVec3) -> DVec3 {
 #[derive(Debug, Clone)]
 pub struct UniformSpeed {
     track: Track<DVec3>,
+    /// How the speed rises from rest and falls back to it; none by default.
+    ease: Ease,
     /// Track times of the table's samples, increasing.
     times: Vec<f64>,
     /// Arc length from the first key to each sample, non-decreasing.
@@ -489,9 +491,26 @@ impl UniformSpeed {
             .collect();
         UniformSpeed {
             track,
+            ease: Ease::NONE,
             times,
             lengths,
         }
+    }
+
+    /// The same path starting from rest and coming to rest: see [`Ease`]. The caller has
+    /// checked that the ease fits the keys' time ([`Ease::fits`]).
+    pub fn eased(self, ease: Ease) -> UniformSpeed {
+        UniformSpeed { ease, ..self }
+    }
+
+    /// How the path starts and ends.
+    pub fn ease(&self) -> Ease {
+        self.ease
+    }
+
+    /// Whether the path starts or ends softly ([`Ease`]).
+    pub fn is_eased(&self) -> bool {
+        self.ease != Ease::NONE
     }
 
     /// Path length in world units (the table's chord sum).
@@ -505,7 +524,10 @@ impl UniformSpeed {
         if t <= t0 || t >= t1 || self.length() == 0.0 {
             return self.track.sample(t0.max(t.min(t1)));
         }
-        let s = self.length() * ((t - t0) / (t1 - t0));
+        let s = match self.ease == Ease::NONE {
+            true => self.length() * ((t - t0) / (t1 - t0)),
+            false => self.length() * self.ease.fraction(t - t0, t1 - t0),
+        };
         let i = self
             .lengths
             .partition_point(|&l| l <= s)
@@ -514,6 +536,50 @@ impl UniformSpeed {
         let frac = if l1 > l0 { (s - l0) / (l1 - l0) } else { 0.0 };
         self.track
             .sample(self.times[i - 1] + (self.times[i] - self.times[i - 1]) * frac)
+    }
+}
+
+/// The start and end of a constant-speed path, eased: over its first `start` seconds the speed
+/// rises from rest to the cruising speed V, and over its last `end` seconds it falls back to
+/// rest, each along smoothstep, V·(3y² − 2y³) for y from 0 to 1 of the ease. Speed and
+/// acceleration are continuous everywhere (the path is C², where its curve is), the inner keys
+/// are passed without a stop, and V = L / (T − (start + end)/2) for a path of length L over T
+/// seconds. With no ease the speed is L / T throughout, as before.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ease {
+    /// Seconds from rest to the cruising speed, ≥ 0.
+    pub start: f64,
+    /// Seconds from the cruising speed to rest, ≥ 0.
+    pub end: f64,
+}
+
+impl Ease {
+    /// Constant speed from the first key's time to the last.
+    pub const NONE: Ease = Ease {
+        start: 0.0,
+        end: 0.0,
+    };
+
+    /// Whether both eases fit in a path of `duration` seconds.
+    pub fn fits(self, duration: f64) -> bool {
+        self.start + self.end <= duration
+    }
+
+    /// The fraction of the path's length covered `x` seconds into a path of `duration`
+    /// seconds: 0 at 0, 1 at `duration`, increasing between.
+    pub fn fraction(self, x: f64, duration: f64) -> f64 {
+        // The length smoothstep's speed covers over y of an ease: ∫₀ʸ 3s² − 2s³ ds.
+        let covered = |y: f64| y * y * y * (1.0 - 0.5 * y);
+        let (a, b) = (self.start, self.end);
+        let cruise = duration - 0.5 * (a + b);
+        let distance = if x < a {
+            a * covered(x / a)
+        } else if x > duration - b {
+            cruise - b * covered((duration - x) / b)
+        } else {
+            x - 0.5 * a
+        };
+        (distance / cruise).clamp(0.0, 1.0)
     }
 }
 

@@ -1,5 +1,5 @@
-//! The notes' five animated cameras ("Animated Cameras"), one per kind of track: the one list of
-//! modes that the format, the checker, the evaluator and the command line all use.
+//! The notes' five animated cameras ("Animated Cameras"), one per kind of track, and the roll
+//! about the view direction: the one list of modes that the format, the checker, the evaluator and the command line all use.
 
 use std::fmt;
 
@@ -16,16 +16,19 @@ pub enum Mode {
     Zoom,
     /// Distort: the COP orthogonal to the VPN (its u, v).
     Distort,
+    /// Roll: the camera turned about the VPN, in degrees (Blender's roll, Cinemachine's Dutch).
+    Roll,
 }
 
 impl Mode {
-    /// Every mode, in the order the notes list them.
-    pub const ALL: [Mode; 5] = [
+    /// Every mode, in the order the notes list them, then Roll.
+    pub const ALL: [Mode; 6] = [
         Mode::Observer,
         Mode::LookAround,
         Mode::Track,
         Mode::Zoom,
         Mode::Distort,
+        Mode::Roll,
     ];
 
     /// The track's name in the keyframe file.
@@ -36,6 +39,7 @@ impl Mode {
             Mode::Track => "Track",
             Mode::Zoom => "Zoom",
             Mode::Distort => "Distort",
+            Mode::Roll => "Roll",
         }
     }
 
@@ -46,6 +50,7 @@ impl Mode {
             Mode::LookAround | Mode::Track => "the view direction",
             Mode::Zoom => "the COP's n",
             Mode::Distort => "the COP's (u, v)",
+            Mode::Roll => "the roll about the VPN",
         }
     }
 }

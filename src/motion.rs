@@ -8,7 +8,8 @@
 //!   exceeds [`JUMP_FACTOR`] times the shot's median change, [`SPEED_FLOOR`] of the median
 //!   speed and [`PEAK_FLOOR`] of the fastest (for turning, [`TURN_FLOOR`] of the median rate,
 //!   [`PEAK_FLOOR`] of the fastest, and at least [`TURN_MIN_DEG_S`]): a Step key, a kink
-//!   between linear keys, a spline overshooting between uneven keys.
+//!   between linear keys, a spline overshooting between uneven keys. A speed jump names the
+//!   fix for a path that stops dead at its ends: constant speed with eased ends.
 //! - **The COP inside a sphere**: the frame is a wall of the sphere's colour.
 //! - **A target close to the camera**: the target point nearer the VRP than [`NEAR_TARGET`] of
 //!   their median distance over the shot, where the view direction TP − VRP turns unstable.
@@ -20,6 +21,7 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
 use crate::frames::{list_frames, median};
+use crate::keyframes::PathTrack;
 use crate::scene::Sphere;
 
 /// A change this many times the shot's median change is a jump (with the floors below).
@@ -32,6 +34,9 @@ pub const PEAK_FLOOR: f64 = 0.01;
 pub const TURN_FLOOR: f64 = 0.5;
 /// … and this many degrees per second.
 pub const TURN_MIN_DEG_S: f64 = 5.0;
+/// What a speed jump's warning suggests, unless the path is already eased.
+pub const EASE_FIX: &str = "; to fly the path at constant speed, starting and stopping softly, \
+     give the Observer track speed: Uniform, ease: (start: 1.0, end: 1.0)";
 /// A target nearer the VRP than this fraction of their median distance is too close.
 pub const NEAR_TARGET: f64 = 0.02;
 
@@ -100,8 +105,13 @@ pub fn warnings(doc: &Document) -> Result<Vec<Warning>> {
             .windows(2)
             .map(|w| angle_deg(w[0].basis.n, w[1].basis.n) * fps)
             .collect();
-        jumps(&mut out, Quantity::Speed, &speed);
-        jumps(&mut out, Quantity::TurnRate, &turn);
+        let eased = matches!(&doc.animation.observer, Some(PathTrack::Uniform(u)) if u.is_eased());
+        let fix = match eased {
+            true => "",
+            false => EASE_FIX,
+        };
+        jumps(&mut out, Quantity::Speed, &speed, fix);
+        jumps(&mut out, Quantity::TurnRate, &turn, "");
     }
     inside_spheres(&mut out, doc, &cameras);
     near_target(&mut out, doc);
@@ -126,7 +136,7 @@ fn angle_deg(a: DVec3, b: DVec3) -> f64 {
 
 /// Jumps in `rate` (one value between each pair of consecutive frames) of the speed or the
 /// turn rate: a change above [`JUMP_FACTOR`] × the median change and the quantity's floors.
-fn jumps(out: &mut Vec<Warning>, quantity: Quantity, rate: &[f64]) {
+fn jumps(out: &mut Vec<Warning>, quantity: Quantity, rate: &[f64], fix: &str) {
     let (name, unit, floor, min) = match quantity {
         Quantity::Speed => ("speed", "units/s", SPEED_FLOOR, 0.0),
         _ => ("turn rate", "°/s", TURN_FLOOR, TURN_MIN_DEG_S),
@@ -156,7 +166,7 @@ fn jumps(out: &mut Vec<Warning>, quantity: Quantity, rate: &[f64]) {
             frames,
             message: format!(
                 "the {name} jumps: {from:.3} → {reached:.3} {unit}{then} (the shot's typical \
-                 change between frames is {typical:.3} {unit})",
+                 change between frames is {typical:.3} {unit}){fix}",
             ),
         });
     }

@@ -55,8 +55,8 @@ Threads to render on (default: every core). The bytes do not depend on it.
 .TP
 \fIFILE\fR.ron
 The keyframe file, RON in UTF\-8: \fBframes\fR, \fBfps\fR, \fBimage\fR (width, height, samples,
-adaptive, motion_blur (shutter, samples)), \fBcamera\fR (vrp, vpn or tp, vuv, cop, window or hfov/vfov), \fBanimate\fR (tracks
-Observer, LookAround, Track, Zoom, Distort with keys (t: seconds, value: ...) and an
+adaptive, motion_blur (shutter, samples)), \fBcamera\fR (vrp, vpn or tp, vuv, cop, window or hfov/vfov, roll), \fBanimate\fR (tracks
+Observer, LookAround, Track, Zoom, Distort, Roll with keys (t: seconds, value: ...) and an
 interpolation), \fBscene\fR (background, ambient, lights, spheres). Every field and rule:
 docs/format.md in campath's sources.
 .TP

@@ -214,13 +214,22 @@ pub struct PlotArgs {
     /// A frustum every N frames, N ≥ 1 [default: about eight along the path].
     #[arg(long, value_parser = super::args::at_least_one)]
     pub every: Option<u64>,
+    /// Chart the eye's speed against time instead, with the Observer's keys and eases marked
+    /// [default --out: out/<file stem>/speed.png].
+    #[arg(long, conflicts_with = "every")]
+    pub speed: bool,
 }
 
 /// `campath plot`: the plot, written as one of the runs of its folder when the folder is one
 /// campath's runs write (it has their lock file).
 pub fn run(a: PlotArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let file = &a.shot.file;
-    let png = (a.out).unwrap_or_else(|| default_out_dir(file).join(pictures::PLOT));
+    let name = if a.speed {
+        pictures::SPEED
+    } else {
+        pictures::PLOT
+    };
+    let png = (a.out).unwrap_or_else(|| default_out_dir(file).join(name));
     super::args::check_extension("--out", &png, &["png"], "plot writes PNG")?;
     let doc = Document::load(file)?;
     super::args::check_writable(&png)?;
@@ -228,8 +237,95 @@ pub fn run(a: PlotArgs, out: &mut dyn std::io::Write) -> Result<()> {
     let folder = folder_of(&png);
     let locked = folder.join(LOCK).is_file();
     let _lock = (locked.then(|| super::progress::lock_whole(folder, false))).transpose()?;
-    write(&doc, &png, every)?;
+    match a.speed {
+        true => write_speed(&doc, &png)?,
+        false => write(&doc, &png, every)?,
+    }
     Ok(writeln!(out, "wrote {}", png.display()).map_err(crate::Error::stdout)?)
+}
+
+/// Writes the chart of the speeds of the VRP (the Observer's path) and of the eye (the COP in
+/// world, which also moves as the view turns), in units per second between each pair of
+/// consecutive frames, at their middle time, against time; the Observer's key times are dashed
+/// grey lines and its eases' ends green ones.
+pub fn write_speed(doc: &Document, path: &Path) -> Result<()> {
+    let a = &doc.animation;
+    let cameras: Vec<Camera> = (doc.cameras())
+        .map(|c| c.map(|(_, cam)| cam))
+        .collect::<crate::Result<_>>()?;
+    let speeds = |at: fn(&Camera) -> DVec3| -> Vec<(f64, f64)> {
+        let points: Vec<DVec3> = cameras.iter().map(at).collect();
+        (points.windows(2).enumerate())
+            .map(|(k, w)| ((k as f64 + 0.5) / a.fps, (w[1] - w[0]).length() * a.fps))
+            .collect()
+    };
+    let (vrp, eye) = (speeds(|c| c.vrp_world), speeds(Camera::cop_world));
+    let keys: Vec<f64> = a
+        .observer
+        .iter()
+        .flat_map(|o| o.keys())
+        .map(|k| k.t)
+        .collect();
+    let eases: Vec<f64> = match &a.observer {
+        Some(crate::keyframes::PathTrack::Uniform(u)) if u.is_eased() => {
+            let (first, last, ease) = (keys[0], keys[keys.len() - 1], u.ease());
+            vec![first + ease.start, last - ease.end]
+        }
+        _ => Vec::new(),
+    };
+    let end = a.time(a.frames - 1).max(1.0 / a.fps);
+    let fastest = vrp.iter().chain(&eye).map(|p| p.1).fold(0.0, f64::max);
+    let top = fastest.max(1e-9) * 1.1;
+    draw_png(path, SPEED_SIZE, |root| {
+        let mut chart = ChartBuilder::on(&root)
+            .caption("speed against time", ("sans-serif", 18))
+            .margin(MARGIN as u32)
+            .x_label_area_size(X_LABELS as u32)
+            .y_label_area_size(Y_LABELS as u32)
+            .build_cartesian_2d(0.0..end, 0.0..top)?;
+        chart
+            .configure_mesh()
+            .x_desc("t (s)")
+            .y_desc("speed (world units/s)")
+            .label_style(("sans-serif", 14))
+            .draw()?;
+        let upright = |t: f64, style: ShapeStyle| {
+            plotters::element::DashedPathElement::new([(t, 0.0), (t, top)], 6, 4, style)
+        };
+        let sample = |style: ShapeStyle| {
+            move |(x, y): (i32, i32)| PathElement::new(vec![(x, y), (x + 20, y)], style)
+        };
+        let key = ShapeStyle::from(&GREY).stroke_width(1);
+        chart
+            .draw_series(keys.iter().map(|&t| upright(t, key)))?
+            .label("Observer keys")
+            .legend(sample(key));
+        if !eases.is_empty() {
+            let ease = ShapeStyle::from(&START).stroke_width(2);
+            chart
+                .draw_series(eases.iter().map(|&t| upright(t, ease)))?
+                .label("ease ends")
+                .legend(sample(ease));
+        }
+        let lines = [
+            (vrp, "the VRP (the Observer's path)", BLUE),
+            (eye, "the eye (the COP in world)", RGBColor(220, 90, 0)),
+        ];
+        for (points, label, colour) in lines {
+            let style = ShapeStyle::from(&colour).stroke_width(2);
+            chart
+                .draw_series(LineSeries::new(points, style))?
+                .label(label)
+                .legend(sample(style));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerMiddle)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+    })
 }
 
 /// Writes the plot as a PNG; a frustum is drawn every `every` frames.
@@ -299,6 +395,8 @@ pub fn write(doc: &Document, path: &Path, every: u64) -> Result<()> {
     })
 }
 
+/// The speed chart's size in pixels.
+const SPEED_SIZE: (u32, u32) = (900, 420);
 /// Pixels of the legend strip below the panels, and of the panels' margins and label areas.
 const LEGEND_HEIGHT: u32 = 70;
 const MARGIN: f64 = 15.0;

@@ -22,6 +22,7 @@ impl Checker {
         let vrp = (cam.vrp).map_or(Some(DVec3::ZERO), |v| self.triple("camera.vrp", v));
         let vuv = (cam.vuv).map_or(Some(DVec3::Y), |v| self.direction("camera.vuv", v));
         let cop = self.cop(cam);
+        let roll = (cam.roll).map_or(Some(0.0), |deg| self.finite("camera.roll", deg));
         let tracks = self.tracks(&spec.animate, vuv.unwrap_or(DVec3::Y));
         let setter = spec
             .animate
@@ -45,6 +46,8 @@ impl Checker {
             track: tracks.track,
             zoom: tracks.zoom,
             distort: tracks.distort,
+            roll: roll?,
+            roll_track: tracks.roll,
         })
     }
 

@@ -1,12 +1,12 @@
-//! The file's `animate` section: one track per mode, each with keys whose times strictly
+//! The file's `animate` section: one track per mode (Roll included), each with keys whose times strictly
 //! increase; two tracks that set the same camera parameter conflict.
 
 use glam::{DVec2, DVec3};
 
 use super::Checker;
-use crate::format::{KeySpec, SpeedSpec, TrackSpec, Triple};
+use crate::format::{EaseSpec, KeySpec, SpeedSpec, TrackSpec, Triple};
 use crate::keyframes::{
-    DirectionTrack, Interpolation, Key, Keyable, PathTrack, Track, UniformSpeed,
+    DirectionTrack, Ease, Interpolation, Key, Keyable, PathTrack, Track, UniformSpeed,
 };
 
 /// The checked tracks, at most one per mode.
@@ -17,6 +17,7 @@ pub(super) struct Tracks {
     pub track: Option<Track<DVec3>>,
     pub zoom: Option<Track<f64>>,
     pub distort: Option<Track<DVec2>>,
+    pub roll: Option<Track<f64>>,
 }
 
 impl Tracks {
@@ -31,6 +32,7 @@ impl Tracks {
             self.track.as_ref().map(|t| end(t.keys())),
             self.zoom.as_ref().map(|t| end(t.keys())),
             self.distort.as_ref().map(|t| end(t.keys())),
+            self.roll.as_ref().map(|t| end(t.keys())),
         ]
         .into_iter()
         .flatten()
@@ -67,7 +69,11 @@ impl Checker {
                 interpolation,
                 speed,
                 arc_samples,
-            } => out.observer = self.observer(field, keys, *interpolation, *speed, *arc_samples),
+                ease,
+            } => {
+                let timing = (*speed, *arc_samples, *ease);
+                out.observer = self.observer(field, keys, *interpolation, timing)
+            }
             TrackSpec::Track {
                 keys,
                 interpolation,
@@ -100,6 +106,14 @@ impl Checker {
                     .keys(field, keys, *interpolation, |c, f, v| c.pair(f, *v))
                     .map(Track::new);
             }
+            TrackSpec::Roll {
+                keys,
+                interpolation,
+            } => {
+                out.roll = self
+                    .keys(field, keys, *interpolation, |c, f, deg| c.finite(f, *deg))
+                    .map(Track::new);
+            }
         }
     }
 
@@ -108,8 +122,7 @@ impl Checker {
         field: &str,
         keys: &[KeySpec<Triple>],
         interpolation: Option<Interpolation>,
-        speed: Option<SpeedSpec>,
-        arc_samples: Option<i64>,
+        (speed, arc_samples, ease): (Option<SpeedSpec>, Option<i64>, Option<EaseSpec>),
     ) -> Option<PathTrack> {
         let samples = arc_samples.unwrap_or(i64::from(UniformSpeed::DEFAULT_SAMPLES));
         let samples = self.count(&format!("{field}.arc_samples"), samples, 1 << 20, ("", ""));
@@ -119,11 +132,47 @@ impl Checker {
                 "only applies with speed: Uniform",
             );
         }
+        let ease = ease.and_then(|e| self.ease(&format!("{field}.ease"), e, speed));
         let track = Track::new(self.keys(field, keys, interpolation, |c, f, v| c.triple(f, *v))?);
         let samples = samples?;
-        Some(match speed {
-            Some(SpeedSpec::Uniform) => PathTrack::Uniform(UniformSpeed::new(track, samples)),
-            _ => PathTrack::Keyed(track),
+        let Some(SpeedSpec::Uniform) = speed else {
+            return Some(PathTrack::Keyed(track));
+        };
+        let keys = track.keys();
+        let duration = keys[keys.len() - 1].t - keys[0].t;
+        let ease = match ease {
+            Some(ease) if !ease.fits(duration) => {
+                let message = format!(
+                    "start + end is {} s, longer than the path's {duration} s from its first key \
+                     to its last: shorten them",
+                    ease.start + ease.end
+                );
+                self.problem(format!("{field}.ease"), message);
+                return None;
+            }
+            ease => ease.unwrap_or(Ease::NONE),
+        };
+        Some(PathTrack::Uniform(
+            UniformSpeed::new(track, samples).eased(ease),
+        ))
+    }
+
+    /// An Observer's ease: each end ≥ 0 seconds, and only with constant speed.
+    fn ease(&mut self, field: &str, e: EaseSpec, speed: Option<SpeedSpec>) -> Option<Ease> {
+        if speed != Some(SpeedSpec::Uniform) {
+            let message = "only applies with speed: Uniform (constant speed between the eases)";
+            self.problem(field.to_string(), message);
+            return None;
+        }
+        let mut end = |name: &str, x: Option<f64>| {
+            let f = format!("{field}.{name}");
+            let x = self.finite(&f, x.unwrap_or(0.0))?;
+            self.ensure(&f, x >= 0.0, x, || format!("seconds ≥ 0, got {x}"))
+        };
+        let (start, end) = (end("start", e.start), end("end", e.end));
+        Some(Ease {
+            start: start?,
+            end: end?,
         })
     }
 

@@ -225,8 +225,9 @@ pub(crate) fn keyed_cameras(doc: &Document) -> Result<Vec<(f64, Camera)>> {
     };
     let half = blur.shutter / 2.0;
     let fps = doc.animation.fps;
-    let end = |(_, cam): (f64, Camera), at: f64| {
-        let camera = doc.animation.camera_at(at / fps, Some(cam.basis.v)).ok()?;
+    let end = |(frame, cam): (f64, Camera), at: f64| {
+        let up = doc.animation.up_before_roll(&cam, frame / fps);
+        let camera = doc.animation.camera_at(at / fps, Some(up)).ok()?;
         Some((at, camera))
     };
     let (first, last) = (keys[0], keys[keys.len() - 1]);

@@ -106,6 +106,8 @@ pub struct CameraSpec {
     pub hfov: Option<f64>,
     /// Vertical field of view, degrees in (0, 180).
     pub vfov: Option<f64>,
+    /// The camera turned about the VPN, degrees (default 0), unless a Roll track sets it.
+    pub roll: Option<f64>,
 }
 
 /// How an Observer path is timed.
@@ -115,6 +117,17 @@ pub enum SpeedSpec {
     Keyed,
     /// Constant speed along the path from the first key's time to the last.
     Uniform,
+}
+
+/// `ease: (start: 1.0, end: 1.0)`: seconds over which a `Uniform` path starts from rest and
+/// comes to rest; either may be left out (0).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "ease")]
+pub struct EaseSpec {
+    /// Seconds from rest to the cruising speed.
+    pub start: Option<f64>,
+    /// Seconds from the cruising speed to rest.
+    pub end: Option<f64>,
 }
 
 /// One key of a track.
@@ -143,6 +156,8 @@ pub enum TrackSpec {
         speed: Option<SpeedSpec>,
         /// Arc-length table steps per key segment with `Uniform` (default 256).
         arc_samples: Option<i64>,
+        /// With `Uniform`: seconds to start from rest and to come to rest.
+        ease: Option<EaseSpec>,
     },
     /// Animates the VPN, on the unit sphere.
     LookAround {
@@ -172,6 +187,13 @@ pub enum TrackSpec {
         /// Default for every segment.
         interpolation: Option<Interpolation>,
     },
+    /// Animates the roll: the camera turned about the VPN.
+    Roll {
+        /// Degrees, counterclockwise as seen from behind the camera.
+        keys: Vec<KeySpec<f64>>,
+        /// Default for every segment.
+        interpolation: Option<Interpolation>,
+    },
 }
 
 impl TrackSpec {
@@ -183,6 +205,7 @@ impl TrackSpec {
             TrackSpec::Track { .. } => Mode::Track,
             TrackSpec::Zoom { .. } => Mode::Zoom,
             TrackSpec::Distort { .. } => Mode::Distort,
+            TrackSpec::Roll { .. } => Mode::Roll,
         }
     }
 }

@@ -49,6 +49,8 @@ pub mod pictures {
     pub const GIF: &str = "preview.gif";
     /// `plot`'s picture of the path.
     pub const PLOT: &str = "plot.png";
+    /// `plot --speed`'s chart of the eye's speed against time.
+    pub const SPEED: &str = "speed.png";
     /// `report`'s chart.
     pub const REPORT: &str = "report.png";
     /// An earlier `watch`'s page (today's is the studio's, served): still campath's name.
@@ -157,7 +159,7 @@ fn is_desktop_clutter(name: &str) -> bool {
 
 /// Whether campath writes files of this name into an output folder.
 fn is_ours(name: &str) -> bool {
-    use pictures::{FRAMES, GIF, PAGE, PLOT, REPORT, SHEET, STATUS};
+    use pictures::{FRAMES, GIF, PAGE, PLOT, REPORT, SHEET, SPEED, STATUS};
     let base = final_name(name);
     frame_of(base).is_some()
         || lock::is_lock_file(base)
@@ -165,7 +167,7 @@ fn is_ours(name: &str) -> bool {
         || base.ends_with(".mp4")
         || base.ends_with(".mkv")
         || [HASHES, BEFORE_SHARDS].contains(&base)
-        || [SHEET, GIF, PLOT, REPORT, PAGE, STATUS].contains(&base)
+        || [SHEET, GIF, PLOT, SPEED, REPORT, PAGE, STATUS].contains(&base)
         || FRAMES.contains(&base)
 }
 

@@ -310,3 +310,144 @@ fn arc_samples_needs_uniform_speed() {
         "{e}"
     );
 }
+
+/// The scene the roll tests look at: spheres of three colours off the axis, so that a turn of
+/// the picture moves every one of them.
+const ROLL_SCENE: &str =
+    "scene: (ambient: 0.2, lights: [(direction: (-1.0, -1.0, 1.0))], spheres: [
+    (center: (0.0, 0.0, 6.0), radius: 1.0, color: (0.9, 0.2, 0.2)),
+    (center: (1.6, 0.7, 7.0), radius: 0.6, color: (0.2, 0.9, 0.2)),
+    (center: (-1.2, -0.9, 5.0), radius: 0.4, color: (0.2, 0.2, 0.9))])";
+
+/// A Roll track renders every frame with the pixels of the same camera with its up vector
+/// turned instead. Looking along +z with VUV = +y, u = −x and v = +y; turned θ counterclockwise
+/// as seen from behind the camera, v becomes (sin θ, cos θ, 0), which is the VUV of a still
+/// camera whose notes' basis is the rolled one. θ is 15° a frame, exact in binary.
+#[test]
+fn a_roll_renders_the_pixels_of_the_up_vector_turned_by_its_angle() {
+    let image = "image: (width: 64, height: 48, samples: 2)";
+    let rolled = doc(&format!(
+        "(frames: 9, fps: 4.0, {image}, camera: (vpn: (0.0, 0.0, 1.0)),
+          animate: [Roll(keys: [(t: 0.0, value: 0.0), (t: 2.0, value: 120.0)], interpolation: Linear)],
+          {ROLL_SCENE})"
+    ));
+    let mut differing = Vec::new();
+    for frame in 0..9u64 {
+        let theta = (15.0 * frame as f64).to_radians();
+        let (s, c) = (theta.sin(), theta.cos());
+        let turned = doc(&format!(
+            "(frames: 1, {image}, camera: (vpn: (0.0, 0.0, 1.0), vuv: ({s:?}, {c:?}, 0.0)), {ROLL_SCENE})"
+        ));
+        let cam = rolled.camera(frame).unwrap();
+        assert!(
+            close(cam.basis.v, DVec3::new(s, c, 0.0), 1e-15),
+            "frame {frame}"
+        );
+        assert!(
+            close(cam.basis.u, DVec3::new(-c, s, 0.0), 1e-15),
+            "frame {frame}"
+        );
+        let (a, b) = (
+            campath::frames::render_frame(&rolled, frame).unwrap(),
+            campath::frames::render_frame(&turned, 0).unwrap(),
+        );
+        if a != b {
+            differing.push(frame);
+        }
+    }
+    assert!(differing.is_empty(), "frames {differing:?} differ");
+    // The picture does turn: the frames at 0° and 90° differ.
+    assert_ne!(
+        campath::frames::render_frame(&rolled, 0).unwrap(),
+        campath::frames::render_frame(&rolled, 6).unwrap()
+    );
+}
+
+/// A roll composes with the up-vector rule at the pole: looking around through the zenith
+/// (where the notes' basis is undefined and v is carried over the pole) with a fixed roll of 30°,
+/// every frame's basis is the unrolled shot's turned by 30°, on both sides of the pole.
+#[test]
+fn a_roll_is_the_same_turn_on_both_sides_of_the_pole() {
+    let shot = |camera: &str| {
+        doc(&format!(
+            "(frames: 49, fps: 24.0, image: (width: 32, height: 18), camera: (vrp: (0.0, 0.0, 0.0){camera}),
+              animate: [LookAround(keys: [(t: 0.0, value: (0.0, 0.0, 1.0)), (t: 1.0, value: (0.0, 1.0, 0.0)),
+                                          (t: 2.0, value: (0.0, 0.0, -1.0))], interpolation: Linear)],
+              {ROLL_SCENE})"
+        ))
+    };
+    let (plain, rolled) = (shot(""), shot(", roll: 30.0"));
+    let (s, c) = (30f64.to_radians().sin(), 30f64.to_radians().cos());
+    let pairs = plain.cameras().zip(rolled.cameras());
+    for (frame, (a, b)) in pairs.enumerate() {
+        let (a, b) = (a.unwrap().1.basis, b.unwrap().1.basis);
+        assert!(close(b.n, a.n, 0.0), "frame {frame}");
+        assert!(
+            close(b.u, a.u * c + a.v * s, 1e-14),
+            "frame {frame}: {b:?} against {a:?}"
+        );
+        assert!(
+            close(b.v, a.v * c - a.u * s, 1e-14),
+            "frame {frame}: {b:?} against {a:?}"
+        );
+    }
+    // Without a roll, the camera is the notes' basis bit for bit: a roll of 0 changes nothing.
+    let zero = shot(", roll: 0.0");
+    assert!(zero
+        .cameras()
+        .zip(plain.cameras())
+        .all(|(a, b)| a.unwrap().1.same_bits(&b.unwrap().1)));
+}
+
+/// The length an eased constant-speed path covers, written out from the speed profile: the
+/// speed rises along smoothstep 3y² − 2y³ over the first `a` seconds, holds V, and falls back
+/// over the last `b`; V·(T − (a + b)/2) is the whole length `length`.
+fn eased_distance(x: f64, duration: f64, a: f64, b: f64, length: f64) -> f64 {
+    let v = length / (duration - (a + b) / 2.0);
+    // ∫₀ʸ 3s² − 2s³ ds = y³ − y⁴/2.
+    let ramp = |y: f64| y.powi(3) - y.powi(4) / 2.0;
+    if x < a {
+        v * a * ramp(x / a)
+    } else if x > duration - b {
+        length - v * b * ramp((duration - x) / b)
+    } else {
+        v * (a / 2.0 + x - a)
+    }
+}
+
+/// `speed: Uniform, ease: (start, end)` on a straight path whose keys are unevenly spaced (a
+/// keyed path would crawl for 5 s and then leap 9 units in one): the camera is where the eased
+/// speed profile puts it at every frame, starts and ends at rest, passes the inner keys without
+/// slowing, and its speed changes by less than 1% of its top speed between frames.
+#[test]
+fn an_eased_path_starts_and_stops_softly_at_constant_speed_between() {
+    let d = doc(
+        "(fps: 60.0, image: (width: 8, height: 8), camera: (vpn: (0.0, 0.0, 1.0)), animate: [
+            Observer(keys: [(t: 0.0, value: (0.0, 0.0, 0.0)), (t: 5.0, value: (1.0, 0.0, 0.0)),
+                            (t: 6.0, value: (10.0, 0.0, 0.0)), (t: 10.0, value: (12.0, 0.0, 0.0))],
+                     interpolation: Linear, speed: Uniform, ease: (start: 3.0, end: 3.0))])",
+    );
+    let x: Vec<f64> = d.cameras().map(|c| c.unwrap().1.vrp_world.x).collect();
+    assert_eq!(x.len(), 601);
+    for (k, &got) in x.iter().enumerate() {
+        let want = eased_distance(k as f64 / 60.0, 10.0, 3.0, 3.0, 12.0);
+        assert!((got - want).abs() < 1e-9, "frame {k}: {got} against {want}");
+    }
+    let speed: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) * 60.0).collect();
+    let top = 12.0 / (10.0 - 3.0);
+    assert!(
+        speed[0] < 0.001 * top && speed[599] < 0.001 * top,
+        "{speed:?}"
+    );
+    for (k, w) in speed.windows(2).enumerate() {
+        assert!(
+            (w[1] - w[0]).abs() < 0.01 * top,
+            "frames {k}..{}: {w:?}",
+            k + 2
+        );
+    }
+    // The cruise, through the keys at 5 s and 6 s, is at V.
+    for s in &speed[185..415] {
+        assert!((s - top).abs() < 1e-6 * top, "{s} against {top}");
+    }
+}

@@ -97,3 +97,64 @@ fn the_examples_are_quiet() {
         assert!(!stdout(&o).contains("warning"), "{name}: {}", stdout(&o));
     }
 }
+
+/// A smooth path that stops dead at its last key (a second before the shot ends) warns of the
+/// jump and names the fix; the same
+/// path eased at both ends is quiet under `--strict`, with the target tracked as before.
+#[test]
+fn a_path_that_stops_dead_names_the_ease_and_the_eased_path_is_quiet() {
+    let shot = |timing: &str| {
+        format!(
+            "(frames: 168, fps: 24.0, camera: (), animate: [
+                Observer(keys: [(t: 0.0, value: (-6.0, 1.0, -8.0)), (t: 2.0, value: (0.0, 2.0, -7.0)),
+                                (t: 3.0, value: (5.0, 1.5, -4.0)), (t: 6.0, value: (8.0, 1.0, 0.0))]{timing}),
+                Track(keys: [(t: 0.0, value: (0.0, 0.0, 0.0))])], {SCENE})"
+        )
+    };
+    let (code, out) = check(&shot(""), false);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("the speed jumps"), "{out}");
+    assert!(
+        out.contains("give the Observer track speed: Uniform, ease: (start: 1.0, end: 1.0)"),
+        "{out}"
+    );
+    let (code, out) = check(&shot(", speed: Uniform"), false);
+    assert!(
+        out.contains("the speed jumps") && out.contains("ease:"),
+        "{code:?} {out}"
+    );
+    let (code, out) = check(
+        &shot(", speed: Uniform, ease: (start: 1.0, end: 1.5)"),
+        true,
+    );
+    assert_eq!(code, Some(0), "{out}");
+    assert!(!out.contains("warning"), "{out}");
+}
+
+/// `plot --speed` charts the speed of `tests/data/eased.ron` into the output folder: a PNG of the
+/// chart's size, drawn (not blank).
+#[test]
+fn plot_speed_charts_the_eased_example() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = root().join("tests/data/eased.ron");
+    let png = tmp.path().join("speed.png");
+    let o = campath(
+        tmp.path(),
+        &[
+            "plot",
+            file.to_str().unwrap(),
+            "--speed",
+            "--out",
+            "speed.png",
+        ],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let image = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(image.dimensions(), (900, 420));
+    let coloured = image
+        .pixels()
+        .filter(|p| p[0] != p[1] || p[1] != p[2])
+        .count();
+    assert!(coloured > 2000, "{coloured} coloured pixels");
+}

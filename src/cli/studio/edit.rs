@@ -155,10 +155,8 @@ fn key_edit(bytes: &[u8], r: &KeyRequest) -> Result<(String, String), Refused> {
         .into_iter()
         .find(|m| m.name() == r.track)
         .ok_or_else(|| {
-            bad(format!(
-                "track {:?}: one of Observer, LookAround, Track, Zoom, Distort",
-                r.track
-            ))
+            let names: Vec<&str> = Mode::ALL.iter().map(|m| m.name()).collect();
+            bad(format!("track {:?}: one of {}", r.track, names.join(", ")))
         })?;
     let t = |t: Option<f64>| match t {
         Some(t) if t.is_finite() && t >= 0.0 => Ok(t),
@@ -193,13 +191,13 @@ fn key_edit(bytes: &[u8], r: &KeyRequest) -> Result<(String, String), Refused> {
     Ok((edited, what))
 }
 
-/// A key's value as the file writes it: the VRP, TP or VPN as `(x, y, z)`, the COP's n as a
-/// number, its (u, v) as a pair. Values are rounded to 1e-6 (a millionth of a world unit):
+/// A key's value as the file writes it: the VRP, TP or VPN as `(x, y, z)`, the COP's n or the
+/// roll in degrees as a number, the COP's (u, v) as a pair. Values are rounded to 1e-6 (a millionth of a world unit):
 /// what a hand-written key would give, and no digits of rounding noise in the file.
 fn value_text(mode: Mode, value: &[f64]) -> Result<String, String> {
     let want = match mode {
         Mode::Observer | Mode::LookAround | Mode::Track => 3,
-        Mode::Zoom => 1,
+        Mode::Zoom | Mode::Roll => 1,
         Mode::Distort => 2,
     };
     if value.len() != want || !value.iter().all(|x| x.is_finite() && x.abs() < 1e12) {

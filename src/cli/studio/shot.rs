@@ -8,7 +8,7 @@ use std::sync::Arc;
 use glam::DVec3;
 use serde_json::{json, Value};
 
-use crate::camera::{Basis, Camera};
+use crate::camera::Camera;
 use crate::document::Document;
 use crate::raster::Raster;
 use crate::render::{Renderer, SceneIndex};
@@ -200,8 +200,10 @@ impl Good {
     ) -> Result<Camera, String> {
         let base = self.cameras[frame as usize];
         let vpn = vpn.unwrap_or(base.basis.n);
-        let basis = Basis::following(vpn, self.doc.animation.vuv, Some(base.basis.v))
-            .map_err(|e| e.to_string())?;
+        let a = &self.doc.animation;
+        let t = a.time(frame);
+        let basis =
+            (a.basis_at(t, vpn, Some(a.up_before_roll(&base, t)))).map_err(|e| e.to_string())?;
         let cop = cop.unwrap_or(base.cop_view);
         if !(cop.z < 0.0 && cop.is_finite()) {
             return Err(format!("the COP's n is {}, not < 0", cop.z));
@@ -260,6 +262,12 @@ fn describe(doc: &Document, cameras: &[Camera], warnings: &[crate::motion::Warni
                 .flat_map(|t| t.keys())
                 .map(|k| (k.t, json!([k.value.x, k.value.y])))
                 .collect(),
+            crate::mode::Mode::Roll => a
+                .roll_track
+                .iter()
+                .flat_map(|t| t.keys())
+                .map(|k| (k.t, json!(k.value)))
+                .collect(),
         };
         times_values
             .into_iter()
@@ -282,6 +290,7 @@ fn describe(doc: &Document, cameras: &[Camera], warnings: &[crate::motion::Warni
                 "cop": triple(c.cop_view),
                 "eye": triple(c.cop_world()),
                 "tp": a.target(k as u64).map(triple),
+                "roll": a.roll_at(a.time(k as u64)),
             })
         })
         .collect();

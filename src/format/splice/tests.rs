@@ -22,7 +22,9 @@ fn keys(spec: &FileSpec, mode: Mode) -> Option<Vec<Row>> {
         TrackSpec::Observer { keys, .. }
         | TrackSpec::LookAround { keys, .. }
         | TrackSpec::Track { keys, .. } => keys.iter().map(row).collect(),
-        TrackSpec::Zoom { keys, .. } => keys.iter().map(row).collect(),
+        TrackSpec::Zoom { keys, .. } | TrackSpec::Roll { keys, .. } => {
+            keys.iter().map(row).collect()
+        }
         TrackSpec::Distort { keys, .. } => keys.iter().map(row).collect(),
     })
 }
@@ -45,7 +47,7 @@ fn rest(spec: &FileSpec, mode: Mode, whole_track: bool) -> String {
             {
                 keys.clear()
             }
-            TrackSpec::Zoom { keys, .. } if mine => keys.clear(),
+            TrackSpec::Zoom { keys, .. } | TrackSpec::Roll { keys, .. } if mine => keys.clear(),
             TrackSpec::Distort { keys, .. } if mine => keys.clear(),
             _ => {}
         }
@@ -57,6 +59,7 @@ fn rest(spec: &FileSpec, mode: Mode, whole_track: bool) -> String {
 fn value(mode: Mode) -> &'static str {
     match mode {
         Mode::Zoom => "-2.25",
+        Mode::Roll => "22.5",
         Mode::Distort => "(0.25, -0.5)",
         _ => "(1.0, 2.0, -3.0)",
     }
