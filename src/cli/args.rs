@@ -134,9 +134,11 @@ pub fn point(s: &str) -> std::result::Result<glam::DVec3, String> {
 /// `path --format`: the library's formats, with a line of help each.
 pub fn path_format() -> impl clap::builder::TypedValueParser<Value = PathFormat> {
     let help = |f: PathFormat| match f {
-        PathFormat::Csv => "frame, t, VRP, u, v, n, COP in world, window (one row per frame)",
+        PathFormat::Csv => "frame, t, VRP, u, v, n, cop_world, window (one row per frame)",
         PathFormat::Json => "an array of per-frame objects with the same fields",
-        PathFormat::Chan => "`frame tx ty tz rx ry rz vfov` for Nuke; frames numbered from 1",
+        PathFormat::Chan => {
+            "`frame tx ty tz rx ry rz vfov` for Nuke (Nuke counts from 1: --first-frame 1)"
+        }
         PathFormat::Gltf => "the whole shot as glTF 2.0 (binary when --out ends in .glb)",
         PathFormat::Blender => "a Python script for Blender that builds the whole shot",
         PathFormat::Usd => "the whole shot as an OpenUSD stage (USDA), lens shift included",
@@ -160,33 +162,49 @@ fn choice<T: Copy + Send + Sync + 'static, const N: usize>(
     })
 }
 
-/// `--format`, or the one `--out`'s extension says (CSV when neither says: `--out` without an
-/// extension, or `.txt`); a `--format` that another known extension contradicts is refused, and
-/// so is an extension no format has without `--format` (`.usdc` and `.usdz` are USD's, which
-/// [`super::path::path`] refuses with a way to convert).
+/// `--format`, or the one `--out`'s extension says (CSV when neither is given). An `--out`
+/// whose extension names no format (`.txt`, `.fbx`, none) is refused, `--format` or not: the
+/// name of a file should say what it holds. A `--format` that the extension contradicts is
+/// refused too. `.usdc` and `.usdz` are USD's, which [`super::path::path`] refuses with a way to
+/// convert.
 pub fn resolve_format(format: Option<PathFormat>, out: Option<&Path>) -> Result<PathFormat> {
-    let by_name = out.and_then(PathFormat::of_extension);
+    let Some(out) = out else {
+        return Ok(format.unwrap_or_default());
+    };
+    const KNOWN: &str = ".csv, .json, .chan, .gltf, .glb, .py or .usda (.usd)";
     let ext = out
-        .and_then(|p| p.extension())
+        .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    let named = || out.expect("an extension comes from --out").display();
-    match (format, by_name, ext.as_deref()) {
-        (None, None, Some("usdc" | "usdz")) => Ok(PathFormat::Usd),
-        (None, None, Some("txt") | None) => Ok(PathFormat::Csv),
-        (None, None, Some(ext)) => Err(CliError::Usage(format!(
-            "--out {}: no format is written as .{ext}; name the file .csv, .json, .chan, \
-             .gltf, .glb, .py or .usda, or give --format",
-            named()
-        ))),
+    let by_name = match ext.as_deref() {
+        Some("usdc" | "usdz") => Some(PathFormat::Usd),
+        _ => PathFormat::of_extension(out),
+    };
+    let named = out.display();
+    match (format, by_name, ext) {
         (Some(f), Some(n), _) if f != n => Err(CliError::Usage(format!(
-            "--out {} names a {} file, but --format {} writes {}: change the extension or leave \
-             --format out",
-            named(),
+            "--out {named} names a {} file, but --format {} writes {}: change the extension or \
+             leave --format out",
             n.title(),
             f.name(),
             f.title()
         ))),
-        (Some(f), _, _) | (None, Some(f), _) => Ok(f),
+        (_, Some(n), _) => Ok(n),
+        (format, None, ext) => {
+            let what = match ext {
+                Some(ext) => format!("no format is written as .{ext}"),
+                None => "the name has no extension to say its format".to_string(),
+            };
+            let name_it = match format {
+                Some(f) => format!(
+                    "--format {} writes {}: name the file so, as campath refuses a name that \
+                     does not say its format",
+                    f.name(),
+                    f.extensions()
+                ),
+                None => format!("name the file {KNOWN}"),
+            };
+            Err(CliError::Usage(format!("--out {named}: {what}; {name_it}")))
+        }
     }
 }
 
@@ -304,11 +322,10 @@ mod tests {
         assert_eq!(r(None, "x.glb").unwrap(), PathFormat::Gltf);
         assert_eq!(r(None, "x.GLTF").unwrap(), PathFormat::Gltf);
         assert_eq!(r(None, "x.py").unwrap(), PathFormat::Blender);
-        assert_eq!(r(None, "x.txt").unwrap(), PathFormat::Csv);
-        assert_eq!(
-            r(Some(PathFormat::Json), "x.txt").unwrap(),
-            PathFormat::Json
-        );
+        // A name that does not say its format is refused, with --format too.
+        assert!(r(None, "x.txt").is_err());
+        assert!(r(Some(PathFormat::Json), "x.txt").is_err());
+        assert!(r(Some(PathFormat::Csv), "cameras").is_err());
         assert_eq!(
             r(Some(PathFormat::Chan), "x.chan").unwrap(),
             PathFormat::Chan
@@ -316,7 +333,10 @@ mod tests {
         assert!(r(Some(PathFormat::Csv), "x.glb").is_err());
         assert!(r(None, "x.fbx").is_err());
         assert_eq!(r(None, "x.usdz").unwrap(), PathFormat::Usd);
-        assert_eq!(r(None, "cameras").unwrap(), PathFormat::Csv);
+        assert!(r(Some(PathFormat::Csv), "x.usdc").is_err());
+        assert!(r(None, "cameras").is_err());
         assert_eq!(resolve_format(None, None).unwrap(), PathFormat::Csv);
+        let given = resolve_format(Some(PathFormat::Json), None).unwrap();
+        assert_eq!(given, PathFormat::Json);
     }
 }

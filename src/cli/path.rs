@@ -19,14 +19,20 @@ pub struct PathArgs {
     /// [default: from --out's extension (.csv, .json, .chan, .gltf, .glb, .py, .usda), else csv]
     #[arg(long, value_parser = super::args::path_format())]
     pub format: Option<PathFormat>,
-    /// Write to this file instead of standard output (glTF: binary when it ends in .glb; USD:
-    /// .usda or .usd).
+    /// Write to this file instead of standard output; its extension must name a format (glTF:
+    /// binary when it ends in .glb; USD: .usda or .usd).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write every place relative to this point of campath's world (glTF and Blender keep
     /// places in f32: a shot far from the origin needs one near it).
     #[arg(long, value_name = "X,Y,Z", value_parser = super::args::point, allow_hyphen_values = true)]
     pub origin: Option<glam::DVec3>,
+    /// The number campath's frame 0 gets in every format: frame k is written as frame k + N (the
+    /// CSV and JSON `frame`, the .chan frame, Blender's scene frame, USD's time code, glTF's time
+    /// (k + N) / fps); the `t` column stays k / fps. Nuke counts from 1: --first-frame 1.
+    #[arg(long, value_name = "N", default_value_t = 0,
+          value_parser = clap::value_parser!(u64).range(..=crate::export::MAX_FIRST_FRAME))]
+    pub first_frame: u64,
 }
 
 /// `campath path`: the evaluated camera per frame (or the whole shot as glTF) on standard
@@ -54,6 +60,20 @@ pub fn path(a: PathArgs, out: &mut dyn Write) -> Result<()> {
     }
     let doc = Document::load(&a.shot.file)?;
     let frames = doc.animation.frames;
+    let first_frame = a.first_frame;
+    let last_number = first_frame + frames - 1;
+    if format == PathFormat::Blender && last_number > crate::export::BLENDER_LAST_FRAME {
+        let way = match first_frame {
+            0 => "write the shot in parts",
+            _ => "give a smaller --first-frame",
+        };
+        return Err(CliError::Usage(format!(
+            "campath's last frame would be Blender's frame {last_number} (--first-frame \
+             {first_frame} and {frames} frames), past Blender's last, {}; nothing was written: \
+             {way}",
+            crate::export::BLENDER_LAST_FRAME
+        )));
+    }
     let glb =
         file_out.is_some_and(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")));
     // Before anything is written: places that f32 cannot hold are refused, and a reader that
@@ -88,18 +108,19 @@ pub fn path(a: PathArgs, out: &mut dyn Write) -> Result<()> {
         Some(path) => {
             super::args::create_parent(path)?;
             crate::output::write_atomic_with(path, |file| {
-                crate::export::write_path(&doc, format, glb, origin, file)
+                crate::export::write_path(&doc, format, glb, origin, first_frame, file)
             })?
         }
-        None => crate::export::write_path(&doc, format, glb, origin, out)?,
+        None => crate::export::write_path(&doc, format, glb, origin, first_frame, out)?,
     };
     if dropped.off_axis > 0 {
         let (off_axis, first, last) = (dropped.off_axis, dropped.first, dropped.last);
-        let which = match format {
-            PathFormat::Chan => format!(
+        let which = match (format, first_frame) {
+            (PathFormat::Chan, 0) => format!(", campath frames {first}..={last},"),
+            (PathFormat::Chan, n) => format!(
                 ", campath frames {first}..={last} (.chan frames {}..={}),",
-                first + 1,
-                last + 1
+                first + n,
+                last + n
             ),
             _ => String::new(),
         };

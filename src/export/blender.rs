@@ -11,14 +11,17 @@
 //! do not read an instance's attributes: the script's `REALIZE` makes one mesh of coarser
 //! spheres for them.
 //!
-//! Blender's camera looks down its local −Z with +Y up, like the camera here with axes u, v, −n,
-//! so its location is the COP and its rotation the quaternion of [u, v, −n]. The lens and
+//! The scene is built Z-up, as Blender's own glTF and USD importers build a Y-up file: campath's
+//! point (x, y, z) is Blender's (x, −z, y) ([`z_up`]), a turn of +90° about X. Blender's camera
+//! looks down its local −Z with +Y up, like the camera here with axes u, v, −n, so its location
+//! is the COP turned so and its rotation the quaternion of [u, v, −n] after that turn. The lens and
 //! sensor reproduce the window exactly: with the sensor fitted to the width (36 mm, or wider
 //! where a lens would be under 2 mm), lens / sensor = d / w for the COP's distance d and window
 //! width w; the off-axis COP (distort), which neither
 //! `.chan` nor glTF can carry, becomes Blender's lens shift, in units of the window width:
 //! shift = −offset / w. A window whose aspect differs from the image's becomes the pixel aspect.
-//! Scene frame f is campath's frame f − 1, as in `.chan`.
+//! Scene frame k + N is campath's frame k, N the first frame (`campath path --first-frame`, 0
+//! unless given), as in every export.
 //!
 //! Motion blur becomes Blender's: `render.use_motion_blur`, `render.motion_blur_shutter` (in
 //! frames, as campath's shutter) and the shutter centred on the frame (`motion_blur_position`
@@ -31,12 +34,14 @@
 use std::fmt::Write as _;
 
 use base64::Engine as _;
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::Result;
-use crate::export::{clipping_range, keyed_cameras, quat_wxyz, relative, rotations, triple};
+use crate::export::{
+    clipping_range, keyed_cameras, quat_wxyz, relative, rotations, triple, unsigned_zero,
+};
 
 /// The sensor width in millimetres the lens is computed for, unless the shot is too wide for it.
 const SENSOR_MM: f64 = 36.0;
@@ -60,6 +65,17 @@ const REALIZED_RINGS: u32 = 6;
 /// 3-byte groups, so each line encodes on its own without padding.
 const LINE_BYTES: usize = 57;
 
+/// campath's point or direction (x, y, z) in Blender's Z-up world: (x, −z, y), as Blender's
+/// glTF importer places a Y-up file (a turn of +90° about X, [`to_z_up`]).
+pub fn z_up(p: DVec3) -> DVec3 {
+    DVec3::new(p.x, -p.z, p.y)
+}
+
+/// The turn of [`z_up`] as a rotation: +90° about X takes +Y to +Z and +Z to −Y.
+fn to_z_up() -> DQuat {
+    DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2)
+}
+
 /// `values` as little-endian f32 in base64, a line of 76 characters at a time (Python's
 /// `b64decode` skips the line breaks).
 fn base64_f32(values: impl Iterator<Item = f64>) -> String {
@@ -72,8 +88,8 @@ fn base64_f32(values: impl Iterator<Item = f64>) -> String {
     out
 }
 
-/// The script.
-pub fn script(doc: &Document, origin: DVec3) -> Result<String> {
+/// The script, campath frame k the scene's frame k + `first_frame`.
+pub fn script(doc: &Document, origin: DVec3, first_frame: u64) -> Result<String> {
     let keys = keyed_cameras(doc)?;
     let cams: Vec<Camera> = keys.iter().map(|&(_, cam)| cam).collect();
     // The sensor is `SENSOR_MM` wide, or wider where a frame's lens would be shorter than
@@ -83,29 +99,31 @@ pub fn script(doc: &Document, origin: DVec3) -> Result<String> {
         .fold(SENSOR_MM, f64::max);
     let (near, far) = clipping_range(&doc.scene.spheres, &cams);
     let mut frames = String::new();
+    // Turning every quaternion alike keeps consecutive ones on the same side.
     for ((frame, cam), q) in keys.iter().zip(rotations(&cams)) {
-        let cop = triple(relative(*cam, origin).cop_world());
+        let cop = triple(z_up(relative(*cam, origin).cop_world()));
         // The lens in mm for the sensor fitted to the width, and the shift in window widths.
         let (d, w) = (-cam.cop_view.z, cam.window.x);
-        let (lens, sx, sy) = (sensor * d / w, -cam.cop_view.x / w, -cam.cop_view.y / w);
-        let q = quat_wxyz(q);
+        let [lens, sx, sy] =
+            [sensor * d / w, -cam.cop_view.x / w, -cam.cop_view.y / w].map(unsigned_zero);
+        let q = quat_wxyz(to_z_up() * q);
+        let scene_frame = unsigned_zero(frame + first_frame as f64);
         let _ = writeln!(
             frames,
-            "    ({:?}, {cop}, {q}, {lens:?}, {sx:?}, {sy:?}),",
-            frame + 1.0
+            "    ({scene_frame:?}, {cop}, {q}, {lens:?}, {sx:?}, {sy:?}),"
         );
     }
     let spheres = &doc.scene.spheres;
     let centres = base64_f32(
         spheres
             .iter()
-            .flat_map(|s| (s.center_world - origin).to_array()),
+            .flat_map(|s| z_up(s.center_world - origin).to_array()),
     );
     let radii = base64_f32(spheres.iter().map(|s| s.radius));
     let colours = base64_f32(spheres.iter().flat_map(|s| s.color.to_array()));
     let mut lights = String::new();
     for l in &doc.scene.lights {
-        let (d, k) = (triple(l.direction_world), triple(l.color));
+        let (d, k) = (triple(z_up(l.direction_world)), triple(l.color));
         let shadows = if l.shadows { "True" } else { "False" };
         let _ = writeln!(lights, "    ({d}, {k}, {shadows}),");
     }
@@ -115,7 +133,9 @@ pub fn script(doc: &Document, origin: DVec3) -> Result<String> {
     let pixel_aspect = (first.window.x / first.window.y) / (r.width as f64 / r.height as f64);
     Ok(format!(
         r#"# The campath shot "{name}", for Blender: blender --background --python this.py, or run it in
-# Blender's Text Editor. Generated by campath {version}; scene frame f is campath frame f - 1.
+# Blender's Text Editor. Generated by campath {version}.
+# Z-up, as Blender's glTF and USD importers: campath's point (x, y, z) is this scene's (x, -z, y).
+# Scene frame k + FIRST_FRAME is campath frame k (campath path --first-frame {first_frame}).
 import array
 import base64
 import sys
@@ -128,18 +148,20 @@ PIXEL_ASPECT = {pixel_aspect:?}
 SENSOR_MM = {sensor:?}
 # near and far: nothing campath draws is clipped (Blender's least clip_start is 1e-6)
 CLIP = ({near:?}, {far:?})
-LAST_FRAME = {last_frame}
+FIRST_FRAME, LAST_FRAME = {first_frame}, {last_frame}
 BACKGROUND = {background}
 AMBIENT = {ambient:?}
-# the point of campath's world at this file's origin (campath path --origin)
+# the point of campath's world at this file's origin (campath path --origin), in campath's
+# coordinates (Y-up)
 ORIGIN = {origin}
 # shutter (the fraction of the frame interval it is open, centred on the frame), time samples; or None
 MOTION_BLUR = {motion_blur}
 # scene frame (with motion blur also where the first frame's shutter opens and the last's closes),
-# COP (x, y, z), rotation quaternion (w, x, y, z) taking -Z to the VPN, lens mm, shift x, shift y
+# COP (x, y, z), rotation quaternion (w, x, y, z) taking -Z to the VPN, lens mm, shift x, shift y,
+# in this scene's Z-up coordinates
 FRAMES = [
 {frames}]
-# the spheres, at the end of this file: SPHERE_COUNT centres (x, y, z, relative to ORIGIN), radii
+# the spheres, at the end of this file: SPHERE_COUNT centres (x, y, z, Z-up, relative to ORIGIN), radii
 # and linear RGB colours, little-endian float32 in base64
 SPHERE_COUNT = {sphere_count}
 # the one sphere every sphere instances: segments around, rings from pole to pole
@@ -148,7 +170,7 @@ SPHERE_SEGMENTS, SPHERE_RINGS = {segments}, {rings}
 # read an instance's), of coarser spheres: a mesh of 100,000 spheres of 32 x 16 took 23 GB
 REALIZE = False
 REALIZED_SEGMENTS, REALIZED_RINGS = {realized_segments}, {realized_rings}
-# direction the light travels, linear RGB, shadows
+# direction the light travels (Z-up), linear RGB, shadows
 LIGHTS = [
 {lights}]
 
@@ -281,7 +303,7 @@ def build():
         scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = 1.0, 1.0 / PIXEL_ASPECT
     scene.render.fps = max(1, round(FPS))
     scene.render.fps_base = scene.render.fps / FPS
-    scene.frame_start, scene.frame_end = 1, LAST_FRAME
+    scene.frame_start, scene.frame_end = FIRST_FRAME, LAST_FRAME
     scene["campath_origin"] = ORIGIN
     if MOTION_BLUR is not None:
         shutter, steps = MOTION_BLUR
@@ -347,7 +369,7 @@ def build():
     if scene.world is None:
         scene.world = bpy.data.worlds.new("campath")
     scene.world.color = BACKGROUND
-    scene.frame_set(1)
+    scene.frame_set(FIRST_FRAME)
 
 
 SPHERE_CENTRES = """
@@ -366,9 +388,10 @@ build()
         width = r.width,
         height = r.height,
         near = near.max(1e-6),
-        last_frame = doc.animation.frames,
+        first_frame = first_frame,
+        last_frame = first_frame + doc.animation.frames - 1,
         background = triple(doc.scene.background),
-        ambient = doc.scene.ambient,
+        ambient = unsigned_zero(doc.scene.ambient),
         origin = triple(origin),
         sphere_count = spheres.len(),
         segments = SEGMENTS,

@@ -3,7 +3,9 @@
 //!
 //! - The camera node's translation is the COP and its rotation takes the camera's +X, +Y, −Z to
 //!   u, v, n (the columns of the rotation are u, v and −n, a proper rotation since u × v = −n),
-//!   sampled LINEAR at the frame times t = k / fps. Its `yfov` is the window's height seen from
+//!   sampled LINEAR at the times (k + N) / fps of campath's frames k, N the first frame
+//!   (`campath path --first-frame`, 0 unless given, in `asset.extras.campath_first_frame`), so
+//!   that a reader at fps puts campath's frame k at its frame k + N. Its `yfov` is the window's height seen from
 //!   the COP and its aspect the window's; a Zoom track animates `yfov` through
 //!   `KHR_animation_pointer` (used, not required). An off-axis COP has no place in glTF. Its
 //!   `znear` is the USD export's near (`clipping_range`), its far infinite: nothing campath
@@ -18,8 +20,8 @@
 //! - Lights are `KHR_lights_punctual` directional lights, pointing their node's −Z along the
 //!   light's direction.
 //!
-//! Everything numeric is f32 in the file, but `asset.extras.campath_origin` (`campath path
-//! --origin`), which keeps the origin as given.
+//! Everything numeric is f32 in the file, but `asset.extras`: `campath_origin` (`campath path
+//! --origin`), which keeps the origin as given, and `campath_first_frame`. No number is `-0`.
 
 use std::io::Write;
 
@@ -32,7 +34,8 @@ use crate::camera::Camera;
 use crate::document::Document;
 use crate::error::{Error, Result};
 use crate::export::{
-    aim_negative_z, clipping_range, off_axis, relative, rotations, yfov, INSTANCED_FROM,
+    aim_negative_z, clipping_range, off_axis, relative, rotations, unsigned_zero, unsigned_zeros,
+    yfov, INSTANCED_FROM,
 };
 
 /// Segments around and rings from pole to pole of the shared unit sphere: 2,304 triangles.
@@ -106,6 +109,11 @@ impl Buffer {
                     hi[i] = hi[i].max(*v);
                 }
             }
+            let (lo, hi) = (lo.into_iter(), hi.into_iter());
+            let (lo, hi): (Vec<f32>, Vec<f32>) = (
+                lo.map(unsigned_zero).collect(),
+                hi.map(unsigned_zero).collect(),
+            );
             json!({"min": lo, "max": hi})
         } else {
             json!({})
@@ -145,13 +153,24 @@ pub fn camera_rotation(cam: &Camera) -> DQuat {
     DQuat::from_mat3(&DMat3::from_cols(b.u, b.v, -b.n)).normalize()
 }
 
+/// `v` in f32, never −0 (the JSON text's numbers; the buffer's too).
 fn f32s(v: DVec3) -> [f32; 3] {
-    v.as_vec3().to_array()
+    v.as_vec3().to_array().map(unsigned_zero)
+}
+
+/// A rotation as glTF's (x, y, z, w) in f32, never −0.
+fn quat_xyzw(q: DQuat) -> [f32; 4] {
+    q.as_quat().to_array().map(unsigned_zero)
 }
 
 /// The glTF document (JSON) and its binary buffer; the caller embeds the buffer (`.gltf`) or
 /// appends it (`.glb`). Also returns the frames with an off-axis COP that glTF cannot carry.
-fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u64)> {
+fn build(
+    doc: &Document,
+    embed: bool,
+    origin: DVec3,
+    first_frame: u64,
+) -> Result<(Gltf, Vec<u8>, u64)> {
     let mut buf = Buffer::default();
     let spheres = &doc.scene.spheres;
     let instanced = spheres.len() >= INSTANCED_FROM;
@@ -177,15 +196,16 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
     }
 
     let frames: Vec<(u64, Camera)> = doc.cameras().collect::<Result<_>>()?;
+    // Campath's frame k at (k + N) / fps: at N = 0 its time t.
     let times: Vec<f32> = (frames.iter())
-        .map(|(k, _)| doc.animation.time(*k) as f32)
+        .map(|(k, _)| doc.animation.time(k + first_frame) as f32)
         .collect();
     let cams: Vec<Camera> = frames.into_iter().map(|(_, cam)| cam).collect();
     let translations: Vec<f32> = (cams.iter())
         .flat_map(|&cam| f32s(relative(cam, origin).cop_world()))
         .collect();
     let rotations: Vec<f32> = (rotations(&cams).iter())
-        .flat_map(|q| q.as_quat().to_array())
+        .flat_map(|&q| quat_xyzw(q))
         .collect();
     let fovs: Vec<f32> = cams.iter().map(|cam| yfov(cam) as f32).collect();
     let off_axis = cams.iter().filter(|cam| off_axis(cam)).count() as u64;
@@ -217,14 +237,14 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         "name": "camera",
         "camera": 0,
         "translation": f32s(relative(first, origin).cop_world()),
-        "rotation": camera_rotation(&first).as_quat().to_array(),
+        "rotation": quat_xyzw(camera_rotation(&first)),
     }))];
     let (mut meshes, mut materials) = (vec![], vec![]);
     let sphere = |i: usize, name: String, color: DVec3| {
         let material = Material {
             name: name.clone(),
             pbr_metallic_roughness: Pbr {
-                base_color_factor: color.as_vec3().extend(1.0).to_array(),
+                base_color_factor: color.as_vec3().extend(1.0).to_array().map(unsigned_zero),
                 metallic_factor: 0.0,
                 roughness_factor: 1.0,
             },
@@ -285,7 +305,7 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         }));
         nodes.push(Node::Other(json!({
             "name": format!("light {i}"),
-            "rotation": aim_negative_z(l.direction_world).as_quat().to_array(),
+            "rotation": quat_xyzw(aim_negative_z(l.direction_world)),
             "extensions": {"KHR_lights_punctual": {"light": i}},
         })));
     }
@@ -308,17 +328,25 @@ fn build(doc: &Document, embed: bool, origin: DVec3) -> Result<(Gltf, Vec<u8>, u
         "asset": {"version": "2.0", "generator": concat!("campath ", env!("CARGO_PKG_VERSION"))},
         "scene": 0,
         "cameras": [{"type": "perspective", "perspective": {
-            "yfov": yfov(&first) as f32,
-            "aspectRatio": aspect as f32,
-            "znear": near as f32,
+            "yfov": unsigned_zero(yfov(&first) as f32),
+            "aspectRatio": unsigned_zero(aspect as f32),
+            "znear": unsigned_zero(near as f32),
         }}],
         "animations": [{"name": "camera", "samplers": samplers, "channels": channels}],
         "buffers": [buffer],
         "bufferViews": buf.views,
         "accessors": buf.accessors,
     });
-    // Where the file's origin lies in campath's world (`campath path --origin`).
-    gltf["asset"]["extras"] = json!({"campath_origin": origin.to_array()});
+    // Where the file's origin lies in campath's world (`campath path --origin`), and the number
+    // of campath's frame 0 (`--first-frame`): its time is that over fps.
+    gltf["asset"]["extras"] = json!({
+        "campath_origin": unsigned_zeros(origin).to_array(),
+        "campath_first_frame": first_frame,
+        "campath_frames": format!(
+            "campath frame k is at time (k + {first_frame}) / {:?} s: frame k + {first_frame} at {:?} fps",
+            doc.animation.fps, doc.animation.fps
+        ),
+    });
     if !lights.is_empty() {
         gltf["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
     }
@@ -423,8 +451,14 @@ struct Pbr {
 /// buffer embedded; returns the number of frames with an off-axis COP that glTF cannot carry.
 /// The document goes straight to `out`, never whole in memory beside another copy (a million
 /// spheres' JSON is about 400 MB).
-pub fn write(doc: &Document, origin: DVec3, binary: bool, out: &mut dyn Write) -> Result<u64> {
-    let (json, mut bin, off_axis) = build(doc, !binary, origin)?;
+pub fn write(
+    doc: &Document,
+    origin: DVec3,
+    first_frame: u64,
+    binary: bool,
+    out: &mut dyn Write,
+) -> Result<u64> {
+    let (json, mut bin, off_axis) = build(doc, !binary, origin, first_frame)?;
     if !binary {
         serde_json::to_writer_pretty(&mut *out, &json).map_err(|e| Error::stdout(e.into()))?;
         out.write_all(b"\n").map_err(Error::stdout)?;

@@ -28,13 +28,14 @@ pub const INSTANCED_FROM: usize = 1000;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[non_exhaustive]
 pub enum PathFormat {
-    /// frame, t, VRP, u, v, n, COP in world, window (one row per frame, with a header).
+    /// frame, t, VRP, u, v, n, COP in world (`cop_world_*`), window (one row per frame, after a
+    /// header line).
     #[default]
     Csv,
     /// An array of per-frame objects with the same fields.
     Json,
     /// `frame tx ty tz rx ry rz vfov`: position of the COP, rotation in degrees (ZXY order),
-    /// vertical field of view in degrees; frames numbered from 1. For Nuke and Blender.
+    /// vertical field of view in degrees. For Nuke and Blender.
     Chan,
     /// The whole shot as glTF 2.0: the animated camera, the spheres and the lights (binary GLB
     /// when asked for).
@@ -77,6 +78,18 @@ impl PathFormat {
             PathFormat::Gltf => ("gltf", "glTF"),
             PathFormat::Blender => ("blender", "Blender Python"),
             PathFormat::Usd => ("usd", "USD"),
+        }
+    }
+
+    /// The extensions of the format's files, for messages: `.gltf or .glb` for glTF.
+    pub fn extensions(self) -> &'static str {
+        match self {
+            PathFormat::Csv => ".csv",
+            PathFormat::Json => ".json",
+            PathFormat::Chan => ".chan",
+            PathFormat::Gltf => ".gltf or .glb",
+            PathFormat::Blender => ".py",
+            PathFormat::Usd => ".usda or .usd",
         }
     }
 
@@ -249,9 +262,24 @@ struct JsonFrame {
     u: [f64; 3],
     v: [f64; 3],
     n: [f64; 3],
-    cop: [f64; 3],
+    cop_world: [f64; 3],
     window: [f64; 2],
 }
+
+/// The CSV's header: campath frame k is `frame` k + N (`--first-frame N`) and `t` its time
+/// k / fps; every place and direction is in world coordinates, and the COP's columns say so
+/// because the keyframe file's `cop` is in view coordinates.
+const CSV_HEADER: &str = "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,\
+                              cop_world_x,cop_world_y,cop_world_z,window_w,window_h";
+
+/// The most `--first-frame` takes: campath's own most frames, so that a frame's number stays
+/// below 2·10⁷, exact in every format that keeps it in f64 (USD) or as an integer (CSV, JSON,
+/// `.chan`). Blender keeps frames to [`BLENDER_LAST_FRAME`].
+pub const MAX_FIRST_FRAME: u64 = crate::document::MAX_FRAMES;
+
+/// The last frame a Blender scene can have (its `MAXFRAME`): a script whose last frame lies past
+/// it is refused, as Blender would cut the scene short.
+pub const BLENDER_LAST_FRAME: u64 = 1_048_574;
 
 /// Frames whose camera a format could not carry whole.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -291,14 +319,29 @@ pub(crate) fn aim_negative_z(d: DVec3) -> DQuat {
     DQuat::from_rotation_arc(DVec3::NEG_Z, d.normalize())
 }
 
+/// `x` with −0 made +0 (−0 + 0 = +0; every other value unchanged): every number an export
+/// writes as text passes through it, so none prints `-0`, which a reader comparing text or
+/// signs would take for a value apart from 0. A value rounded to f32 passes after the
+/// rounding, which can make −0 of a tiny negative number.
+pub(crate) fn unsigned_zero<T: std::ops::Add<Output = T> + From<f32>>(x: T) -> T {
+    x + T::from(0.0)
+}
+
+/// [`unsigned_zero`] of each coordinate.
+pub(crate) fn unsigned_zeros(v: DVec3) -> DVec3 {
+    DVec3::from(v.to_array().map(unsigned_zero))
+}
+
 /// `(x, y, z)`, each as Rust's `{:?}` writes it (USDA's `double3`, a Python tuple).
 pub(crate) fn triple(v: DVec3) -> String {
+    let v = unsigned_zeros(v);
     format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
 }
 
 /// `(w, x, y, z)`, the real part first, as USD and Blender write a quaternion.
 pub(crate) fn quat_wxyz(q: DQuat) -> String {
-    format!("({:?}, {:?}, {:?}, {:?})", q.w, q.x, q.y, q.z)
+    let [x, y, z, w] = q.to_array().map(unsigned_zero);
+    format!("({w:?}, {x:?}, {y:?}, {z:?})")
 }
 
 /// Whether `cam`'s COP is off the VPN (distort), which `.chan` and glTF cannot carry.
@@ -405,13 +448,15 @@ fn widest_cos(cam: &Camera) -> f64 {
     d / (d * d + corner.length_squared()).sqrt()
 }
 
-/// Writes the shot in `format` (glTF as binary GLB when `glb`); says which frames lost part of
-/// their camera on the way. The per-frame formats stream a frame at a time.
+/// Writes the shot in `format` (glTF as binary GLB when `glb`), campath frame k numbered
+/// k + `first_frame` in every format (`campath path --first-frame`); says which frames lost
+/// part of their camera on the way. The per-frame formats stream a frame at a time.
 pub fn write_path(
     doc: &Document,
     format: PathFormat,
     glb: bool,
     origin: DVec3,
+    first_frame: u64,
     out: &mut dyn Write,
 ) -> Result<Dropped> {
     let whole = |bytes: &[u8], off_axis: u64, out: &mut dyn Write| {
@@ -424,29 +469,38 @@ pub fn write_path(
     };
     match format {
         PathFormat::Csv | PathFormat::Json | PathFormat::Chan => {}
-        PathFormat::Gltf => return whole(&[], gltf::write(doc, origin, glb, out)?, out),
-        PathFormat::Blender => return whole(blender::script(doc, origin)?.as_bytes(), 0, out),
-        PathFormat::Usd => return whole(usd::usda(doc, origin)?.as_bytes(), 0, out),
+        PathFormat::Gltf => {
+            let off_axis = gltf::write(doc, origin, first_frame, glb, out)?;
+            return whole(&[], off_axis, out);
+        }
+        PathFormat::Blender => {
+            let script = blender::script(doc, origin, first_frame)?;
+            return whole(script.as_bytes(), 0, out);
+        }
+        PathFormat::Usd => return whole(usd::usda(doc, origin, first_frame)?.as_bytes(), 0, out),
     }
     let mut out = std::io::BufWriter::new(out);
     let mut dropped = Dropped::default();
     let mut angles = ChanAngles::default();
     let frames = doc.animation.frames;
+    // JSON stays an array of frames (each its `frame` number), and `.chan` has no header: a
+    // line Nuke's reader might not skip.
     let header = match format {
-        PathFormat::Csv => "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,cop_x,cop_y,cop_z,window_w,window_h\n",
-        PathFormat::Json => "[\n",
-        _ => "",
+        PathFormat::Csv => format!("{CSV_HEADER}\n"),
+        PathFormat::Json => "[\n".to_string(),
+        _ => String::new(),
     };
     out.write_all(header.as_bytes()).map_err(Error::stdout)?;
     for item in doc.cameras() {
         let (frame, cam) = item?;
         let cam = relative(cam, origin);
         let t = doc.animation.time(frame);
+        let number = frame + first_frame;
         let line = match format {
-            PathFormat::Csv => csv_row(frame, t, &cam),
+            PathFormat::Csv => csv_row(number, t, &cam),
             PathFormat::Json => {
                 let comma = if frame + 1 < frames { "," } else { "" };
-                format!("  {}{comma}", json_row(frame, t, &cam))
+                format!("  {}{comma}", json_row(number, t, &cam))
             }
             _ => {
                 if off_axis(&cam) {
@@ -456,7 +510,7 @@ pub fn write_path(
                     dropped.off_axis += 1;
                     dropped.last = frame;
                 }
-                chan_row(frame, &cam, angles.next(&cam.basis))
+                chan_row(number, &cam, angles.next(&cam.basis))
             }
         };
         writeln!(out, "{line}").map_err(Error::stdout)?;
@@ -468,36 +522,39 @@ pub fn write_path(
     Ok(dropped)
 }
 
-/// frame, t, VRP, u, v, n, the COP in world coordinates, the window.
-fn csv_row(frame: u64, t: f64, cam: &Camera) -> String {
+/// `number` (the frame's number in the file), t, VRP, u, v, n, the COP in world coordinates,
+/// the window.
+fn csv_row(number: u64, t: f64, cam: &Camera) -> String {
     let (b, cop, vrp) = (cam.basis, cam.cop_world(), cam.vrp_world);
-    let mut line = format!("{frame},{t}");
-    for v in [vrp, b.u, b.v, b.n, cop] {
+    let mut line = format!("{number},{}", unsigned_zero(t));
+    for v in [vrp, b.u, b.v, b.n, cop].map(unsigned_zeros) {
         line += &format!(",{},{},{}", v.x, v.y, v.z);
     }
-    line + &format!(",{},{}", cam.window.x, cam.window.y)
+    let w = cam.window.to_array().map(unsigned_zero);
+    line + &format!(",{},{}", w[0], w[1])
 }
 
 /// The CSV's fields as one JSON object.
-fn json_row(frame: u64, t: f64, cam: &Camera) -> String {
+fn json_row(number: u64, t: f64, cam: &Camera) -> String {
+    let world = |v: DVec3| unsigned_zeros(v).to_array();
     let row = JsonFrame {
-        frame,
-        t,
-        vrp: cam.vrp_world.to_array(),
-        u: cam.basis.u.to_array(),
-        v: cam.basis.v.to_array(),
-        n: cam.basis.n.to_array(),
-        cop: cam.cop_world().to_array(),
-        window: cam.window.to_array(),
+        frame: number,
+        t: unsigned_zero(t),
+        vrp: world(cam.vrp_world),
+        u: world(cam.basis.u),
+        v: world(cam.basis.v),
+        n: world(cam.basis.n),
+        cop_world: world(cam.cop_world()),
+        window: cam.window.to_array().map(unsigned_zero),
     };
     serde_json::to_string(&row).expect("finite numbers serialise")
 }
 
-/// `frame tx ty tz rx ry rz vfov`, frames numbered from 1.
-fn chan_row(frame: u64, cam: &Camera, r: DVec3) -> String {
+/// `number tx ty tz rx ry rz vfov`, `number` the frame's number in the file.
+fn chan_row(number: u64, cam: &Camera, r: DVec3) -> String {
     let (cop, fov) = (cam.cop_world(), yfov(cam).to_degrees());
-    let fields = [cop.x, cop.y, cop.z, r.x, r.y, r.z, fov].map(|x| x.to_string());
-    format!("{}\t{}", frame + 1, fields.join("\t"))
+    let fields = [cop.x, cop.y, cop.z, r.x, r.y, r.z, fov].map(|x| unsigned_zero(x).to_string());
+    format!("{number}\t{}", fields.join("\t"))
 }
 
 #[cfg(test)]

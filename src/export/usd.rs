@@ -3,8 +3,9 @@
 //!
 //! - **Stage.** `metersPerUnit = 1` (a world unit is a metre: without it USD assumes
 //!   centimetres and importers scale the shot by 0.01), `upAxis = "Y"`, `timeCodesPerSecond` and
-//!   `framesPerSecond` the file's fps, and time code k is campath's frame k (`startTimeCode` 0,
-//!   `endTimeCode` the last frame).
+//!   `framesPerSecond` the file's fps, and time code k + N is campath's frame k, N the first
+//!   frame (`campath path --first-frame`, 0 unless given; `startTimeCode` N, `endTimeCode` the
+//!   last frame's), stated in `customLayerData` (`frames`, `firstFrame`).
 //! - **Camera.** A `UsdGeom.Camera` looks down its local −Z with +Y up, like the camera here with
 //!   axes u, v, −n: `xformOp:translate` is the COP and `xformOp:orient` the quaternion of
 //!   [u, v, −n]. USD gives focal length and apertures in tenths of a scene unit (here 0.1 m, so
@@ -39,7 +40,7 @@ use crate::document::Document;
 use crate::error::Result;
 use crate::export::{
     aim_negative_z, clipping_range, keyed_cameras, quat_wxyz, relative, rotations, triple,
-    INSTANCED_FROM,
+    unsigned_zero, INSTANCED_FROM,
 };
 use crate::scene::Sphere;
 
@@ -99,18 +100,24 @@ fn quoted(s: &str) -> String {
 
 /// `(x, y, z)` in f32: USDA's `color3f`, `point3f`, `float3`.
 fn float3(v: DVec3) -> String {
-    let v = v.as_vec3();
-    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
+    let [x, y, z] = v.as_vec3().to_array().map(unsigned_zero);
+    format!("({x:?}, {y:?}, {z:?})")
+}
+
+/// `x` in f32 as USDA writes it (`float`), never `-0`.
+fn float(x: f64) -> String {
+    format!("{:?}", unsigned_zero(x as f32))
 }
 
 /// `x` as the nearest f32 on the side of `towards` (−∞ or +∞): an extent rounded outward.
 fn f32_outward(x: f64, towards: f64) -> f32 {
     let y = x as f32;
-    match f64::from(y) {
+    let y = match f64::from(y) {
         z if towards < 0.0 && z > x => y.next_down(),
         z if towards > 0.0 && z < x => y.next_up(),
         _ => y,
-    }
+    };
+    unsigned_zero(y)
 }
 
 /// Writes `spheres` (relative to `origin`) as one `PointInstancer` beneath the shot's top prim
@@ -177,9 +184,11 @@ fn point_instancer(s: &mut String, spheres: &[Sphere], origin: DVec3, root: &str
     );
 }
 
-/// The stage as USDA text.
-pub fn usda(doc: &Document, origin: DVec3) -> Result<String> {
-    let (times, cams): (Vec<f64>, Vec<Camera>) = keyed_cameras(doc)?.into_iter().unzip();
+/// The stage as USDA text, campath frame k at time code k + `first_frame`.
+pub fn usda(doc: &Document, origin: DVec3, first_frame: u64) -> Result<String> {
+    let (times, cams): (Vec<f64>, Vec<Camera>) = (keyed_cameras(doc)?.into_iter())
+        .map(|(frame, cam)| (frame + first_frame as f64, cam))
+        .unzip();
     let orients = rotations(&cams);
     let lenses: Vec<[f64; 4]> = cams.iter().map(lens).collect();
     let frames = doc.animation.frames;
@@ -204,7 +213,9 @@ pub fn usda(doc: &Document, origin: DVec3) -> Result<String> {
     customLayerData = {{
         string generator = "campath {version}"
         string source = {source}
-        string units = "One scene unit is one campath world unit, taken as a metre (metersPerUnit = 1). focalLength, horizontalAperture, verticalAperture and their offsets are in tenths of a scene unit, as USD defines them: 0.36 is 36 mm. Time code k is campath frame k, at {fps:?} frames per second."
+        string units = "One scene unit is one campath world unit, taken as a metre (metersPerUnit = 1). focalLength, horizontalAperture, verticalAperture and their offsets are in tenths of a scene unit, as USD defines them: 0.36 is 36 mm."
+        string frames = "Time code k + {first_frame} is campath frame k (campath path --first-frame {first_frame}), at {fps:?} frames per second."
+        int firstFrame = {first_frame}
         int imageWidth = {width}
         int imageHeight = {height}
         double pixelAspect = {pixel_aspect:?}
@@ -217,7 +228,7 @@ pub fn usda(doc: &Document, origin: DVec3) -> Result<String> {
     framesPerSecond = {fps:?}
     metersPerUnit = 1
     renderSettingsPrimPath = "/Render/settings"
-    startTimeCode = 0
+    startTimeCode = {first_frame}
     timeCodesPerSecond = {fps:?}
     upAxis = "Y"
 )
@@ -228,9 +239,9 @@ def Xform "{root}" (
 {{
     def Camera "camera"
     {{
-        float2 clippingRange = ({near:?}, {far:?})
-        float horizontalAperture = {ha:?}
-        float verticalAperture = {va:?}
+        float2 clippingRange = ({near}, {far})
+        float horizontalAperture = {ha}
+        float verticalAperture = {va}
         token projection = "perspective"
 {shutter}"#,
         version = env!("CARGO_PKG_VERSION"),
@@ -238,18 +249,19 @@ def Xform "{root}" (
         width = r.width,
         height = r.height,
         background = triple(bg),
-        ambient = doc.scene.ambient,
+        ambient = unsigned_zero(doc.scene.ambient),
         origin = triple(origin),
-        end = frames - 1,
-        near = near as f32,
-        far = far as f32,
-        ha = FILM_WIDTH as f32,
-        va = first[1] as f32,
+        first_frame = first_frame,
+        end = first_frame + frames - 1,
+        near = float(near),
+        far = float(far),
+        ha = float(FILM_WIDTH),
+        va = float(first[1]),
         shutter = match doc.motion_blur {
             Some(b) => format!(
                 "        double shutter:close = {:?}\n        double shutter:open = {:?}\n",
-                b.shutter / 2.0,
-                -b.shutter / 2.0
+                unsigned_zero(b.shutter / 2.0),
+                unsigned_zero(-b.shutter / 2.0)
             ),
             None => String::new(),
         },
@@ -260,7 +272,7 @@ def Xform "{root}" (
             // A frame's time code as an integer; the shutter's ends as they are.
             let _ = match time.fract() == 0.0 {
                 true => writeln!(s, "            {}: {},", time as i64, value(k)),
-                false => writeln!(s, "            {time:?}: {},", value(k)),
+                false => writeln!(s, "            {:?}: {},", unsigned_zero(time), value(k)),
             };
         }
         let _ = writeln!(s, "        }}");
@@ -272,9 +284,7 @@ def Xform "{root}" (
         (3, "verticalApertureOffset"),
     ];
     for (i, name) in names {
-        samples(&mut s, &format!("float {name}"), &|k| {
-            format!("{:?}", lenses[k][i] as f32)
-        });
+        samples(&mut s, &format!("float {name}"), &|k| float(lenses[k][i]));
     }
     samples(&mut s, "double3 xformOp:translate", &|k| {
         triple(relative(cams[k], origin).cop_world())
@@ -294,8 +304,8 @@ def Xform "{root}" (
         false => &spheres[..],
     };
     for (i, sphere) in one_by_one.iter().enumerate() {
-        let r = sphere.radius;
-        let e = r as f32;
+        let r = unsigned_zero(sphere.radius);
+        let e = unsigned_zero(r as f32);
         let _ = write!(
             s,
             r#"
@@ -310,7 +320,7 @@ def Xform "{root}" (
         uniform token[] xformOpOrder = ["xformOp:translate"]
     }}
 "#,
-            m = -e,
+            m = unsigned_zero(-e),
             color = float3(sphere.color),
             centre = triple(sphere.center_world - origin),
         );
@@ -326,14 +336,14 @@ def Xform "{root}" (
     )
     {{
         color3f inputs:color = {color}
-        float inputs:intensity = {intensity:?}
+        float inputs:intensity = {intensity}
         bool inputs:shadow:enable = {shadows}
         quatd xformOp:orient = {orient}
         uniform token[] xformOpOrder = ["xformOp:orient"]
     }}
 "#,
             color = float3(light.color / intensity),
-            intensity = intensity as f32,
+            intensity = float(intensity),
             shadows = light.shadows,
             orient = quat_wxyz(aim_negative_z(light.direction_world)),
         );
@@ -348,12 +358,12 @@ def Scope "Render"
     {{
         uniform token aspectRatioConformPolicy = "adjustPixelAspectRatio"
         rel camera = </{root}/camera>
-        uniform float pixelAspectRatio = {pixel_aspect:?}
+        uniform float pixelAspectRatio = {pixel_aspect}
         uniform int2 resolution = ({width}, {height})
     }}
 }}
 "#,
-        pixel_aspect = pixel_aspect as f32,
+        pixel_aspect = float(pixel_aspect),
         width = r.width,
         height = r.height,
     );

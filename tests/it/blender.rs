@@ -1,8 +1,11 @@
 //! Blender, for real: the script of `campath path --format blender`, run headless, gives a
 //! camera that projects test points where campath's does (to 0.01 px at every frame, distort
 //! included), and the glTF of `--format gltf`, imported by Blender's own importer, puts the camera
-//! where campath puts it (to 1e-5). The script's scene has campath's motion blur: on with the
-//! shutter and centred on the frame where the file has it, off where not.
+//! where campath puts it (to 1e-5). Both are Z-up: campath's (x, y, z) is Blender's (x, −z, y),
+//! the glTF importer's convention, converted here by [`z_up`] and [`from_z_up`]. Both number
+//! campath's frame k as Blender's frame k + N (`--first-frame N`). The script's scene has
+//! campath's motion blur: on with the shutter and centred on the frame where the file has it,
+//! off where not.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -35,6 +38,7 @@ for job in jobs:
                  if s is not None and hasattr(s, "motion_blur_position")]
     blur = {"use": scene.render.use_motion_blur, "shutter": scene.render.motion_blur_shutter, "positions": positions}
     projections = []
+    frames = [scene.frame_start, scene.frame_end]
     for frame in range(scene.frame_start, scene.frame_end + 1):
         scene.frame_set(frame)
         projections.append([list(world_to_camera_view(scene, camera, Vector(p))) for p in job["points"]])
@@ -43,11 +47,11 @@ for job in jobs:
     scene = bpy.context.scene
     camera = [o for o in bpy.data.objects if o.type == "CAMERA"][0]
     poses = []
-    for frame in range(len(projections)):
+    for frame in range(frames[0], frames[0] + len(projections)):
         scene.frame_set(frame)
         m = camera.matrix_world
         poses.append([[m[r][c] for c in range(4)] for r in range(3)])
-    json.dump({"projections": projections, "poses": poses, "blur": blur}, open(job["out"], "w"))
+    json.dump({"projections": projections, "poses": poses, "blur": blur, "frames": frames}, open(job["out"], "w"))
 "#;
 
 #[test]
@@ -68,17 +72,24 @@ fn blender_sees_what_campath_renders() {
     // in f32 without it, Blender's camera would be pixels off.
     std::fs::write(tmp.path().join("observer_far.ron"), far_away(&observer)).unwrap();
     let mut names: Vec<&str> = EXAMPLES.to_vec();
-    names.extend(["observer_4_3", "observer_far"]);
+    // And the track example numbered from 1001, a studio's first frame: the script's scene
+    // frames and the glTF's times (in Blender's importer) both start there.
+    names.extend(["observer_4_3", "observer_far", "track_1001"]);
     let file_of = |name: &str| match name {
         "observer_4_3" | "observer_far" => tmp.path().join(format!("{name}.ron")),
+        "track_1001" => root().join("animations/track.ron"),
         _ => root().join(format!("animations/{name}.ron")),
+    };
+    let first_of = |name: &str| match name {
+        "track_1001" => 1001,
+        _ => 0,
     };
     let origin_of = |name: &str| match name {
         "observer_far" => DVec3::new(FAR, 1.0, -3.0),
         _ => DVec3::ZERO,
     };
     let doc_of = |name: &str| campath::document::Document::load(&file_of(name)).unwrap();
-    let mut jobs = Vec::new();
+    let (mut jobs, mut points_of) = (Vec::new(), Vec::new());
     for name in &names {
         let file = file_of(name);
         let script = tmp.path().join(format!("{name}.py"));
@@ -97,39 +108,50 @@ fn blender_sees_what_campath_renders() {
                     out.to_str().unwrap(),
                     "--origin",
                     &origin,
+                    "--first-frame",
+                    &first_of(name).to_string(),
                 ],
                 &[],
             );
             assert!(o.status.success(), "{}", stderr(&o));
             assert!(!stderr(&o).contains("warning"), "{name}: {}", stderr(&o));
         }
-        // Test points: each small sphere's centre, and points a unit away from it.
+        // Test points: each small sphere's centre, and points a unit away from it, in
+        // campath's world.
         let doc = doc_of(name);
-        // Blender's points are where the files put them: relative to the origin.
-        let points: Vec<[f64; 3]> = doc
+        let points: Vec<DVec3> = doc
             .scene()
             .spheres
             .iter()
             .filter(|s| s.radius < 50.0)
             .flat_map(|s| {
-                let c = s.center_world - o;
-                [DVec3::ZERO, DVec3::X, DVec3::NEG_Y, DVec3::Z].map(|d| (c + d).to_array())
+                [DVec3::ZERO, DVec3::X, DVec3::NEG_Y, DVec3::Z].map(|d| s.center_world + d)
             })
             .collect();
+        // Blender's are where the files put them: relative to the origin, Z-up.
+        let blender: Vec<[f64; 3]> = points.iter().map(|&p| z_up(p - o).to_array()).collect();
         jobs.push(serde_json::json!({
-            "script": script, "glb": glb, "points": points,
+            "script": script, "glb": glb, "points": blender,
             "out": tmp.path().join(format!("{name}.json")),
         }));
+        points_of.push(points);
     }
     run_blender(tmp.path(), CHECK, &jobs);
 
-    for (name, job) in names.iter().zip(&jobs) {
+    for (name, points) in names.iter().zip(&points_of) {
         let doc = doc_of(name);
         let origin = origin_of(name);
         let result: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(tmp.path().join(format!("{name}.json"))).unwrap(),
         )
         .unwrap();
+        // campath's frame k is the scene's frame k + N.
+        let (first, frames) = (first_of(name), doc.animation().frames);
+        assert_eq!(
+            result["frames"],
+            serde_json::json!([first, first + frames - 1]),
+            "{name}"
+        );
         let blur = &result["blur"];
         match doc.motion_blur() {
             Some(b) => {
@@ -149,12 +171,7 @@ fn blender_sees_what_campath_renders() {
         for (k, item) in doc.cameras().enumerate() {
             let cam = item.unwrap().1;
             // campath's projection: through the COP onto the view plane n = 0, window to pixels.
-            for (i, p) in job["points"].as_array().unwrap().iter().enumerate() {
-                let p = DVec3::new(
-                    p[0].as_f64().unwrap(),
-                    p[1].as_f64().unwrap(),
-                    p[2].as_f64().unwrap(),
-                ) + origin;
+            for (i, &p) in points.iter().enumerate() {
                 let v = cam.world_to_view().transform_point3(p);
                 let c = cam.cop_view;
                 if v.z - c.z < 0.5 {
@@ -175,11 +192,11 @@ fn blender_sees_what_campath_renders() {
                 worst.0 = worst.0.max((px - bx).abs().max((py - by).abs()));
                 compared += 1;
             }
-            // The imported glTF camera: Blender's Z-up world is glTF's (x, −z, y).
+            // The imported glTF camera, in Blender's Z-up world.
             let m = &result["poses"][k];
             let col = |c: usize| {
                 let g = |r: usize| m[r][c].as_f64().unwrap();
-                DVec3::new(g(0), g(2), -g(1))
+                from_z_up(DVec3::new(g(0), g(1), g(2)))
             };
             let b = cam.basis;
             for (got, want) in [
@@ -209,6 +226,17 @@ fn blender_sees_what_campath_renders() {
             worst.1
         );
     }
+}
+
+/// campath's point (x, y, z) in Blender's Z-up world, as Blender's glTF importer places a
+/// Y-up file: (x, −z, y).
+fn z_up(p: DVec3) -> DVec3 {
+    DVec3::new(p.x, -p.z, p.y)
+}
+
+/// Blender's point back in campath's Y-up world: the inverse of [`z_up`].
+fn from_z_up(p: DVec3) -> DVec3 {
+    DVec3::new(p.x, p.z, -p.y)
 }
 
 /// How far `far_away` moves a shot along x.
@@ -275,7 +303,7 @@ fn a_shot_far_from_the_origin_is_warned_of_and_kept_by_an_origin_near_it() {
     );
     // An origin that puts places past f32's range is refused before anything is written; the
     // formats that cannot record an origin say so.
-    for format in ["gltf", "blender"] {
+    for (format, out) in [("gltf", "x.glb"), ("blender", "x.py")] {
         let o = campath(
             tmp.path(),
             &[
@@ -285,7 +313,7 @@ fn a_shot_far_from_the_origin_is_warned_of_and_kept_by_an_origin_near_it() {
                 format,
                 "--origin=-1e300,0,0",
                 "--out",
-                "x",
+                out,
             ],
             &[],
         );
@@ -295,7 +323,7 @@ fn a_shot_far_from_the_origin_is_warned_of_and_kept_by_an_origin_near_it() {
             "{}",
             stderr(&o)
         );
-        assert!(!tmp.path().join("x").exists());
+        assert!(!tmp.path().join(out).exists());
     }
     let o = campath(
         tmp.path(),
@@ -400,8 +428,8 @@ fn edge_jobs(
     shots
         .iter()
         .map(|(name, script, doc)| {
-            // Scene frame f is campath frame f − 1.
-            let frames: Vec<f64> = shutter_ends(doc).iter().map(|&(t, _)| t + 1.0).collect();
+            // Scene frame k is campath frame k (no --first-frame).
+            let frames: Vec<f64> = shutter_ends(doc).iter().map(|&(t, _)| t).collect();
             serde_json::json!({
                 "script": script, "frames": frames,
                 "out": dir.join(format!("{name}.json")),
@@ -419,7 +447,7 @@ fn assert_edges(shots: &[(&'static str, PathBuf, Document)], jobs: &[serde_json:
         let text = std::fs::read_to_string(job["out"].as_str().unwrap()).unwrap();
         let r: serde_json::Value = serde_json::from_str(&text).unwrap();
         let f = |v: &serde_json::Value| v.as_f64().unwrap();
-        // Scene frame 1, campath's frame 0, is the scene's frame after the script.
+        // Scene frame 0, campath's frame 0, is the scene's frame after the script.
         let first = doc.camera(0).unwrap();
         let angle_x = f(&r["angle_x"]);
         assert!(
@@ -437,7 +465,7 @@ fn assert_edges(shots: &[(&'static str, PathBuf, Document)], jobs: &[serde_json:
         let sensor = f(&r["sensor"]);
         for (got, (t, cam)) in r["ends"].as_array().unwrap().iter().zip(shutter_ends(doc)) {
             let p = &got["position"];
-            let position = DVec3::new(f(&p[0]), f(&p[1]), f(&p[2]));
+            let position = from_z_up(DVec3::new(f(&p[0]), f(&p[1]), f(&p[2])));
             let want = cam.cop_world();
             assert!(
                 (position - want).abs().max_element() < 1e-6 * want.length().max(1.0),
@@ -507,7 +535,7 @@ for frame in range(scene.frame_start, scene.frame_end + 1):
     m = camera.matrix_world
     frames.append({"matrix": [[m[r][c] for c in range(4)] for r in range(3)], "lens": camera.data.lens,
                    "sensor": camera.data.sensor_width})
-scene.frame_set(1)
+scene.frame_set(scene.frame_start)
 cloud = bpy.data.objects["campath spheres"]
 depsgraph = bpy.context.evaluated_depsgraph_get()
 instances, meshes = [], {}
@@ -585,6 +613,8 @@ fn assert_cloud(blender: &str, job: &serde_json::Value, doc: &Document, whole: f
     let r: serde_json::Value = serde_json::from_str(&text).unwrap();
     let f = |v: &serde_json::Value| v.as_f64().unwrap();
     let v3 = |v: &serde_json::Value| DVec3::new(f(&v[0]), f(&v[1]), f(&v[2]));
+    // A place in Blender's Z-up world, back in campath's.
+    let place = |v: &serde_json::Value| from_z_up(v3(v));
     let spheres = &doc.scene().spheres;
     eprintln!(
         "{blender}: {} spheres, the script ran in {:.2} s, Blender in {whole:.2} s in all",
@@ -615,25 +645,25 @@ fn assert_cloud(blender: &str, job: &serde_json::Value, doc: &Document, whole: f
         .zip(job["sample"].as_array().unwrap())
     {
         let want = spheres[i.as_u64().unwrap() as usize];
-        let (place, scale) = (v3(&got["instance"][0]), v3(&got["instance"][1]));
+        let (at, scale) = (place(&got["instance"][0]), v3(&got["instance"][1]));
         assert!(
-            close(v3(&got["centre"]), want.center_world),
+            close(place(&got["centre"]), want.center_world),
             "sphere {i}: {got}"
         );
-        assert!(close(place, want.center_world), "sphere {i}: {got}");
+        assert!(close(at, want.center_world), "sphere {i}: {got}");
         assert!(close(scale, DVec3::splat(want.radius)), "sphere {i}: {got}");
         assert!((f(&got["radius"]) - want.radius).abs() <= 1e-6 * want.radius);
         assert!(close(v3(&got["colour"]), want.color), "sphere {i}: {got}");
         assert_eq!(got["colour"][3], 1.0);
     }
-    // The camera at every scene frame f is campath's frame f − 1: at the COP, with axes u, v,
-    // −n, and the lens that sees the window's width.
+    // The camera at every scene frame k is campath's frame k: at the COP, with axes u, v, −n
+    // (turned Z-up), and the lens that sees the window's width.
     let frames = r["frames"].as_array().unwrap();
     assert_eq!(frames.len() as u64, doc.animation().frames);
     for (k, item) in doc.cameras().enumerate() {
         let cam = item.unwrap().1;
         let m = &frames[k]["matrix"];
-        let col = |c: usize| DVec3::new(f(&m[0][c]), f(&m[1][c]), f(&m[2][c]));
+        let col = |c: usize| from_z_up(DVec3::new(f(&m[0][c]), f(&m[1][c]), f(&m[2][c])));
         let b = cam.basis;
         for (got, want) in [
             (col(3), cam.cop_world()),
@@ -731,7 +761,7 @@ fn blender_5_realizes_the_instances_into_one_coloured_mesh() {
         let want = spheres[i];
         // The UV sphere's vertices are symmetric about its centre but for its poles' rows,
         // which balance too: their mean is the centre, to f32.
-        let mean = v3(&got["mean"]);
+        let mean = from_z_up(v3(&got["mean"]));
         assert!(
             (mean - want.center_world).abs().max_element()
                 <= 1e-5 * want.center_world.length().max(1.0),

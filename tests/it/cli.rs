@@ -309,7 +309,28 @@ fn output_paths_say_the_format_and_are_checked_before_any_work() {
         (
             &["path", &f, "--out", "x.fbx"],
             "--out x.fbx: no format is written as .fbx; name the file .csv, .json, .chan, .gltf, \
-             .glb, .py or .usda, or give --format",
+             .glb, .py or .usda (.usd)",
+        ),
+        // A name that does not say its format: refused too, with --format or without.
+        (
+            &["path", &f, "--out", "x.txt"],
+            "--out x.txt: no format is written as .txt; name the file .csv, .json, .chan, .gltf, \
+             .glb, .py or .usda (.usd)",
+        ),
+        (
+            &["path", &f, "--out", "cameras"],
+            "--out cameras: the name has no extension to say its format; name the file .csv, \
+             .json, .chan, .gltf, .glb, .py or .usda (.usd)",
+        ),
+        (
+            &["path", &f, "--format", "json", "--out", "x.txt"],
+            "--out x.txt: no format is written as .txt; --format json writes .json: name the \
+             file so, as campath refuses a name that does not say its format",
+        ),
+        (
+            &["path", &f, "--format", "gltf", "--out", "cameras"],
+            "--out cameras: the name has no extension to say its format; --format gltf writes \
+             .gltf or .glb: name the file so",
         ),
         (
             &["plot", &f, "--out", "plot.jpg"],
@@ -336,7 +357,9 @@ fn output_paths_say_the_format_and_are_checked_before_any_work() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
     }
-    for name in ["x.glb", "plot.jpg", "r.jpg", "shot.mp4", "shot.mkv", "out"] {
+    for name in [
+        "x.glb", "x.fbx", "x.txt", "cameras", "plot.jpg", "r.jpg", "shot.mp4", "shot.mkv", "out",
+    ] {
         assert!(!tmp.path().join(name).exists(), "{name} was written");
     }
     // Not into a folder of rendered frames (its next render would refuse the file).
@@ -609,7 +632,8 @@ fn path_exports_json_and_chan() {
         .collect();
     assert_eq!(rows.len(), 4);
     assert_eq!(rows[0].len(), 8);
-    assert_eq!(rows[0][0], 1.0);
+    // campath's frame 0 is .chan's frame 0 (Nuke's users give --first-frame 1).
+    assert_eq!(rows[0][0], 0.0);
     // Translation is the COP; the vertical FOV is 2·atan(0.45 / 1) for window height 0.9 at d = 1.
     let first: Vec<f64> = csv
         .lines()
@@ -734,6 +758,23 @@ fn distort_names_the_frames_whose_cop_chan_drops() {
         &[],
     );
     assert!(o.status.success());
+    assert!(
+        stderr(&o).contains("71 of 72 frame(s), campath frames 1..=71, are written"),
+        "{}",
+        stderr(&o)
+    );
+    let o = campath(
+        &root(),
+        &[
+            "path",
+            "animations/distort.ron",
+            "--format",
+            "chan",
+            "--first-frame",
+            "1",
+        ],
+        &[],
+    );
     assert!(
         stderr(&o).contains("71 of 72 frame(s), campath frames 1..=71 (.chan frames 2..=72)"),
         "{}",

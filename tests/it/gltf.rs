@@ -68,7 +68,7 @@ fn every_example_passes_the_gltf_validator_without_errors_or_warnings() {
 }
 
 /// An accessor's f32 values, read from the file's own buffer.
-fn floats(gltf: &serde_json::Value, buffer: &[u8], accessor: usize) -> Vec<f64> {
+pub fn floats(gltf: &serde_json::Value, buffer: &[u8], accessor: usize) -> Vec<f64> {
     let a = &gltf["accessors"][accessor];
     assert_eq!(a["componentType"], 5126);
     let view = &gltf["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];

@@ -8,6 +8,7 @@ mod blender;
 mod cli;
 mod common;
 mod determinism;
+mod exports;
 mod extreme;
 mod fuzz;
 mod gltf;
