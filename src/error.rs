@@ -219,6 +219,14 @@ pub enum Error {
         /// The encoder's error.
         cause: image::ImageError,
     },
+    /// A camera source `import` cannot read, or that holds no camera campath can be (exit 2).
+    #[error("{}: {message}", path.display())]
+    Import {
+        /// The source.
+        path: PathBuf,
+        /// Where in it and what is wrong.
+        message: String,
+    },
     /// A request that cannot be met: a path that is a file, a frame past the end (exit 2).
     #[error("{0}")]
     Usage(String),
@@ -245,6 +253,7 @@ impl Error {
                 | Error::Invalid { .. }
                 | Error::Frame { .. }
                 | Error::Manifest { .. }
+                | Error::Import { .. }
                 | Error::Merge { .. }
                 | Error::Usage(_)
                 | Error::Refused(_)

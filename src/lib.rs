@@ -48,6 +48,7 @@ pub mod document;
 pub mod export;
 pub mod frames;
 pub mod golden;
+pub mod import;
 pub mod raster;
 pub mod scene;
 pub mod testing;

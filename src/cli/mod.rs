@@ -7,6 +7,7 @@ mod args;
 mod chart;
 mod error;
 mod failures;
+mod import;
 mod junit;
 mod man;
 mod path;
@@ -77,6 +78,10 @@ enum Command {
     /// Print the evaluated camera per frame (CSV, JSON, .chan for Nuke and Blender), or the
     /// whole shot as glTF, a Blender script or an OpenUSD stage.
     Path(path::PathArgs),
+    /// Read a camera another program animated (campath's CSV or JSON, OpenUSD, glTF,
+    /// nerfstudio) and write a keyframe file with the fewest keys that reproduce it within
+    /// --tolerance pixels.
+    Import(import::ImportArgs),
     /// Validate a file, report every problem, and evaluate every frame's camera.
     Check(verbs::CheckArgs),
     /// Error against run time: every accuracy setting against a 16×16-sample reference.
@@ -127,6 +132,7 @@ pub fn run(cli: Cli, out: &mut dyn Write) -> Result<bool> {
         Command::Verify(a) => return verify::verify(a, out),
         Command::Review(a) => return approve::run(a, out),
         Command::Path(a) => path::path(a, out)?,
+        Command::Import(a) => import::run(a, out)?,
         Command::Check(a) => return verbs::check(a, out),
         Command::Report(a) => report::run(a, out)?,
         Command::Video(a) => video::run(a, out)?,

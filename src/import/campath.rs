@@ -1,0 +1,181 @@
+//! campath's own exports, `path --format csv` and `--format json`: a camera per frame, read back
+//! exactly (both write the shortest decimal that reads back the same f64).
+
+use glam::{DVec2, DVec3};
+use serde::Deserialize;
+
+use super::{Sample, Source};
+use crate::camera::{Basis, Camera};
+
+/// The CSV's columns, by name; the COP's are `cop_world_*` (an earlier campath wrote `cop_*`).
+const COLUMNS: [&str; 18] = [
+    "frame",
+    "t",
+    "vrp_x",
+    "vrp_y",
+    "vrp_z",
+    "u_x",
+    "u_y",
+    "u_z",
+    "v_x",
+    "v_y",
+    "v_z",
+    "n_x",
+    "n_y",
+    "n_z",
+    "cop_world_x",
+    "cop_world_y",
+    "cop_world_z",
+    "window_w",
+];
+
+/// One frame as `--format json` writes it (`cop`, world, in an earlier campath).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JsonFrame {
+    frame: f64,
+    t: f64,
+    vrp: [f64; 3],
+    u: [f64; 3],
+    v: [f64; 3],
+    n: [f64; 3],
+    #[serde(alias = "cop")]
+    cop_world: [f64; 3],
+    window: [f64; 2],
+}
+
+/// The frames of a campath CSV.
+pub fn csv(bytes: &[u8], camera: Option<&str>) -> Result<Source, String> {
+    no_camera_names(camera)?;
+    let text = std::str::from_utf8(bytes).map_err(|e| format!("not UTF-8: {e}"))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or("the file is empty: no header line")?;
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let find = |name: &str| {
+        let old = name.replace("cop_world_", "cop_");
+        (names.iter().position(|n| *n == name || *n == old)).ok_or_else(|| {
+            format!(
+                "line 1: no column {name:?} in the header: campath's CSV has {}",
+                COLUMNS.join(",") + ",window_h"
+            )
+        })
+    };
+    let mut at = Vec::with_capacity(COLUMNS.len() + 1);
+    for name in COLUMNS.iter().chain(&["window_h"]) {
+        at.push(find(name)?);
+    }
+    let mut rows = Vec::new();
+    for (i, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != names.len() {
+            return Err(format!(
+                "line {}: {} values, the header has {}",
+                i + 1,
+                fields.len(),
+                names.len()
+            ));
+        }
+        let mut x = [0.0; 19];
+        for (slot, &column) in x.iter_mut().zip(&at) {
+            *slot = fields[column].parse().map_err(|_| {
+                format!(
+                    "line {}: column {} ({}): not a number: {:?}",
+                    i + 1,
+                    column + 1,
+                    names[column],
+                    fields[column]
+                )
+            })?;
+        }
+        let v3 = |k: usize| DVec3::new(x[k], x[k + 1], x[k + 2]);
+        rows.push((
+            x[0],
+            x[1],
+            v3(2),
+            [v3(5), v3(8), v3(11)],
+            v3(14),
+            DVec2::new(x[17], x[18]),
+        ));
+    }
+    source(rows)
+}
+
+/// The frames of a campath JSON array.
+pub fn json(bytes: &[u8], camera: Option<&str>) -> Result<Source, String> {
+    no_camera_names(camera)?;
+    let frames: Vec<JsonFrame> = serde_json::from_slice(bytes).map_err(|e| {
+        format!(
+            "not campath's --format json (an array of frames) nor nerfstudio's camera path: {e}"
+        )
+    })?;
+    let rows = frames
+        .into_iter()
+        .map(|f| {
+            let (v, w) = (DVec3::from_array, DVec2::from_array(f.window));
+            (
+                f.frame,
+                f.t,
+                v(f.vrp),
+                [v(f.u), v(f.v), v(f.n)],
+                v(f.cop_world),
+                w,
+            )
+        })
+        .collect();
+    source(rows)
+}
+
+/// A row: frame number, time, VRP, [u, v, n], the COP in world, the window.
+type Row = (f64, f64, DVec3, [DVec3; 3], DVec3, DVec2);
+
+fn no_camera_names(camera: Option<&str>) -> Result<(), String> {
+    match camera {
+        Some(name) => Err(format!(
+            "campath's exports hold one camera, unnamed: leave out --camera {name:?}"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The samples of the rows, in order: each row's camera, checked, at its time; the rate from
+/// the frame numbers and times of the first two rows.
+fn source(rows: Vec<Row>) -> Result<Source, String> {
+    let mut samples = Vec::with_capacity(rows.len());
+    for (k, &(frame, t, vrp, [u, v, n], cop, window)) in rows.iter().enumerate() {
+        let basis = Basis { u, v, n };
+        let unit = [u, v, n].iter().all(|a| (a.length() - 1.0).abs() < 1e-9);
+        let square = u.dot(v).abs() < 1e-9 && v.dot(n).abs() < 1e-9 && n.dot(u).abs() < 1e-9;
+        if !(unit && square && u.cross(v).dot(n) < 0.0) {
+            return Err(format!("frame {frame}: u, v and n are not campath's basis (unit, at right angles, left-handed)"));
+        }
+        let cop_view = basis.to_view(cop - vrp);
+        if !(cop_view.z < 0.0 && window.x > 0.0 && window.y > 0.0 && t.is_finite()) {
+            return Err(format!(
+                "frame {frame}: the COP is not behind the view plane, or the window is empty"
+            ));
+        }
+        if k > 0 && t <= rows[k - 1].1 {
+            return Err(format!(
+                "frame {frame}: its time {t} s does not follow {} s",
+                rows[k - 1].1
+            ));
+        }
+        let cam = Camera {
+            vrp_world: vrp,
+            basis,
+            cop_view,
+            window,
+        };
+        samples.push(Sample::of_camera(t, &cam));
+    }
+    let fps = (rows.len() >= 2).then(|| (rows[1].0 - rows[0].0) / (rows[1].1 - rows[0].1));
+    Ok(Source {
+        samples,
+        fps: fps.filter(|f| f.is_finite() && *f > 0.0),
+        size: None,
+        camera: "camera".into(),
+    })
+}
