@@ -177,5 +177,8 @@ fn source(rows: Vec<Row>) -> Result<Source, String> {
         fps: fps.filter(|f| f.is_finite() && *f > 0.0),
         size: None,
         camera: "camera".into(),
+        view_distance: rows
+            .first()
+            .map(|&(_, _, vrp, [_, _, n], cop, _)| n.dot(vrp - cop)),
     })
 }

@@ -30,6 +30,7 @@ use super::{Sample, Source};
 use crate::animation::Animation;
 use crate::camera::{Basis, Camera};
 use crate::document::Document;
+use crate::keyframes::{Interpolation, Key, Track};
 
 /// What the fit aims at.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -70,50 +71,87 @@ struct Keyed {
     cop: DVec3,
 }
 
+/// How many times the samples the keys cannot reach are weighed up before every sample
+/// becomes a key.
+const REWEIGHINGS: u32 = 6;
+
 /// The view up vector of the file.
 const VUV: DVec3 = DVec3::Y;
 
 /// Fits `source` with the fewest keys it can: see the module's documentation.
 pub fn fit(source: &Source, options: &Options) -> Result<Fitted, String> {
     let samples = &source.samples;
-    let window = samples[0].window;
+    let distance = source.view_distance.filter(|d| *d > 0.0).unwrap_or(1.0);
+    let window = samples[0].window * distance;
     let keyed = keyed(samples, window)?;
-    let changes = |f: &dyn Fn(&Keyed) -> Vec<f64>| {
+    // A value changes when it moves by more than rounding: a billionth of the view plane's
+    // distance, or of a degree.
+    let changes = |f: &dyn Fn(&Keyed) -> Vec<f64>, by: f64| {
         let first = f(&keyed[0]);
-        keyed.iter().any(|k| f(k) != first)
+        (keyed.iter()).any(|k| f(k).iter().zip(&first).any(|(a, b)| (a - b).abs() > by))
     };
     let tracks = Tracks {
-        roll: changes(&|k| vec![k.roll]),
-        zoom: changes(&|k| vec![k.cop.z]),
-        distort: changes(&|k| vec![k.cop.x, k.cop.y]),
+        roll: changes(&|k| vec![k.roll], 1e-9),
+        zoom: changes(&|k| vec![k.cop.z], 1e-9 * distance),
+        distort: changes(&|k| vec![k.cop.x, k.cop.y], 1e-9 * distance),
+        target: target(&keyed, samples, options),
     };
     let n = samples.len();
     let mut keys: Vec<usize> = if n == 1 { vec![0] } else { vec![0, n - 1] };
-    let text = |keys: &[usize]| file(&keyed, keys, &tracks, window, options);
-    let mut errors = errors_of(&text(&keys), samples, options)?;
+    keys.extend(knots(&keyed));
+    keys.sort_unstable();
+    keys.dedup();
+    // The file with keys at `keys`, their values by least squares with the samples' weights
+    // (`fitted`), or the samples' own.
+    let text = |keys: &[usize], fitted: bool, weights: &[f64]| {
+        let values = match fitted {
+            true => least_squares(&keyed, keys, weights),
+            false => keys.iter().map(|&i| keyed[i]).collect(),
+        };
+        file(&keyed, &values, &tracks, window, options)
+    };
+    let within = |e: &[f64]| e.iter().all(|&x| x <= options.tolerance);
+    let (mut fitted, mut weights, mut reweighed) = (true, vec![1.0; n], 0);
+    let mut errors = errors_of(&text(&keys, fitted, &weights), samples, options)?;
+    // Every span between two keys with a sample off by more than the tolerance and half the
+    // worst error (its keys' samples included) is halved; where none can be, the samples still
+    // off weigh a hundred times more, a few times over.
     loop {
-        let mut added = Vec::new();
-        for w in keys.windows(2) {
-            let worst = (w[0] + 1..w[1]).max_by(|&a, &b| errors[a].total_cmp(&errors[b]));
-            if let Some(i) = worst.filter(|&i| errors[i] > options.tolerance) {
-                added.push(i);
-            }
-        }
+        // Only the spans near the worst: least squares spreads one span's misfit over its
+        // neighbours, which a key in that span takes back.
+        let worst = errors.iter().copied().fold(0.0, f64::max);
+        let bar = options.tolerance.max(0.5 * worst);
+        let added: Vec<usize> = (keys.windows(2))
+            .filter(|w| w[1] - w[0] >= 2 && errors[w[0]..=w[1]].iter().any(|&e| e > bar))
+            .map(|w| (w[0] + w[1]) / 2)
+            .collect();
         if added.is_empty() {
-            break;
+            if within(&errors) || reweighed == REWEIGHINGS {
+                break;
+            }
+            for (w, e) in weights.iter_mut().zip(&errors) {
+                if *e > options.tolerance {
+                    *w *= 100.0;
+                }
+            }
+            reweighed += 1;
         }
         keys.extend(added);
         keys.sort_unstable();
-        errors = errors_of(&text(&keys), samples, options)?;
+        errors = errors_of(&text(&keys, fitted, &weights), samples, options)?;
     }
-    // Each inner key, from the one whose neighbours lie closest: removed if every sample stays
-    // within the tolerance.
+    if !within(&errors) {
+        // Least squares cannot reach the tolerance: a key at every sample, through it.
+        (keys, fitted) = ((0..n).collect(), false);
+        errors = errors_of(&text(&keys, fitted, &weights), samples, options)?;
+    }
+    // Each inner key in turn is removed where every sample stays within the tolerance.
     let mut k = 1;
-    while k + 1 < keys.len() {
+    while k + 1 < keys.len() && within(&errors) {
         let mut fewer = keys.clone();
         fewer.remove(k);
-        let e = errors_of(&text(&fewer), samples, options)?;
-        if e.iter().all(|&x| x <= options.tolerance) {
+        let e = errors_of(&text(&fewer, fitted, &weights), samples, options)?;
+        if within(&e) {
             (keys, errors) = (fewer, e);
         } else {
             k += 1;
@@ -122,7 +160,10 @@ pub fn fit(source: &Source, options: &Options) -> Result<Fitted, String> {
     let (worst, at) = (errors.iter().enumerate())
         .map(|(i, &e)| (e, samples[i].time))
         .fold((0.0, samples[0].time), |a, b| if b.0 > a.0 { b } else { a });
-    let mut names = vec!["Observer", "LookAround"];
+    let mut names = vec!["Observer"];
+    if tracks.target.is_none() {
+        names.push("LookAround");
+    }
     for (on, name) in [
         (tracks.roll, "Roll"),
         (tracks.zoom, "Zoom"),
@@ -133,18 +174,96 @@ pub fn fit(source: &Source, options: &Options) -> Result<Fitted, String> {
         }
     }
     Ok(Fitted {
-        text: text(&keys),
+        text: text(&keys, fitted, &weights),
         keys: keys.len(),
         tracks: names,
         worst: (worst, at),
     })
 }
 
-/// Which tracks beyond Observer and LookAround the file needs.
+/// The samples where the numbers the keys hold (the VRP, the roll, the COP) pass from one cubic
+/// to another: a keyed Catmull-Rom path is a cubic between its keys, so its third differences
+/// over samples equally spaced in time are constant there and change across a key. Each run of
+/// changes marks one key, at its middle. Paths that are no piecewise cubic (constant speed,
+/// directions) change everywhere and give a key or two, which the search keeps or removes.
+fn knots(keyed: &[Keyed]) -> Vec<usize> {
+    let numbers = |k: &Keyed| [k.vrp.x, k.vrp.y, k.vrp.z, k.roll, k.cop.x, k.cop.y, k.cop.z];
+    let n = keyed.len();
+    let even = keyed.windows(3).all(|w| {
+        let (a, b) = (w[1].time - w[0].time, w[2].time - w[1].time);
+        (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+    });
+    if n < 5 || !even {
+        return Vec::new();
+    }
+    let rows: Vec<[f64; 7]> = keyed.iter().map(numbers).collect();
+    let mut scale = [0.0f64; 7];
+    for row in &rows {
+        for (s, x) in scale.iter_mut().zip(row) {
+            *s = s.max(x.abs());
+        }
+    }
+    let third = |i: usize, c: usize| {
+        rows[i + 3][c] - 3.0 * rows[i + 2][c] + 3.0 * rows[i + 1][c] - rows[i][c]
+    };
+    // Change i: between the third differences at samples i − 1 and i.
+    let changes: Vec<bool> = (1..n - 3)
+        .map(|i| (0..7).any(|c| (third(i, c) - third(i - 1, c)).abs() > 1e-9 * (scale[c] + 1.0)))
+        .collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < changes.len() {
+        if changes[i] {
+            let start = i;
+            while i < changes.len() && changes[i] {
+                i += 1;
+            }
+            // Changes start..i compare the third differences from samples start ..= i: across
+            // a key at sample j they are those from j − 3 to j, so the key is one past the
+            // middle of the run.
+            out.push((start + 1 + i) / 2 + 1);
+        }
+        i += 1;
+    }
+    out.retain(|&k| k > 0 && k < n - 1);
+    out
+}
+
+/// Which tracks beyond Observer the file needs, and where it looks.
 struct Tracks {
     roll: bool,
     zoom: bool,
     distort: bool,
+    /// The point every sample looks at, if there is one: the camera's `tp` (look-at), and no
+    /// LookAround track.
+    target: Option<DVec3>,
+}
+
+/// The point every sample's view passes through, within a tenth of the tolerance at infinity,
+/// in front of every VRP: the least-squares meeting point of the lines from each VRP along its
+/// VPN (a Track To constraint's target, a campath camera's fixed `tp`).
+fn target(keyed: &[Keyed], samples: &[Sample], options: &Options) -> Option<DVec3> {
+    if keyed.len() < 2 {
+        return None;
+    }
+    let (mut a, mut b) = (glam::DMat3::ZERO, DVec3::ZERO);
+    for k in keyed {
+        let n = k.vpn;
+        let across = glam::DMat3::IDENTITY - glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+        a += across;
+        b += across * k.vrp;
+    }
+    if a.determinant().abs() < 1e-12 {
+        return None;
+    }
+    let p = a.inverse() * b;
+    let fits = keyed.iter().zip(samples).all(|(k, s)| {
+        let to = p - k.vrp;
+        let angle = libm::atan2(to.cross(k.vpn).length(), to.dot(k.vpn));
+        let px = angle * f64::from(options.size.0) / s.window.x;
+        to.dot(k.vpn) > 0.0 && px <= 0.1 * options.tolerance
+    });
+    (fits && p.is_finite()).then_some(p)
 }
 
 /// Every sample in the file's terms, for the window `window` at one unit from the first eye.
@@ -183,6 +302,102 @@ fn keyed(samples: &[Sample], window: DVec2) -> Result<Vec<Keyed>, String> {
     Ok(out)
 }
 
+/// The key values at the samples `keys` whose Catmull-Rom curves come nearest every sample,
+/// in the least-squares sense: a Catmull-Rom track is linear in its key values (its end
+/// segments' phantom keys too), so each number the keys hold (the VRP's, the roll's, the COP's)
+/// is the solution of the normal equations of the samples' weights. Directions keep the
+/// samples' own values. A key is where the curve best passes, not always through its sample,
+/// which takes far fewer keys than interpolating the samples.
+fn least_squares(keyed: &[Keyed], keys: &[usize], weights: &[f64]) -> Vec<Keyed> {
+    let at: Vec<Keyed> = keys.iter().map(|&i| keyed[i]).collect();
+    let m = keys.len();
+    if m < 2 {
+        return at;
+    }
+    // basis[i][j]: the weight of key j's value at sample i.
+    let basis: Vec<Vec<f64>> = {
+        let unit = |j: usize| {
+            let keys = (at.iter().enumerate())
+                .map(|(l, k)| Key {
+                    t: k.time,
+                    value: if l == j { 1.0 } else { 0.0 },
+                    interpolation: Interpolation::CatmullRom,
+                })
+                .collect();
+            Track::new(keys)
+        };
+        let units: Vec<Track<f64>> = (0..m).map(unit).collect();
+        (keyed.iter())
+            .map(|s| units.iter().map(|u| u.sample(s.time)).collect())
+            .collect()
+    };
+    let mut normal = vec![vec![0.0; m]; m];
+    for (w, &g) in basis.iter().zip(weights) {
+        for a in 0..m {
+            for b in 0..m {
+                normal[a][b] += g * w[a] * w[b];
+            }
+        }
+    }
+    let numbers = |k: &Keyed| [k.vrp.x, k.vrp.y, k.vrp.z, k.roll, k.cop.x, k.cop.y, k.cop.z];
+    let mut solved: Vec<[f64; 7]> = at.iter().map(numbers).collect();
+    for c in 0..7 {
+        let mut rhs = vec![0.0; m];
+        for ((w, s), &g) in basis.iter().zip(keyed).zip(weights) {
+            let y = g * numbers(s)[c];
+            for (r, wj) in rhs.iter_mut().zip(w) {
+                *r += wj * y;
+            }
+        }
+        let solution = solve(normal.clone(), rhs);
+        // The COP's n stays behind the view plane, or keeps the samples' values.
+        if let Some(x) = solution.filter(|x| c != 6 || x.iter().all(|&n| n < 0.0)) {
+            for (row, x) in solved.iter_mut().zip(x) {
+                row[c] = x;
+            }
+        }
+    }
+    (at.iter().zip(solved))
+        .map(|(k, [x, y, z, roll, u, v, n])| Keyed {
+            vrp: DVec3::new(x, y, z),
+            roll,
+            cop: DVec3::new(u, v, n),
+            ..*k
+        })
+        .collect()
+}
+
+/// The solution of `a` x = `b` by Gaussian elimination with partial pivoting; None when `a` is
+/// singular.
+fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let n = b.len();
+    for col in 0..n {
+        let pivot = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        let (above, below) = a.split_at_mut(col + 1);
+        let pivot_row = &above[col];
+        for (row, r) in below.iter_mut().enumerate() {
+            let f = r[col] / pivot_row[col];
+            if f != 0.0 {
+                for (x, p) in r[col..].iter_mut().zip(&pivot_row[col..]) {
+                    *x -= f * p;
+                }
+                b[col + 1 + row] -= f * b[col];
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for row in (0..n).rev() {
+        let rest: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - rest) / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
 /// A number as the file writes it: the shortest decimal that reads back the same, never −0.
 fn num(x: f64) -> String {
     format!("{:?}", x + 0.0)
@@ -192,10 +407,11 @@ fn triple(v: DVec3) -> String {
     format!("({}, {}, {})", num(v.x), num(v.y), num(v.z))
 }
 
-/// The keyframe file with keys at the samples `keys`.
+/// The keyframe file (without its closing parenthesis) with the keys `values`, for the samples
+/// `keyed`.
 fn file(
     keyed: &[Keyed],
-    keys: &[usize],
+    values: &[Keyed],
     tracks: &Tracks,
     window: DVec2,
     options: &Options,
@@ -205,14 +421,19 @@ fn file(
     let frames = ((last * options.fps + 1e-9).floor().max(0.0) as u64) + 1;
     let track = |name: &str, value: &dyn Fn(&Keyed) -> String| {
         let mut s = format!("        {name}(keys: [\n");
-        for &i in keys {
-            let k = &keyed[i];
+        for k in values {
             let _ = writeln!(s, "            (t: {}, value: {}),", num(k.time), value(k));
         }
         s + "        ]),\n"
     };
     let mut animate = track("Observer", &|k| triple(k.vrp));
-    animate += &track("LookAround", &|k| triple(k.vpn));
+    let tp = match tracks.target {
+        Some(p) => format!(", tp: {}", triple(p)),
+        None => {
+            animate += &track("LookAround", &|k| triple(k.vpn));
+            String::new()
+        }
+    };
     if tracks.roll {
         animate += &track("Roll", &|k| num(k.roll));
     }
@@ -231,7 +452,7 @@ fn file(
     let (w, h) = options.size;
     format!(
         "(\n    frames: {frames}, fps: {fps},\n    image: (width: {w}, height: {h}),\n    \
-         camera: (cop: {cop}, window: ({ww}, {wh}){roll}),\n    animate: [\n{animate}    ],\n",
+         camera: (cop: {cop}, window: ({ww}, {wh}){tp}{roll}),\n    animate: [\n{animate}    ],\n",
         fps = num(options.fps),
         cop = triple(first.cop),
         ww = num(window.x),

@@ -132,6 +132,9 @@ pub struct Source {
     pub size: Option<(u32, u32)>,
     /// The camera's name or path in the source.
     pub camera: String,
+    /// How far in front of the eye the source puts its view plane (campath's own exports: the
+    /// COP's distance), where the fitted file's VRP goes; None: one unit.
+    pub view_distance: Option<f64>,
 }
 
 /// The formats `import` reads.

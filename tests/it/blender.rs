@@ -74,10 +74,12 @@ fn blender_sees_what_campath_renders() {
     let mut names: Vec<&str> = EXAMPLES.to_vec();
     // And the track example numbered from 1001, a studio's first frame: the script's scene
     // frames and the glTF's times (in Blender's importer) both start there.
-    names.extend(["observer_4_3", "observer_far", "track_1001"]);
+    // And a rolled camera, which the script and the glTF must carry.
+    names.extend(["observer_4_3", "observer_far", "track_1001", "roll"]);
     let file_of = |name: &str| match name {
         "observer_4_3" | "observer_far" => tmp.path().join(format!("{name}.ron")),
         "track_1001" => root().join("animations/track.ron"),
+        "roll" => root().join("tests/data/roll.ron"),
         _ => root().join(format!("animations/{name}.ron")),
     };
     let first_of = |name: &str| match name {

@@ -54,7 +54,8 @@ impl Shots {
         assert_ne!(four_three, observer);
         std::fs::write(tmp.path().join("observer_4_3.ron"), four_three).unwrap();
         let mut names = EXAMPLES.to_vec();
-        names.push("observer_4_3");
+        // And a rolled camera (tests/data/roll.ron): the roll must survive the stage.
+        names.extend(["observer_4_3", "roll"]);
         let shots = Shots { tmp, names };
         for name in &shots.names {
             let file = shots.ron(name);
@@ -83,6 +84,7 @@ impl Shots {
     fn ron(&self, name: &str) -> PathBuf {
         match name {
             "observer_4_3" => self.dir().join("observer_4_3.ron"),
+            "roll" => root().join("tests/data/roll.ron"),
             _ => root().join(format!("animations/{name}.ron")),
         }
     }
