@@ -75,8 +75,14 @@ struct Keyed {
 /// becomes a key.
 const REWEIGHINGS: u32 = 6;
 
-/// The view up vector of the file.
-const VUV: DVec3 = DVec3::Y;
+/// The file's view up vector: +y, unless the first sample looks along it, when it is that
+/// sample's own up.
+fn vuv(first: &Sample) -> DVec3 {
+    match first.basis.n.cross(DVec3::Y).length() > 1e-6 {
+        true => DVec3::Y,
+        false => first.basis.v,
+    }
+}
 
 /// Fits `source` with the fewest keys it can: see the module's documentation.
 pub fn fit(source: &Source, options: &Options) -> Result<Fitted, String> {
@@ -95,6 +101,7 @@ pub fn fit(source: &Source, options: &Options) -> Result<Fitted, String> {
         zoom: changes(&|k| vec![k.cop.z], 1e-9 * distance),
         distort: changes(&|k| vec![k.cop.x, k.cop.y], 1e-9 * distance),
         target: target(&keyed, samples, options),
+        vuv: vuv(&samples[0]),
     };
     let n = samples.len();
     let mut keys: Vec<usize> = if n == 1 { vec![0] } else { vec![0, n - 1] };
@@ -237,6 +244,8 @@ struct Tracks {
     /// The point every sample looks at, if there is one: the camera's `tp` (look-at), and no
     /// LookAround track.
     target: Option<DVec3>,
+    /// The view up vector.
+    vuv: DVec3,
 }
 
 /// The point every sample's view passes through, within a tenth of the tolerance at infinity,
@@ -268,6 +277,7 @@ fn target(keyed: &[Keyed], samples: &[Sample], options: &Options) -> Option<DVec
 
 /// Every sample in the file's terms, for the window `window` at one unit from the first eye.
 fn keyed(samples: &[Sample], window: DVec2) -> Result<Vec<Keyed>, String> {
+    let up = vuv(&samples[0]);
     let mut out: Vec<Keyed> = Vec::with_capacity(samples.len());
     let mut previous_up = None;
     for s in samples {
@@ -284,7 +294,7 @@ fn keyed(samples: &[Sample], window: DVec2) -> Result<Vec<Keyed>, String> {
         }
         let cop = DVec3::new(-s.shift.x * d, -s.shift.y * d, -d);
         let vrp = s.eye - s.basis.to_world(cop);
-        let plain = Basis::following(s.basis.n, VUV, previous_up)
+        let plain = Basis::following(s.basis.n, up, previous_up)
             .map_err(|e| format!("at {} s: {e}", s.time))?;
         let mut roll = libm::atan2(-s.basis.v.dot(plain.u), s.basis.v.dot(plain.v)).to_degrees();
         if let Some(last) = out.last() {
@@ -449,10 +459,14 @@ fn file(
         true => String::new(),
         false => format!(", roll: {}", num(first.roll)),
     };
+    let vuv = match tracks.vuv == DVec3::Y {
+        true => String::new(),
+        false => format!(", vuv: {}", triple(tracks.vuv)),
+    };
     let (w, h) = options.size;
     format!(
         "(\n    frames: {frames}, fps: {fps},\n    image: (width: {w}, height: {h}),\n    \
-         camera: (cop: {cop}, window: ({ww}, {wh}){tp}{roll}),\n    animate: [\n{animate}    ],\n",
+         camera: (cop: {cop}, window: ({ww}, {wh}){tp}{vuv}{roll}),\n    animate: [\n{animate}    ],\n",
         fps = num(options.fps),
         cop = triple(first.cop),
         ww = num(window.x),
