@@ -13,6 +13,7 @@ mod extreme;
 mod fuzz;
 mod gltf;
 mod golden;
+mod import_sources;
 mod incremental;
 mod lock;
 mod modes;
