@@ -84,7 +84,7 @@ pub fn run(a: ImportArgs, out: &mut dyn Write) -> Result<()> {
         a.near,
     );
     let text = format!(
-        "// Imported by campath {} from {}: {summary}.\n// Add the scene: scene: (spheres: [...], ...).\n{})\n",
+        "// Imported by campath {} from {}: {summary}.\n// Add the scene: scene: (spheres: [...], ...).\n{}",
         env!("CARGO_PKG_VERSION"),
         a.source.display(),
         fitted.text

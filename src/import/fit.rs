@@ -51,7 +51,7 @@ pub const TOLERANCE: f64 = 0.05;
 /// A fitted keyframe file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fitted {
-    /// The keyframe file's text (without a scene).
+    /// The keyframe file's text, without a scene.
     pub text: String,
     /// The number of key times.
     pub keys: usize,
@@ -90,16 +90,20 @@ pub fn fit(source: &Source, options: &Options) -> Result<Fitted, String> {
     let distance = source.view_distance.filter(|d| *d > 0.0).unwrap_or(1.0);
     let window = samples[0].window * distance;
     let keyed = keyed(samples, window)?;
-    // A value changes when it moves by more than rounding: a billionth of the view plane's
-    // distance, or of a degree.
-    let changes = |f: &dyn Fn(&Keyed) -> Vec<f64>, by: f64| {
-        let first = f(&keyed[0]);
-        (keyed.iter()).any(|k| f(k).iter().zip(&first).any(|(a, b)| (a - b).abs() > by))
-    };
+    // A value needs a track where holding the first sample's moves the picture by more than a
+    // tenth of the tolerance (a source's f32 rounding does not): a roll turns the corners, half
+    // the diagonal from the centre; a zoom scales the picture about its centre; a shift moves it.
+    let (w, h) = (f64::from(options.size.0), f64::from(options.size.1));
+    let reach = 0.5 * w.hypot(h);
+    let changes =
+        |moves: &dyn Fn(&Keyed) -> f64| keyed.iter().any(|k| moves(k) > 0.1 * options.tolerance);
+    let first = keyed[0];
     let tracks = Tracks {
-        roll: changes(&|k| vec![k.roll], 1e-9),
-        zoom: changes(&|k| vec![k.cop.z], 1e-9 * distance),
-        distort: changes(&|k| vec![k.cop.x, k.cop.y], 1e-9 * distance),
+        roll: changes(&|k| (k.roll - first.roll).abs().to_radians() * reach),
+        zoom: changes(&|k| (k.cop.z / first.cop.z - 1.0).abs() * reach),
+        distort: changes(&|k| {
+            (k.cop - first.cop).truncate().length() / k.cop.z.abs() * w / (window.x / distance)
+        }),
         target: target(&keyed, samples, options),
         vuv: vuv(&samples[0]),
     };
@@ -417,8 +421,7 @@ fn triple(v: DVec3) -> String {
     format!("({}, {}, {})", num(v.x), num(v.y), num(v.z))
 }
 
-/// The keyframe file (without its closing parenthesis) with the keys `values`, for the samples
-/// `keyed`.
+/// The keyframe file with the keys `values`, for the samples `keyed`.
 fn file(
     keyed: &[Keyed],
     values: &[Keyed],
@@ -466,7 +469,7 @@ fn file(
     let (w, h) = options.size;
     format!(
         "(\n    frames: {frames}, fps: {fps},\n    image: (width: {w}, height: {h}),\n    \
-         camera: (cop: {cop}, window: ({ww}, {wh}){tp}{vuv}{roll}),\n    animate: [\n{animate}    ],\n",
+         camera: (cop: {cop}, window: ({ww}, {wh}){tp}{vuv}{roll}),\n    animate: [\n{animate}    ],\n)\n",
         fps = num(options.fps),
         cop = triple(first.cop),
         ww = num(window.x),
@@ -474,9 +477,9 @@ fn file(
     )
 }
 
-/// Each sample's error, pixels, under the file `text` (without its closing parenthesis).
+/// Each sample's error, pixels, under the file `text`.
 fn errors_of(text: &str, samples: &[Sample], options: &Options) -> Result<Vec<f64>, String> {
-    let doc = Document::from_str(Path::new("import.ron"), &format!("{text})"))
+    let doc = Document::from_str(Path::new("import.ron"), text)
         .map_err(|e| format!("the fitted file does not check: {e}"))?;
     let a: &Animation = &doc.animation;
     let mut previous = None;

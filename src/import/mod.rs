@@ -157,7 +157,9 @@ impl Format {
         Some(match ext.as_str() {
             "csv" => Format::Csv,
             "json" => Format::Json,
-            "usda" => Format::Usda,
+            // A binary `.usd`, `.usdc` or `.usdz` is refused by the USDA reader, with how to
+            // convert it.
+            "usda" | "usd" | "usdc" | "usdz" => Format::Usda,
             "gltf" | "glb" => Format::Gltf,
             _ => return None,
         })

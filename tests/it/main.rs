@@ -14,6 +14,7 @@ mod fuzz;
 mod gltf;
 mod golden;
 mod import;
+mod import_sources;
 mod incremental;
 mod lock;
 mod modes;
