@@ -431,7 +431,9 @@ fn file(
 ) -> String {
     let first = &keyed[0];
     let last = keyed[keyed.len() - 1].time;
-    let frames = ((last * options.fps + 1e-9).floor().max(0.0) as u64) + 1;
+    // The frames up to the last sample's; one within 10⁻⁴ of a frame counts (glTF keeps its
+    // times in f32).
+    let frames = ((last * options.fps + 1e-4).floor().max(0.0) as u64) + 1;
     let track = |name: &str, value: &dyn Fn(&Keyed) -> String| {
         let mut s = format!("        {name}(keys: [\n");
         for k in values {
