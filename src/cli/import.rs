@@ -61,6 +61,13 @@ pub fn run(a: ImportArgs, out: &mut dyn Write) -> Result<()> {
     let height = (a.height)
         .or(source.size.filter(|s| s.0 == width).map(|s| s.1))
         .unwrap_or_else(|| ((f64::from(width) * first.y / first.x).round() as u32).max(1));
+    let side = crate::raster::MAX_SIDE;
+    if width > side || height > side {
+        return Err(CliError::Usage(format!(
+            "the image would be {width}×{height} pixels, past campath's {side} a side: give \
+             --width and --height"
+        )));
+    }
     let options = Options {
         tolerance: a.tolerance,
         size: (width, height),

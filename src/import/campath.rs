@@ -145,6 +145,10 @@ fn no_camera_names(camera: Option<&str>) -> Result<(), String> {
 fn source(rows: Vec<Row>) -> Result<Source, String> {
     let mut samples = Vec::with_capacity(rows.len());
     for (k, &(frame, t, vrp, [u, v, n], cop, window)) in rows.iter().enumerate() {
+        let finite = [vrp, u, v, n, cop].iter().all(|a| a.is_finite()) && window.is_finite();
+        if !(finite && frame.is_finite()) {
+            return Err(format!("frame {frame}: a value is not a finite number"));
+        }
         let basis = Basis { u, v, n };
         let unit = [u, v, n].iter().all(|a| (a.length() - 1.0).abs() < 1e-9);
         let square = u.dot(v).abs() < 1e-9 && v.dot(n).abs() < 1e-9 && n.dot(u).abs() < 1e-9;

@@ -113,7 +113,8 @@ pub fn read(bytes: &[u8], camera: Option<&str>) -> Result<Source, String> {
     }
     Ok(Source {
         samples,
-        fps: Some(path.fps.unwrap_or(fps)),
+        // The rate the samples are at, so that the file's frame k is the path's frame k.
+        fps: Some(fps),
         size: Some((width as u32, height as u32)),
         camera: "camera".into(),
         view_distance: None,
