@@ -253,23 +253,27 @@ pub(crate) fn keyed_cameras(doc: &Document) -> Result<Vec<(f64, Camera)>> {
     Ok(keys)
 }
 
-/// One frame of `--format json`: the CSV's fields, vectors as arrays.
-#[derive(serde::Serialize)]
-struct JsonFrame {
-    frame: u64,
-    t: f64,
-    vrp: [f64; 3],
-    u: [f64; 3],
-    v: [f64; 3],
-    n: [f64; 3],
-    cop_world: [f64; 3],
-    window: [f64; 2],
+/// One frame of `--format json`: the CSV's fields, vectors as arrays; `campath import` reads
+/// it back (and an earlier campath's `cop`, which was the COP in world too).
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct JsonFrame {
+    pub frame: u64,
+    pub t: f64,
+    pub vrp: [f64; 3],
+    pub u: [f64; 3],
+    pub v: [f64; 3],
+    pub n: [f64; 3],
+    #[serde(alias = "cop")]
+    pub cop_world: [f64; 3],
+    pub window: [f64; 2],
 }
 
 /// The CSV's header: campath frame k is `frame` k + N (`--first-frame N`) and `t` its time
 /// k / fps; every place and direction is in world coordinates, and the COP's columns say so
 /// because the keyframe file's `cop` is in view coordinates.
-const CSV_HEADER: &str = "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,\
+pub(crate) const CSV_HEADER: &str =
+    "frame,t,vrp_x,vrp_y,vrp_z,u_x,u_y,u_z,v_x,v_y,v_z,n_x,n_y,n_z,\
                               cop_world_x,cop_world_y,cop_world_z,window_w,window_h";
 
 /// The most `--first-frame` takes: campath's own most frames, so that a frame's number stays

@@ -2,47 +2,10 @@
 //! exactly (both write the shortest decimal that reads back the same f64).
 
 use glam::{DVec2, DVec3};
-use serde::Deserialize;
 
 use super::{Sample, Source};
 use crate::camera::{Basis, Camera};
-
-/// The CSV's columns, by name; the COP's are `cop_world_*` (an earlier campath wrote `cop_*`).
-const COLUMNS: [&str; 18] = [
-    "frame",
-    "t",
-    "vrp_x",
-    "vrp_y",
-    "vrp_z",
-    "u_x",
-    "u_y",
-    "u_z",
-    "v_x",
-    "v_y",
-    "v_z",
-    "n_x",
-    "n_y",
-    "n_z",
-    "cop_world_x",
-    "cop_world_y",
-    "cop_world_z",
-    "window_w",
-];
-
-/// One frame as `--format json` writes it (`cop`, world, in an earlier campath).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct JsonFrame {
-    frame: f64,
-    t: f64,
-    vrp: [f64; 3],
-    u: [f64; 3],
-    v: [f64; 3],
-    n: [f64; 3],
-    #[serde(alias = "cop")]
-    cop_world: [f64; 3],
-    window: [f64; 2],
-}
+use crate::export::{JsonFrame, CSV_HEADER};
 
 /// The frames of a campath CSV.
 pub fn csv(bytes: &[u8], camera: Option<&str>) -> Result<Source, String> {
@@ -54,19 +17,18 @@ pub fn csv(bytes: &[u8], camera: Option<&str>) -> Result<Source, String> {
         .filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or("the file is empty: no header line")?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    // The columns `path` writes, by name; the COP's are `cop_world_*` (an earlier campath
+    // wrote `cop_*`).
     let find = |name: &str| {
         let old = name.replace("cop_world_", "cop_");
         (names.iter().position(|n| *n == name || *n == old)).ok_or_else(|| {
-            format!(
-                "line 1: no column {name:?} in the header: campath's CSV has {}",
-                COLUMNS.join(",") + ",window_h"
-            )
+            format!("line 1: no column {name:?} in the header: campath's CSV has {CSV_HEADER}")
         })
     };
-    let mut at = Vec::with_capacity(COLUMNS.len() + 1);
-    for name in COLUMNS.iter().chain(&["window_h"]) {
-        at.push(find(name)?);
-    }
+    let at = CSV_HEADER
+        .split(',')
+        .map(find)
+        .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::new();
     for (i, line) in lines {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -116,7 +78,7 @@ pub fn json(bytes: &[u8], camera: Option<&str>) -> Result<Source, String> {
         .map(|f| {
             let (v, w) = (DVec3::from_array, DVec2::from_array(f.window));
             (
-                f.frame,
+                f.frame as f64,
                 f.t,
                 v(f.vrp),
                 [v(f.u), v(f.v), v(f.n)],
