@@ -23,15 +23,15 @@ const LEAF: usize = 4;
 /// holds `order[start..start + count]`, an inner node has its children at its own index + 1 and
 /// at `start`. 32 bytes.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Node {
+pub(super) struct Node {
     lo: [f32; 3],
     hi: [f32; 3],
-    start: u32,
-    count: u32,
+    pub(super) start: u32,
+    pub(super) count: u32,
 }
 
 impl Node {
-    fn bounds(&self) -> [DVec3; 2] {
+    pub(super) fn bounds(&self) -> [DVec3; 2] {
         [self.lo, self.hi].map(|v| DVec3::from(v.map(f64::from)))
     }
 }
@@ -51,6 +51,10 @@ pub struct SceneIndex<'a> {
     /// The spheres by rank when that is not the scene's order, with each one's scene index.
     curve: Option<(Vec<Sphere>, Vec<u32>)>,
     nodes: Vec<Node>,
+    /// Each sphere in the hierarchy's order as f32 (see [`Shape`]): what the walk of hidden
+    /// spheres (`cull.rs`) reads, a leaf's spheres side by side; only in a scene too large for
+    /// the copy along the curve (16 bytes a sphere where the copy would take 60), else empty.
+    shapes: Vec<Shape>,
     /// The ranks of the spheres in the hierarchy's order, which its leaves index.
     order: Vec<u32>,
     /// Per light: its shadow grid (of ranks), None when it casts no shadows (or nothing could
@@ -86,14 +90,15 @@ impl<'a> SceneIndex<'a> {
         });
         // Over the copy, the hierarchy's order is the copy's own.
         let spheres = curve.as_ref().map_or(&scene.spheres[..], |(copy, _)| copy);
-        let ((nodes, order), shadows) = rayon::join(
+        let ((nodes, shapes, order), shadows) = rayon::join(
             || {
                 let order = if curve.is_some() {
                     (0..spheres.len() as u32).collect()
                 } else {
                     curve_order(spheres)
                 };
-                (hierarchy(spheres, &order), order)
+                let (nodes, shapes) = hierarchy(spheres, &order, curve.is_none());
+                (nodes, shapes, order)
             },
             || {
                 let grid = |l: &Light| {
@@ -107,6 +112,7 @@ impl<'a> SceneIndex<'a> {
             scene,
             curve,
             nodes,
+            shapes,
             order,
             shadows,
         }
@@ -118,6 +124,18 @@ impl<'a> SceneIndex<'a> {
             Some((copy, _)) => copy,
             None => &self.scene.spheres,
         }
+    }
+
+    /// The hierarchy's nodes (the root first), and the ranks in its order, which its leaves
+    /// index.
+    pub(super) fn tree(&self) -> (&[Node], &[Shape], &[u32]) {
+        (&self.nodes, &self.shapes, &self.order)
+    }
+
+    /// Whether the index holds the shapes that the walk of hidden spheres reads
+    /// ([`SceneIndex::unhidden`]).
+    pub(super) fn has_shapes(&self) -> bool {
+        !self.shapes.is_empty()
     }
 
     /// The way from a rank back to the scene's index.
@@ -238,10 +256,11 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
 }
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
-/// split at the median position, level after level.
-fn hierarchy(spheres: &[Sphere], order: &[u32]) -> Vec<Node> {
+/// split at the median position, level after level; and, `with_shapes`, the spheres' shapes in
+/// that order (else none).
+fn hierarchy(spheres: &[Sphere], order: &[u32], with_shapes: bool) -> (Vec<Node>, Vec<Shape>) {
     if spheres.is_empty() {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
     let empty = Node {
         lo: [0.0; 3],
@@ -250,8 +269,9 @@ fn hierarchy(spheres: &[Sphere], order: &[u32]) -> Vec<Node> {
         count: 0,
     };
     let mut nodes = vec![empty; node_count(order.len())];
-    build(spheres, &mut nodes, 0, order, order, 0);
-    nodes
+    let mut shapes = vec![[0.0; 4]; if with_shapes { order.len() } else { 0 }];
+    build(spheres, &mut nodes, &mut shapes, 0, order, order, 0);
+    (nodes, shapes)
 }
 
 /// The number of nodes of a subtree of `n` spheres.
@@ -269,6 +289,7 @@ fn node_count(n: usize) -> usize {
 fn build(
     spheres: &[Sphere],
     nodes: &mut [Node],
+    shapes: &mut [Shape],
     base: usize,
     whole: &[u32],
     order: &[u32],
@@ -285,6 +306,10 @@ fn build(
             prefetch(&spheres[k as usize]);
         }
         nodes[0] = leaf(spheres, order, start);
+        // Without shapes, `shapes` is empty at every level.
+        for (shape, &k) in shapes.iter_mut().zip(order) {
+            *shape = shape_of(&spheres[k as usize]);
+        }
         return;
     }
     let mid = order.len() / 2;
@@ -292,14 +317,53 @@ fn build(
     let (me, below) = nodes.split_at_mut(1);
     let (left_nodes, right_nodes) = below.split_at_mut(node_count(mid));
     let right_base = base + 1 + left_nodes.len();
+    let (left_shapes, right_shapes) = shapes.split_at_mut(mid.min(shapes.len()));
     if order.len() >= PARALLEL_BUILD {
         rayon::join(
-            || build(spheres, left_nodes, base + 1, whole, left, start),
-            || build(spheres, right_nodes, right_base, whole, right, start + mid),
+            || {
+                build(
+                    spheres,
+                    left_nodes,
+                    left_shapes,
+                    base + 1,
+                    whole,
+                    left,
+                    start,
+                )
+            },
+            || {
+                let at = start + mid;
+                build(
+                    spheres,
+                    right_nodes,
+                    right_shapes,
+                    right_base,
+                    whole,
+                    right,
+                    at,
+                )
+            },
         );
     } else {
-        build(spheres, left_nodes, base + 1, whole, left, start);
-        build(spheres, right_nodes, right_base, whole, right, start + mid);
+        build(
+            spheres,
+            left_nodes,
+            left_shapes,
+            base + 1,
+            whole,
+            left,
+            start,
+        );
+        let at = start + mid;
+        build(
+            spheres,
+            right_nodes,
+            right_shapes,
+            right_base,
+            whole,
+            right,
+            at,
+        );
     }
     let (a, b) = (&left_nodes[0], &right_nodes[0]);
     me[0] = Node {
@@ -308,6 +372,39 @@ fn build(
         start: right_base as u32,
         count: 0,
     };
+}
+
+/// A sphere in f32, 16 bytes: the centre rounded to nearest and a radius rounded up so that the
+/// ball holds the sphere (`[x, y, z, r]`). [`shape_inner`] gives a radius whose ball the
+/// sphere holds.
+pub(super) type Shape = [f32; 4];
+
+/// Relative rounding of f32, 2⁻²³ (an ulp at 1; half an ulp is the nearest rounding's error).
+const F32_EPS: f64 = f32::EPSILON as f64;
+
+/// `sphere`'s [`Shape`].
+fn shape_of(sphere: &Sphere) -> Shape {
+    let c = sphere.center_world;
+    let c32 = c.to_array().map(|v| v as f32);
+    // The centre moved by at most half an ulp of its largest coordinate; twice that, and the
+    // radius rounded up, hold the sphere.
+    let moved = F32_EPS * c.abs().max_element();
+    let r = f32_up(sphere.radius + moved);
+    [
+        c32[0],
+        c32[1],
+        c32[2],
+        if r.is_finite() { r } else { f32::INFINITY },
+    ]
+}
+
+/// A radius around a [`Shape`]'s centre whose ball lies inside the sphere (possibly
+/// negative, then no ball): the outer radius less twice every rounding it can hold.
+pub(super) fn shape_inner(shape: &Shape) -> f64 {
+    let c = shape.map(f64::from);
+    let r = c[3];
+    let scale = c[0].abs().max(c[1].abs()).max(c[2].abs()) + r;
+    r - 4.0 * F32_EPS * scale
 }
 
 /// A leaf over `order` (at `start` of the whole order), with the box of its spheres.
@@ -450,7 +547,7 @@ mod tests {
         for n in [1, 4, 5, 1000, PARALLEL_BUILD - 1, 3 * PARALLEL_BUILD + 7] {
             let scene = scene(n);
             let order = curve_order(&scene.spheres);
-            let nodes = hierarchy(&scene.spheres, &order);
+            let (nodes, _) = hierarchy(&scene.spheres, &order, false);
             assert_eq!(nodes.len(), node_count(n));
             // The same tree on one thread.
             let pool = rayon::ThreadPoolBuilder::new()
@@ -459,7 +556,7 @@ mod tests {
                 .unwrap();
             let one = pool.install(|| {
                 let order = curve_order(&scene.spheres);
-                (hierarchy(&scene.spheres, &order), order)
+                (hierarchy(&scene.spheres, &order, false).0, order)
             });
             assert!(one == (nodes.clone(), order.clone()));
             let mut seen = vec![0u32; n];

@@ -26,7 +26,15 @@ fn bench_times_campath_over_several_runs_and_povray_once() {
     let out = tmp.path().join("bench");
     let mut printed = Vec::new();
     let scenes = ["small".to_string()];
-    peers::command(&out, 1, 4, &scenes, true, false, &mut printed).unwrap();
+    let options = peers::Options {
+        pov_frames: 1,
+        runs: 4,
+        names: &scenes,
+        json: true,
+        scaling: false,
+        keep: false,
+    };
+    peers::command(&out, &options, &mut printed).unwrap();
     let json: Value = serde_json::from_slice(&printed).unwrap();
     assert_eq!(json["runs"], 4);
     let rows = json["rows"].as_array().unwrap();

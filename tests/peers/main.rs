@@ -38,6 +38,10 @@ struct Args {
     /// to 4K), hash-only.
     #[arg(long)]
     scaling: bool,
+    /// With --scaling, keep each scene's files (keyframe file, PLY, POV-Ray scene) in --out
+    /// after timing it, to run campath on them again.
+    #[arg(long)]
+    keep: bool,
     /// Passed by `cargo bench` to every bench target; ignored.
     #[arg(long, hide = true)]
     bench: bool,
@@ -47,15 +51,15 @@ fn main() -> ExitCode {
     let a = Args::parse();
     let out = &mut std::io::stdout().lock();
     let runs = a.runs as usize;
-    match bench::command(
-        &a.out,
-        a.pov_frames,
+    let options = bench::Options {
+        pov_frames: a.pov_frames,
         runs,
-        &a.scenes,
-        a.json,
-        a.scaling,
-        out,
-    ) {
+        names: &a.scenes,
+        json: a.json,
+        scaling: a.scaling,
+        keep: a.keep,
+    };
+    match bench::command(&a.out, &options, out) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("peers: error: {e}");

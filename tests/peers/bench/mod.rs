@@ -219,6 +219,7 @@ pub fn run_scaling(
     pov_frames: u64,
     runs: usize,
     scenes: &[BenchScene],
+    keep: bool,
     progress: &mut dyn std::io::Write,
 ) -> Result<Vec<ScaleRow>> {
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
@@ -251,7 +252,7 @@ pub fn run_scaling(
         };
         let pov_path = dir.join(format!("{}.pov", s.name));
         for path in [&ron_path, &ply_path, &pov_path] {
-            if path.exists() {
+            if !keep && path.exists() {
                 std::fs::remove_file(path).map_err(Error::write(path.clone()))?;
             }
         }
@@ -271,6 +272,7 @@ fn twin_pov(rows: &[ScaleRow], s: &BenchScene) -> Option<(f64, u64)> {
     let twin = rows.iter().find(|r| {
         let t = &r.scene;
         s.ply
+            && !s.float
             && !t.ply
             && (t.layout, t.spheres, t.frames) == (s.layout, s.spheres, s.frames)
             && (t.width, t.height, t.samples) == (s.width, s.height, s.samples)
@@ -335,16 +337,29 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
     t
 }
 
+/// What to time: the command line's options.
+pub struct Options<'a> {
+    pub pov_frames: u64,
+    pub runs: usize,
+    /// The scenes' names (all when empty).
+    pub names: &'a [String],
+    pub json: bool,
+    /// The scaling scenes, not the POV-Ray table's.
+    pub scaling: bool,
+    /// With `scaling`, each scene's files kept in `dir`.
+    pub keep: bool,
+}
+
 /// The chosen scenes (all when `names` is empty), as a table or as JSON.
-pub fn command(
-    dir: &Path,
-    pov_frames: u64,
-    runs: usize,
-    names: &[String],
-    json: bool,
-    scaling: bool,
-    out: &mut dyn std::io::Write,
-) -> Result<()> {
+pub fn command(dir: &Path, options: &Options, out: &mut dyn std::io::Write) -> Result<()> {
+    let &Options {
+        pov_frames,
+        runs,
+        names,
+        json,
+        scaling,
+        keep,
+    } = options;
     let cpu = cpu_features();
     let all = if scaling { scaling_scenes() } else { scenes() };
     if let Some(unknown) = names.iter().find(|n| !all.iter().any(|s| s.name == **n)) {
@@ -359,7 +374,7 @@ pub fn command(
         .filter(|s| names.is_empty() || names.contains(&s.name))
         .collect();
     let (value, rows_table) = if scaling {
-        let rows = run_scaling(dir, pov_frames, runs, &chosen, &mut std::io::stderr())?;
+        let rows = run_scaling(dir, pov_frames, runs, &chosen, keep, &mut std::io::stderr())?;
         (
             serde_json::json!({"cpu": cpu, "runs": runs, "scaling": rows}),
             scaling_table(&rows),
