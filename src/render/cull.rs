@@ -25,6 +25,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use super::lanes::prefetch;
 use super::rays::RayTable;
 use super::world::{shape_inner, SceneIndex};
 use crate::camera::Camera;
@@ -255,8 +256,17 @@ impl SceneIndex<'_> {
             if node.count == 0 {
                 // The nearer child on top.
                 let (a, b) = (k + 1, node.start);
+                // Each child's own children (or spheres) asked for now: the walk is bound by
+                // their reads, and one of the two is popped next.
                 let near_of = |j: u32| {
-                    let [lo, hi] = nodes[j as usize].bounds();
+                    let child = &nodes[j as usize];
+                    if child.count == 0 {
+                        prefetch(&nodes[j as usize + 1]);
+                        prefetch(&nodes[child.start as usize]);
+                    } else {
+                        prefetch(&shapes[child.start as usize]);
+                    }
+                    let [lo, hi] = child.bounds();
                     view.near_box(lo, hi)
                 };
                 let (na, nb) = (near_of(a), near_of(b));
