@@ -205,7 +205,7 @@ impl Renderer {
         // Past `cull_ratio` spheres a pixel, only those that may own a pixel (`cull.rs`).
         let pixels = raster.width as usize * raster.height as usize;
         let cull = raster.samples == 1
-            && index.has_shapes()
+            && index.can_cull()
             && ranked.len() >= pixels.saturating_mul(self.cull_ratio);
         let visible = if cull {
             index.unhidden(camera, &table)
@@ -516,8 +516,8 @@ mod tests {
     /// every sphere in view, on every instruction path: a dense cluster on a ground seen from
     /// outside, from inside (spheres around, behind and holding the COP), through a shifted and
     /// a zoomed COP; twins at the same place (ties); the cluster a million times smaller, a
-    /// million times larger and a million units from the origin; rasters whose tiles end
-    /// inside them. And the walk does cull: outside the cluster it keeps a fraction.
+    /// million times larger, a million units from the origin, among f32's subnormals and past
+    /// f32's range; rasters whose tiles end inside them. And the walk does cull: outside the cluster it keeps a fraction.
     #[test]
     fn frames_of_the_unhidden_spheres_are_the_frames_of_every_sphere_in_view() {
         let mut rng = crate::splitmix::SplitMix(58);
@@ -575,18 +575,22 @@ mod tests {
             samples: 1,
             adaptive: false,
         });
+        // Beside the everyday scales: f32's subnormals (the walk's shapes lose their digits)
+        // and past f32's range (its shapes are infinite).
         let places = [
             (1.0, DVec3::ZERO),
             (1e-6, DVec3::ZERO),
             (1e6, DVec3::ZERO),
             (1.0, DVec3::new(1e6, -3e5, 2e6)),
+            (1e-41, DVec3::ZERO),
+            (1e40, DVec3::ZERO),
         ];
         let mut culled = Vec::new();
         for (scale, offset) in places {
             let scene = with_ground(&cluster, scale, offset);
             // No copy along the curve: the index that holds the walk's shapes.
             let index = SceneIndex::copying_up_to(&scene, 0);
-            assert!(index.has_shapes());
+            assert!(index.can_cull());
             for ((vrp, vpn), cop) in shots {
                 let camera = camera(vrp, vpn, cop, scale, offset);
                 for raster in rasters {

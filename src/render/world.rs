@@ -8,6 +8,7 @@
 //! every sphere.
 
 use glam::{DVec2, DVec3};
+use std::sync::OnceLock;
 
 use super::lanes::prefetch;
 use super::shadows::{big_radius, f32_down, f32_up, ShadowGrid};
@@ -52,9 +53,10 @@ pub struct SceneIndex<'a> {
     curve: Option<(Vec<Sphere>, Vec<u32>)>,
     nodes: Vec<Node>,
     /// Each sphere in the hierarchy's order as f32 (see [`Shape`]): what the walk of hidden
-    /// spheres (`cull.rs`) reads, a leaf's spheres side by side; only in a scene too large for
-    /// the copy along the curve (16 bytes a sphere where the copy would take 60), else empty.
-    shapes: Vec<Shape>,
+    /// spheres (`cull.rs`) reads, a leaf's spheres side by side. Made by the first frame that
+    /// culls (16 bytes a sphere, in a scene too large for the copy along the curve), so that
+    /// a scene whose frames never cull does not pay for them.
+    shapes: OnceLock<Vec<Shape>>,
     /// The ranks of the spheres in the hierarchy's order, which its leaves index.
     order: Vec<u32>,
     /// Per light: its shadow grid (of ranks), None when it casts no shadows (or nothing could
@@ -90,15 +92,14 @@ impl<'a> SceneIndex<'a> {
         });
         // Over the copy, the hierarchy's order is the copy's own.
         let spheres = curve.as_ref().map_or(&scene.spheres[..], |(copy, _)| copy);
-        let ((nodes, shapes, order), shadows) = rayon::join(
+        let ((nodes, order), shadows) = rayon::join(
             || {
                 let order = if curve.is_some() {
                     (0..spheres.len() as u32).collect()
                 } else {
                     curve_order(spheres)
                 };
-                let (nodes, shapes) = hierarchy(spheres, &order, curve.is_none());
-                (nodes, shapes, order)
+                (hierarchy(spheres, &order), order)
             },
             || {
                 let grid = |l: &Light| {
@@ -112,7 +113,7 @@ impl<'a> SceneIndex<'a> {
             scene,
             curve,
             nodes,
-            shapes,
+            shapes: OnceLock::new(),
             order,
             shadows,
         }
@@ -126,16 +127,36 @@ impl<'a> SceneIndex<'a> {
         }
     }
 
-    /// The hierarchy's nodes (the root first), and the ranks in its order, which its leaves
-    /// index.
+    /// The hierarchy's nodes (the root first), the spheres' shapes and their ranks, both in
+    /// its order, which its leaves index. The first call makes the shapes, on the pool.
     pub(super) fn tree(&self) -> (&[Node], &[Shape], &[u32]) {
-        (&self.nodes, &self.shapes, &self.order)
+        use rayon::prelude::*;
+        let shapes = self.shapes.get_or_init(|| {
+            let spheres = self.spheres();
+            let order = &self.order;
+            let mut shapes = vec![[0.0; 4]; order.len()];
+            shapes
+                .par_chunks_mut(PARALLEL)
+                .zip(order.par_chunks(PARALLEL))
+                .for_each(|(shapes, ranks)| {
+                    for (i, (shape, &k)) in shapes.iter_mut().zip(ranks).enumerate() {
+                        // Ranks along the curve read the scene at random: the sphere some way
+                        // ahead is asked for now.
+                        if let Some(&ahead) = ranks.get(i + PREFETCH_AHEAD) {
+                            prefetch(&spheres[ahead as usize]);
+                        }
+                        *shape = shape_of(&spheres[k as usize]);
+                    }
+                });
+            shapes
+        });
+        (&self.nodes, shapes, &self.order)
     }
 
-    /// Whether the index holds the shapes that the walk of hidden spheres reads
-    /// ([`SceneIndex::unhidden`]).
-    pub(super) fn has_shapes(&self) -> bool {
-        !self.shapes.is_empty()
+    /// Whether frames may cull hidden spheres ([`SceneIndex::unhidden`]): in a scene too
+    /// large for the copy along the curve, where the spheres in view are many.
+    pub(super) fn can_cull(&self) -> bool {
+        self.curve.is_none()
     }
 
     /// The way from a rank back to the scene's index.
@@ -256,11 +277,10 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
 }
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
-/// split at the median position, level after level; and, `with_shapes`, the spheres' shapes in
-/// that order (else none).
-fn hierarchy(spheres: &[Sphere], order: &[u32], with_shapes: bool) -> (Vec<Node>, Vec<Shape>) {
+/// split at the median position, level after level.
+fn hierarchy(spheres: &[Sphere], order: &[u32]) -> Vec<Node> {
     if spheres.is_empty() {
-        return (Vec::new(), Vec::new());
+        return Vec::new();
     }
     let empty = Node {
         lo: [0.0; 3],
@@ -269,9 +289,8 @@ fn hierarchy(spheres: &[Sphere], order: &[u32], with_shapes: bool) -> (Vec<Node>
         count: 0,
     };
     let mut nodes = vec![empty; node_count(order.len())];
-    let mut shapes = vec![[0.0; 4]; if with_shapes { order.len() } else { 0 }];
-    build(spheres, &mut nodes, &mut shapes, 0, order, order, 0);
-    (nodes, shapes)
+    build(spheres, &mut nodes, 0, order, order, 0);
+    nodes
 }
 
 /// The number of nodes of a subtree of `n` spheres.
@@ -289,7 +308,6 @@ fn node_count(n: usize) -> usize {
 fn build(
     spheres: &[Sphere],
     nodes: &mut [Node],
-    shapes: &mut [Shape],
     base: usize,
     whole: &[u32],
     order: &[u32],
@@ -306,10 +324,6 @@ fn build(
             prefetch(&spheres[k as usize]);
         }
         nodes[0] = leaf(spheres, order, start);
-        // Without shapes, `shapes` is empty at every level.
-        for (shape, &k) in shapes.iter_mut().zip(order) {
-            *shape = shape_of(&spheres[k as usize]);
-        }
         return;
     }
     let mid = order.len() / 2;
@@ -317,53 +331,14 @@ fn build(
     let (me, below) = nodes.split_at_mut(1);
     let (left_nodes, right_nodes) = below.split_at_mut(node_count(mid));
     let right_base = base + 1 + left_nodes.len();
-    let (left_shapes, right_shapes) = shapes.split_at_mut(mid.min(shapes.len()));
     if order.len() >= PARALLEL_BUILD {
         rayon::join(
-            || {
-                build(
-                    spheres,
-                    left_nodes,
-                    left_shapes,
-                    base + 1,
-                    whole,
-                    left,
-                    start,
-                )
-            },
-            || {
-                let at = start + mid;
-                build(
-                    spheres,
-                    right_nodes,
-                    right_shapes,
-                    right_base,
-                    whole,
-                    right,
-                    at,
-                )
-            },
+            || build(spheres, left_nodes, base + 1, whole, left, start),
+            || build(spheres, right_nodes, right_base, whole, right, start + mid),
         );
     } else {
-        build(
-            spheres,
-            left_nodes,
-            left_shapes,
-            base + 1,
-            whole,
-            left,
-            start,
-        );
-        let at = start + mid;
-        build(
-            spheres,
-            right_nodes,
-            right_shapes,
-            right_base,
-            whole,
-            right,
-            at,
-        );
+        build(spheres, left_nodes, base + 1, whole, left, start);
+        build(spheres, right_nodes, right_base, whole, right, start + mid);
     }
     let (a, b) = (&left_nodes[0], &right_nodes[0]);
     me[0] = Node {
@@ -382,13 +357,18 @@ pub(super) type Shape = [f32; 4];
 /// Relative rounding of f32, 2⁻²³ (an ulp at 1; half an ulp is the nearest rounding's error).
 const F32_EPS: f64 = f32::EPSILON as f64;
 
+/// The least f32 above 0, 2⁻¹⁴⁹: below f32's normal range a coordinate moves by up to half of
+/// it, whatever its size.
+const F32_TINY: f64 = 1.401298464324817e-45;
+
 /// `sphere`'s [`Shape`].
 fn shape_of(sphere: &Sphere) -> Shape {
     let c = sphere.center_world;
     let c32 = c.to_array().map(|v| v as f32);
-    // The centre moved by at most half an ulp of its largest coordinate; twice that, and the
-    // radius rounded up, hold the sphere.
-    let moved = F32_EPS * c.abs().max_element();
+    // Each coordinate moved by at most half an ulp of itself (or half of F32_TINY), the centre
+    // by at most √3 times that: less than `moved`. That, and the radius rounded up, hold the
+    // sphere.
+    let moved = F32_EPS * c.abs().max_element() + F32_TINY;
     let r = f32_up(sphere.radius + moved);
     [
         c32[0],
@@ -404,7 +384,7 @@ pub(super) fn shape_inner(shape: &Shape) -> f64 {
     let c = shape.map(f64::from);
     let r = c[3];
     let scale = c[0].abs().max(c[1].abs()).max(c[2].abs()) + r;
-    r - 4.0 * F32_EPS * scale
+    r - 4.0 * F32_EPS * scale - 4.0 * F32_TINY
 }
 
 /// A leaf over `order` (at `start` of the whole order), with the box of its spheres.
@@ -547,7 +527,7 @@ mod tests {
         for n in [1, 4, 5, 1000, PARALLEL_BUILD - 1, 3 * PARALLEL_BUILD + 7] {
             let scene = scene(n);
             let order = curve_order(&scene.spheres);
-            let (nodes, _) = hierarchy(&scene.spheres, &order, false);
+            let nodes = hierarchy(&scene.spheres, &order);
             assert_eq!(nodes.len(), node_count(n));
             // The same tree on one thread.
             let pool = rayon::ThreadPoolBuilder::new()
@@ -556,7 +536,7 @@ mod tests {
                 .unwrap();
             let one = pool.install(|| {
                 let order = curve_order(&scene.spheres);
-                (hierarchy(&scene.spheres, &order, false).0, order)
+                (hierarchy(&scene.spheres, &order), order)
             });
             assert!(one == (nodes.clone(), order.clone()));
             let mut seen = vec![0u32; n];
