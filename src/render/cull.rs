@@ -30,7 +30,7 @@ use super::rays::RayTable;
 use super::world::{shape_inner, SceneIndex};
 use crate::camera::Camera;
 
-/// Side in pixels of a culling tile: its pixels' bounds are its walk's state (2 KB).
+/// Side in pixels of a culling tile: its pixels' bounds are its walk's state (8 KB).
 pub const CULL_TILE: usize = 32;
 
 /// Side in pixels of a block of a tile, whose largest bound the tests read.
@@ -306,7 +306,10 @@ impl SceneIndex<'_> {
                     inner * inner,
                     1e-3 * inner * inner + 1e-12 * f.length_squared(),
                 );
-                if !(inner > 0.0) {
+                // Only from a COP clearly outside the sphere: from inside it (or within rounding
+                // of its surface) the search takes the far root, however soon the ray enters
+                // the inner ball.
+                if !(inner > 0.0) || !(dist - r > slack) {
                     continue;
                 }
                 for y in rect.y0..=rect.y1 {

@@ -538,6 +538,18 @@ mod tests {
             twin.color = DVec3::new(0.9, 0.1, 0.1);
             cluster.push(twin);
         }
+        // Small buried spheres below the horizon of the COP that starts inside the ground.
+        for k in 0..60 {
+            cluster.push(Sphere {
+                center_world: DVec3::new(
+                    (k % 10) as f64 * 0.2 - 1.0,
+                    -0.05 * (2.0 + (k / 10) as f64) - 0.01,
+                    2.0 + (k / 10) as f64,
+                ),
+                radius: 0.04,
+                color: DVec3::new(0.1, 0.3, 0.9),
+            });
+        }
         let with_ground = |spheres: &[Sphere], scale: f64, offset: DVec3| {
             let mut all: Vec<Sphere> = spheres
                 .iter()
@@ -562,7 +574,13 @@ mod tests {
         };
         let outside = (DVec3::new(-3.0, 2.5, -9.0), DVec3::new(0.3, -0.15, 1.0));
         let inside = (DVec3::new(0.2, 1.1, -0.3), DVec3::new(-0.4, 0.1, 1.0));
+        // The COP half a thousandth inside the ground, within the f32 shape's rounding of its
+        // surface, looking a little down at small buried spheres: the ground's hit is its far
+        // side, and the buried spheres are nearer.
+        let (vpn, cop_world) = (DVec3::new(0.0, -0.05, 1.0), DVec3::new(0.0, -5e-4, 0.0));
+        let buried = (cop_world + vpn.normalize(), vpn);
         let shots = [
+            (buried, DVec3::new(0.0, 0.0, -1.0)),
             (outside, DVec3::new(0.0, 0.0, -1.5)),
             (outside, DVec3::new(0.5, -0.3, -1.2)),
             (outside, DVec3::new(0.0, 0.0, -6.0)),
