@@ -72,10 +72,10 @@ pub struct Renderer {
 /// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's copy
 /// along the curve) from which a frame keeps only the spheres that may own a pixel, found by a
 /// walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
-/// cluster, 2 cores: at 43 a pixel (ten million at 640×360) the walk takes a frame 1017 → 394
-/// ms; at 4.8 (ten million at 1080p) 1061 → 1196 ms and at 4.3 (a million at 640×360) 104 →
-/// 113 ms, slower: the walk costs about 100 ns a node it visits, from memory, and it visits
-/// about 3 nodes a pixel for every sphere a pixel it keeps.
+/// cluster, 2 cores: at 43 a pixel (ten million at 640×360) a frame takes 941 → 362 ms; at
+/// 4.8 (ten million at 1080p) 1061 → 1196 ms and at 4.3 (a million at 640×360) 104 → 113 ms,
+/// slower: the walk costs about 100 ns a node it visits, from memory, and it visits about four
+/// nodes for every sphere it keeps (docs/performance.md).
 pub const CULL_RATIO: usize = 16;
 
 impl Default for Renderer {
