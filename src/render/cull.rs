@@ -49,6 +49,9 @@ struct View<'a> {
     camera: &'a Camera,
     cop_world: DVec3,
     table: &'a RayTable,
+    /// Each pixel's ray direction as a unit vector, row by row: `DVec3::normalize` of
+    /// (xs[x], ys[y], dz), found once a frame rather than once a sphere and pixel.
+    units: Vec<DVec3>,
     /// Window width and height over the raster's, for window coordinates to pixels.
     px_per_x: f64,
     px_per_y: f64,
@@ -69,10 +72,21 @@ impl<'a> View<'a> {
     fn new(camera: &'a Camera, table: &'a RayTable) -> View<'a> {
         let cop_world = camera.cop_world();
         let raster = table.raster;
+        let units = table
+            .ys
+            .par_iter()
+            .flat_map_iter(|&y| {
+                table
+                    .xs
+                    .iter()
+                    .map(move |&x| DVec3::new(x, y, table.dz).normalize())
+            })
+            .collect();
         View {
             camera,
             cop_world,
             table,
+            units,
             px_per_x: raster.width as f64 / camera.window.x,
             px_per_y: raster.height as f64 / camera.window.y,
             slack: SLACK
@@ -99,13 +113,12 @@ impl<'a> View<'a> {
             return Some(tile);
         }
         let dz = self.table.dz;
+        // The least and most of a / z and b / z for a ≤ b and z in [lo.z, hi.z] (both > 0):
+        // the lower end over the far plane when it is positive, over the near one otherwise,
+        // and the upper end the other way about.
         let span = |a: f64, b: f64| {
-            let q = [a / lo.z, a / hi.z, b / lo.z, b / hi.z];
-            let (mn, mx) = q
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(m, n), &v| {
-                    (m.min(v), n.max(v))
-                });
+            let mn = if a >= 0.0 { a / hi.z } else { a / lo.z };
+            let mx = if b >= 0.0 { b / lo.z } else { b / hi.z };
             (mn * dz, mx * dz)
         };
         let (wx0, wx1) = span(lo.x, hi.x);
@@ -154,7 +167,11 @@ struct Kept(Vec<AtomicU64>);
 
 impl Kept {
     fn set(&self, at: usize) {
-        self.0[at / 64].fetch_or(1 << (at % 64), Ordering::Relaxed);
+        // Read first: a sphere many tiles keep (a ground) is written once, not by every tile.
+        let (word, bit) = (&self.0[at / 64], 1 << (at % 64));
+        if word.load(Ordering::Relaxed) & bit == 0 {
+            word.fetch_or(bit, Ordering::Relaxed);
+        }
     }
 }
 
@@ -234,6 +251,7 @@ impl SceneIndex<'_> {
             m
         };
         let abs_rows = [basis.u.abs(), basis.v.abs(), basis.n.abs()];
+        let w = view.table.raster.width as usize;
         let mut stack: Vec<(u32, f64)> = Vec::with_capacity(96);
         let [lo, hi] = nodes[0].bounds();
         stack.push((0, view.near_box(lo, hi)));
@@ -250,7 +268,10 @@ impl SceneIndex<'_> {
             let Some(rect) = view.rect(c, e, tile) else {
                 continue;
             };
-            if near > most(&far, &block, rect) {
+            // No pixel that can see into the box has a bound above this one, and bounds only
+            // fall: a sphere of a leaf beyond it is passed without its own rectangle.
+            let bound = most(&far, &block, rect);
+            if near > bound {
                 continue;
             }
             if node.count == 0 {
@@ -288,16 +309,20 @@ impl SceneIndex<'_> {
                 // `inner` around `center`.
                 let c = DVec3::new(shape[0] as f64, shape[1] as f64, shape[2] as f64);
                 let center = camera.point_to_view(c);
-                let (r, inner) = (shape[3] as f64, shape_inner(shape));
-                let Some(rect) = view.rect(center, DVec3::splat(r), tile) else {
-                    continue;
-                };
+                let r = shape[3] as f64;
                 let f = cop - center;
                 let dist = f.length();
                 let slack = view.slack + SLACK * (dist + r + center.abs().max_element());
+                if dist - r - slack > bound {
+                    continue;
+                }
+                let Some(rect) = view.rect(center, DVec3::splat(r), tile) else {
+                    continue;
+                };
                 if dist - r - slack > most(&far, &block, rect) {
                     continue;
                 }
+                let inner = shape_inner(shape);
                 kept.set(first + j);
                 // Where this sphere is met for sure, the pixel's nearest hit is no farther
                 // than the far end of where this hit can lie.
@@ -314,8 +339,7 @@ impl SceneIndex<'_> {
                 }
                 for y in rect.y0..=rect.y1 {
                     for x in rect.x0..=rect.x1 {
-                        let d = DVec3::new(view.table.xs[x], view.table.ys[y], view.table.dz)
-                            .normalize();
+                        let d = view.units[y * w + x];
                         let b = f.dot(d);
                         let g = f - d * b;
                         let disc = r2 - g.length_squared();
