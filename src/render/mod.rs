@@ -45,7 +45,7 @@ mod world;
 
 pub use simd::Simd;
 pub use srgb::{srgb_decode, srgb_encoder};
-pub use world::SceneIndex;
+pub use world::{SceneIndex, CULL_RATIO};
 
 use drivers::{RowJob, BAND};
 use kernels::Shading;
@@ -66,17 +66,8 @@ pub struct Renderer {
     isa: Isa,
     spare: Vec<ViewColumns>,
     /// Spheres a pixel from which a frame culls the hidden ones ([`CULL_RATIO`]).
-    cull_ratio: usize,
+    cull_ratio: f64,
 }
-
-/// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's copy
-/// along the curve) from which a frame keeps only the spheres that may own a pixel, found by a
-/// walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
-/// cluster, 2 cores: at 43 a pixel (ten million at 640×360) a frame takes 941 → 362 ms; at
-/// 4.8 (ten million at 1080p) 1061 → 1196 ms and at 4.3 (a million at 640×360) 104 → 113 ms,
-/// slower: the walk costs about 100 ns a node it visits, from memory, and it visits about four
-/// nodes for every sphere it keeps (docs/performance.md).
-pub const CULL_RATIO: usize = 16;
 
 impl Default for Renderer {
     fn default() -> Renderer {
@@ -203,11 +194,7 @@ impl Renderer {
         // their columns.
         let ranked = index.spheres();
         // Past `cull_ratio` spheres a pixel, only those that may own a pixel (`cull.rs`).
-        let pixels = raster.width as usize * raster.height as usize;
-        let cull = raster.samples == 1
-            && index.can_cull()
-            && ranked.len() >= pixels.saturating_mul(self.cull_ratio);
-        let visible = if cull {
+        let visible = if index.culls(raster, self.cull_ratio) {
             index.unhidden(camera, &table)
         } else {
             index.visible(camera)
@@ -614,9 +601,9 @@ mod tests {
                 for raster in rasters {
                     for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
                         let mut all = Renderer::with_simd(simd).unwrap();
-                        all.cull_ratio = usize::MAX;
+                        all.cull_ratio = f64::INFINITY;
                         let mut kept = Renderer::with_simd(simd).unwrap();
-                        kept.cull_ratio = 0;
+                        kept.cull_ratio = 0.0;
                         let frame = kept.prepare(&camera, &index, raster);
                         let (n, every) = (frame.in_view(), index.visible(&camera).len());
                         let mut pixels = Vec::new();

@@ -15,7 +15,17 @@ use super::shadows::{big_radius, f32_down, f32_up, ShadowGrid};
 use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
+use crate::raster::Raster;
 use crate::scene::{Light, Scene, Sphere};
+
+/// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's copy
+/// along the curve) from which a frame keeps only the spheres that may own a pixel, found by a
+/// walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
+/// cluster, 2 cores, with leaves of 32, median frames of five processes: at 43 a pixel (ten
+/// million at 640×360) 941 → 209 ms; at 4.8 (ten million at 1080p) 881 → 772 ms, and the peak
+/// 1638 → 1223 MB (the spheres in view are not all moved into columns); at 4.3 (a million at
+/// 640×360) slower still, 84 → 93 ms (docs/performance.md).
+pub const CULL_RATIO: f64 = 4.5;
 
 /// Spheres per leaf, in a scene copied along its curve (see [`SceneIndex`]).
 const LEAF: usize = 4;
@@ -164,6 +174,13 @@ impl<'a> SceneIndex<'a> {
     /// large for the copy along the curve, where the spheres in view are many.
     pub(super) fn can_cull(&self) -> bool {
         self.curve.is_none()
+    }
+
+    /// Whether a frame of `raster` culls hidden spheres: at one sample a pixel, where it can,
+    /// from `ratio` spheres a pixel ([`CULL_RATIO`]; the tests set others).
+    pub(super) fn culls(&self, raster: Raster, ratio: f64) -> bool {
+        let pixels = f64::from(raster.width) * f64::from(raster.height);
+        raster.samples == 1 && self.can_cull() && self.spheres().len() as f64 >= pixels * ratio
     }
 
     /// The way from a rank back to the scene's index.
@@ -586,6 +603,28 @@ mod tests {
             }
             assert!(seen.iter().all(|&c| c == 1), "{n} spheres");
         }
+    }
+
+    /// Frames cull hidden spheres from [`CULL_RATIO`] spheres a pixel up, at one sample a
+    /// pixel, in a scene not copied along its curve: 900 spheres over 200 pixels (4.5 a pixel),
+    /// not over 210.
+    #[test]
+    fn frames_cull_from_the_ratio_at_one_sample_in_a_scene_not_copied() {
+        let scene = scene(900);
+        let raster = |width, samples| Raster {
+            width,
+            height: 10,
+            samples,
+            adaptive: false,
+        };
+        let in_place = SceneIndex::copying_up_to(&scene, 0);
+        let copied = SceneIndex::copying_up_to(&scene, CURVE_COPY_MAX);
+        assert!(in_place.culls(raster(20, 1), CULL_RATIO));
+        assert!(!in_place.culls(raster(21, 1), CULL_RATIO));
+        assert!(!in_place.culls(raster(20, 2), CULL_RATIO));
+        assert!(!copied.culls(raster(20, 1), CULL_RATIO));
+        assert!(in_place.culls(raster(1000, 1), 0.0));
+        assert!(!in_place.culls(raster(1, 1), f64::INFINITY));
     }
 
     /// The culled list is exactly the spheres that pass the pyramid test one by one, for
