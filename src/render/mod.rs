@@ -193,7 +193,7 @@ impl Renderer {
         // The spheres by rank (see `SceneIndex`), moved into view coordinates straight into
         // their columns.
         let ranked = index.spheres();
-        // Past `cull_ratio` spheres a pixel, only those that may own a pixel (`cull.rs`).
+        // From `cull_ratio` spheres a pixel, only those that may own a pixel (`cull.rs`).
         let visible = if index.culls(raster, self.cull_ratio) {
             index.unhidden(camera, &table)
         } else {

@@ -21,10 +21,10 @@ use crate::scene::{Light, Scene, Sphere};
 /// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's copy
 /// along the curve) from which a frame keeps only the spheres that may own a pixel, found by a
 /// walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
-/// cluster, 2 cores, with leaves of 32, median frames of five processes: at 43 a pixel (ten
-/// million at 640×360) 941 → 209 ms; at 4.8 (ten million at 1080p) 881 → 772 ms, and the peak
-/// 1638 → 1223 MB (the spheres in view are not all moved into columns); at 4.3 (a million at
-/// 640×360) slower still, 84 → 93 ms (docs/performance.md).
+/// cluster, 2 cores, leaves of 32, median frames of five processes, not culled → culled: at 4.8
+/// a pixel (ten million at 1080p) 881 → 772 ms, and the peak 1638 → 1223 MB (the spheres in
+/// view are not all moved into columns); at 4.3 (a million at 640×360) culled frames are still
+/// slower, 84 → 93 ms (docs/performance.md).
 pub const CULL_RATIO: f64 = 4.5;
 
 /// Spheres per leaf, in a scene copied along its curve (see [`SceneIndex`]).
@@ -176,8 +176,9 @@ impl<'a> SceneIndex<'a> {
         self.curve.is_none()
     }
 
-    /// Whether a frame of `raster` culls hidden spheres: at one sample a pixel, where it can,
-    /// from `ratio` spheres a pixel ([`CULL_RATIO`]; the tests set others).
+    /// Whether a frame of `raster` culls hidden spheres: at one sample a pixel, where the index
+    /// can ([`SceneIndex::can_cull`]), from `ratio` spheres a pixel ([`CULL_RATIO`]; a ratio of
+    /// 0 always, an infinite or NaN one never).
     pub(super) fn culls(&self, raster: Raster, ratio: f64) -> bool {
         let pixels = f64::from(raster.width) * f64::from(raster.height);
         raster.samples == 1 && self.can_cull() && self.spheres().len() as f64 >= pixels * ratio
@@ -606,25 +607,27 @@ mod tests {
     }
 
     /// Frames cull hidden spheres from [`CULL_RATIO`] spheres a pixel up, at one sample a
-    /// pixel, in a scene not copied along its curve: 900 spheres over 200 pixels (4.5 a pixel),
-    /// not over 210.
+    /// pixel, in a scene not copied along its curve: over 200 pixels, the least whole number
+    /// of spheres at the ratio culls and one fewer does not.
     #[test]
     fn frames_cull_from_the_ratio_at_one_sample_in_a_scene_not_copied() {
-        let scene = scene(900);
-        let raster = |width, samples| Raster {
-            width,
+        let raster = |samples| Raster {
+            width: 20,
             height: 10,
             samples,
             adaptive: false,
         };
-        let in_place = SceneIndex::copying_up_to(&scene, 0);
-        let copied = SceneIndex::copying_up_to(&scene, CURVE_COPY_MAX);
-        assert!(in_place.culls(raster(20, 1), CULL_RATIO));
-        assert!(!in_place.culls(raster(21, 1), CULL_RATIO));
-        assert!(!in_place.culls(raster(20, 2), CULL_RATIO));
-        assert!(!copied.culls(raster(20, 1), CULL_RATIO));
-        assert!(in_place.culls(raster(1000, 1), 0.0));
-        assert!(!in_place.culls(raster(1, 1), f64::INFINITY));
+        let least = (200.0 * CULL_RATIO).ceil() as usize;
+        let (at, below) = (scene(least), scene(least - 1));
+        let in_place = SceneIndex::copying_up_to(&at, 0);
+        let copied = SceneIndex::copying_up_to(&at, CURVE_COPY_MAX);
+        assert!(in_place.culls(raster(1), CULL_RATIO));
+        assert!(!SceneIndex::copying_up_to(&below, 0).culls(raster(1), CULL_RATIO));
+        assert!(!in_place.culls(raster(2), CULL_RATIO));
+        assert!(!copied.culls(raster(1), CULL_RATIO));
+        assert!(in_place.culls(raster(1), 0.0));
+        assert!(!in_place.culls(raster(1), f64::INFINITY));
+        assert!(!in_place.culls(raster(1), f64::NAN));
     }
 
     /// The culled list is exactly the spheres that pass the pyramid test one by one, for
