@@ -45,7 +45,7 @@ mod world;
 
 pub use simd::Simd;
 pub use srgb::{srgb_decode, srgb_encoder};
-pub use world::{SceneIndex, CULL_RATIO};
+pub use world::SceneIndex;
 
 use drivers::{RowJob, BAND};
 use kernels::Shading;
@@ -56,6 +56,7 @@ use shadows::FrameShadows;
 use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight};
+use world::CULL_RATIO;
 
 /// Renders frames, keeping the ray table between frames, and the view columns of frames
 /// handed back ([`Renderer::recycle`]) for the next to write over.
