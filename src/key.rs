@@ -73,13 +73,14 @@ impl KeyBase {
         // The same bytes as seven `f64`s a sphere, fed a thousand spheres at a time: one
         // update per number cost more than the hash (0.15 s at a million spheres).
         let mut chunk = Vec::with_capacity(56 * 1024);
-        for group in spheres.chunks(1024) {
+        let mut all = spheres.iter().peekable();
+        while all.peek().is_some() {
             chunk.clear();
-            for &Sphere {
+            for Sphere {
                 center_world,
                 radius,
                 color,
-            } in group
+            } in all.by_ref().take(1024)
             {
                 let (c, k) = (center_world, color);
                 for x in [c.x, c.y, c.z, radius, k.x, k.y, k.z] {
@@ -165,11 +166,11 @@ mod tests {
                 color: DVec3::ONE,
                 shadows: true,
             }],
-            spheres: vec![Sphere {
+            spheres: crate::scene::Spheres::from(vec![Sphere {
                 center_world: DVec3::ZERO,
                 radius: 1.0,
                 color: DVec3::new(0.9, 0.2, 0.2),
-            }],
+            }]),
         }
     }
 
@@ -231,7 +232,9 @@ mod tests {
     fn every_input_changes_the_key() {
         let base = KeyBase::new(&scene(), RASTER).key(&camera());
         let mut s = scene();
-        s.spheres[0].color.x = 0.8;
+        let mut first = s.spheres.get(0);
+        first.color.x = 0.8;
+        s.spheres.set(0, first);
         assert_ne!(KeyBase::new(&s, RASTER).key(&camera()), base);
         let mut s = scene();
         s.lights[0].shadows = false;

@@ -22,7 +22,7 @@ use crate::document::Document;
 use crate::error::Result;
 use crate::frames::{list_frames, median};
 use crate::keyframes::PathTrack;
-use crate::scene::Sphere;
+use crate::scene::Spheres;
 
 /// A change this many times the shot's median change is a jump (with the floors below).
 pub const JUMP_FACTOR: f64 = 8.0;
@@ -199,7 +199,7 @@ fn inside_spheres(out: &mut Vec<Warning>, doc: &Document, cameras: &[Camera]) {
 /// inside is left out): a long shot through a million spheres costs about a search per
 /// sphere, not a test per sphere and frame. Chunks of spheres on the pool each keep their
 /// first sphere per eye, and the least index wins, whatever the thread count.
-fn first_sphere_around(spheres: &[Sphere], eyes: &[DVec3]) -> Vec<Option<usize>> {
+fn first_sphere_around(spheres: &Spheres, eyes: &[DVec3]) -> Vec<Option<usize>> {
     use rayon::prelude::*;
     let mut by_x: Vec<(f64, usize)> = eyes.iter().map(|e| e.x).zip(0..).collect();
     by_x.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -274,6 +274,7 @@ fn near_target(out: &mut Vec<Warning>, doc: &Document) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Sphere;
     use crate::splitmix::SplitMix;
 
     /// Whether `eye` lies inside sphere `s`.
@@ -327,8 +328,12 @@ mod tests {
         let expected = every_pair(&spheres, &eyes);
         assert!(expected.iter().filter(|k| k.is_some()).count() > 100);
         assert!(expected.contains(&Some(700)));
-        assert_eq!(first_sphere_around(&spheres, &eyes), expected);
-        assert_eq!(first_sphere_around(&[], &eyes), vec![None; eyes.len()]);
-        assert!(first_sphere_around(&spheres, &[]).is_empty());
+        let packed: Spheres = spheres.iter().copied().collect();
+        assert_eq!(first_sphere_around(&packed, &eyes), expected);
+        assert_eq!(
+            first_sphere_around(&Spheres::new(), &eyes),
+            vec![None; eyes.len()]
+        );
+        assert!(first_sphere_around(&packed, &[]).is_empty());
     }
 }

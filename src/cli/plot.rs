@@ -499,11 +499,11 @@ fn spheres(
             continue;
         }
         chart.draw_series(dots.drain(..))?;
-        let (region, edge) = outline(s, view, panel);
+        let (region, edge) = outline(&s, view, panel);
         // A ring of the shade a pixel outside the colour's outline.
         let ring = Sphere {
             radius: s.radius + 1.0 / px_per_unit,
-            ..*s
+            ..s
         };
         let area = chart.plotting_area();
         area.draw(&PathElement::new(outline(&ring, view, panel).1, edge_col))?;

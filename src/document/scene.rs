@@ -7,14 +7,16 @@
 //! field's.
 
 use glam::DVec3;
+use rayon::iter::IndexedParallelIterator;
 use std::fmt;
 use std::path::Path;
 use std::sync::{Mutex, PoisonError};
 
 use super::{Checker, SphereFile};
+use crate::format::sphere_files::Sink;
 use crate::format::sphere_files::{self, FileProblem, Listing};
 use crate::format::{self, ColorBySpec, LightSpec, Pair, RadiusBySpec, SphereFileSpec, SphereSpec};
-use crate::scene::{Light, Scene, Sphere};
+use crate::scene::{Light, Scene, Sphere, Spheres};
 
 impl Checker {
     /// The scene, and the sphere files it names (read relative to `folder`) with how many
@@ -30,16 +32,23 @@ impl Checker {
         let lights: Vec<Light> = (spec.lights.iter().enumerate())
             .filter_map(|(i, l)| self.light(&format!("scene.lights[{i}]"), l))
             .collect();
-        // The inline spheres checked in place, in the memory their specs held (a `Sphere` is no
-        // larger): no second list of fresh pages, no first one to hand back.
+        // The inline spheres checked and packed a piece at a time, each piece's specs handed
+        // back as it goes.
         let refused = Refused::default();
-        let inline = std::mem::take(&mut spec.spheres);
-        let mut spheres: Vec<Sphere> = (inline.into_iter().enumerate())
-            .map(|(i, s)| refused.check(i, &s))
-            .collect();
-        // The room past the last sphere held the specs' tails: handed back (8 MB at a million).
-        spheres.shrink_to_fit();
-        refused.name(self, Origin::Inline, &mut spheres, &[], |_, _| {});
+        let mut inline = std::mem::take(&mut spec.spheres);
+        let mut spheres = Spheres::new();
+        spheres.reserve(inline.len());
+        let mut first = 0;
+        while !inline.is_empty() {
+            let piece: Vec<SphereSpec> = inline.drain(..inline.len().min(INLINE_PIECE)).collect();
+            let checked = (piece.iter().enumerate())
+                .map(|(i, s)| refused.check(first + i, s))
+                .collect();
+            first += piece.len();
+            spheres.append(checked);
+        }
+        drop(inline);
+        refused.name(self, Origin::Inline, &mut spheres, 0, &[], |_, _| {});
         let mut files = Vec::with_capacity(spec.sphere_files.len());
         for (k, file) in spec.sphere_files.iter().enumerate() {
             let name = &file.path;
@@ -50,7 +59,9 @@ impl Checker {
             }
             let refused = Refused::default();
             let start = spheres.len();
-            let listing = sphere_files::read(&path, file, &mut spheres, |i, s| refused.check(i, s));
+            let listing = sphere_files::read(&path, file, &mut Packing(&mut spheres), |i, s| {
+                refused.check(i, s)
+            });
             let origin = Origin::File(k, name, &listing);
             let form = |checker: &mut Checker, e: &FileProblem| {
                 let at = e.at.map_or(String::new(), |at| format!(": {at}"));
@@ -58,7 +69,7 @@ impl Checker {
                 checker.problem(field, e.message.clone());
             };
             let problems = &listing.problems;
-            refused.name(self, origin, &mut spheres[start..], problems, form);
+            refused.name(self, origin, &mut spheres, start, problems, form);
             files.push(SphereFile {
                 name: name.clone(),
                 path,
@@ -179,6 +190,32 @@ impl Checker {
     }
 }
 
+/// Inline spheres checked and packed at a time: a piece of specs and its spheres, not every
+/// sphere twice.
+const INLINE_PIECE: usize = 1 << 16;
+
+/// The scene's spheres as a sphere file's [`Sink`]: each block of a binary PLY packed on the
+/// pool as it is read.
+struct Packing<'a>(&'a mut Spheres);
+
+impl Sink<Sphere> for Packing<'_> {
+    fn count(&self) -> usize {
+        self.0.len()
+    }
+
+    fn room(&mut self, n: usize) {
+        self.0.reserve(n);
+    }
+
+    fn put(&mut self, item: Sphere) {
+        self.0.push(item);
+    }
+
+    fn put_all(&mut self, items: impl IndexedParallelIterator<Item = Sphere>) {
+        self.0.append(items.collect());
+    }
+}
+
 /// The spheres that failed their check, noted from the pool's tasks as they were checked.
 #[derive(Default)]
 struct Refused(Mutex<Vec<(usize, SphereSpec)>>);
@@ -200,14 +237,15 @@ impl Refused {
     }
 
     /// Names the refused spheres' problems, by index, and among them in file order the file's
-    /// own (`form`, each after the spheres read before it, named by `name_form`); `spheres[i]`
-    /// is sphere `i`'s place. A sphere the checker passes after all takes its place, so the
+    /// own (`form`, each after the spheres read before it, named by `name_form`); sphere `i`'s
+    /// place is `first + i` in `spheres`. A sphere the checker passes after all takes its place, so the
     /// scene never depends on [`passing`] agreeing with the checker, only the speed does.
     fn name(
         self,
         checker: &mut Checker,
         origin: Origin,
-        spheres: &mut [Sphere],
+        spheres: &mut Spheres,
+        first: usize,
         form: &[(usize, FileProblem)],
         name_form: impl Fn(&mut Checker, &FileProblem),
     ) {
@@ -219,7 +257,7 @@ impl Refused {
                 name_form(checker, e);
             }
             if let Some(sphere) = checker.sphere(origin, i, &s) {
-                spheres[i] = sphere;
+                spheres.set(first + i, sphere);
             }
         }
         for (_, e) in form {

@@ -7,7 +7,7 @@
 
 use glam::DVec3;
 
-use crate::scene::Sphere;
+use crate::scene::Spheres;
 
 /// Spheres a leaf holds at most.
 const LEAF: usize = 8;
@@ -39,7 +39,7 @@ fn gap(p: DVec3, (c, r): (DVec3, f64)) -> f64 {
 }
 
 impl Gaps {
-    pub(crate) fn new(spheres: &[Sphere]) -> Gaps {
+    pub(crate) fn new(spheres: &Spheres) -> Gaps {
         let mut gaps = Gaps {
             nodes: Vec::with_capacity(2 * spheres.len().div_ceil(LEAF)),
             spheres: spheres.iter().map(|s| (s.center_world, s.radius)).collect(),
@@ -136,6 +136,7 @@ impl Gaps {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Sphere;
     use crate::splitmix::SplitMix;
 
     fn sphere(c: DVec3, r: f64) -> Sphere {
@@ -169,7 +170,7 @@ mod tests {
                 .collect();
             spheres.push(sphere(DVec3::new(0.0, -1e5, 0.0) + offset, 1e5));
             spheres.extend((0..40).map(|_| sphere(DVec3::splat(offset), 0.5 * spread)));
-            let gaps = Gaps::new(&spheres);
+            let gaps = Gaps::new(&spheres.iter().copied().collect());
             let mut points: Vec<DVec3> = (0..300)
                 .map(|_| DVec3::new(u(-2.0, 2.0), u(-2.0, 2.0), u(-2.0, 2.0)) * spread)
                 .map(|p| p + DVec3::splat(offset))
@@ -189,6 +190,6 @@ mod tests {
                 assert_eq!(gaps.least(p).to_bits(), every.to_bits(), "{n} spheres, {p}");
             }
         }
-        assert_eq!(Gaps::new(&[]).least(DVec3::ONE), f64::INFINITY);
+        assert_eq!(Gaps::new(&Spheres::new()).least(DVec3::ONE), f64::INFINITY);
     }
 }

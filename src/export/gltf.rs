@@ -266,7 +266,7 @@ fn build(
         materials.push(material);
         meshes.push(mesh);
         let per_instance = |f: &dyn Fn(&crate::scene::Sphere) -> [f32; 3]| -> Vec<f32> {
-            spheres.iter().flat_map(f).collect()
+            spheres.iter().flat_map(|s| f(&s)).collect()
         };
         let translation = per_instance(&|s| f32s(s.center_world - origin));
         let scale = per_instance(&|s| [s.radius as f32; 3]);

@@ -14,7 +14,7 @@ use glam::{DQuat, DVec3};
 use crate::camera::{Basis, Camera};
 use crate::document::Document;
 use crate::error::{Error, Result};
-use crate::scene::Sphere;
+use crate::scene::Spheres;
 
 /// From this many spheres on, the USD and glTF exports write the spheres as instances of one
 /// sphere (a `PointInstancer`; one node with `EXT_mesh_gpu_instancing`) instead of a prim or a
@@ -184,7 +184,7 @@ fn yfov(cam: &Camera) -> f64 {
 /// inside it), and a point seen at most α off the view direction (α at the window's furthest
 /// corner) lies at a depth of at least g · cos α. Readers keep both in f32: far is at most
 /// f32's largest value.
-pub(crate) fn clipping_range(spheres: &[Sphere], cams: &[Camera]) -> (f64, f64) {
+pub(crate) fn clipping_range(spheres: &Spheres, cams: &[Camera]) -> (f64, f64) {
     use rayon::prelude::*;
     let (lo, hi) = spheres.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),

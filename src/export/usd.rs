@@ -42,7 +42,7 @@ use crate::export::{
     aim_negative_z, clipping_range, keyed_cameras, quat_wxyz, relative, rotations, triple,
     unsigned_zero, INSTANCED_FROM,
 };
-use crate::scene::Sphere;
+use crate::scene::{Sphere, Spheres};
 
 /// The film back's width in tenths of a scene unit: 0.36 is 36 mm when a unit is a metre.
 pub const FILM_WIDTH: f64 = 0.36;
@@ -122,7 +122,7 @@ fn f32_outward(x: f64, towards: f64) -> f32 {
 
 /// Writes `spheres` (relative to `origin`) as one `PointInstancer` beneath the shot's top prim
 /// `root`, its arrays an instance a line.
-fn point_instancer(s: &mut String, spheres: &[Sphere], origin: DVec3, root: &str) {
+fn point_instancer(s: &mut String, spheres: &Spheres, origin: DVec3, root: &str) {
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     for sphere in spheres {
         let c = sphere.center_world - origin;
@@ -144,7 +144,7 @@ fn point_instancer(s: &mut String, spheres: &[Sphere], origin: DVec3, root: &str
     let array = |s: &mut String, decl: &str, value: &dyn Fn(&Sphere) -> String, meta: &str| {
         let _ = writeln!(s, "        {decl} = [");
         for sphere in spheres {
-            let _ = writeln!(s, "            {},", value(sphere));
+            let _ = writeln!(s, "            {},", value(&sphere));
         }
         let _ = writeln!(s, "        ]{meta}");
     };
@@ -299,11 +299,11 @@ def Xform "{root}" (
     let one_by_one = match spheres.len() >= INSTANCED_FROM {
         true => {
             point_instancer(&mut s, spheres, origin, &root);
-            &[][..]
+            0
         }
-        false => &spheres[..],
+        false => spheres.len(),
     };
-    for (i, sphere) in one_by_one.iter().enumerate() {
+    for (i, sphere) in spheres.iter().take(one_by_one).enumerate() {
         let r = unsigned_zero(sphere.radius);
         let e = unsigned_zero(r as f32);
         let _ = write!(

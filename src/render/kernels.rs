@@ -14,13 +14,13 @@ use glam::DVec3;
 use super::lanes::{dot, splat3, InBounds, Lanes, LANES};
 use super::shadows::{Hints, NO_HINT};
 use super::view::{c_of, ViewColumns, ViewLight};
-use crate::scene::Sphere;
+use crate::scene::Spheres;
 
 /// The frame's scene as the packets shade it: the spheres and lights in view coordinates.
 pub(super) struct Shading<'a> {
     pub(super) spheres: &'a ViewColumns,
     /// The scene's spheres by rank, the columns' `id`: a hit sphere's colour.
-    pub(super) scene: &'a [Sphere],
+    pub(super) scene: &'a Spheres,
     pub(super) lights: &'a [ViewLight<'a>],
     pub(super) ambient: f64,
     pub(super) background: DVec3,
@@ -242,11 +242,11 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
     /// Each lane's sphere's colour, which the columns do not keep: read from the spheres by
     /// rank.
     #[inline(always)]
-    fn colors(&self, tok: V::Token, scene: &[Sphere]) -> [V; 3] {
+    fn colors(&self, tok: V::Token, scene: &Spheres) -> [V; 3] {
         match *self {
-            SphereLanes::One(s, k) => splat3(tok, scene[s.id[k] as usize].color),
+            SphereLanes::One(s, k) => splat3(tok, scene.color(s.id[k] as usize)),
             SphereLanes::Two(s, second, a, b) => {
-                let (a, b) = (scene[s.id[a] as usize].color, scene[s.id[b] as usize].color);
+                let (a, b) = (scene.color(s.id[a] as usize), scene.color(s.id[b] as usize));
                 [
                     V::blend(second, V::splat(tok, a.x), V::splat(tok, b.x)),
                     V::blend(second, V::splat(tok, a.y), V::splat(tok, b.y)),
@@ -257,7 +257,7 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
                 let ids = V::index_store(V::gather_index(&s.id, own));
                 let mut lanes = [[0.0; LANES]; 3];
                 for (l, &id) in ids.iter().enumerate() {
-                    let color = scene[id as usize].color;
+                    let color = scene.color(id as usize);
                     (lanes[0][l], lanes[1][l], lanes[2][l]) = (color.x, color.y, color.z);
                 }
                 [
@@ -295,7 +295,7 @@ mod tests {
         let columns = ViewColumns::new(DVec3::ZERO, &[sphere]);
         let shading = Shading {
             spheres: &columns,
-            scene: &[],
+            scene: &const { Spheres::new() },
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,

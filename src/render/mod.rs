@@ -21,7 +21,7 @@ use std::sync::Arc;
 
 use crate::camera::Camera;
 pub use crate::raster::Raster;
-use crate::scene::{Scene, Sphere};
+use crate::scene::{Scene, Spheres};
 
 mod bins;
 mod cull;
@@ -206,8 +206,8 @@ impl Renderer {
         let shadowed = index.shadows.iter().any(Option::is_some);
         let centers: Option<Arc<[(DVec3, f64)]>> =
             (shadowed && ranked.len() <= shadows::ALL_CENTERS).then(|| {
-                let center = |s| shadows::view_center(camera, s);
-                ranked.iter().map(center).collect()
+                let center = |k| shadows::view_center(camera, ranked.ball(k));
+                (0..ranked.len()).map(center).collect()
             });
         let lights: Vec<ViewLight> = scene
             .lights
@@ -268,7 +268,7 @@ pub struct PreparedFrame<'a> {
 /// The scene as one camera of a frame sees it, ready for its rays.
 struct TimeSample<'a> {
     /// The scene's spheres by rank, which the columns' and shadow grids' indices are.
-    ranked: &'a [Sphere],
+    ranked: &'a Spheres,
     table: Arc<RayTable>,
     spheres: ViewColumns,
     lights: Vec<ViewLight<'a>>,
@@ -373,6 +373,7 @@ mod tests {
     use super::*;
     use crate::camera::Basis;
     use crate::scene::Light;
+    use crate::scene::Sphere;
     use glam::DVec2;
 
     /// `spheres` under one shadowed light.
@@ -385,7 +386,7 @@ mod tests {
                 color: DVec3::splat(0.8),
                 shadows: true,
             }],
-            spheres,
+            spheres: spheres.into(),
         }
     }
 

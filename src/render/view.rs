@@ -3,11 +3,10 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::lanes::prefetch;
-use super::shadows::FrameShadows;
+use super::shadows::{prefetch_sphere, FrameShadows};
 use super::sort::PARALLEL;
 use crate::camera::Camera;
-use crate::scene::Sphere;
+use crate::scene::Spheres;
 
 /// A sphere in view coordinates, with the terms every primary ray shares: made one at a time,
 /// kept per field in [`ViewColumns`].
@@ -27,9 +26,9 @@ pub(super) struct ViewSphere {
 impl ViewSphere {
     /// `sphere` moved camera-relative into view coordinates: the VRP is subtracted first, so a
     /// scene far from the origin keeps its precision.
-    pub(super) fn new(camera: &Camera, sphere: &Sphere, id: u32) -> ViewSphere {
-        let center = camera.point_to_view(sphere.center_world);
-        ViewSphere::in_view(center, sphere.radius, camera.cop_view, id)
+    pub(super) fn new(camera: &Camera, (center, radius): (DVec3, f64), id: u32) -> ViewSphere {
+        let center = camera.point_to_view(center);
+        ViewSphere::in_view(center, radius, camera.cop_view, id)
     }
 
     /// A sphere of centre `center` (view coordinates) seen from `cop_view`.
@@ -110,7 +109,7 @@ impl ViewColumns {
     /// in and clear again).
     pub(super) fn of(
         camera: &Camera,
-        spheres: &[Sphere],
+        spheres: &Spheres,
         ids: &[u32],
         spare: Option<ViewColumns>,
     ) -> ViewColumns {
@@ -132,9 +131,9 @@ impl ViewColumns {
                 // The ids follow the hierarchy, not the scene's order: a sphere some way
                 // ahead is asked for now, so that its read overlaps this one's work.
                 if let Some(&ahead) = ids.get(i + PREFETCH_AHEAD) {
-                    prefetch(&spheres[ahead as usize]);
+                    prefetch_sphere(spheres, ahead as usize);
                 }
-                let s = ViewSphere::new(camera, &spheres[k as usize], k);
+                let s = ViewSphere::new(camera, spheres.ball(k as usize), k);
                 min_dist[i] = s.min_dist;
                 radius[i] = s.radius;
                 (x0[i], x1[i], x2[i]) = (s.center.x, s.center.y, s.center.z);

@@ -10,13 +10,12 @@
 use glam::{DVec2, DVec3};
 use std::sync::OnceLock;
 
-use super::lanes::prefetch;
-use super::shadows::{big_radius, f32_down, f32_up, ShadowGrid};
+use super::shadows::{big_radius, f32_down, f32_up, prefetch_sphere, ShadowGrid};
 use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::raster::Raster;
-use crate::scene::{Light, Scene, Sphere};
+use crate::scene::{Light, Scene, Sphere, Spheres};
 
 /// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's copy
 /// along the curve) from which a frame keeps only the spheres that may own a pixel, found by a
@@ -66,7 +65,7 @@ pub struct SceneIndex<'a> {
     /// The scene indexed.
     pub scene: &'a Scene,
     /// The spheres by rank when that is not the scene's order, with each one's scene index.
-    curve: Option<(Vec<Sphere>, Vec<u32>)>,
+    curve: Option<(Spheres, Vec<u32>)>,
     nodes: Vec<Node>,
     /// Each sphere in the hierarchy's order as f32 (see [`Shape`]): what the walk of hidden
     /// spheres (`cull.rs`) reads, a leaf's spheres side by side. Made by the first frame that
@@ -102,12 +101,12 @@ impl<'a> SceneIndex<'a> {
             let copy: Vec<Sphere> = scene_index
                 .par_iter()
                 .with_min_len(PARALLEL)
-                .map(|&k| scene.spheres[k as usize])
+                .map(|&k| scene.spheres.get(k as usize))
                 .collect();
-            (copy, scene_index)
+            (Spheres::wide(copy), scene_index)
         });
         // Over the copy, the hierarchy's order is the copy's own.
-        let spheres = curve.as_ref().map_or(&scene.spheres[..], |(copy, _)| copy);
+        let spheres = curve.as_ref().map_or(&scene.spheres, |(copy, _)| copy);
         let ((nodes, order), shadows) = rayon::join(
             || {
                 let order = if curve.is_some() {
@@ -137,7 +136,7 @@ impl<'a> SceneIndex<'a> {
     }
 
     /// The spheres by rank.
-    pub(super) fn spheres(&self) -> &[Sphere] {
+    pub(super) fn spheres(&self) -> &Spheres {
         match &self.curve {
             Some((copy, _)) => copy,
             None => &self.scene.spheres,
@@ -160,9 +159,9 @@ impl<'a> SceneIndex<'a> {
                         // Ranks along the curve read the scene at random: the sphere some way
                         // ahead is asked for now.
                         if let Some(&ahead) = ranks.get(i + PREFETCH_AHEAD) {
-                            prefetch(&spheres[ahead as usize]);
+                            prefetch_sphere(spheres, ahead as usize);
                         }
-                        *shape = shape_of(&spheres[k as usize]);
+                        *shape = shape_of(spheres.ball(k as usize));
                     }
                 });
             shapes
@@ -222,8 +221,8 @@ impl<'a> SceneIndex<'a> {
                 } else {
                     let spheres = self.spheres();
                     out.extend(items.iter().filter(|&&i| {
-                        let s = &spheres[i as usize];
-                        planes.meets_sphere(s.center_world, s.radius)
+                        let (center, radius) = spheres.ball(i as usize);
+                        planes.meets_sphere(center, radius)
                     }));
                 }
             } else {
@@ -262,31 +261,31 @@ fn spread3(v: u64) -> u64 {
 /// the scene (as the shadow grids tell them); a big one (a ground sphere, whose centre lies
 /// far below the rest) is clamped onto its faces, so that it does not squeeze the others into
 /// a few cells. The curve only orders: any order culls to the same spheres.
-fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
+fn curve_order(spheres: &Spheres) -> Vec<u32> {
     use rayon::prelude::*;
     let n = spheres.len();
     let low = index_bits(n);
     let bits = ((u64::BITS - low) / 3).min(MORTON_BITS);
     let (big, _) = big_radius(spheres);
     let none = || (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    let (clo, chi) = spheres
-        .par_iter()
+    let (clo, chi) = (0..n)
+        .into_par_iter()
         .with_min_len(PARALLEL)
-        .filter(|s| s.radius <= big)
-        .fold(none, |(lo, hi), s| {
-            (lo.min(s.center_world), hi.max(s.center_world))
+        .map(|k| spheres.ball(k))
+        .filter(|&(_, radius)| radius <= big)
+        .fold(none, |(lo, hi), (center, _)| {
+            (lo.min(center), hi.max(center))
         })
         .reduce(none, |a, b| (a.0.min(b.0), a.1.max(b.1)));
     let last = ((1u64 << bits) - 1) as f64;
     let scale = (chi - clo).max_element();
     let inv = if scale > 0.0 { last / scale } else { 0.0 };
-    let keys: Vec<u64> = spheres
-        .par_iter()
+    let keys: Vec<u64> = (0..n)
+        .into_par_iter()
         .with_min_len(PARALLEL)
-        .enumerate()
-        .map(|(k, s)| {
+        .map(|k| {
             // Clamped as floats (a big sphere's, and NaN from an empty box, to the edge).
-            let q = ((s.center_world - clo) * inv)
+            let q = ((spheres.ball(k).0 - clo) * inv)
                 .to_array()
                 .map(|v| v.max(0.0).min(last) as u64);
             let code = spread3(q[0]) << 2 | spread3(q[1]) << 1 | spread3(q[2]);
@@ -303,7 +302,7 @@ fn curve_order(spheres: &[Sphere]) -> Vec<u32> {
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
 /// split at the median position, level after level, down to at most `leaf` spheres.
-fn hierarchy(spheres: &[Sphere], order: &[u32], leaf: usize) -> Vec<Node> {
+fn hierarchy(spheres: &Spheres, order: &[u32], leaf: usize) -> Vec<Node> {
     if spheres.is_empty() {
         return Vec::new();
     }
@@ -334,7 +333,7 @@ fn node_count(n: usize, leaf: usize) -> usize {
 
 /// What every subtree's build reads: the spheres, the whole order and the leaf size.
 struct Tree<'a> {
-    spheres: &'a [Sphere],
+    spheres: &'a Spheres,
     whole: &'a [u32],
     leaf: usize,
 }
@@ -353,7 +352,7 @@ impl Tree<'_> {
                 .get(ahead..(ahead + order.len()).min(whole.len()))
                 .unwrap_or(&[])
             {
-                prefetch(&spheres[k as usize]);
+                prefetch_sphere(spheres, k as usize);
             }
             nodes[0] = leaf(spheres, order, start);
             return;
@@ -395,14 +394,13 @@ const F32_EPS: f64 = f32::EPSILON as f64;
 const F32_TINY: f64 = 1.401298464324817e-45;
 
 /// `sphere`'s [`Shape`].
-fn shape_of(sphere: &Sphere) -> Shape {
-    let c = sphere.center_world;
+fn shape_of((c, radius): (DVec3, f64)) -> Shape {
     let c32 = c.to_array().map(|v| v as f32);
     // Each coordinate moved by at most half an ulp of itself (or half of F32_TINY), the centre
     // by at most √3 times that: less than `moved`. That, and the radius rounded up, hold the
     // sphere.
     let moved = F32_EPS * c.abs().max_element() + F32_TINY;
-    let r = f32_up(sphere.radius + moved);
+    let r = f32_up(radius + moved);
     [
         c32[0],
         c32[1],
@@ -421,13 +419,13 @@ pub(super) fn shape_inner(shape: &Shape) -> f64 {
 }
 
 /// A leaf over `order` (at `start` of the whole order), with the box of its spheres.
-fn leaf(spheres: &[Sphere], order: &[u32], start: usize) -> Node {
+fn leaf(spheres: &Spheres, order: &[u32], start: usize) -> Node {
     let mut lo = DVec3::INFINITY;
     let mut hi = DVec3::NEG_INFINITY;
     for &i in order {
-        let s = &spheres[i as usize];
-        lo = lo.min(s.center_world - s.radius);
-        hi = hi.max(s.center_world + s.radius);
+        let (center, radius) = spheres.ball(i as usize);
+        lo = lo.min(center - radius);
+        hi = hi.max(center + radius);
     }
     Node {
         lo: lo.to_array().map(f32_down),
@@ -551,7 +549,7 @@ mod tests {
             background: DVec3::ZERO,
             ambient: 0.1,
             lights: Vec::new(),
-            spheres,
+            spheres: spheres.into(),
         }
     }
 
@@ -590,7 +588,7 @@ mod tests {
                     assert!(node.count as usize <= leaf);
                     for &i in &order[node.start as usize..(node.start + node.count) as usize] {
                         seen[i as usize] += 1;
-                        let s = &scene.spheres[i as usize];
+                        let s = scene.spheres.get(i as usize);
                         for &a in &path {
                             let [lo, hi] = nodes[a].bounds();
                             assert!((s.center_world - s.radius).cmpge(lo).all());
@@ -664,7 +662,7 @@ mod tests {
                 let planes = Pyramid::new(&camera);
                 let every: Vec<u32> = (0..n as u32)
                     .filter(|&k| {
-                        let s = &scene.spheres[k as usize];
+                        let s = scene.spheres.get(k as usize);
                         planes.meets_sphere(s.center_world, s.radius)
                     })
                     .collect();
@@ -683,7 +681,7 @@ mod tests {
                     .all(|w| at[w[0] as usize] < at[w[1] as usize]));
                 // Every sphere by rank is its scene sphere.
                 for (r, s) in index.spheres().iter().enumerate() {
-                    assert!(*s == scene.spheres[ranks.scene_index(r as u32) as usize]);
+                    assert!(s == scene.spheres.get(ranks.scene_index(r as u32) as usize));
                 }
                 inside += index
                     .nodes
@@ -709,7 +707,9 @@ mod tests {
             let mut scene = scene(n);
             // Pairs of spheres in one cell, or at one centre.
             for k in (0..n).step_by(7).skip(1) {
-                scene.spheres[k].center_world = scene.spheres[k - 1].center_world;
+                let mut s = scene.spheres.get(k);
+                s.center_world = scene.spheres.get(k - 1).center_world;
+                scene.spheres.set(k, s);
             }
             let spheres = &scene.spheres;
             let bits = ((64 - index_bits(n)) / 3).min(MORTON_BITS);
@@ -734,7 +734,7 @@ mod tests {
                 })
             };
             let mut want: Vec<u32> = (0..n as u32).collect();
-            want.sort_by_key(|&k| (code(&spheres[k as usize]), k));
+            want.sort_by_key(|&k| (code(&spheres.get(k as usize)), k));
             assert!(curve_order(spheres) == want, "{n} spheres");
         }
     }

@@ -646,7 +646,7 @@ fn assert_cloud(blender: &str, job: &serde_json::Value, doc: &Document, whole: f
         .iter()
         .zip(job["sample"].as_array().unwrap())
     {
-        let want = spheres[i.as_u64().unwrap() as usize];
+        let want = spheres.get(i.as_u64().unwrap() as usize);
         let (at, scale) = (place(&got["instance"][0]), v3(&got["instance"][1]));
         assert!(
             close(place(&got["centre"]), want.center_world),
@@ -760,7 +760,7 @@ fn blender_5_realizes_the_instances_into_one_coloured_mesh() {
     let f = |v: &serde_json::Value| v.as_f64().unwrap();
     let v3 = |v: &serde_json::Value| DVec3::new(f(&v[0]), f(&v[1]), f(&v[2]));
     for (got, &i) in r["spheres"].as_array().unwrap().iter().zip(&sample) {
-        let want = spheres[i];
+        let want = spheres.get(i);
         // The UV sphere's vertices are symmetric about its centre but for its poles' rows,
         // which balance too: their mean is the centre, to f32.
         let mean = from_z_up(v3(&got["mean"]));

@@ -149,7 +149,7 @@ fn naive_quadratic_fails_where_the_stable_form_holds() {
     // The textbook discriminant b² − c on the tiny sphere, from a COP 1e4 further back: the
     // terms are ~1e16 and r² = 1e-6 drowns. Shows the case is stiff for a naive caster.
     let doc = load("tiny_sphere.ron");
-    let s = doc.scene().spheres[0];
+    let s = doc.scene().spheres.get(0);
     let origin = DVec3::new(0.0, 0.0, -1e8); // the camera pulled far back along −n
     let l = s.center_world - origin;
     let d = l.normalize();
@@ -309,7 +309,7 @@ fn naive_f32_world_space_loses_the_small_sphere_far_away() {
     // off by more than its radius at 1e6; campath's camera-relative f64 keeps it to 1e-9.
     let at = |offset: f64| {
         let doc = Document::from_str(Path::new("far.ron"), &far_scene(offset)).unwrap();
-        (cameras(&doc)[1], doc.scene().spheres[3])
+        (cameras(&doc)[1], doc.scene().spheres.get(3))
     };
     let (cam0, s0) = at(0.0);
     let exact = cam0.point_to_view(s0.center_world);

@@ -34,7 +34,7 @@ pub fn render(camera: &Camera, scene: &Scene, raster: Raster) -> Vec<u8> {
     let balls: Vec<Ball> = scene
         .spheres
         .iter()
-        .map(|s: &Sphere| Ball {
+        .map(|s: Sphere| Ball {
             center: camera.point_to_view(s.center_world),
             radius: s.radius,
             color: s.color,

@@ -236,7 +236,7 @@ fn tiles_and_shadow_grid_give_the_oracle_bytes() {
                 shadows: true,
             },
         ],
-        spheres,
+        spheres: spheres.into(),
     };
     let raster = Raster {
         width: 96,
@@ -297,7 +297,7 @@ fn under_one_light(spheres: Vec<Sphere>) -> Scene {
             color: DVec3::splat(0.9),
             shadows: true,
         }],
-        spheres,
+        spheres: spheres.into(),
     }
 }
 

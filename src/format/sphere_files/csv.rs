@@ -10,6 +10,7 @@ use super::header::{HeaderLines, CR_ALONE};
 use super::listing::{FileProblem, Listing, Location};
 use super::look::{Column, Fields, Kind, Layout};
 use super::text::{text_records, Rows};
+use super::Sink;
 use crate::format::{SphereFileSpec, SphereSpec};
 
 /// The CSV form read from `file`: the header line, then the body's lines in blocks on the
@@ -17,7 +18,7 @@ use crate::format::{SphereFileSpec, SphereSpec};
 pub(super) fn csv_from<T>(
     mut file: impl BufRead + Send,
     spec: &SphereFileSpec,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     make: &impl Fn(usize, &SphereSpec) -> T,
     listing: &mut Listing,
 ) -> Result<(), FileProblem> {
@@ -91,7 +92,7 @@ pub(super) fn csv_from<T>(
     let take = |line, sphere: Result<SphereSpec, String>| match sphere {
         Ok(sphere) => {
             gaps |= line != first + count;
-            out.push(make(count, &sphere));
+            out.put(make(count, &sphere));
             count += 1;
             listing.lines.push(line as u32);
         }

@@ -2,6 +2,7 @@
 
 use std::io;
 
+use super::Sink;
 use crate::error::PROBLEMS_SHOWN;
 
 /// Where in a sphere file a sphere or a problem is.
@@ -100,14 +101,14 @@ impl Listing {
 
 /// The listing of what `reader` appends to `out`: its count, and the problem that ended it
 /// after those it read past.
-pub(super) fn listed<T>(
-    out: &mut Vec<T>,
-    reader: impl FnOnce(&mut Vec<T>, &mut Listing) -> Result<(), FileProblem>,
+pub(super) fn listed<T, S: Sink<T>>(
+    out: &mut S,
+    reader: impl FnOnce(&mut S, &mut Listing) -> Result<(), FileProblem>,
 ) -> Listing {
-    let start = out.len();
+    let start = out.count();
     let mut listing = Listing::default();
     let ended = reader(out, &mut listing);
-    listing.count = out.len() - start;
+    listing.count = out.count() - start;
     let ended_early = ended.is_err();
     if let Err(problem) = ended {
         listing.problems.push((listing.count, problem));

@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 use super::header::quoted;
 use super::text::text_f64;
 use crate::format::{ColorBySpec, RadiusBySpec, SphereFileSpec, SphereSpec, Triple};
+use crate::scene::srgb_linear;
 
 /// The slots of a row: the fields a sphere reads, each from one column.
 pub(super) const X: usize = 0;
@@ -216,15 +217,6 @@ fn number_name(v: f64) -> String {
     match v == v.trunc() && v.abs() < 1e15 {
         true => format!("{}", v as i64),
         false => format!("{v}"),
-    }
-}
-
-/// A level of 8-bit sRGB as linear light (IEC 61966-2-1).
-fn linear(level: u8) -> f64 {
-    let c = f64::from(level) / 255.0;
-    match c <= 0.04045 {
-        true => c / 12.92,
-        false => libm::pow((c + 0.055) / 1.055, 2.4),
     }
 }
 
@@ -515,7 +507,7 @@ impl Layout {
             Color::Map { map, range } => {
                 let t = self.along(number(COLOR_KEY)?, *range, COLOR_KEY)?;
                 let c = map.eval_continuous(t);
-                Some((linear(c.r), linear(c.g), linear(c.b)))
+                Some((srgb_linear(c.r), srgb_linear(c.g), srgb_linear(c.b)))
             }
         };
         Ok(SphereSpec {

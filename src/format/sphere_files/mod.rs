@@ -15,6 +15,8 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::Path;
 
+use rayon::iter::{IndexedParallelIterator, ParallelExtend};
+
 use super::{SphereFileSpec, SphereSpec};
 
 mod csv;
@@ -32,6 +34,36 @@ use listing::listed;
 pub use listing::{FileProblem, Listing};
 pub use look::{colormap, COLORMAPS};
 
+/// Where a sphere file's spheres go, in file order: a vector, or the scene's packed spheres.
+pub trait Sink<T>: Send {
+    /// How many it holds.
+    fn count(&self) -> usize;
+    /// Room for `n` more.
+    fn room(&mut self, n: usize);
+    /// Appends `item`.
+    fn put(&mut self, item: T);
+    /// Appends `items`, in order, made on the rayon pool.
+    fn put_all(&mut self, items: impl IndexedParallelIterator<Item = T>);
+}
+
+impl<T: Send> Sink<T> for Vec<T> {
+    fn count(&self) -> usize {
+        self.len()
+    }
+
+    fn room(&mut self, n: usize) {
+        self.reserve(n);
+    }
+
+    fn put(&mut self, item: T) {
+        self.push(item);
+    }
+
+    fn put_all(&mut self, items: impl IndexedParallelIterator<Item = T>) {
+        self.par_extend(items);
+    }
+}
+
 /// The most bytes of a sphere file's body read at a time (a binary PLY's: whole vertices, at
 /// least one): a million spheres' 56 MB pass through 4 MiB.
 pub const BLOCK_BYTES: usize = 4 << 20;
@@ -44,7 +76,7 @@ pub const BLOCK_BYTES: usize = 4 << 20;
 pub fn read<T: Send>(
     path: &Path,
     spec: &SphereFileSpec,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     make: impl Fn(usize, &SphereSpec) -> T + Sync,
 ) -> Listing {
     let ext = path

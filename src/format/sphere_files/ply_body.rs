@@ -12,7 +12,7 @@ use super::listing::{FileProblem, Listing, Location};
 use super::look::{Layout, SLOTS};
 use super::ply_header::{self, fixed_offsets, Element, Header, Property, Scalar};
 use super::text::{text_records, Rows};
-use super::BLOCK_BYTES;
+use super::{Sink, BLOCK_BYTES};
 use crate::error::PROBLEMS_SHOWN;
 use crate::format::blocks::{self, Blocks};
 use crate::format::{SphereFileSpec, SphereSpec};
@@ -26,7 +26,7 @@ pub(super) fn ply_from<T: Send>(
     mut file: impl BufRead + Send,
     len: u64,
     spec: &SphereFileSpec,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     make: &(impl Fn(usize, &SphereSpec) -> T + Sync),
     listing: &mut Listing,
 ) -> Result<(), FileProblem> {
@@ -49,7 +49,7 @@ pub(super) fn ply_from<T: Send>(
             let stride = offsets.last().map_or(0, |(o, t)| o + t.size());
             // Room for the vertices the file can hold, not for whatever the header claims.
             let room = usize::try_from(len / stride as u64).unwrap_or(usize::MAX);
-            out.reserve(v.count.min(room));
+            out.room(v.count.min(room));
             let at = layout.cols.map(|k| k.map(|k| offsets[k]));
             // A row a type table does not name: noted from the pool's tasks, a stand-in in
             // its place, named afterwards in file order; only the first ones named are kept
@@ -169,7 +169,7 @@ fn fixed_vertices<T: Send>(
     body: &mut (impl Read + Send),
     count: usize,
     stride: usize,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     vertex: impl Fn(usize, &[u8]) -> T + Sync,
 ) -> Result<(), FileProblem> {
     let per_block = (BLOCK_BYTES / stride).max(1);
@@ -186,7 +186,7 @@ fn fixed_vertices<T: Send>(
         let next = (b + 1 < n).then(|| want(b + 1));
         let parse = |block: &[u8]| {
             let whole = block[..got - got % stride].par_chunks_exact(stride);
-            out.par_extend(
+            out.put_all(
                 (whole.with_min_len(TASK_VERTICES))
                     .enumerate()
                     .map(|(k, v)| vertex(first + k, v)),
@@ -206,7 +206,7 @@ fn listed_vertices<T>(
     body: &mut impl BufRead,
     v: &Element,
     layout: &Layout,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
     listing: &mut Listing,
 ) -> Result<(), FileProblem> {
@@ -241,7 +241,7 @@ fn listed_vertices<T>(
             listing.unreadable(i, FileProblem::at(Location::Vertex(i), what));
             STAND_IN
         });
-        out.push(make(i, &sphere));
+        out.put(make(i, &sphere));
     }
     Ok(())
 }
@@ -261,7 +261,7 @@ fn ascii_blank(line: &[u8]) -> bool {
 fn ascii_vertices<T>(
     body: &mut (impl BufRead + Send),
     header: &Header,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     make: impl Fn(usize, &SphereSpec) -> T,
     listing: &mut Listing,
 ) -> Result<(), FileProblem> {
@@ -352,7 +352,7 @@ fn ascii_vertices<T>(
             listing.unreadable(taken, problem(taken, at, what));
             STAND_IN
         });
-        out.push(make(taken, &sphere));
+        out.put(make(taken, &sphere));
         taken += 1;
     };
     let blank = |line: &str| ascii_blank(line.as_bytes());

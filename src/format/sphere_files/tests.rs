@@ -8,7 +8,11 @@ use crate::format::Triple;
 use listing::Location;
 
 /// The CSV form of `bytes`, appending `make(i, sphere)` to `out` for each sphere.
-fn read_csv<T>(bytes: &[u8], out: &mut Vec<T>, make: impl Fn(usize, &SphereSpec) -> T) -> Listing {
+fn read_csv<T: Send>(
+    bytes: &[u8],
+    out: &mut Vec<T>,
+    make: impl Fn(usize, &SphereSpec) -> T,
+) -> Listing {
     let spec = SphereFileSpec::default();
     listed(out, |out, listing| {
         csv::csv_from(bytes, &spec, out, &make, listing)

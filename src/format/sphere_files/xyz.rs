@@ -12,6 +12,7 @@ use super::header::{quoted, HeaderLines};
 use super::listing::{FileProblem, Listing, Location};
 use super::look::{Column, Fields, Kind, Layout};
 use super::text::{text_records, Rows};
+use super::Sink;
 use crate::format::{SphereFileSpec, SphereSpec};
 
 /// The columns of a file whose comment line has no `Properties=`.
@@ -22,7 +23,7 @@ const PLAIN: &str = "species:S:1:pos:R:3";
 pub(super) fn xyz_from<T>(
     mut file: impl BufRead + Send,
     spec: &SphereFileSpec,
-    out: &mut Vec<T>,
+    out: &mut impl Sink<T>,
     make: &impl Fn(usize, &SphereSpec) -> T,
     listing: &mut Listing,
 ) -> Result<(), FileProblem> {
@@ -79,12 +80,12 @@ pub(super) fn xyz_from<T>(
         gaps |= line != first + taken;
         match sphere {
             Ok(sphere) => {
-                out.push(make(taken, &sphere));
+                out.put(make(taken, &sphere));
                 listing.lines.push(line as u32);
             }
             Err(what) => {
                 listing.unreadable(taken, FileProblem::at(Location::Line(line), what));
-                out.push(make(taken, &STAND_IN));
+                out.put(make(taken, &STAND_IN));
                 listing.lines.push(line as u32);
             }
         }

@@ -17,7 +17,7 @@ use super::lanes::prefetch;
 use super::sort::{sort_by_high_bits, PARALLEL};
 
 use crate::camera::Camera;
-use crate::scene::Sphere;
+use crate::scene::{Slot, Spheres};
 
 mod occlusion;
 
@@ -86,26 +86,26 @@ impl Disc {
 
 impl ShadowGrid {
     /// Bins `spheres` for the light arriving from `to_light` (world, unit).
-    pub fn build(spheres: &[Sphere], to_light: DVec3) -> ShadowGrid {
+    pub fn build(spheres: &Spheres, to_light: DVec3) -> ShadowGrid {
         let axes = to_light.any_orthonormal_pair();
         let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
         let (big, median) = big_radius(spheres);
         let always: Vec<u32> = (0..spheres.len() as u32)
-            .filter(|k| spheres[*k as usize].radius > big)
+            .filter(|k| spheres.ball(*k as usize).1 > big)
             .collect();
         // Maxima and minima (exact, so the same in any order), in one pass on the pool: the
         // extent of every sphere, the projected bounds and count of the binned ones.
         let none = || (0.0, DVec2::INFINITY, DVec2::NEG_INFINITY, 0usize);
         let (extent, lo, hi, count) = spheres
-            .par_iter()
+            .par_balls()
             .with_min_len(PARALLEL)
-            .fold(none, |(extent, lo, hi, n), s| {
-                let extent = f64::max(extent, s.center_world.abs().max_element() + s.radius);
-                if s.radius > big {
+            .fold(none, |(extent, lo, hi, n), (center, radius)| {
+                let extent = f64::max(extent, center.abs().max_element() + radius);
+                if radius > big {
                     return (extent, lo, hi, n);
                 }
-                let p = project(s.center_world);
-                (extent, lo.min(p - s.radius), hi.max(p + s.radius), n + 1)
+                let p = project(center);
+                (extent, lo.min(p - radius), hi.max(p + radius), n + 1)
             })
             .reduce(none, |a, b| {
                 (a.0.max(b.0), a.1.min(b.1), a.2.max(b.2), a.3 + b.3)
@@ -133,16 +133,16 @@ impl ShadowGrid {
         // found in index order and gathered into the sorted order, so that binning reads them
         // in sequence, not the spheres at random.
         let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = spheres
-            .par_iter()
+            .par_balls()
             .enumerate()
             .with_min_len(PARALLEL)
-            .map(|(k, s)| {
-                let top = s.center_world.dot(to_light) + s.radius;
-                let disc = Disc::new(project(s.center_world) - lo, s.radius, top);
-                if s.radius > big {
+            .map(|(k, (center, radius))| {
+                let top = center.dot(to_light) + radius;
+                let disc = Disc::new(project(center) - lo, radius, top);
+                if radius > big {
                     return (disc, (u64::MAX, u64::MAX));
                 }
-                let cells = cell_key(grid.cell_range(project(s.center_world), s.radius));
+                let cells = cell_key(grid.cell_range(project(center), radius));
                 (
                     disc,
                     (cells, u64::from(!top_order(disc.top)) << 32 | k as u64),
@@ -242,7 +242,7 @@ fn top_order(top: f32) -> u32 {
 pub struct FrameShadows<'a> {
     grid: &'a ShadowGrid,
     camera: Camera,
-    spheres: &'a [Sphere],
+    spheres: &'a Spheres,
     /// Unit vector towards the light, view coordinates.
     to_light: DVec3,
     /// The grid's always-tested spheres: (index, centre in view coordinates, r²).
@@ -269,17 +269,26 @@ pub struct FrameShadows<'a> {
 /// stays with what it sees.
 pub const ALL_CENTERS: usize = 1 << 16;
 
+/// Asks for sphere `k`'s centre and radius: a hint ahead of its read, which changes no value.
+#[inline(always)]
+pub(in crate::render) fn prefetch_sphere(spheres: &Spheres, k: usize) {
+    match spheres.slot(k) {
+        Slot::Wide(s) => prefetch(s),
+        Slot::Packed(ball) => prefetch(ball),
+    }
+}
+
 /// Sphere `s`'s centre in view coordinates and r², to the bits of `ViewSphere::new`.
 #[inline(always)]
-pub fn view_center(camera: &Camera, s: &Sphere) -> (DVec3, f64) {
-    (camera.point_to_view(s.center_world), s.radius * s.radius)
+pub fn view_center(camera: &Camera, (center, radius): (DVec3, f64)) -> (DVec3, f64) {
+    (camera.point_to_view(center), radius * radius)
 }
 
 impl<'a> FrameShadows<'a> {
     pub fn new(
         grid: &'a ShadowGrid,
         camera: &Camera,
-        spheres: &'a [Sphere],
+        spheres: &'a Spheres,
         centers: Option<Arc<[(DVec3, f64)]>>,
         to_light: DVec3,
     ) -> FrameShadows<'a> {
@@ -311,7 +320,7 @@ impl<'a> FrameShadows<'a> {
     fn blocker(&self, k: u32) -> (u32, DVec3, f64) {
         let (c, r2) = match &self.centers {
             Some(all) => all[k as usize],
-            None => view_center(&self.camera, &self.spheres[k as usize]),
+            None => view_center(&self.camera, self.spheres.ball(k as usize)),
         };
         (k, c, r2)
     }
@@ -323,7 +332,7 @@ impl<'a> FrameShadows<'a> {
         prefetch(&self.grid.discs[k as usize]);
         match &self.centers {
             Some(all) => prefetch(&all[k as usize]),
-            None => prefetch(&self.spheres[k as usize]),
+            None => prefetch_sphere(self.spheres, k as usize),
         }
     }
 }
@@ -342,9 +351,12 @@ pub(super) type Hints = [u32; HINTED_LIGHTS];
 /// the median radius, of every sphere up to [`MEDIAN_SAMPLE`] of them, else of that many evenly
 /// spaced in the scene's order (both only size the grid: every sphere is tested or binned
 /// whatever they are, so the answers do not depend on them).
-pub(super) fn big_radius(spheres: &[Sphere]) -> (f64, f64) {
+pub(super) fn big_radius(spheres: &Spheres) -> (f64, f64) {
     let step = spheres.len().div_ceil(MEDIAN_SAMPLE).max(1);
-    let mut radii: Vec<f64> = spheres.iter().step_by(step).map(|s| s.radius).collect();
+    let mut radii: Vec<f64> = (0..spheres.len())
+        .step_by(step)
+        .map(|k| spheres.ball(k).1)
+        .collect();
     if radii.is_empty() {
         return (f64::INFINITY, 0.0);
     }
@@ -388,6 +400,7 @@ pub(super) mod tests {
     use super::super::oracle::blocks_ray;
     use super::*;
     use crate::camera::Basis;
+    use crate::scene::Sphere;
     use crate::splitmix::SplitMix;
     use glam::DVec2;
 
@@ -395,7 +408,7 @@ pub(super) mod tests {
     /// their grids, and 40 view points spread over each sphere (a spiral, the lit side and the
     /// dark) with the sphere each lies on.
     pub(in crate::render) struct Cluster {
-        pub spheres: Vec<Sphere>,
+        pub spheres: Spheres,
         pub camera: Camera,
         pub lights: Vec<ClusterLight>,
         pub points: Vec<(DVec3, u32)>,
@@ -440,7 +453,7 @@ pub(super) mod tests {
         };
         let mut points = Vec::new();
         for (own, s) in spheres.iter().enumerate() {
-            let center = view_center(&camera, s).0;
+            let center = view_center(&camera, s.ball()).0;
             for k in 0..each {
                 let z = 1.0 - 2.0 * (k as f64 + 0.5) / each as f64;
                 let a = k as f64 * 2.399963;
@@ -449,6 +462,7 @@ pub(super) mod tests {
                 points.push((center + normal * s.radius, own as u32));
             }
         }
+        let spheres = Spheres::from(spheres);
         let lights = [DVec3::new(-0.6, -1.0, 0.4), DVec3::new(0.9, -0.2, -0.1)]
             .into_iter()
             .map(|direction| {
@@ -473,7 +487,7 @@ pub(super) mod tests {
     /// number.
     #[test]
     fn a_discs_cells_are_the_clamped_floors_of_its_edges() {
-        let spheres: Vec<Sphere> = (0..50)
+        let spheres: Spheres = (0..50)
             .map(|k| Sphere {
                 center_world: DVec3::new(k as f64 * 0.37, (k % 7) as f64, (k % 5) as f64 * 0.5),
                 radius: 0.2,
@@ -603,7 +617,7 @@ pub(super) mod tests {
                         highest_top_first(grid, cell);
                         let (ax, ay) = grid.axes;
                         for &k in cell {
-                            let p = c.spheres[k as usize].center_world;
+                            let p = c.spheres.get(k as usize).center_world;
                             let at =
                                 (DVec2::new(p.dot(ax), p.dot(ay)) - grid.origin) * grid.inv_cell;
                             listed[k as usize] |=
@@ -639,7 +653,7 @@ pub(super) mod tests {
     #[test]
     fn equal_tops_are_listed_by_index() {
         let c = seeded_cluster(11, 300, 0);
-        let spheres: Vec<Sphere> = [&c.spheres[..300], &c.spheres].concat();
+        let spheres: Spheres = c.spheres.iter().take(300).chain(&c.spheres).collect();
         let grid = ShadowGrid::build(&spheres, -DVec3::new(-0.6, -1.0, 0.4).normalize());
         let (w, h) = grid.dims;
         let ties: usize = (0..w * h)
@@ -657,7 +671,7 @@ pub(super) mod tests {
             (point, own): (DVec3, u32),
         ) -> bool {
             self.spheres.iter().enumerate().any(|(o, other)| {
-                let (c, r2) = view_center(&self.camera, other);
+                let (c, r2) = view_center(&self.camera, other.ball());
                 o as u32 != own && blocks_ray(c, r2, point, to_light)
             })
         }

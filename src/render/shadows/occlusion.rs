@@ -251,7 +251,7 @@ mod tests {
     use super::super::{view_center, ShadowGrid};
     use super::*;
     use crate::camera::{Basis, Camera};
-    use crate::scene::Sphere;
+    use crate::scene::{Sphere, Spheres};
     use glam::{DVec2, DVec3};
 
     /// Up to eight (view point, own sphere) pairs as a packet: the points, their spheres and
@@ -282,7 +282,7 @@ mod tests {
         let centers: std::sync::Arc<[_]> = c
             .spheres
             .iter()
-            .map(|s| view_center(&c.camera, s))
+            .map(|s| view_center(&c.camera, s.ball()))
             .collect();
         // Neighbouring points of a sphere (lanes in one cell or a few), and every 7th point
         // (lanes on different spheres, cells far apart).
@@ -370,7 +370,7 @@ mod tests {
             let groups: Vec<DVec3> = (0..8)
                 .map(|_| DVec3::new(unit() * spread, unit() * spread * 0.2, unit() * spread))
                 .collect();
-            let spheres: Vec<Sphere> = (0..300)
+            let spheres: Spheres = (0..300)
                 .map(|k| Sphere {
                     center_world: DVec3::splat(offset)
                         + groups[k % 8]
@@ -389,8 +389,10 @@ mod tests {
             let grid = ShadowGrid::build(&spheres, -direction);
             let to_light = -camera.basis.to_view(direction);
             let frame = FrameShadows::new(&grid, &camera, &spheres, None, to_light);
-            let centers: Vec<(DVec3, f64)> =
-                spheres.iter().map(|s| view_center(&camera, s)).collect();
+            let centers: Vec<(DVec3, f64)> = spheres
+                .iter()
+                .map(|s| view_center(&camera, s.ball()))
+                .collect();
             // Below each sphere, on its shadow's edge and a hair either side of it, and inside it
             // next to its rim; the point's own sphere is none of them.
             let mut points = Vec::new();
@@ -457,7 +459,7 @@ mod tests {
             radius: 0.05,
             color: DVec3::ONE,
         };
-        let spheres = [blocker, own];
+        let spheres = Spheres::from(vec![blocker, own]);
         let camera = Camera {
             vrp_world: DVec3::new(0.0, 1000.0, -5.0),
             basis: Basis::from_vpn_vuv(DVec3::Z, DVec3::Y).unwrap(),

@@ -163,7 +163,7 @@ mod tests {
     use crate::render::kernels::Shading;
     use crate::render::oracle::{nearest, root};
     use crate::render::view::ViewSphere;
-    use crate::scene::Sphere;
+    use crate::scene::{Sphere, Spheres};
     use glam::{DVec2, DVec3};
 
     /// A tile's list, read as scene indices, does not depend on the order the columns hold the
@@ -205,7 +205,7 @@ mod tests {
         let ids = |order: &[u32]| {
             let view: Vec<ViewSphere> = order
                 .iter()
-                .map(|&k| ViewSphere::new(&camera, &spheres[k as usize], k))
+                .map(|&k| ViewSphere::new(&camera, spheres[k as usize].ball(), k))
                 .collect();
             let columns = ViewColumns::new(camera.cop_view, &view);
             let bins = TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
@@ -305,7 +305,7 @@ mod tests {
                 let view: Vec<ViewSphere> = spheres
                     .iter()
                     .enumerate()
-                    .map(|(k, s)| ViewSphere::new(&camera, s, k as u32))
+                    .map(|(k, s)| ViewSphere::new(&camera, s.ball(), k as u32))
                     .collect();
                 let columns = ViewColumns::new(camera.cop_view, &view);
                 let shading = unlit(&columns);
@@ -386,9 +386,10 @@ mod tests {
 
     /// The primary-ray search over `spheres`, with no lights.
     fn unlit(spheres: &ViewColumns) -> Shading<'_> {
+        static NONE: Spheres = Spheres::new();
         Shading {
             spheres,
-            scene: &[],
+            scene: &NONE,
             lights: &[],
             ambient: 0.0,
             background: DVec3::ZERO,
