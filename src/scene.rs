@@ -2,7 +2,7 @@
 //! finite and in range ([`crate::document`] checks them).
 
 use glam::DVec3;
-use rayon::iter::{IndexedParallelIterator, IntoParallelIterator, ParallelIterator};
+use rayon::prelude::*;
 use std::fmt;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -80,7 +80,16 @@ struct Packed {
     wide: Vec<[f64; 4]>,
     /// The colours that are not 8-bit levels, each once per run of spheres that share it.
     palette: Vec<DVec3>,
+    /// The spheres room was asked for ([`Spheres::reserve`]), made once the spheres show
+    /// whether they pack: room made and handed back unused would leave the allocator keeping
+    /// later blocks of that size (the next frames' buffers) rather than returning them.
+    room: usize,
 }
+
+/// The most bytes a sphere the f64 values and palette of some spheres may cost on average
+/// (beyond one sphere's, a ground sphere's say); past it every sphere is kept whole, as a file
+/// of f64 values gives them: packed, a read of each would take a second read, and more memory.
+const EXCEPTIONS_MAX: usize = 4;
 
 /// A colour code's flag: the rest is an index into the palette.
 const PALETTE: u32 = 1 << 31;
@@ -128,6 +137,20 @@ fn byte_level(v: f64) -> Option<u32> {
     ((0.0..=255.0).contains(&k) && LEVELS[k as usize].to_bits() == v.to_bits()).then_some(k as u32)
 }
 
+/// Whether `p` with `block` after it would cost more than [`EXCEPTIONS_MAX`] bytes a sphere
+/// in f64 values and palette ([`Packed::costly`]).
+fn costly(p: &Packed, block: &[Sphere]) -> bool {
+    let (wide, uncoded) = block
+        .par_iter()
+        .with_min_len(4096)
+        .map(|s| {
+            let wide = usize::from(narrow(s).is_none());
+            (wide, usize::from(color_code(s.color).is_none()))
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    p.costly(block.len(), wide, uncoded)
+}
+
 /// `c` as three 8-bit levels (k / 255, or sRGB as linear light), or None.
 #[inline]
 fn color_code(c: DVec3) -> Option<u32> {
@@ -167,7 +190,9 @@ impl Packed {
         }
     }
 
-    #[inline]
+    /// Out of line: the shading's loops read colours through [`Spheres::color`], and only the
+    /// whole spheres of a small scene's copy belong inline there.
+    #[inline(never)]
     fn color(&self, k: usize) -> DVec3 {
         let code = self.colors[k];
         match code & PALETTE != 0 {
@@ -221,6 +246,15 @@ impl Packed {
         })
     }
 
+    /// Whether the spheres' f64 values and palette, with `more` spheres of which `wide` are not
+    /// f32 values and `uncoded` not 8-bit levels, would cost more than [`EXCEPTIONS_MAX`]
+    /// bytes a sphere.
+    fn costly(&self, more: usize, wide: usize, uncoded: usize) -> bool {
+        let n = self.balls.len() + more;
+        let exceptions = (self.wide.len() + wide) * 32 + (self.palette.len() + uncoded) * 24;
+        exceptions > n * EXCEPTIONS_MAX + 64
+    }
+
     fn push(&mut self, s: &Sphere) {
         let ball = self.ball_of(s);
         let code = self.code_of(s.color);
@@ -237,6 +271,7 @@ impl Spheres {
             colors: Vec::new(),
             wide: Vec::new(),
             palette: Vec::new(),
+            room: 0,
         }))
     }
 
@@ -309,7 +344,24 @@ impl Spheres {
     pub fn push(&mut self, s: Sphere) {
         match &mut self.0 {
             Store::Wide(v) => v.push(s),
-            Store::Packed(p) => p.push(&s),
+            Store::Packed(p) => {
+                p.push(&s);
+                if p.costly(0, 0, 0) {
+                    self.widen(&[]);
+                }
+            }
+        }
+    }
+
+    /// Every sphere whole from now on, and `more` after them: the packed spheres' exceptions
+    /// cost more than packing saves, and reading them costs a second read each.
+    fn widen(&mut self, more: &[Sphere]) {
+        if let Store::Packed(p) = &self.0 {
+            let room = p.room.max(p.balls.len() + more.len());
+            let mut all: Vec<Sphere> = Vec::with_capacity(room);
+            all.extend((0..p.balls.len()).map(|k| p.get(k)));
+            all.extend_from_slice(more);
+            self.0 = Store::Wide(all);
         }
     }
 
@@ -317,10 +369,7 @@ impl Spheres {
     pub fn reserve(&mut self, n: usize) {
         match &mut self.0 {
             Store::Wide(v) => v.reserve(n),
-            Store::Packed(p) => {
-                p.balls.reserve(n);
-                p.colors.reserve(n);
-            }
+            Store::Packed(p) => p.room = p.room.max(p.balls.len().saturating_add(n)),
         }
     }
 
@@ -337,14 +386,50 @@ impl Spheres {
         }
     }
 
-    /// Appends `block`, packed on the rayon pool: the same spheres as pushed one by one.
+    /// Appends `block` ([`Spheres::extend_from_slice`]); to no spheres, where packing them
+    /// would not pay, keeps it as it is, without a copy.
     pub(crate) fn append(&mut self, block: Vec<Sphere>) {
-        use rayon::prelude::*;
+        if self.is_empty()
+            && matches!(self.0, Store::Packed(_))
+            && costly(&Packed::default(), &block)
+        {
+            // Kept as they are: no copy.
+            self.0 = Store::Wide(block);
+        } else {
+            self.extend_from_slice(&block);
+        }
+    }
+
+    /// Appends `items`, made on the rayon pool, through `scratch` (a block at a time, its memory
+    /// reused) when they are packed.
+    pub(crate) fn par_extend(
+        &mut self,
+        items: impl IndexedParallelIterator<Item = Sphere>,
+        scratch: &mut Vec<Sphere>,
+    ) {
+        match &mut self.0 {
+            Store::Wide(v) => v.par_extend(items),
+            Store::Packed(_) => {
+                scratch.clear();
+                scratch.par_extend(items);
+                self.extend_from_slice(scratch);
+            }
+        }
+    }
+
+    /// Appends `block`, packed on the rayon pool: the same spheres as pushed one by one.
+    pub(crate) fn extend_from_slice(&mut self, block: &[Sphere]) {
         let p = match &mut self.0 {
-            Store::Wide(v) => return v.extend(block),
+            Store::Wide(v) => return v.extend_from_slice(block),
             Store::Packed(p) => p,
         };
+        if costly(p, block) {
+            return self.widen(block);
+        }
         let start = p.balls.len();
+        let room = p.room.max(start + block.len()) - start;
+        p.balls.reserve(room);
+        p.colors.reserve(room);
         // Each sphere packed where it can be, marked where not (a NaN ball, no colour code):
         // the wide values and the palette are then given in order, on this thread.
         let marked = AtomicBool::new(false);
@@ -363,7 +448,7 @@ impl Spheres {
         }));
         (p.balls, p.colors) = columns;
         if marked.into_inner() {
-            for (k, s) in (start..).zip(&block) {
+            for (k, s) in (start..).zip(block) {
                 if p.balls[k][0].is_nan() {
                     p.balls[k] = p.ball_of(s);
                 }
@@ -463,6 +548,7 @@ impl<'a> IntoIterator for &'a Spheres {
 }
 
 impl From<Vec<Sphere>> for Spheres {
+    /// Packed, or kept as they are (no copy) where packing would not pay.
     fn from(spheres: Vec<Sphere>) -> Spheres {
         let mut out = Spheres::new();
         out.append(spheres);
@@ -607,6 +693,38 @@ mod tests {
         assert_eq!(store.bytes(), 20 * (n + 2) + 2 * 32 + 24);
         assert_eq!(store.get(n + 1), ground);
         assert!(store.iter().take(n).eq(spheres));
+    }
+
+    /// Spheres of f64 values are kept whole, 56 bytes each (packed, each read would take a
+    /// second): given at once, after a packed ground sphere, or one by one.
+    #[test]
+    fn spheres_of_f64_values_are_kept_whole() {
+        let mut gen = SplitMix(9);
+        let n = 5000;
+        let spheres: Vec<Sphere> = (0..n)
+            .map(|_| Sphere {
+                center_world: DVec3::new(gen.unit(), gen.unit(), gen.unit()),
+                radius: gen.unit() + 0.01,
+                color: DVec3::new(gen.unit(), 0.5, 1.0),
+            })
+            .collect();
+        let ground = Sphere {
+            center_world: DVec3::new(0.0, -1e5, 0.0),
+            radius: 1e5,
+            color: DVec3::new(0.55, 0.55, 0.5),
+        };
+        let at_once = Spheres::from(spheres.clone());
+        let mut after_ground = Spheres::from(vec![ground]);
+        assert!(matches!(after_ground.0, Store::Packed(_)));
+        after_ground.append(spheres.clone());
+        let one_by_one: Spheres = spheres.iter().copied().collect();
+        for mut store in [at_once, after_ground, one_by_one] {
+            assert!(matches!(store.0, Store::Wide(_)));
+            store.shrink_to_fit();
+            assert_eq!(store.bytes() / size_of::<Sphere>(), store.len());
+            let skip = store.len() - n;
+            assert!(store.iter().skip(skip).eq(spheres.iter().copied()));
+        }
     }
 
     /// The colour tables hold the reader's values: k / 255, and the sRGB formula.

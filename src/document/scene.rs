@@ -32,23 +32,20 @@ impl Checker {
         let lights: Vec<Light> = (spec.lights.iter().enumerate())
             .filter_map(|(i, l)| self.light(&format!("scene.lights[{i}]"), l))
             .collect();
-        // The inline spheres checked and packed a piece at a time, each piece's specs handed
-        // back as it goes.
+        // The inline spheres checked in place, in the memory their specs held (a `Sphere` is no
+        // larger): no second list of fresh pages, no first one to hand back. Then packed, or
+        // kept as they are.
         let refused = Refused::default();
-        let mut inline = std::mem::take(&mut spec.spheres);
+        let inline = std::mem::take(&mut spec.spheres);
+        let mut inline: Vec<Sphere> = (inline.into_iter().enumerate())
+            .map(|(i, s)| refused.check(i, &s))
+            .collect();
+        // The room past the last sphere held the specs' tails: handed back (8 MB at a million).
+        inline.shrink_to_fit();
         let mut spheres = Spheres::new();
-        spheres.reserve(inline.len());
-        let mut first = 0;
-        while !inline.is_empty() {
-            let piece: Vec<SphereSpec> = inline.drain(..inline.len().min(INLINE_PIECE)).collect();
-            let checked = (piece.iter().enumerate())
-                .map(|(i, s)| refused.check(first + i, s))
-                .collect();
-            first += piece.len();
-            spheres.append(checked);
-        }
-        drop(inline);
-        refused.name(self, Origin::Inline, &mut spheres, 0, &[], |_, _| {});
+        let place = |i: usize, s: Sphere| inline[i] = s;
+        refused.name(self, Origin::Inline, place, &[], |_, _| {});
+        spheres.append(inline);
         let mut files = Vec::with_capacity(spec.sphere_files.len());
         for (k, file) in spec.sphere_files.iter().enumerate() {
             let name = &file.path;
@@ -59,9 +56,12 @@ impl Checker {
             }
             let refused = Refused::default();
             let start = spheres.len();
-            let listing = sphere_files::read(&path, file, &mut Packing(&mut spheres), |i, s| {
-                refused.check(i, s)
-            });
+            let listing = sphere_files::read(
+                &path,
+                file,
+                &mut Packing(&mut spheres, Vec::new()),
+                |i, s| refused.check(i, s),
+            );
             let origin = Origin::File(k, name, &listing);
             let form = |checker: &mut Checker, e: &FileProblem| {
                 let at = e.at.map_or(String::new(), |at| format!(": {at}"));
@@ -69,7 +69,8 @@ impl Checker {
                 checker.problem(field, e.message.clone());
             };
             let problems = &listing.problems;
-            refused.name(self, origin, &mut spheres, start, problems, form);
+            let place = |i: usize, s: Sphere| spheres.set(start + i, s);
+            refused.name(self, origin, place, problems, form);
             files.push(SphereFile {
                 name: name.clone(),
                 path,
@@ -190,13 +191,9 @@ impl Checker {
     }
 }
 
-/// Inline spheres checked and packed at a time: a piece of specs and its spheres, not every
-/// sphere twice.
-const INLINE_PIECE: usize = 1 << 16;
-
 /// The scene's spheres as a sphere file's [`Sink`]: each block of a binary PLY packed on the
 /// pool as it is read.
-struct Packing<'a>(&'a mut Spheres);
+struct Packing<'a>(&'a mut Spheres, Vec<Sphere>);
 
 impl Sink<Sphere> for Packing<'_> {
     fn count(&self) -> usize {
@@ -212,7 +209,7 @@ impl Sink<Sphere> for Packing<'_> {
     }
 
     fn put_all(&mut self, items: impl IndexedParallelIterator<Item = Sphere>) {
-        self.0.append(items.collect());
+        self.0.par_extend(items, &mut self.1);
     }
 }
 
@@ -237,15 +234,14 @@ impl Refused {
     }
 
     /// Names the refused spheres' problems, by index, and among them in file order the file's
-    /// own (`form`, each after the spheres read before it, named by `name_form`); sphere `i`'s
-    /// place is `first + i` in `spheres`. A sphere the checker passes after all takes its place, so the
+    /// own (`form`, each after the spheres read before it, named by `name_form`); `place(i,
+    /// sphere)` puts sphere `i` in its place. A sphere the checker passes after all takes its place, so the
     /// scene never depends on [`passing`] agreeing with the checker, only the speed does.
     fn name(
         self,
         checker: &mut Checker,
         origin: Origin,
-        spheres: &mut Spheres,
-        first: usize,
+        mut place: impl FnMut(usize, Sphere),
         form: &[(usize, FileProblem)],
         name_form: impl Fn(&mut Checker, &FileProblem),
     ) {
@@ -257,7 +253,7 @@ impl Refused {
                 name_form(checker, e);
             }
             if let Some(sphere) = checker.sphere(origin, i, &s) {
-                spheres.set(first + i, sphere);
+                place(i, sphere);
             }
         }
         for (_, e) in form {
