@@ -205,16 +205,16 @@ fn first_sphere_around(spheres: &Spheres, eyes: &[DVec3]) -> Vec<Option<usize>> 
     by_x.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let none = || vec![None; eyes.len()];
     spheres
-        .par_iter()
+        .par_balls()
         .enumerate()
         .with_min_len(1 << 12)
-        .fold(none, |mut first, (i, s)| {
-            let (x, r) = (s.center_world.x, s.radius);
+        .fold(none, |mut first, (i, (center, r))| {
+            let x = center.x;
             let slack = 1e-9 * (x.abs() + r);
             let lo = by_x.partition_point(|e| e.0 < x - r - slack);
             let hi = by_x.partition_point(|e| e.0 <= x + r + slack);
             for &(_, k) in &by_x[lo..hi.max(lo)] {
-                if first[k].is_none() && (eyes[k] - s.center_world).length_squared() < r * r {
+                if first[k].is_none() && (eyes[k] - center).length_squared() < r * r {
                     first[k] = Some(i);
                 }
             }

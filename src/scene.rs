@@ -52,13 +52,16 @@ pub struct Scene {
 /// centre and radius that are all f32 values (a float PLY's, most generated scenes') take 16
 /// bytes, not 32, and a colour of 8-bit levels (k / 255, or an sRGB level as linear light) or
 /// one met just before takes 4 bytes, not 24. Any other sphere keeps its f64 values beside
-/// them. [`Spheres::get`] gives the [`Sphere`] that was put in, to the bit.
+/// them; where those would cost more than [`EXCEPTIONS_MAX`] bytes a sphere on average (a file
+/// of doubles), every sphere is kept whole. [`Spheres::get`] gives the [`Sphere`] that was put
+/// in, to the bit.
 #[derive(Clone, Default)]
 pub struct Spheres(Store);
 
 #[derive(Clone)]
 enum Store {
-    /// Each sphere whole: the renderer's copy of a small scene, read in its hottest loops.
+    /// Each sphere whole: spheres that do not pack, and the renderer's copy of a small scene,
+    /// read in its hottest loops.
     Wide(Vec<Sphere>),
     Packed(Packed),
 }
@@ -86,10 +89,14 @@ struct Packed {
     room: usize,
 }
 
-/// The most bytes a sphere the f64 values and palette of some spheres may cost on average
-/// (beyond one sphere's, a ground sphere's say); past it every sphere is kept whole, as a file
-/// of f64 values gives them: packed, a read of each would take a second read, and more memory.
+/// The most bytes a sphere, on average, that the f64 values and palette entries of packed
+/// spheres may cost. Past it every sphere is kept whole (a file of f64 values): packed, each
+/// of their reads would take a second read, and more memory.
 const EXCEPTIONS_MAX: usize = 4;
+
+/// The fewest spheres that may be kept whole: fewer cost little either way, and a few inline
+/// f64 spheres (a ground) do not decide for a file of f32 values after them.
+const WIDEN_FROM: usize = 4096;
 
 /// A colour code's flag: the rest is an index into the palette.
 const PALETTE: u32 = 1 << 31;
@@ -138,17 +145,28 @@ fn byte_level(v: f64) -> Option<u32> {
 }
 
 /// Whether `p` with `block` after it would cost more than [`EXCEPTIONS_MAX`] bytes a sphere
-/// in f64 values and palette ([`Packed::costly`]).
+/// in f64 values and palette ([`Packed::costly`]). A colour that is not levels counts where it
+/// differs from the sphere's before (the palette keeps one a run): at most the entries made.
 fn costly(p: &Packed, block: &[Sphere]) -> bool {
-    let (wide, uncoded) = block
-        .par_iter()
+    let (wide, colors) = (0..block.len())
+        .into_par_iter()
         .with_min_len(4096)
-        .map(|s| {
-            let wide = usize::from(narrow(s).is_none());
-            (wide, usize::from(color_code(s.color).is_none()))
+        .map(|i| {
+            let s = &block[i];
+            let before = match i {
+                0 => p.palette.last().copied(),
+                _ => Some(block[i - 1].color),
+            };
+            let new = color_code(s.color).is_none() && !before.is_some_and(|b| same(b, s.color));
+            (usize::from(narrow(s).is_none()), usize::from(new))
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    p.costly(block.len(), wide, uncoded)
+    p.costly(block.len(), wide, colors)
+}
+
+/// Whether two colours are the same to the bit.
+fn same(a: DVec3, b: DVec3) -> bool {
+    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
 }
 
 /// `c` as three 8-bit levels (k / 255, or sRGB as linear light), or None.
@@ -173,11 +191,11 @@ fn narrow(s: &Sphere) -> Option<[f32; 4]> {
         s.radius,
     ];
     let f = v.map(|x| x as f32);
-    let same = v
+    let exact = v
         .iter()
         .zip(&f)
         .all(|(&x, &y)| x.is_finite() && f64::from(y).to_bits() == x.to_bits());
-    same.then_some(f)
+    exact.then_some(f)
 }
 
 impl Packed {
@@ -234,8 +252,7 @@ impl Packed {
     /// Colour `c`'s code: its levels, or through the palette.
     fn code_of(&mut self, c: DVec3) -> u32 {
         color_code(c).unwrap_or_else(|| {
-            let same = |p: &DVec3| p.to_array().map(f64::to_bits) == c.to_array().map(f64::to_bits);
-            if !self.palette.last().is_some_and(same) {
+            if !self.palette.last().is_some_and(|&p| same(p, c)) {
                 assert!(
                     self.palette.len() < PALETTE as usize - 1,
                     "fewer than 2^31 colours"
@@ -247,12 +264,12 @@ impl Packed {
     }
 
     /// Whether the spheres' f64 values and palette, with `more` spheres of which `wide` are not
-    /// f32 values and `uncoded` not 8-bit levels, would cost more than [`EXCEPTIONS_MAX`]
-    /// bytes a sphere.
-    fn costly(&self, more: usize, wide: usize, uncoded: usize) -> bool {
+    /// f32 values and `colors` make palette entries, would cost more than [`EXCEPTIONS_MAX`]
+    /// bytes a sphere; never below [`WIDEN_FROM`] spheres.
+    fn costly(&self, more: usize, wide: usize, colors: usize) -> bool {
         let n = self.balls.len() + more;
-        let exceptions = (self.wide.len() + wide) * 32 + (self.palette.len() + uncoded) * 24;
-        exceptions > n * EXCEPTIONS_MAX + 64
+        let exceptions = (self.wide.len() + wide) * 32 + (self.palette.len() + colors) * 24;
+        n >= WIDEN_FROM && exceptions > n * EXCEPTIONS_MAX
     }
 
     fn push(&mut self, s: &Sphere) {
@@ -692,7 +709,20 @@ mod tests {
         store.shrink_to_fit();
         assert_eq!(store.bytes(), 20 * (n + 2) + 2 * 32 + 24);
         assert_eq!(store.get(n + 1), ground);
-        assert!(store.iter().take(n).eq(spheres));
+        assert!(store.iter().take(n).eq(spheres.iter().copied()));
+        // A block of one colour that is not levels keeps it once; two inline f64 spheres first
+        // do not keep the file's whole.
+        let red = DVec3::new(0.9, 0.3, 0.3);
+        let one_colour: Vec<Sphere> = spheres
+            .iter()
+            .map(|&s| Sphere { color: red, ..s })
+            .collect();
+        let mut store = Spheres::from(vec![ground, ground]);
+        store.append(one_colour.clone());
+        store.shrink_to_fit();
+        assert!(matches!(store.0, Store::Packed(_)));
+        assert_eq!(store.bytes(), 20 * (n + 2) + 2 * 32 + 2 * 24);
+        assert!(store.iter().skip(2).eq(one_colour));
     }
 
     /// Spheres of f64 values are kept whole, 56 bytes each (packed, each read would take a
