@@ -140,8 +140,14 @@ fn level_in(table: &[f64; 256], v: f64) -> Option<u32> {
 /// The level k whose k / 255 is `v` to the bit.
 #[inline]
 fn byte_level(v: f64) -> Option<u32> {
-    let k = (v * 255.0).round();
-    ((0.0..=255.0).contains(&k) && LEVELS[k as usize].to_bits() == v.to_bits()).then_some(k as u32)
+    // The nearest level for any v within a few ulps of one, without `f64::round` (a call
+    // into libm on the baseline path): the check to the bit decides.
+    let x = v * 255.0 + 0.5;
+    if !(0.0..256.0).contains(&x) {
+        return None;
+    }
+    let k = x as usize;
+    (LEVELS[k].to_bits() == v.to_bits()).then_some(k as u32)
 }
 
 /// Whether `p` with `block` after it would cost more than [`EXCEPTIONS_MAX`] bytes a sphere
@@ -440,7 +446,12 @@ impl Spheres {
             Store::Wide(v) => return v.extend_from_slice(block),
             Store::Packed(p) => p,
         };
-        if costly(p, block) {
+        // Before the first block, whether the spheres pack is found first, so that room for
+        // them all is made only where they do (room made and handed back would raise the
+        // allocator's threshold for the frames' buffers). After it, they are packed at once
+        // and the cost counted from what packing made: one pass over the block, not two.
+        let first = p.balls.is_empty();
+        if first && costly(p, block) {
             return self.widen(block);
         }
         let start = p.balls.len();
@@ -472,6 +483,9 @@ impl Spheres {
                 if p.colors[k] == UNCODED {
                     p.colors[k] = p.code_of(s.color);
                 }
+            }
+            if !first && p.costly(0, 0, 0) {
+                self.widen(&[]);
             }
         }
     }
