@@ -68,7 +68,7 @@ enum Store {
 
 impl Default for Store {
     fn default() -> Store {
-        Store::Packed(Packed::default())
+        Spheres::new().0
     }
 }
 
