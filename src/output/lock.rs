@@ -29,6 +29,10 @@ use crate::frames::Shard;
 
 const GATE: &str = "campath.gate.lock";
 
+/// Tries, 10 ms apart, that a run which must not wait gives a lock no live run records
+/// holding ([`take`]).
+const UNRECORDED_TRIES: usize = 30;
+
 /// Whether campath writes a lock file of this name into an output folder.
 pub(crate) fn is_lock_file(name: &str) -> bool {
     name.starts_with("campath.") && name.ends_with(".lock")
@@ -179,7 +183,30 @@ fn take(
     match tried {
         Ok(()) => Ok(()),
         Err(TryLockError::WouldBlock) => match wait {
-            Wait::No => Err(refusal()),
+            Wait::No => {
+                // A lock no other live run records holding is, for a moment, one this process
+                // let go of that a child it is starting still holds: between fork and exec a
+                // child has a copy of every descriptor (tests on threads of one process, one
+                // spawning a program while another takes a folder again). Tried again for a
+                // while before refusing.
+                for _ in 0..UNRECORDED_TRIES {
+                    if !matches!(refusal(), Error::Busy { holders, .. } if holders.is_empty()) {
+                        break;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(10));
+                    let again = if shared {
+                        file.try_lock_shared()
+                    } else {
+                        file.try_lock()
+                    };
+                    match again {
+                        Ok(()) => return Ok(()),
+                        Err(TryLockError::WouldBlock) => {}
+                        Err(TryLockError::Error(e)) => return Err(Error::write(path)(e)),
+                    }
+                }
+                Err(refusal())
+            }
             Wait::Yes(report) => {
                 report(&refusal());
                 if shared {

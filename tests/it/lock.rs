@@ -279,3 +279,43 @@ fn a_whole_run_removes_what_a_killed_run_left_under_temporary_names() {
     assert!(left.iter().all(|n| !dir.join(n).exists()), "{}", stdout(&o));
     assert_whole_render_of(tmp.path(), "long.ron", "o", 48);
 }
+
+/// A lock that no live run records holding and that is let go of within moments (a child this
+/// process was starting held a copy of its descriptor until it ran its program) is taken by a
+/// run that must not wait, not refused; held on, it is refused, naming nobody.
+#[test]
+fn a_lock_no_run_records_is_tried_again_before_a_refusal() {
+    use campath::document::Document;
+    use campath::frames::FrameSet;
+    use campath::internals::{lock, Wait};
+    let tmp = setup();
+    let dir = tmp.path().join("unrecorded");
+    std::fs::create_dir_all(&dir).unwrap();
+    let doc = Document::from_str(Path::new("long.ron"), LONG).unwrap();
+    let set = FrameSet::all(0..doc.animation().frames);
+    let hold = || {
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(dir.join("campath.lock"))
+            .unwrap();
+        file.lock().unwrap();
+        file
+    };
+    let held = hold();
+    let letting_go = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(60));
+        drop(held);
+    });
+    let taken = lock(&doc, &dir, &set, Wait::No);
+    letting_go.join().unwrap();
+    assert!(taken.is_ok(), "{:?}", taken.err());
+    drop(taken);
+    let _held = hold();
+    match lock(&doc, &dir, &set, Wait::No) {
+        Err(campath::Error::Busy { holders, .. }) => assert!(holders.is_empty(), "{holders:?}"),
+        other => panic!("{:?}", other.err()),
+    }
+}
