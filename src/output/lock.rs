@@ -175,12 +175,14 @@ fn take(
     wait: &mut Wait,
     refusal: impl Fn() -> Error,
 ) -> Result<()> {
-    let tried = if shared {
-        file.try_lock_shared()
-    } else {
-        file.try_lock()
+    let try_lock = || {
+        if shared {
+            file.try_lock_shared()
+        } else {
+            file.try_lock()
+        }
     };
-    match tried {
+    match try_lock() {
         Ok(()) => Ok(()),
         Err(TryLockError::WouldBlock) => match wait {
             Wait::No => {
@@ -194,12 +196,7 @@ fn take(
                         break;
                     }
                     std::thread::sleep(std::time::Duration::from_millis(10));
-                    let again = if shared {
-                        file.try_lock_shared()
-                    } else {
-                        file.try_lock()
-                    };
-                    match again {
+                    match try_lock() {
                         Ok(()) => return Ok(()),
                         Err(TryLockError::WouldBlock) => {}
                         Err(TryLockError::Error(e)) => return Err(Error::write(path)(e)),
