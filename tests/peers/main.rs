@@ -1,5 +1,5 @@
 //! `cargo bench --features bench --bench peers -- [OPTIONS]`: campath timed against POV-Ray
-//! 3.7 on generated fly-through scenes, whole processes each. A developer's tool, not part of
+//! 3.7 (and, on the dense scaling scenes, OVITO 3) on generated scenes, whole processes each. A developer's tool, not part of
 //! the `campath` binary; docs/performance.md keeps its tables.
 // The unit tests of `bench` run in the `it` test crate (tests/it/bench.rs), which includes the
 // module; this target only compiles them.
@@ -12,7 +12,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-/// Time generated fly-through scenes in campath and in POV-Ray 3.7; print a table.
+/// Time generated scenes in campath, POV-Ray 3.7 and OVITO 3; print a table.
 #[derive(Parser)]
 #[command(name = "peers")]
 struct Args {
@@ -23,6 +23,10 @@ struct Args {
     /// campath then renders every frame).
     #[arg(long, default_value_t = 8)]
     pov_frames: u64,
+    /// With --scaling, frames OVITO 3 renders of each dense scene with Tachyon and with OSPRay
+    /// (0 skips OVITO; the Python that imports `ovito` is CAMPATH_OVITO_PYTHON, else python3).
+    #[arg(long, default_value_t = 0)]
+    ovito_frames: u64,
     /// Timed campath processes per scene and output (the median is reported); POV-Ray,
     /// seconds to minutes a scene, runs once.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=100))]
@@ -53,6 +57,7 @@ fn main() -> ExitCode {
     let runs = a.runs as usize;
     let options = bench::Options {
         pov_frames: a.pov_frames,
+        ovito_frames: a.ovito_frames,
         runs,
         names: &a.scenes,
         json: a.json,

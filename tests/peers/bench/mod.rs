@@ -1,10 +1,12 @@
 //! The peers benchmark: generated fly-through scenes, timed in campath (PNG and hash-only output,
 //! each in its own process so peak memory is its own) and in POV-Ray 3.7's animation mode on
-//! the same scene and camera, in the same run.
+//! the same scene and camera, in the same run; the scaling scenes also in OVITO 3's Tachyon and
+//! OSPRay renderers.
 //!
-//! `scenes` generates the scenes, `timing` times campath's processes, `povray` runs POV-Ray;
-//! this module runs them and writes the tables.
+//! `scenes` generates the scenes, `timing` times campath's processes, `povray` runs POV-Ray,
+//! `ovito` runs OVITO; this module runs them and writes the tables.
 
+pub mod ovito;
 mod povray;
 mod scenes;
 mod timing;
@@ -27,7 +29,7 @@ pub enum BenchError {
     /// An option value that cannot be used (exit 2).
     #[error("{0}")]
     Usage(String),
-    /// An outside program (POV-Ray, or campath itself) is missing or failed (exit 3).
+    /// An outside program (POV-Ray, OVITO, or campath itself) is missing or failed (exit 3).
     #[error("{tool}: {message}")]
     Tool { tool: &'static str, message: String },
     /// A run's numbers (`--stats-json`) do not parse (exit 1).
@@ -202,30 +204,57 @@ pub fn table(rows: &[Row]) -> String {
     t.markdown()
 }
 
-/// One scaling scene's hash-only run, and POV-Ray's on the dense cluster.
+/// One scaling scene's hash-only run, and POV-Ray's and OVITO's on the dense cluster.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ScaleRow {
     pub scene: BenchScene,
     pub hash: Run,
     /// POV-Ray: wall ms per frame, and the frames it rendered.
     pub pov: Option<(f64, u64)>,
+    /// OVITO's Tachyon and OSPRay: wall ms per frame each, and the frames they rendered.
+    pub ovito: Option<Ovito>,
 }
 
-/// Times the scaling scenes, hash-only, each in its own process, and POV-Ray on the dense
-/// cluster's scenes when `pov_frames` > 0 (the million-sphere scene takes POV-Ray about 35 s a
-/// frame). The scene files are removed after their run (a million spheres take 150 MB of RON).
+/// OVITO's two renderers on one scene, each a whole process over the same frames.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Ovito {
+    pub tachyon_ms: f64,
+    pub ospray_ms: f64,
+    pub frames: u64,
+}
+
+/// Which peers run on the dense scenes, and over how many frames (0: not at all).
+#[derive(Debug, Clone, Copy)]
+pub struct Peers {
+    pub pov_frames: u64,
+    pub ovito_frames: u64,
+}
+
+/// Times the scaling scenes, hash-only, each in its own process, and POV-Ray and OVITO on the
+/// dense cluster's scenes over the peers' frames, where those are > 0 (the million-sphere scene
+/// takes POV-Ray about 35 s a frame). The scene files are removed after their run (a million
+/// spheres take 150 MB of RON).
 pub fn run_scaling(
     dir: &Path,
-    pov_frames: u64,
+    peers: Peers,
     runs: usize,
     scenes: &[BenchScene],
     keep: bool,
     progress: &mut dyn std::io::Write,
 ) -> Result<Vec<ScaleRow>> {
     std::fs::create_dir_all(dir).map_err(Error::write(dir.to_path_buf()))?;
-    let pov = pov_frames > 0 && scenes.iter().any(|s| s.layout == Layout::Dense);
+    let Peers {
+        pov_frames,
+        ovito_frames,
+    } = peers;
+    let dense = scenes.iter().any(|s| s.layout == Layout::Dense);
+    let pov = pov_frames > 0 && dense;
     if pov {
         povray::check()?;
+    }
+    let with_ovito = ovito_frames > 0 && dense;
+    if with_ovito {
+        ovito::check()?;
     }
     let mut rows = Vec::new();
     for s in scenes {
@@ -240,16 +269,42 @@ pub fn run_scaling(
         let _ = writeln!(progress, "{}: campath, hash only, {runs} run(s) …", s.name);
         let stats = dir.join(format!("{}.stats.json", s.name));
         let hash = run_campath(&["hash", &ron_path.to_string_lossy()], &stats, runs)?;
-        let pov = match twin_pov(&rows, s) {
-            Some(twin) => Some(twin),
+        let twin = twin_of(&rows, s);
+        let peer_doc = (s.layout == Layout::Dense && (pov || with_ovito))
+            .then(|| Document::load(&ron_path))
+            .transpose()?;
+        let pov = match twin.map(|t| t.pov) {
+            Some(twin) => twin,
             None if pov && s.layout == Layout::Dense => {
                 let n = pov_frames.min(s.frames);
                 let _ = writeln!(progress, "{}: POV-Ray, {n} frame(s) …", s.name);
-                let doc = Document::load(&ron_path)?;
-                Some((povray::time(dir, s, &doc, n)?, n))
+                let doc = peer_doc.as_ref().expect("loaded for the peers");
+                Some((povray::time(dir, s, doc, n)?, n))
             }
             None => None,
         };
+        let ovito = match twin.map(|t| t.ovito) {
+            Some(twin) => twin,
+            None if with_ovito && s.layout == Layout::Dense => {
+                let n = ovito_frames.min(s.frames);
+                let doc = peer_doc.as_ref().expect("loaded for the peers");
+                let mut ms = [0.0; 2];
+                for (k, renderer) in [ovito::Renderer::Tachyon, ovito::Renderer::Ospray]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let _ = writeln!(progress, "{}: OVITO {renderer:?}, {n} frame(s) …", s.name);
+                    ms[k] = ovito::time(dir, s, doc, n, renderer)?;
+                }
+                Some(Ovito {
+                    tachyon_ms: ms[0],
+                    ospray_ms: ms[1],
+                    frames: n,
+                })
+            }
+            None => None,
+        };
+        drop(peer_doc);
         let pov_path = dir.join(format!("{}.pov", s.name));
         for path in [&ron_path, &ply_path, &pov_path] {
             if !keep && path.exists() {
@@ -260,24 +315,30 @@ pub fn run_scaling(
             scene: s.clone(),
             hash,
             pov,
+            ovito,
         });
     }
     Ok(rows)
 }
 
-/// POV-Ray's run of the RON twin of PLY scene `s` among `rows`, if it is there. POV-Ray reads
-/// the spheres inline, so a scene from PLY and the same scene inline are one scene to it: both
-/// of campath's readings are set against one POV-Ray time.
-fn twin_pov(rows: &[ScaleRow], s: &BenchScene) -> Option<(f64, u64)> {
-    let twin = rows.iter().find(|r| {
+/// The row of the RON twin of PLY scene `s` among `rows`, if it is there. The peers read the
+/// spheres as they are given them, so a scene from PLY and the same scene inline are one scene to
+/// them: both of campath's readings are set against one peer time.
+fn twin_of<'a>(rows: &'a [ScaleRow], s: &BenchScene) -> Option<&'a ScaleRow> {
+    rows.iter().find(|r| {
         let t = &r.scene;
         s.ply
             && !s.float
             && !t.ply
             && (t.layout, t.spheres, t.frames) == (s.layout, s.spheres, s.frames)
             && (t.width, t.height, t.samples) == (s.width, s.height, s.samples)
-    })?;
-    twin.pov
+    })
+}
+
+/// POV-Ray's run of the RON twin of PLY scene `s` among `rows`, if it is there.
+#[cfg(test)]
+fn twin_pov(rows: &[ScaleRow], s: &BenchScene) -> Option<(f64, u64)> {
+    twin_of(rows, s)?.pov
 }
 
 /// The scaling table, and each layout's growth in frame time from 10,000 to 1,000,000 spheres.
@@ -293,9 +354,20 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
         "peak MB",
         "POV-Ray ms/frame",
         "POV / campath",
+        "OVITO Tachyon ms/frame",
+        "Tachyon / campath",
+        "OVITO OSPRay ms/frame",
+        "OSPRay / campath",
     ]);
     for r in rows {
         let (s, stats) = (&r.scene, &r.hash.stats);
+        let times = |ms: f64| format!("{:.1}×", ms / r.hash.process_ms_per_frame);
+        let peer = |ms: Option<f64>| match (ms, r.ovito) {
+            (Some(ms), Some(o)) => [format!("{ms:.0} ({} frames)", o.frames), times(ms)],
+            _ => ["—".into(), "—".into()],
+        };
+        let [tachyon, tachyon_ratio] = peer(r.ovito.map(|o| o.tachyon_ms));
+        let [ospray, ospray_ratio] = peer(r.ovito.map(|o| o.ospray_ms));
         let (pov, ratio) = match r.pov {
             Some((ms, n)) => (
                 format!("{ms:.0} ({n} frames)"),
@@ -314,6 +386,10 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
             format!("{:.0}", stats.peak_memory_mb.unwrap_or(f64::NAN)),
             pov,
             ratio,
+            tachyon,
+            tachyon_ratio,
+            ospray,
+            ospray_ratio,
         ]);
     }
     let mut t = table.markdown();
@@ -340,6 +416,8 @@ pub fn scaling_table(rows: &[ScaleRow]) -> String {
 /// What to time: the command line's options.
 pub struct Options<'a> {
     pub pov_frames: u64,
+    /// With `scaling`, the frames OVITO renders of each dense scene (0: none).
+    pub ovito_frames: u64,
     pub runs: usize,
     /// The scenes' names (all when empty).
     pub names: &'a [String],
@@ -354,6 +432,7 @@ pub struct Options<'a> {
 pub fn command(dir: &Path, options: &Options, out: &mut dyn std::io::Write) -> Result<()> {
     let &Options {
         pov_frames,
+        ovito_frames,
         runs,
         names,
         json,
@@ -374,7 +453,11 @@ pub fn command(dir: &Path, options: &Options, out: &mut dyn std::io::Write) -> R
         .filter(|s| names.is_empty() || names.contains(&s.name))
         .collect();
     let (value, rows_table) = if scaling {
-        let rows = run_scaling(dir, pov_frames, runs, &chosen, keep, &mut std::io::stderr())?;
+        let peers = Peers {
+            pov_frames,
+            ovito_frames,
+        };
+        let rows = run_scaling(dir, peers, runs, &chosen, keep, &mut std::io::stderr())?;
         (
             serde_json::json!({"cpu": cpu, "runs": runs, "scaling": rows}),
             scaling_table(&rows),
@@ -391,7 +474,7 @@ pub fn command(dir: &Path, options: &Options, out: &mut dyn std::io::Write) -> R
     } else {
         let how = if scaling {
             format!(
-                "campath: each row from the run of median process time of {runs}; POV-Ray: one run on the dense scenes (POV / campath against campath's process ms/frame)"
+                "campath: each row from the run of median process time of {runs}; POV-Ray and OVITO: one run each on the dense scenes (each peer / campath against campath's process ms/frame)"
             )
         } else {
             format!(
@@ -419,7 +502,12 @@ mod tests {
             process_ms_per_frame: 50.0,
             process_ms_runs: vec![50.0],
         };
-        ScaleRow { scene, hash, pov }
+        ScaleRow {
+            scene,
+            hash,
+            pov,
+            ovito: None,
+        }
     }
 
     /// A PLY scene takes POV-Ray's time from its RON twin (same spheres, frames and size), and
