@@ -269,13 +269,19 @@ pub fn run_scaling(
         let _ = writeln!(progress, "{}: campath, hash only, {runs} run(s) …", s.name);
         let stats = dir.join(format!("{}.stats.json", s.name));
         let hash = run_campath(&["hash", &ron_path.to_string_lossy()], &stats, runs)?;
+        // A peer runs on a dense scene whose RON twin did not run it.
         let twin = twin_of(&rows, s);
-        let peer_doc = (s.layout == Layout::Dense && (pov || with_ovito))
+        let lent_pov = twin.and_then(|t| t.pov);
+        let lent_ovito = twin.and_then(|t| t.ovito);
+        let dense = s.layout == Layout::Dense;
+        let run_pov = pov && dense && lent_pov.is_none();
+        let run_ovito = with_ovito && dense && lent_ovito.is_none();
+        let peer_doc = (run_pov || run_ovito)
             .then(|| Document::load(&ron_path))
             .transpose()?;
-        let pov = match twin.map(|t| t.pov) {
-            Some(twin) => twin,
-            None if pov && s.layout == Layout::Dense => {
+        let pov = match lent_pov {
+            Some(twin) => Some(twin),
+            None if run_pov => {
                 let n = pov_frames.min(s.frames);
                 let _ = writeln!(progress, "{}: POV-Ray, {n} frame(s) …", s.name);
                 let doc = peer_doc.as_ref().expect("loaded for the peers");
@@ -283,9 +289,9 @@ pub fn run_scaling(
             }
             None => None,
         };
-        let ovito = match twin.map(|t| t.ovito) {
-            Some(twin) => twin,
-            None if with_ovito && s.layout == Layout::Dense => {
+        let ovito = match lent_ovito {
+            Some(twin) => Some(twin),
+            None if run_ovito => {
                 let n = ovito_frames.min(s.frames);
                 let doc = peer_doc.as_ref().expect("loaded for the peers");
                 let mut ms = [0.0; 2];
@@ -439,6 +445,11 @@ pub fn command(dir: &Path, options: &Options, out: &mut dyn std::io::Write) -> R
         scaling,
         keep,
     } = options;
+    if ovito_frames > 0 && !scaling {
+        return Err(BenchError::Usage(
+            "--ovito-frames: OVITO runs on the dense scaling scenes only; add --scaling".into(),
+        ));
+    }
     let cpu = cpu_features();
     let all = if scaling { scaling_scenes() } else { scenes() };
     if let Some(unknown) = names.iter().find(|n| !all.iter().any(|s| s.name == **n)) {
@@ -528,6 +539,28 @@ mod tests {
         // A twin run without POV-Ray lends nothing.
         let rows = [row("dense100000", None)];
         assert_eq!(twin_pov(&rows, &scene("dense100000-ply")), None);
+    }
+
+    /// OVITO runs on the scaling scenes only: asked for without them, the run is refused before
+    /// anything is written, naming the option to add.
+    #[test]
+    fn ovito_frames_without_scaling_are_refused() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("bench");
+        let options = Options {
+            pov_frames: 0,
+            ovito_frames: 1,
+            runs: 1,
+            names: &[],
+            json: true,
+            scaling: false,
+            keep: false,
+        };
+        let mut printed = Vec::new();
+        let e = command(&out, &options, &mut printed).unwrap_err();
+        assert!(matches!(e, BenchError::Usage(_)), "{e}");
+        assert!(e.to_string().contains("add --scaling"), "{e}");
+        assert!(printed.is_empty() && !out.exists());
     }
 
     /// The ratio is POV-Ray's time over the process time the table shows beside it, not over

@@ -1,8 +1,8 @@
 """One bench scene rendered by OVITO 3 (PyPI ovito), headless, every frame to a PNG.
 
-    python3 ovito.py SPHERES.bin CAMERAS.json RENDERER OUT_DIR
+    python3 render_ovito.py SPHERES.f64 CAMERAS.json RENDERER OUT_DIR
 
-SPHERES.bin: the spheres as little-endian f64, x y z radius r g b each. CAMERAS.json: the
+SPHERES.f64: the spheres as little-endian f64, x y z radius r g b each. CAMERAS.json: the
 image size, the background, and each frame's camera (position, direction, up, vertical field of
 view in radians). RENDERER: tachyon or ospray, both at one sample a pixel with shadows and no
 ambient occlusion.
