@@ -190,11 +190,14 @@ fn ovito_renders_campaths_geometry() {
         ..scene
     };
     peers::ovito::check().unwrap();
-    for renderer in [
+    let renderers = [
         peers::ovito::Renderer::Tachyon,
         peers::ovito::Renderer::Ospray,
-    ] {
-        let ms = peers::ovito::time(tmp.path(), &scene, &doc, 1, renderer).unwrap();
+    ];
+    let times = peers::ovito::time(tmp.path(), &scene, &doc, 1, &renderers).unwrap();
+    // The spheres and cameras handed to OVITO are gone after its runs.
+    assert!(!tmp.path().join("geometry.ovito.f64").exists());
+    for (renderer, ms) in renderers.into_iter().zip(times) {
         assert!(ms > 0.0);
         let dir = peers::ovito::frames_dir(tmp.path(), "geometry", renderer);
         let theirs = image::open(dir.join("0000.png")).unwrap().to_rgb8();

@@ -294,14 +294,13 @@ pub fn run_scaling(
             None if run_ovito => {
                 let n = ovito_frames.min(s.frames);
                 let doc = peer_doc.as_ref().expect("loaded for the peers");
-                let mut ms = [0.0; 2];
-                for (k, renderer) in [ovito::Renderer::Tachyon, ovito::Renderer::Ospray]
-                    .into_iter()
-                    .enumerate()
-                {
-                    let _ = writeln!(progress, "{}: OVITO {renderer:?}, {n} frame(s) …", s.name);
-                    ms[k] = ovito::time(dir, s, doc, n, renderer)?;
-                }
+                let _ = writeln!(
+                    progress,
+                    "{}: OVITO Tachyon and OSPRay, {n} frame(s) …",
+                    s.name
+                );
+                let both = [ovito::Renderer::Tachyon, ovito::Renderer::Ospray];
+                let ms = ovito::time(dir, s, doc, n, &both)?;
                 Some(Ovito {
                     tachyon_ms: ms[0],
                     ospray_ms: ms[1],

@@ -116,41 +116,70 @@ pub fn frames_dir(dir: &Path, name: &str, renderer: Renderer) -> PathBuf {
     dir.join(format!("{name}-{}", renderer.arg()))
 }
 
-/// Renders the first `frames` frames of `doc` with OVITO's `renderer` into
-/// [`frames_dir`], and returns the wall ms per frame of the whole process (start-up, import,
-/// reading the spheres and every frame).
+/// Renders the first `frames` frames of `doc` with each of OVITO's `renderers` into its
+/// [`frames_dir`], and returns each one's wall ms per frame of its whole process (start-up,
+/// import, reading the spheres and every frame). The spheres and cameras are written once for
+/// all of them, and removed after the last, whether it ran or not.
 pub fn time(
     dir: &Path,
     s: &BenchScene,
     doc: &Document,
     frames: u64,
-    renderer: Renderer,
-) -> Result<f64> {
+    renderers: &[Renderer],
+) -> Result<Vec<f64>> {
     let write = |p: &PathBuf, bytes: &[u8]| std::fs::write(p, bytes).map_err(Error::write(p));
     let script = dir.join("render_ovito.py");
     write(&script, SCRIPT.as_bytes())?;
     let spheres = dir.join(format!("{}.ovito.f64", s.name));
-    write(&spheres, &sphere_bytes(doc))?;
     let cameras = dir.join(format!("{}.ovito.json", s.name));
-    write(&cameras, shot(doc, frames)?.to_string().as_bytes())?;
-    let out = frames_dir(dir, &s.name, renderer);
-    if out.exists() {
-        std::fs::remove_dir_all(&out).map_err(Error::write(&out))?;
+    let shot = shot(doc, frames)?;
+    write(&spheres, &sphere_bytes(doc))?;
+    let written = write(&cameras, shot.to_string().as_bytes()).map_err(BenchError::from);
+    let times = written.and_then(|()| {
+        renderers
+            .iter()
+            .map(|&r| {
+                run(
+                    &script,
+                    [&spheres, &cameras],
+                    &frames_dir(dir, &s.name, r),
+                    r,
+                    frames,
+                )
+            })
+            .collect()
+    });
+    for path in [&spheres, &cameras] {
+        if path.exists() {
+            std::fs::remove_file(path).map_err(Error::write(path))?;
+        }
     }
-    std::fs::create_dir_all(&out).map_err(Error::write(&out))?;
+    times
+}
+
+/// One OVITO process of `script` on the `inputs` (spheres, cameras) with `renderer`, writing
+/// into `out` (emptied first): its wall ms per frame.
+fn run(
+    script: &Path,
+    inputs: [&PathBuf; 2],
+    out: &Path,
+    renderer: Renderer,
+    frames: u64,
+) -> Result<f64> {
+    if out.exists() {
+        std::fs::remove_dir_all(out).map_err(Error::write(out))?;
+    }
+    std::fs::create_dir_all(out).map_err(Error::write(out))?;
     let py = python();
     let started = Instant::now();
     let run = Command::new(&py)
-        .arg(&script)
-        .args([&spheres, &cameras])
+        .arg(script)
+        .args(inputs)
         .arg(renderer.arg())
-        .arg(&out)
+        .arg(out)
         .output()
         .map_err(|e| tool_error(format!("cannot run {}: {e}", py.to_string_lossy())))?;
     let ms = started.elapsed().as_secs_f64() * 1e3 / frames as f64;
-    for path in [&spheres, &cameras] {
-        std::fs::remove_file(path).map_err(Error::write(path))?;
-    }
     if !run.status.success() {
         return Err(tool_error(format!(
             "{} failed: {}",
