@@ -25,9 +25,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::lanes::prefetch;
+use super::lanes::{dot, prefetch, splat3, ForLanes, Lanes, LANES};
 use super::rays::RayTable;
-use super::world::{shape_inner, SceneIndex};
+use super::simd::Isa;
+use super::world::{shape_inner, SceneIndex, Shape};
 use crate::camera::Camera;
 
 /// Side in pixels of a culling tile: its pixels' bounds are its walk's state (32 KB, in the
@@ -157,12 +158,183 @@ impl<'a> View<'a> {
         Some(Rect { x0, x1, y0, y1 })
     }
 
+    /// A leaf's sphere in view coordinates: its centre and outer radius, the COP less the
+    /// centre, their distance and the allowance on bounds at that distance.
+    fn measure(&self, shape: &Shape) -> (DVec3, f64, DVec3, f64, f64) {
+        let c = DVec3::new(shape[0] as f64, shape[1] as f64, shape[2] as f64);
+        let center = self.camera.point_to_view(c);
+        let r = shape[3] as f64;
+        let f = self.camera.cop_view - center;
+        let dist = f.length();
+        let slack = self.slack + SLACK * (dist + r + center.abs().max_element());
+        (center, r, f, dist, slack)
+    }
+
+    /// `near_box` of node `j` of `index`'s hierarchy, whose own children (or spheres) are asked
+    /// for now: the walk is bound by their reads, and one of a node's two children is next.
+    fn near_child(&self, index: &SceneIndex, j: u32) -> f64 {
+        let (nodes, shapes, _) = index.tree();
+        let child = &nodes[j as usize];
+        if child.count == 0 {
+            prefetch(&nodes[j as usize + 1]);
+            prefetch(&nodes[child.start as usize]);
+        } else {
+            prefetch(&shapes[child.start as usize]);
+        }
+        let [lo, hi] = child.bounds();
+        self.near_box(lo, hi)
+    }
+
     /// No ray from the COP meets the world box (lo, hi) nearer than this.
     fn near_box(&self, lo: DVec3, hi: DVec3) -> f64 {
         let p = self.cop_world;
         let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
         gap.length() - self.slack - SLACK * (lo.abs().max(hi.abs()).max_element())
     }
+}
+
+/// What the lanes found of up to eight spheres of a leaf ([`Octet::test`]), as bits of lanes.
+struct Found {
+    /// Spheres that may be nearer than the leaf's bound, whose rectangle the lanes leave to
+    /// [`View::rect`]: at or behind the COP's plane, or beyond f64.
+    whole: u8,
+    /// Spheres that may be nearer than the leaf's bound and meet the tile, with the ends of
+    /// their pixel spans in the tile (`x`, `y`: least and most, not yet whole pixels).
+    open: u8,
+    near: [f64; LANES],
+    x: [[f64; LANES]; 2],
+    y: [[f64; LANES]; 2],
+}
+
+/// A tile's view of the frame in lanes: [`View::measure`] and [`View::rect`] for eight spheres
+/// at once, operation for operation, so each lane holds the very values the scalar code finds.
+struct Octet<V: Lanes> {
+    tok: V::Token,
+    vrp: [V; 3],
+    basis: [[V; 3]; 3],
+    cop: [V; 3],
+    slack: V,
+    relative: V,
+    dz: V,
+    /// The window's half width, and its half height less the COP's v.
+    half_w: V,
+    top: V,
+    px_per: [V; 2],
+    /// The tile's first and last column and row.
+    tile: [[V; 2]; 2],
+}
+
+impl<V: Lanes> Octet<V> {
+    #[inline(always)]
+    fn frame(tok: V::Token, view: &View, tile: Rect) -> Octet<V> {
+        let camera = view.camera;
+        let b = &camera.basis;
+        let w = camera.window;
+        let splat = |x: f64| V::splat(tok, x);
+        Octet {
+            tok,
+            vrp: splat3(tok, camera.vrp_world),
+            basis: [splat3(tok, b.u), splat3(tok, b.v), splat3(tok, b.n)],
+            cop: splat3(tok, camera.cop_view),
+            slack: splat(view.slack),
+            relative: splat(SLACK),
+            dz: splat(view.table.dz),
+            half_w: splat(w.x * 0.5),
+            top: splat(w.y * 0.5 - camera.cop_view.y),
+            px_per: [splat(view.px_per_x), splat(view.px_per_y)],
+            tile: [
+                [splat(tile.x0 as f64), splat(tile.x1 as f64)],
+                [splat(tile.y0 as f64), splat(tile.y1 as f64)],
+            ],
+        }
+    }
+
+    /// The spheres of `group` (one to eight) measured, tested against the leaf's `bound` and
+    /// given their rectangles in the tile.
+    #[inline(always)]
+    fn test(&self, group: &[Shape], bound: f64) -> Found {
+        let tok = self.tok;
+        let mut s = [[0.0; LANES]; 4];
+        for (l, shape) in group.iter().enumerate() {
+            for k in 0..4 {
+                s[k][l] = f64::from(shape[k]);
+            }
+        }
+        let valid = (u16::MAX >> (16 - group.len())) as u8;
+        let zero = V::splat(tok, 0.0);
+        let r = V::load(tok, &s[3]);
+        let world = [
+            V::load(tok, &s[0]).sub(self.vrp[0]),
+            V::load(tok, &s[1]).sub(self.vrp[1]),
+            V::load(tok, &s[2]).sub(self.vrp[2]),
+        ];
+        let c = [
+            dot(&world, &self.basis[0]),
+            dot(&world, &self.basis[1]),
+            dot(&world, &self.basis[2]),
+        ];
+        let f = [
+            self.cop[0].sub(c[0]),
+            self.cop[1].sub(c[1]),
+            self.cop[2].sub(c[2]),
+        ];
+        let dist = dot(&f, &f).sqrt();
+        let m = c[0].abs().max(c[1].abs()).max(c[2].abs());
+        let slack = self.slack.add(self.relative.mul(dist.add(r).add(m)));
+        let near = dist.sub(r).sub(slack);
+        let beyond = near.gt(V::splat(tok, bound));
+        // View::rect with e = r in every coordinate.
+        let pad = r.add(self.slack.add(self.relative.mul(m)));
+        let lo = [
+            c[0].sub(pad).sub(self.cop[0]),
+            c[1].sub(pad).sub(self.cop[1]),
+            c[2].sub(pad).sub(self.cop[2]),
+        ];
+        let hi = [
+            c[0].add(pad).sub(self.cop[0]),
+            c[1].add(pad).sub(self.cop[1]),
+            c[2].add(pad).sub(self.cop[2]),
+        ];
+        let ahead = lo[2].gt(zero)
+            & finite(lo[0], zero)
+            & finite(lo[1], zero)
+            & finite(lo[2], zero)
+            & finite(hi[0], zero)
+            & finite(hi[1], zero)
+            & finite(hi[2], zero);
+        // The least of a / z over z in [lo.z, hi.z] (both > 0 where it counts) and the most of
+        // b / z, in window units; then pixel positions less a half.
+        let (lz, hz) = (lo[2], hi[2]);
+        let wx0 = V::blend(lo[0].ge(zero), lo[0].div(lz), lo[0].div(hz)).mul(self.dz);
+        let wy0 = V::blend(lo[1].ge(zero), lo[1].div(lz), lo[1].div(hz)).mul(self.dz);
+        let wx1 = V::blend(hi[0].ge(zero), hi[0].div(hz), hi[0].div(lz)).mul(self.dz);
+        let wy1 = V::blend(hi[1].ge(zero), hi[1].div(hz), hi[1].div(lz)).mul(self.dz);
+        let half = V::splat(tok, 0.5);
+        let [ppx, ppy] = self.px_per;
+        let px0 = self.cop[0].add(wx0).add(self.half_w).mul(ppx).sub(half);
+        let px1 = self.cop[0].add(wx1).add(self.half_w).mul(ppx).sub(half);
+        let py0 = self.top.sub(wy1).mul(ppy).sub(half);
+        let py1 = self.top.sub(wy0).mul(ppy).sub(half);
+        let decided =
+            ahead & finite(px0, zero) & finite(px1, zero) & finite(py0, zero) & finite(py1, zero);
+        let (ax, bx) = (px0.max(self.tile[0][0]), px1.min(self.tile[0][1]));
+        let (ay, by) = (py0.max(self.tile[1][0]), py1.min(self.tile[1][1]));
+        let over = ax.le(bx) & ay.le(by);
+        let kept = valid & !beyond;
+        Found {
+            whole: kept & !decided,
+            open: kept & decided & over,
+            near: near.store(),
+            x: [ax.store(), bx.store()],
+            y: [ay.store(), by.store()],
+        }
+    }
+}
+
+/// Lanes holding a finite value (`zero` in every lane).
+#[inline(always)]
+fn finite<V: Lanes>(v: V, zero: V) -> u8 {
+    v.sub(v).eq(zero)
 }
 
 /// The spheres a tile's walk keeps, as bits over the hierarchy's order.
@@ -182,7 +354,7 @@ impl SceneIndex<'_> {
     /// The ranks of the spheres that may own a pixel of `camera`'s frame at one sample a pixel
     /// (the rays of `table`), in the hierarchy's order: a subset of [`SceneIndex::visible`]
     /// that gives the same frame.
-    pub(super) fn unhidden(&self, camera: &Camera, table: &RayTable) -> Vec<u32> {
+    pub(super) fn unhidden(&self, isa: Isa, camera: &Camera, table: &RayTable) -> Vec<u32> {
         let (nodes, _, order) = self.tree();
         if nodes.is_empty() {
             return Vec::new();
@@ -205,7 +377,12 @@ impl SceneIndex<'_> {
                 y0: ty,
                 y1: (ty + CULL_TILE).min(h) - 1,
             };
-            self.walk(&view, tile, &kept);
+            isa.run(Walk {
+                index: self,
+                view: &view,
+                tile,
+                kept: &kept,
+            });
         });
         let mut out = Vec::new();
         for (k, word) in kept.0.iter().enumerate() {
@@ -218,43 +395,39 @@ impl SceneIndex<'_> {
         }
         out
     }
+}
 
-    /// One tile's walk: see the module's documentation.
-    fn walk(&self, view: &View, tile: Rect, kept: &Kept) {
-        let (nodes, shapes, _) = self.tree();
+/// One tile's walk (see the module's documentation), written once for every form of lanes and
+/// compiled for the frame's instruction set (`Isa::run`): a leaf's spheres are moved into view
+/// coordinates, measured and tested against the leaf's bound and the tile eight at a time
+/// ([`octet`]), and only those left take the scalar tests and the pixels.
+struct Walk<'a, 'b> {
+    index: &'a SceneIndex<'b>,
+    view: &'a View<'a>,
+    tile: Rect,
+    kept: &'a Kept,
+}
+
+impl ForLanes for Walk<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) {
+        let Walk {
+            index,
+            view,
+            tile,
+            kept,
+        } = self;
+        let (nodes, shapes, _) = index.tree();
         let camera = view.camera;
-        let cop = camera.cop_view;
-        let basis = &camera.basis;
-        // Each pixel's bound: no nearer sphere than its nearest hit lies beyond it; and the
-        // largest in each block of BLOCK² pixels, which a rectangle's test reads.
-        let mut far = [f64::INFINITY; CULL_TILE * CULL_TILE];
-        let mut block = [f64::INFINITY; BLOCKS * BLOCKS];
-        let at = |x: usize, y: usize| (y - tile.y0) * CULL_TILE + (x - tile.x0);
-        let blocks = |r: Rect| {
-            let (bx0, bx1) = ((r.x0 - tile.x0) / BLOCK, (r.x1 - tile.x0) / BLOCK);
-            let (by0, by1) = ((r.y0 - tile.y0) / BLOCK, (r.y1 - tile.y0) / BLOCK);
-            (bx0, bx1, by0, by1)
-        };
-        let most = |far: &[f64], block: &[f64], r: Rect| {
-            let mut m = f64::NEG_INFINITY;
-            if (r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1) <= PIXELS_READ {
-                for y in r.y0..=r.y1 {
-                    for x in r.x0..=r.x1 {
-                        m = m.max(far[at(x, y)]);
-                    }
-                }
-                return m;
-            }
-            let (bx0, bx1, by0, by1) = blocks(r);
-            for by in by0..=by1 {
-                for bx in bx0..=bx1 {
-                    m = m.max(block[by * BLOCKS + bx]);
-                }
-            }
-            m
-        };
-        let abs_rows = [basis.u.abs(), basis.v.abs(), basis.n.abs()];
-        let w = view.table.raster.width as usize;
+        let mut bounds = Bounds::new(tile);
+        let lanes = Octet::<V>::frame(tok, view, tile);
+        let abs_rows = [
+            camera.basis.u.abs(),
+            camera.basis.v.abs(),
+            camera.basis.n.abs(),
+        ];
         let mut stack: Vec<(u32, f64)> = Vec::with_capacity(96);
         let [lo, hi] = nodes[0].bounds();
         stack.push((0, view.near_box(lo, hi)));
@@ -273,27 +446,14 @@ impl SceneIndex<'_> {
             };
             // No pixel that can see into the box has a bound above this one, and bounds only
             // fall: a sphere of a leaf beyond it is passed without its own rectangle.
-            let bound = most(&far, &block, rect);
+            let bound = bounds.most(rect);
             if near > bound {
                 continue;
             }
             if node.count == 0 {
                 // The nearer child on top.
                 let (a, b) = (k + 1, node.start);
-                // Each child's own children (or spheres) asked for now: the walk is bound by
-                // their reads, and one of the two is popped next.
-                let near_of = |j: u32| {
-                    let child = &nodes[j as usize];
-                    if child.count == 0 {
-                        prefetch(&nodes[j as usize + 1]);
-                        prefetch(&nodes[child.start as usize]);
-                    } else {
-                        prefetch(&shapes[child.start as usize]);
-                    }
-                    let [lo, hi] = child.bounds();
-                    view.near_box(lo, hi)
-                };
-                let (na, nb) = (near_of(a), near_of(b));
+                let (na, nb) = (view.near_child(index, a), view.near_child(index, b));
                 if na <= nb {
                     stack.push((b, nb));
                     stack.push((a, na));
@@ -304,77 +464,159 @@ impl SceneIndex<'_> {
                 continue;
             }
             let first = node.start as usize;
-            for (j, shape) in shapes[first..first + node.count as usize]
-                .iter()
-                .enumerate()
-            {
-                // The sphere lies inside the ball of radius r and holds the ball of radius
-                // `inner` around `center`.
-                let c = DVec3::new(shape[0] as f64, shape[1] as f64, shape[2] as f64);
-                let center = camera.point_to_view(c);
-                let r = shape[3] as f64;
-                let f = cop - center;
-                let dist = f.length();
-                let slack = view.slack + SLACK * (dist + r + center.abs().max_element());
-                if dist - r - slack > bound {
-                    continue;
-                }
-                let Some(rect) = view.rect(center, DVec3::splat(r), tile) else {
-                    continue;
-                };
-                if dist - r - slack > most(&far, &block, rect) {
-                    continue;
-                }
-                let inner = shape_inner(shape);
-                kept.set(first + j);
-                // Where this sphere is met for sure, the pixel's nearest hit is no farther
-                // than the far end of where this hit can lie.
-                let mut lowered = false;
-                let (r2, sure) = (
-                    inner * inner,
-                    1e-3 * inner * inner + 1e-12 * f.length_squared(),
-                );
-                // Only from a COP clearly outside the sphere: from inside it (or within rounding
-                // of its surface) the search takes the far root, however soon the ray enters
-                // the inner ball.
-                if !(inner > 0.0) || !(dist - r > slack) {
-                    continue;
-                }
-                for y in rect.y0..=rect.y1 {
-                    for x in rect.x0..=rect.x1 {
-                        let d = view.units[y * w + x];
-                        let b = f.dot(d);
-                        let g = f - d * b;
-                        let disc = r2 - g.length_squared();
-                        if !(disc > sure) {
-                            continue;
-                        }
-                        let t = -b - disc.sqrt();
-                        if t > slack {
-                            let p = &mut far[at(x, y)];
-                            *p = p.min(t + slack);
-                            lowered = true;
-                        }
+            let leaf = &shapes[first..first + node.count as usize];
+            for (g, group) in leaf.chunks(LANES).enumerate() {
+                let base = first + g * LANES;
+                let found = lanes.test(group, bound);
+                // Spheres whose rectangle the lanes leave open (the COP's plane, beyond f64):
+                // every test, one at a time.
+                let mut whole = found.whole;
+                while whole != 0 {
+                    let l = whole.trailing_zeros() as usize;
+                    whole &= whole - 1;
+                    let shape = &group[l];
+                    let (center, r, _, dist, slack) = view.measure(shape);
+                    let Some(rect) = view.rect(center, DVec3::splat(r), tile) else {
+                        continue;
+                    };
+                    if dist - r - slack > bounds.most(rect) {
+                        continue;
                     }
+                    kept.set(base + l);
+                    bounds.lower(view, shape, rect);
                 }
-                if lowered {
-                    // The blocks the sphere's pixels lie in, found again: a block's largest
-                    // bound can only have fallen.
-                    let (bx0, bx1, by0, by1) = blocks(rect);
-                    for by in by0..=by1 {
-                        for bx in bx0..=bx1 {
-                            let (x0, y0) = (tile.x0 + bx * BLOCK, tile.y0 + by * BLOCK);
-                            let mut m = f64::NEG_INFINITY;
-                            for y in y0..(y0 + BLOCK).min(tile.y1 + 1) {
-                                for x in x0..(x0 + BLOCK).min(tile.x1 + 1) {
-                                    m = m.max(far[at(x, y)]);
-                                }
-                            }
-                            block[by * BLOCKS + bx] = m;
-                        }
+                // The rest, over the tile and perhaps nearer than the leaf's bound: their
+                // pixels, and the test against those pixels' bounds.
+                let mut open = found.open;
+                while open != 0 {
+                    let l = open.trailing_zeros() as usize;
+                    open &= open - 1;
+                    let (Some((x0, x1)), Some((y0, y1))) = (
+                        whole_pixels(found.x[0][l], found.x[1][l]),
+                        whole_pixels(found.y[0][l], found.y[1][l]),
+                    ) else {
+                        continue;
+                    };
+                    let rect = Rect { x0, x1, y0, y1 };
+                    if found.near[l] > bounds.most(rect) {
+                        continue;
                     }
+                    kept.set(base + l);
+                    bounds.lower(view, &group[l], rect);
                 }
             }
         }
     }
+}
+
+/// A tile's walk state: each pixel's bound (no sphere nearer than its nearest hit lies
+/// beyond it), and the largest in each block of BLOCK² pixels, which a rectangle's test reads.
+struct Bounds {
+    tile: Rect,
+    far: [f64; CULL_TILE * CULL_TILE],
+    block: [f64; BLOCKS * BLOCKS],
+}
+
+impl Bounds {
+    fn new(tile: Rect) -> Bounds {
+        Bounds {
+            tile,
+            far: [f64::INFINITY; CULL_TILE * CULL_TILE],
+            block: [f64::INFINITY; BLOCKS * BLOCKS],
+        }
+    }
+
+    fn at(&self, x: usize, y: usize) -> usize {
+        (y - self.tile.y0) * CULL_TILE + (x - self.tile.x0)
+    }
+
+    /// The blocks `r` lies in: first and last column, first and last row.
+    fn blocks(&self, r: Rect) -> (usize, usize, usize, usize) {
+        let t = self.tile;
+        let (bx0, bx1) = ((r.x0 - t.x0) / BLOCK, (r.x1 - t.x0) / BLOCK);
+        let (by0, by1) = ((r.y0 - t.y0) / BLOCK, (r.y1 - t.y0) / BLOCK);
+        (bx0, bx1, by0, by1)
+    }
+
+    /// The largest bound over `r` (or over its blocks, not less).
+    fn most(&self, r: Rect) -> f64 {
+        let mut m = f64::NEG_INFINITY;
+        if (r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1) <= PIXELS_READ {
+            for y in r.y0..=r.y1 {
+                for x in r.x0..=r.x1 {
+                    m = m.max(self.far[self.at(x, y)]);
+                }
+            }
+            return m;
+        }
+        let (bx0, bx1, by0, by1) = self.blocks(r);
+        for by in by0..=by1 {
+            for bx in bx0..=bx1 {
+                m = m.max(self.block[by * BLOCKS + bx]);
+            }
+        }
+        m
+    }
+
+    /// Where a kept sphere is met for sure by a ray of `rect`, that pixel's nearest hit made no
+    /// farther than the far end of where the hit can lie.
+    fn lower(&mut self, view: &View, shape: &Shape, rect: Rect) {
+        let (_, r, f, dist, slack) = view.measure(shape);
+        let inner = shape_inner(shape);
+        let (r2, sure) = (
+            inner * inner,
+            1e-3 * inner * inner + 1e-12 * f.length_squared(),
+        );
+        // Only from a COP clearly outside the sphere: from inside it (or within rounding of
+        // its surface) the search takes the far root, however soon the ray enters the inner
+        // ball.
+        if !(inner > 0.0) || !(dist - r > slack) {
+            return;
+        }
+        let w = view.table.raster.width as usize;
+        let mut lowered = false;
+        for y in rect.y0..=rect.y1 {
+            for x in rect.x0..=rect.x1 {
+                let d = view.units[y * w + x];
+                let b = f.dot(d);
+                let g = f - d * b;
+                let disc = r2 - g.length_squared();
+                if !(disc > sure) {
+                    continue;
+                }
+                let t = -b - disc.sqrt();
+                if t > slack {
+                    let at = self.at(x, y);
+                    self.far[at] = self.far[at].min(t + slack);
+                    lowered = true;
+                }
+            }
+        }
+        if lowered {
+            // The blocks the sphere's pixels lie in, found again: a block's largest bound can
+            // only have fallen.
+            let t = self.tile;
+            let (bx0, bx1, by0, by1) = self.blocks(rect);
+            for by in by0..=by1 {
+                for bx in bx0..=bx1 {
+                    let (x0, y0) = (t.x0 + bx * BLOCK, t.y0 + by * BLOCK);
+                    let mut m = f64::NEG_INFINITY;
+                    for y in y0..(y0 + BLOCK).min(t.y1 + 1) {
+                        for x in x0..(x0 + BLOCK).min(t.x1 + 1) {
+                            m = m.max(self.far[self.at(x, y)]);
+                        }
+                    }
+                    self.block[by * BLOCKS + bx] = m;
+                }
+            }
+        }
+    }
+}
+
+/// The whole pixels from `a` up to `b`, both inside a tile's pixel range and `a` ≤ `b`
+/// (without `f64::floor`, a call into libm on the baseline path).
+fn whole_pixels(a: f64, b: f64) -> Option<(usize, usize)> {
+    let (i, j) = (a as usize, b as usize);
+    let i = if (i as f64) < a { i + 1 } else { i };
+    (i <= j).then_some((i, j))
 }

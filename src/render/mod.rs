@@ -196,7 +196,7 @@ impl Renderer {
         let ranked = index.spheres();
         // From `cull_ratio` spheres a pixel, only those that may own a pixel (`cull.rs`).
         let visible = if index.culls(raster, self.cull_ratio) {
-            index.unhidden(camera, &table)
+            index.unhidden(self.isa, camera, &table)
         } else {
             index.visible(camera)
         };
