@@ -230,21 +230,20 @@ impl<V: Lanes> Octet<V> {
         let camera = view.camera;
         let b = &camera.basis;
         let w = camera.window;
-        let splat = |x: f64| V::splat(tok, x);
         Octet {
             tok,
             vrp: splat3(tok, camera.vrp_world),
             basis: [splat3(tok, b.u), splat3(tok, b.v), splat3(tok, b.n)],
             cop: splat3(tok, camera.cop_view),
-            slack: splat(view.slack),
-            relative: splat(SLACK),
-            dz: splat(view.table.dz),
-            half_w: splat(w.x * 0.5),
-            top: splat(w.y * 0.5 - camera.cop_view.y),
-            px_per: [splat(view.px_per_x), splat(view.px_per_y)],
+            slack: V::splat(tok, view.slack),
+            relative: V::splat(tok, SLACK),
+            dz: V::splat(tok, view.table.dz),
+            half_w: V::splat(tok, w.x * 0.5),
+            top: V::splat(tok, w.y * 0.5 - camera.cop_view.y),
+            px_per: [V::splat(tok, view.px_per_x), V::splat(tok, view.px_per_y)],
             tile: [
-                [splat(tile.x0 as f64), splat(tile.x1 as f64)],
-                [splat(tile.y0 as f64), splat(tile.y1 as f64)],
+                [V::splat(tok, tile.x0 as f64), V::splat(tok, tile.x1 as f64)],
+                [V::splat(tok, tile.y0 as f64), V::splat(tok, tile.y1 as f64)],
             ],
         }
     }
@@ -468,41 +467,36 @@ impl ForLanes for Walk<'_, '_> {
             for (g, group) in leaf.chunks(LANES).enumerate() {
                 let base = first + g * LANES;
                 let found = lanes.test(group, bound);
-                // Spheres whose rectangle the lanes leave open (the COP's plane, beyond f64):
-                // every test, one at a time.
-                let mut whole = found.whole;
-                while whole != 0 {
-                    let l = whole.trailing_zeros() as usize;
-                    whole &= whole - 1;
+                // In the leaf's order, as one at a time: each sphere kept lowers the bounds
+                // the next is tested against.
+                let mut left = found.whole | found.open;
+                while left != 0 {
+                    let l = left.trailing_zeros() as usize;
+                    left &= left - 1;
                     let shape = &group[l];
-                    let (center, r, _, dist, slack) = view.measure(shape);
-                    let Some(rect) = view.rect(center, DVec3::splat(r), tile) else {
-                        continue;
+                    let (rect, near) = if found.whole & (1 << l) != 0 {
+                        // A rectangle the lanes leave open (the COP's plane, beyond f64): the
+                        // scalar tests.
+                        let (center, r, _, dist, slack) = view.measure(shape);
+                        let Some(rect) = view.rect(center, DVec3::splat(r), tile) else {
+                            continue;
+                        };
+                        (rect, dist - r - slack)
+                    } else {
+                        // Over the tile and perhaps nearer than the leaf's bound: its pixels.
+                        let (Some((x0, x1)), Some((y0, y1))) = (
+                            whole_pixels(found.x[0][l], found.x[1][l]),
+                            whole_pixels(found.y[0][l], found.y[1][l]),
+                        ) else {
+                            continue;
+                        };
+                        (Rect { x0, x1, y0, y1 }, found.near[l])
                     };
-                    if dist - r - slack > bounds.most(rect) {
+                    if near > bounds.most(rect) {
                         continue;
                     }
                     kept.set(base + l);
                     bounds.lower(view, shape, rect);
-                }
-                // The rest, over the tile and perhaps nearer than the leaf's bound: their
-                // pixels, and the test against those pixels' bounds.
-                let mut open = found.open;
-                while open != 0 {
-                    let l = open.trailing_zeros() as usize;
-                    open &= open - 1;
-                    let (Some((x0, x1)), Some((y0, y1))) = (
-                        whole_pixels(found.x[0][l], found.x[1][l]),
-                        whole_pixels(found.y[0][l], found.y[1][l]),
-                    ) else {
-                        continue;
-                    };
-                    let rect = Rect { x0, x1, y0, y1 };
-                    if found.near[l] > bounds.most(rect) {
-                        continue;
-                    }
-                    kept.set(base + l);
-                    bounds.lower(view, &group[l], rect);
                 }
             }
         }
