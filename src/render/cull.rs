@@ -532,24 +532,27 @@ impl Bounds {
         (bx0, bx1, by0, by1)
     }
 
-    /// The largest bound over `r` (or over its blocks, not less).
+    /// The largest bound over `r` (or over its blocks, not less). Bounds are compared as
+    /// their bits (see [`larger`]).
+    #[inline(always)]
     fn most(&self, r: Rect) -> f64 {
-        let mut m = f64::NEG_INFINITY;
+        let mut m = 0;
         if (r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1) <= PIXELS_READ {
             for y in r.y0..=r.y1 {
-                for x in r.x0..=r.x1 {
-                    m = m.max(self.far[self.at(x, y)]);
+                let row = self.at(r.x0, y);
+                for &far in &self.far[row..=row + (r.x1 - r.x0)] {
+                    m = larger(m, far);
                 }
             }
-            return m;
+            return f64::from_bits(m);
         }
         let (bx0, bx1, by0, by1) = self.blocks(r);
         for by in by0..=by1 {
-            for bx in bx0..=bx1 {
-                m = m.max(self.block[by * BLOCKS + bx]);
+            for &block in &self.block[by * BLOCKS + bx0..=by * BLOCKS + bx1] {
+                m = larger(m, block);
             }
         }
-        m
+        f64::from_bits(m)
     }
 
     /// Where a kept sphere is met for sure by a ray of `rect`, that pixel's nearest hit made no
@@ -594,17 +597,27 @@ impl Bounds {
             for by in by0..=by1 {
                 for bx in bx0..=bx1 {
                     let (x0, y0) = (t.x0 + bx * BLOCK, t.y0 + by * BLOCK);
-                    let mut m = f64::NEG_INFINITY;
+                    let mut m = 0;
                     for y in y0..(y0 + BLOCK).min(t.y1 + 1) {
-                        for x in x0..(x0 + BLOCK).min(t.x1 + 1) {
-                            m = m.max(self.far[self.at(x, y)]);
+                        let row = self.at(x0, y);
+                        for &far in &self.far[row..row + (t.x1 + 1 - x0).min(BLOCK)] {
+                            m = larger(m, far);
                         }
                     }
-                    self.block[by * BLOCKS + bx] = m;
+                    self.block[by * BLOCKS + bx] = f64::from_bits(m);
                 }
             }
         }
     }
+}
+
+/// The larger of `m` (a bound's bits) and `bound`'s bits. Every bound is positive (+∞, or a
+/// hit's distance past `slack` plus `slack`, both not NaN) and a positive f64's bits order
+/// as its value does, so this is `f64::max` without its handling of NaN: one instruction,
+/// not a chain of four through every bound a rectangle reads.
+#[inline(always)]
+fn larger(m: u64, bound: f64) -> u64 {
+    m.max(bound.to_bits())
 }
 
 /// The whole pixels from `a` up to `b`, both inside a tile's pixel range and `a` ≤ `b`
@@ -613,4 +626,29 @@ fn whole_pixels(a: f64, b: f64) -> Option<(usize, usize)> {
     let (i, j) = (a as usize, b as usize);
     let i = if (i as f64) < a { i + 1 } else { i };
     (i <= j).then_some((i, j))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::larger;
+
+    /// Over the bounds the walk holds (positive: subnormal, normal, the largest finite, +∞),
+    /// the larger of two bits is the bits of `f64::max`.
+    #[test]
+    fn larger_bits_are_the_larger_bound() {
+        let mut values = vec![
+            f64::from_bits(1),
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::INFINITY,
+        ];
+        values.extend((-1074..=1023).step_by(7).map(|e| 2f64.powi(e)));
+        values.extend((1..=40).map(|k| 1.0 + f64::from(k) * f64::EPSILON));
+        values.extend((1..=40).map(|k| 1e6 * f64::from(k) / 7.0));
+        for &a in &values {
+            for &b in &values {
+                assert_eq!(f64::from_bits(larger(a.to_bits(), b)), a.max(b), "{a} {b}");
+            }
+        }
+    }
 }
