@@ -584,6 +584,8 @@ impl Bounds {
                 let t = -b - disc.sqrt();
                 if t > slack {
                     let at = self.at(x, y);
+                    // Positive, as `larger` needs: t > slack ≥ 0.
+                    debug_assert!(t + slack > 0.0, "a bound at or below zero");
                     self.far[at] = self.far[at].min(t + slack);
                     lowered = true;
                 }
