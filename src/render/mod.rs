@@ -56,7 +56,7 @@ use shadows::FrameShadows;
 use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight};
-use world::CULL_RATIO;
+use world::{CULL_RATIO, FIRST_CULL_RATIO};
 
 /// Renders frames, keeping the ray table and the culling walk's seeds between frames, and the
 /// view columns of frames handed back ([`Renderer::recycle`]) for the next to write over.
@@ -66,8 +66,12 @@ pub struct Renderer {
     /// `simd`'s instruction set, with the proof that this CPU runs it.
     isa: Isa,
     spare: Vec<ViewColumns>,
-    /// Spheres a pixel from which a frame culls the hidden ones ([`CULL_RATIO`]).
+    /// Spheres a pixel from which a frame culls the hidden ones ([`CULL_RATIO`]), and from
+    /// which the renderer's first frame does ([`FIRST_CULL_RATIO`]).
     cull_ratio: f64,
+    first_cull_ratio: f64,
+    /// Whether a frame was prepared.
+    prepared: bool,
     /// What the last frame that culled leaves the next one's walk to start from.
     seeds: cull::Seeds,
 }
@@ -93,6 +97,8 @@ impl Renderer {
             isa: simd.isa()?,
             spare: Vec::new(),
             cull_ratio: CULL_RATIO,
+            first_cull_ratio: FIRST_CULL_RATIO,
+            prepared: false,
             seeds: cull::Seeds::default(),
         })
     }
@@ -197,8 +203,14 @@ impl Renderer {
         // The spheres by rank (see `SceneIndex`), moved into view coordinates straight into
         // their columns.
         let ranked = index.spheres();
-        // From `cull_ratio` spheres a pixel, only those that may own a pixel (`cull.rs`).
-        let visible = if index.culls(raster, self.cull_ratio) {
+        // From `cull_ratio` spheres a pixel (`first_cull_ratio` in the first frame, whose walk
+        // has no seeds), only those that may own a pixel (`cull.rs`).
+        let ratio = match self.prepared {
+            true => self.cull_ratio,
+            false => self.first_cull_ratio,
+        };
+        self.prepared = true;
+        let visible = if index.culls(raster, ratio) {
             index.unhidden(self.isa, camera, &table, &mut self.seeds)
         } else {
             index.visible(camera)
@@ -605,7 +617,7 @@ mod tests {
             .filter_map(Renderer::with_simd)
             .collect();
         for renderer in &mut culling {
-            renderer.cull_ratio = 0.0;
+            (renderer.cull_ratio, renderer.first_cull_ratio) = (0.0, 0.0);
         }
         for (scale, offset) in places {
             let scene = with_ground(&cluster, scale, offset);
@@ -618,7 +630,7 @@ mod tests {
                     for kept in &mut culling {
                         let simd = kept.simd();
                         let mut all = Renderer::with_simd(simd).unwrap();
-                        all.cull_ratio = f64::INFINITY;
+                        (all.cull_ratio, all.first_cull_ratio) = (f64::INFINITY, f64::INFINITY);
                         let every = all.render_indexed(&camera, &index, raster);
                         let at = format!("{} at {scale}, {offset}, {cop}, {raster:?}", simd.name());
                         let render = |kept: &mut Renderer| {
@@ -657,6 +669,53 @@ mod tests {
             .filter(|s| s.2)
             .fold((0, 0), |(n, a), &(k, b, _)| (n + k, a + b));
         assert!(again * 5 <= n * 4, "{seeded:?}");
+    }
+
+    /// A renderer's first frame culls from [`FIRST_CULL_RATIO`] spheres a pixel, every later
+    /// one from [`CULL_RATIO`]: between the two, the first frame keeps every sphere in view
+    /// and the second fewer, with the same bytes.
+    #[test]
+    fn the_first_frame_culls_from_its_own_ratio() {
+        let mut rng = crate::splitmix::SplitMix(4);
+        let cluster: Vec<Sphere> = (0..3000)
+            .map(|_| {
+                let mut v = || rng.unit() * 2.0 - 1.0;
+                Sphere {
+                    center_world: DVec3::new(v(), v(), v()),
+                    radius: 0.1,
+                    color: DVec3::new(v().abs(), 0.5, 0.5),
+                }
+            })
+            .collect();
+        let scene = lit(cluster);
+        let index = SceneIndex::copying_up_to(&scene, 0);
+        // 3000 spheres over 700 pixels: 4.29 a pixel.
+        let raster = Raster {
+            width: 35,
+            height: 20,
+            samples: 1,
+            adaptive: false,
+        };
+        let ratio = 3000.0 / 700.0;
+        assert!((CULL_RATIO..FIRST_CULL_RATIO).contains(&ratio));
+        let camera = looking_at_the_origin();
+        let every = index.visible(&camera).len();
+        let mut renderer = Renderer::new();
+        let mut all = Renderer::new();
+        all.cull_ratio = f64::INFINITY;
+        let expected = all.render_indexed(&camera, &index, raster);
+        for first in [true, false] {
+            let frame = renderer.prepare(&camera, &index, raster);
+            assert_eq!(
+                frame.in_view() == every,
+                first,
+                "{} of {every}",
+                frame.in_view()
+            );
+            let mut pixels = Vec::new();
+            frame.render_into(&mut pixels, &mut |_| {});
+            assert!(pixels == expected);
+        }
     }
 
     /// A camera 4 units from the origin along −z, a little above it, looking along +z.

@@ -22,9 +22,17 @@ use crate::scene::{Light, Scene, Sphere, Spheres};
 /// walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
 /// cluster, 2 cores, leaves of 32, median frames of five processes, not culled → culled: at 4.8
 /// a pixel (ten million at 1080p) 881 → 772 ms, and the peak 1638 → 1223 MB (the spheres in
-/// view are not all moved into columns); at 4.3 (a million at 640×360) culled frames are still
-/// slower, 84 → 93 ms (docs/performance.md).
-pub const CULL_RATIO: f64 = 4.5;
+/// view are not all moved into columns). Since each tile's walk starts from the last frame's
+/// seeds, at 4.3 (a million at 640×360) 74.3 → 65.3 ms (8 frames) and 75.2 → 58.0 ms (40),
+/// at 2.8 (800×450) 67.6 → 64.1 ms but the first frame 240 → 292 ms, and at 1.9 (960×540)
+/// 86.5 → 110.8 ms (docs/performance.md): 4 culls the first and not the others.
+pub const CULL_RATIO: f64 = 4.0;
+
+/// Spheres a pixel from which a renderer's first frame culls: its walk has no seeds to start
+/// from, and it makes the walk's shapes. At a million and 640×360 (4.3 a pixel) that first
+/// frame culled took 300 → 351 ms; the second culls from [`CULL_RATIO`] without seeds (about
+/// what the columns it spares save), and every later one with them.
+pub const FIRST_CULL_RATIO: f64 = 4.5;
 
 /// Spheres per leaf, in a scene copied along its curve (see [`SceneIndex`]).
 const LEAF: usize = 4;
