@@ -661,8 +661,8 @@ impl Bounds {
                     continue;
                 }
                 let t = -b - disc.sqrt();
-                if t > slack && t + slack < self.far[self.at(x, y)] {
-                    let pixel = self.at(x, y);
+                let pixel = self.at(x, y);
+                if t > slack && t + slack < self.far[pixel] {
                     // Positive, as `larger` needs: t > slack ≥ 0.
                     debug_assert!(t + slack > 0.0, "a bound at or below zero");
                     self.far[pixel] = t + slack;
