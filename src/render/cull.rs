@@ -650,22 +650,19 @@ impl Bounds {
             return;
         }
         let w = view.table.raster.width as usize;
+        let ball = Sure {
+            f,
+            r2,
+            most_root: r2.sqrt(),
+            sure,
+            slack,
+        };
         let mut lowered = false;
         for y in rect.y0..=rect.y1 {
             for x in rect.x0..=rect.x1 {
-                let d = view.units[y * w + x];
-                let b = f.dot(d);
-                let g = f - d * b;
-                let disc = r2 - g.length_squared();
-                if !(disc > sure) {
-                    continue;
-                }
-                let t = -b - disc.sqrt();
                 let pixel = self.at(x, y);
-                if t > slack && t + slack < self.far[pixel] {
-                    // Positive, as `larger` needs: t > slack ≥ 0.
-                    debug_assert!(t + slack > 0.0, "a bound at or below zero");
-                    self.far[pixel] = t + slack;
+                if let Some(bound) = ball.lowers(view.units[y * w + x], self.far[pixel]) {
+                    self.far[pixel] = bound;
                     self.owner[pixel] = at;
                     lowered = true;
                 }
@@ -693,6 +690,48 @@ impl Bounds {
     }
 }
 
+/// A sphere's inner ball as [`Bounds::lower`] meets it along a pixel's ray: `f`, the COP less
+/// its centre; `r2`, its radius squared, and `most_root`, that square's root; `sure`, the
+/// least discriminant of a sure hit; `slack`, the allowance at its distance.
+struct Sure {
+    f: DVec3,
+    r2: f64,
+    most_root: f64,
+    sure: f64,
+    slack: f64,
+}
+
+impl Sure {
+    /// The bound the ray along unit `d` gets from a sure hit (the far end of where it can
+    /// lie), if it is nearer than `far`, the pixel's bound. Positive, as `larger` needs.
+    #[inline(always)]
+    fn lowers(&self, d: DVec3, far: f64) -> Option<f64> {
+        let Sure {
+            f,
+            r2,
+            most_root,
+            sure,
+            slack,
+        } = *self;
+        let b = f.dot(d);
+        // The nearest the bound can come out, rounded as it is: the discriminant never
+        // exceeds r2 (r2 less a square, rounded), and rounding, the square root and the
+        // operations below keep their operands' order. At `far` or beyond, the rest is not
+        // worked out.
+        if -b - most_root + slack >= far {
+            return None;
+        }
+        let g = f - d * b;
+        let disc = r2 - g.length_squared();
+        if !(disc > sure) {
+            return None;
+        }
+        let t = -b - disc.sqrt();
+        // t > slack ≥ 0, so the bound is positive.
+        (t > slack && t + slack < far).then_some(t + slack)
+    }
+}
+
 /// The larger of `m` (a bound's bits) and `bound`'s bits. Every bound is positive (+∞, or a
 /// hit's distance past `slack` plus `slack`, both not NaN) and a positive f64's bits order
 /// as its value does, so this is `f64::max` without its handling of NaN: one instruction,
@@ -712,7 +751,66 @@ fn whole_pixels(a: f64, b: f64) -> Option<(usize, usize)> {
 
 #[cfg(test)]
 mod tests {
-    use super::larger;
+    use super::{larger, Sure};
+    use glam::DVec3;
+
+    /// A pixel's bound lowered as before the early stop: every step worked out.
+    fn lowers_in_full(s: &Sure, d: DVec3, far: f64) -> Option<f64> {
+        let b = s.f.dot(d);
+        let g = s.f - d * b;
+        let disc = s.r2 - g.length_squared();
+        if !(disc > s.sure) {
+            return None;
+        }
+        let t = -b - disc.sqrt();
+        (t > s.slack && t + s.slack < far).then_some(t + s.slack)
+    }
+
+    /// The early stop changes no bound: seeded balls and rays, rays that meet a ball, graze
+    /// it and miss it, against bounds at +∞, at the bound the hit gives and one f64 either side
+    /// of it, at the early stop's threshold and either side of it, and anywhere.
+    #[test]
+    fn the_early_stop_lowers_every_bound_as_working_it_out_does() {
+        let mut rng = crate::splitmix::SplitMix(0xb0d5);
+        let mut lowered = 0;
+        for _ in 0..20_000 {
+            let dist = 1.0 + 1000.0 * rng.unit();
+            let inner = dist * (0.001 + 0.5 * rng.unit());
+            let toward = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5);
+            let f = toward.normalize() * dist;
+            let s = Sure {
+                f,
+                r2: inner * inner,
+                most_root: (inner * inner).sqrt(),
+                sure: 1e-3 * inner * inner + 1e-12 * f.length_squared(),
+                slack: 1e-6 * dist * rng.unit(),
+            };
+            // From the COP towards the centre (−f), turned by up to about twice the ball's
+            // angular radius.
+            let spread = 2.0 * inner / dist * rng.unit();
+            let turn = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * spread;
+            let d = (-f.normalize() + turn).normalize();
+            let threshold = -s.f.dot(d) - s.most_root + s.slack;
+            let mut fars = vec![f64::INFINITY, 2.0 * dist * rng.unit()];
+            for v in [lowers_in_full(&s, d, f64::INFINITY), Some(threshold)]
+                .into_iter()
+                .flatten()
+            {
+                fars.extend([v, v.next_up(), v.next_down()]);
+            }
+            for far in fars {
+                let want = lowers_in_full(&s, d, far);
+                assert_eq!(
+                    s.lowers(d, far),
+                    want,
+                    "f {f}, r² {}, d {d}, far {far}",
+                    s.r2
+                );
+                lowered += usize::from(want.is_some());
+            }
+        }
+        assert!(lowered > 10_000, "{lowered} bounds lowered");
+    }
 
     /// Over the bounds the walk holds (positive: subnormal, normal, the largest finite, +∞),
     /// the larger of two bits is the bits of `f64::max`.
