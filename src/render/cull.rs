@@ -650,7 +650,7 @@ impl Bounds {
             return;
         }
         let w = view.table.raster.width as usize;
-        let ball = Sure {
+        let ball = InnerBall {
             f,
             r2,
             most_root: r2.sqrt(),
@@ -662,6 +662,7 @@ impl Bounds {
             for x in rect.x0..=rect.x1 {
                 let pixel = self.at(x, y);
                 if let Some(bound) = ball.lowers(view.units[y * w + x], self.far[pixel]) {
+                    debug_assert!(bound > 0.0, "a bound at or below zero");
                     self.far[pixel] = bound;
                     self.owner[pixel] = at;
                     lowered = true;
@@ -693,7 +694,7 @@ impl Bounds {
 /// A sphere's inner ball as [`Bounds::lower`] meets it along a pixel's ray: `f`, the COP less
 /// its centre; `r2`, its radius squared, and `most_root`, that square's root; `sure`, the
 /// least discriminant of a sure hit; `slack`, the allowance at its distance.
-struct Sure {
+struct InnerBall {
     f: DVec3,
     r2: f64,
     most_root: f64,
@@ -701,12 +702,12 @@ struct Sure {
     slack: f64,
 }
 
-impl Sure {
+impl InnerBall {
     /// The bound the ray along unit `d` gets from a sure hit (the far end of where it can
     /// lie), if it is nearer than `far`, the pixel's bound. Positive, as `larger` needs.
     #[inline(always)]
     fn lowers(&self, d: DVec3, far: f64) -> Option<f64> {
-        let Sure {
+        let InnerBall {
             f,
             r2,
             most_root,
@@ -751,11 +752,11 @@ fn whole_pixels(a: f64, b: f64) -> Option<(usize, usize)> {
 
 #[cfg(test)]
 mod tests {
-    use super::{larger, Sure};
+    use super::{larger, InnerBall};
     use glam::DVec3;
 
     /// A pixel's bound lowered as before the early stop: every step worked out.
-    fn lowers_in_full(s: &Sure, d: DVec3, far: f64) -> Option<f64> {
+    fn lowers_in_full(s: &InnerBall, d: DVec3, far: f64) -> Option<f64> {
         let b = s.f.dot(d);
         let g = s.f - d * b;
         let disc = s.r2 - g.length_squared();
@@ -778,7 +779,7 @@ mod tests {
             let inner = dist * (0.001 + 0.5 * rng.unit());
             let toward = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5);
             let f = toward.normalize() * dist;
-            let s = Sure {
+            let s = InnerBall {
                 f,
                 r2: inner * inner,
                 most_root: (inner * inner).sqrt(),
