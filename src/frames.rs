@@ -191,7 +191,10 @@ fn run(
     // The key hashes every sphere while the index is built (38 ms of 0.2 s at a million).
     let (base, index) = rayon::join(
         || (keep == Keep::Frames).then(|| KeyBase::new(&doc.scene, doc.raster)),
-        || SceneIndex::new(&doc.scene),
+        || match set.count() {
+            1 => SceneIndex::for_one_frame(&doc.scene, doc.raster),
+            _ => SceneIndex::new(&doc.scene),
+        },
     );
     let mut renderer = Renderer::new();
     let end = set.range.end;
@@ -230,11 +233,13 @@ fn run(
                 };
                 // The next frame that is not this one again.
                 // Not while a frame with very many spheres in view renders (see
-                // [`PREPARE_AHEAD_MAX`]).
+                // [`PREPARE_AHEAD_MAX`]), nor while a shadow grid waits to be built (by the
+                // next frame: this one's rows would wait for the build on the pool).
                 let next = match wanted.peek() {
                     Some(Ok((_, e)))
                         if !Camera::all_same_bits(e.renders(), cameras)
-                            && this.view_spheres() < PREPARE_AHEAD_MAX =>
+                            && this.view_spheres() < PREPARE_AHEAD_MAX
+                            && index.shadow_grids_built() =>
                     {
                         Some(e.renders().to_vec())
                     }
@@ -385,7 +390,7 @@ pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, FrameHash)
 /// time samples' renders).
 pub fn render_frame(doc: &Document, frame: u64) -> Result<Vec<u8>> {
     let exposure = doc.exposure(frame)?;
-    let index = SceneIndex::new(&doc.scene);
+    let index = SceneIndex::for_one_frame(&doc.scene, doc.raster);
     let mut pixels = Vec::new();
     Renderer::new()
         .prepare_times(exposure.renders(), &index, doc.raster)

@@ -35,7 +35,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use super::lanes::{dot, prefetch, splat3, ForLanes, Lanes, LANES};
 use super::rays::RayTable;
 use super::simd::Isa;
-use super::world::{shape_inner, SceneIndex, Shape};
+use super::tree::{shape_inner, Shape};
+use super::world::SceneIndex;
 use crate::camera::Camera;
 
 /// Side in pixels of a culling tile: its pixels' bounds are its walk's state (32 KB, in the

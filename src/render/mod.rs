@@ -40,6 +40,7 @@ mod simd;
 mod sort;
 mod srgb;
 mod tiles;
+mod tree;
 mod view;
 mod world;
 
@@ -52,7 +53,7 @@ use kernels::Shading;
 use lanes::LANES;
 use rays::RayTable;
 use rows::{rows_in_order, Bands};
-use shadows::FrameShadows;
+use shadows::{Casters, FrameShadows};
 use simd::Isa;
 use tiles::TileBins;
 use view::{ViewColumns, ViewLight};
@@ -174,9 +175,12 @@ impl Renderer {
         raster: Raster,
     ) -> PreparedFrame<'a> {
         assert!(!cameras.is_empty(), "a frame has at least one camera");
+        // A renderer's first frame does not wait for the shadow grids: its shadow rays walk
+        // the hierarchy, and the next frame builds them.
+        let tree_shadows = !self.prepared && !index.shadow_grids_built();
         let times = cameras
             .iter()
-            .map(|camera| self.prepare_time(camera, index, raster))
+            .map(|camera| self.prepare_time(camera, index, raster, tree_shadows))
             .collect();
         PreparedFrame {
             isa: self.isa,
@@ -193,6 +197,7 @@ impl Renderer {
         camera: &Camera,
         index: &'a SceneIndex,
         raster: Raster,
+        tree_shadows: bool,
     ) -> TimeSample<'a> {
         let scene = index.scene;
         let table = match &self.table {
@@ -218,7 +223,7 @@ impl Renderer {
         let spheres = ViewColumns::of(camera, ranked, &visible, self.spare.pop());
         drop(visible);
         // Shadow work only for lights that cast shadows and scenes with something to cast them.
-        let shadowed = index.shadows.iter().any(Option::is_some);
+        let shadowed = index.casts_shadows();
         let centers: Option<Arc<[(DVec3, f64)]>> =
             (shadowed && ranked.len() <= shadows::ALL_CENTERS).then(|| {
                 let center = |k| shadows::view_center(camera, ranked.ball(k));
@@ -227,15 +232,19 @@ impl Renderer {
         let lights: Vec<ViewLight> = scene
             .lights
             .iter()
-            .zip(&index.shadows)
-            .map(|(l, grid)| {
+            .enumerate()
+            .map(|(n, l)| {
                 let to_light = -camera.basis.to_view(l.direction_world);
+                let casters = match tree_shadows {
+                    true => index.shadows_through_tree(n),
+                    false => index.shadow_grid(n).map(Casters::Grid),
+                };
                 ViewLight {
                     to_light,
                     color: l.color,
-                    shadows: grid.as_ref().map(|g| {
+                    shadows: casters.map(|casters| {
                         let all = centers.clone();
-                        FrameShadows::new(g, camera, ranked, all, to_light)
+                        FrameShadows::new(self.isa, casters, camera, ranked, all, to_light)
                     }),
                 }
             })
@@ -624,6 +633,9 @@ mod tests {
             // No copy along the curve: the index that holds the walk's shapes.
             let index = SceneIndex::copying_up_to(&scene, 0);
             assert!(index.can_cull());
+            // The same scene indexed for one frame: a renderer's first frame walks the
+            // hierarchy for its shadow rays, until a second frame builds the grid.
+            let waiting = SceneIndex::building(&scene, 0, true);
             for ((vrp, vpn), cop) in shots {
                 let camera = camera(vrp, vpn, cop, scale, offset);
                 for raster in rasters {
@@ -633,6 +645,9 @@ mod tests {
                         (all.cull_ratio, all.first_cull_ratio) = (f64::INFINITY, f64::INFINITY);
                         let every = all.render_indexed(&camera, &index, raster);
                         let at = format!("{} at {scale}, {offset}, {cop}, {raster:?}", simd.name());
+                        let mut first = Renderer::with_simd(simd).unwrap();
+                        let walked = first.render_indexed(&camera, &waiting, raster);
+                        assert!(walked == every, "{at}, shadow rays through the hierarchy");
                         let render = |kept: &mut Renderer| {
                             let frame = kept.prepare(&camera, &index, raster);
                             let n = frame.in_view();
@@ -652,6 +667,19 @@ mod tests {
                     }
                 }
             }
+            // Only first frames came from it: its grid is not built. A renderer's second frame
+            // builds it, and is still the same frame.
+            assert!(!waiting.shadow_grids_built());
+            let ((vrp, vpn), cop) = shots[1];
+            let camera = camera(vrp, vpn, cop, scale, offset);
+            let mut all = Renderer::new();
+            (all.cull_ratio, all.first_cull_ratio) = (f64::INFINITY, f64::INFINITY);
+            let every = all.render_indexed(&camera, &index, rasters[0]);
+            let mut twice = Renderer::new();
+            for _ in 0..2 {
+                assert!(twice.render_indexed(&camera, &waiting, rasters[0]) == every);
+            }
+            assert!(waiting.shadow_grids_built());
         }
         // Seen from outside, much of the cluster is hidden: at most half of it is kept, at
         // the smallest raster a tenth.

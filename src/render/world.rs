@@ -10,8 +10,11 @@
 use glam::{DVec2, DVec3};
 use std::sync::OnceLock;
 
-use super::shadows::{big_radius, f32_down, f32_up, prefetch_sphere, ShadowGrid};
+use super::shadows::{
+    big_radius, f32_down, f32_up, prefetch_sphere, Casters, Hierarchy, ShadowGrid,
+};
 use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
+use super::tree::{Node, Shape, F32_EPS, F32_TINY};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::raster::Raster;
@@ -43,23 +46,6 @@ const LEAF: usize = 4;
 /// with leaves of 4, 221 ms with 32, and the nodes 20 MB instead of 160.
 const LEAF_LARGE: usize = 32;
 
-/// A node's box, in f32 rounded outward from the spheres' f64 bounds; a leaf (`count` > 0)
-/// holds `order[start..start + count]`, an inner node has its children at its own index + 1 and
-/// at `start`. 32 bytes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Node {
-    lo: [f32; 3],
-    hi: [f32; 3],
-    pub(super) start: u32,
-    pub(super) count: u32,
-}
-
-impl Node {
-    pub(super) fn bounds(&self) -> [DVec3; 2] {
-        [self.lo, self.hi].map(|v| DVec3::from(v.map(f64::from)))
-    }
-}
-
 /// A scene ready to render: its spheres in a hierarchy and its lights' shadow grids.
 ///
 /// The renderer numbers the spheres by their *rank*. In a scene of at most `CURVE_COPY_MAX`
@@ -83,19 +69,29 @@ pub struct SceneIndex<'a> {
     /// The ranks of the spheres in the hierarchy's order, which its leaves index.
     order: Vec<u32>,
     /// Per light: its shadow grid (of ranks), None when it casts no shadows (or nothing could
-    /// cast them).
-    pub shadows: Vec<Option<ShadowGrid>>,
+    /// cast them). Built beside the hierarchy in a scene copied along its curve; in a larger
+    /// one, when a frame first asks for it ([`SceneIndex::shadow_grid`]): a renderer's first
+    /// frame takes its shadow rays through the hierarchy instead (`Renderer::prepare`).
+    shadows: Vec<Option<OnceLock<ShadowGrid>>>,
 }
+
+/// Spheres a ray from which a scene indexed for one frame leaves its shadow grids unbuilt
+/// ([`SceneIndex::for_one_frame`]): a grid's build grows with the spheres, the walk of the
+/// hierarchy for a frame's shadow rays with its rays. The dense cluster, 2 cores, one frame of
+/// 640×360: at ten million (43 a ray) the first frame 2374 → 1488 ms, at a million (4.3 a
+/// ray) 247 → 392 ms (docs/performance.md).
+pub const SHADOW_WALK_RATIO: f64 = 16.0;
 
 /// The most spheres a [`SceneIndex`] copies along its curve: 262,144 spheres take 15 MB more.
 /// A million would take 60 MB, past the peak a million spheres from PLY may use.
 pub const CURVE_COPY_MAX: usize = 1 << 18;
 
 impl<'a> SceneIndex<'a> {
-    /// The hierarchy and the shadow grids, built side by side on the rayon pool (and the
-    /// hierarchy's sort and large subtrees too): the same index as built on one thread. In a
-    /// scene small enough for the copy along the curve, the curve's order comes first, and the
-    /// hierarchy and grids are built over the copy.
+    /// The hierarchy and, in a scene small enough for the copy along the curve, the shadow
+    /// grids, built side by side on the rayon pool (and the hierarchy's sort and large subtrees
+    /// too): the same index as built on one thread. In such a scene the curve's order comes
+    /// first, and the hierarchy and grids are built over the copy; in a larger one each grid
+    /// waits for the first frame that asks for it.
     pub fn new(scene: &'a Scene) -> SceneIndex<'a> {
         SceneIndex::copying_up_to(scene, CURVE_COPY_MAX)
     }
@@ -103,6 +99,24 @@ impl<'a> SceneIndex<'a> {
     /// [`SceneIndex::new`], copying the spheres along the curve when there are at most
     /// `copy_max` of them (the tests take both ways for the same scene).
     pub(super) fn copying_up_to(scene: &'a Scene, copy_max: usize) -> SceneIndex<'a> {
+        SceneIndex::building(scene, copy_max, false)
+    }
+
+    /// [`SceneIndex::new`] for a run of one frame of `raster`: in a scene too large for the
+    /// copy along the curve, of at least [`SHADOW_WALK_RATIO`] spheres a ray, the shadow grids
+    /// are left for a later frame to build (if one comes), and the renderer's first frame
+    /// walks the hierarchy for its shadow rays instead.
+    pub fn for_one_frame(scene: &'a Scene, raster: Raster) -> SceneIndex<'a> {
+        let rays =
+            f64::from(raster.width) * f64::from(raster.height) * f64::from(raster.samples).powi(2);
+        let n = scene.spheres.len();
+        let lazy = n > CURVE_COPY_MAX && n as f64 >= rays * SHADOW_WALK_RATIO;
+        SceneIndex::building(scene, CURVE_COPY_MAX, lazy)
+    }
+
+    /// The index, copying the spheres along the curve when there are at most `copy_max` of
+    /// them, its shadow grids left for a frame to build when `lazy` and not copied.
+    pub(super) fn building(scene: &'a Scene, copy_max: usize, lazy: bool) -> SceneIndex<'a> {
         use rayon::prelude::*;
         let curve = (scene.spheres.len() <= copy_max).then(|| {
             let scene_index = curve_order(&scene.spheres);
@@ -127,8 +141,10 @@ impl<'a> SceneIndex<'a> {
             },
             || {
                 let grid = |l: &Light| {
-                    (l.shadows && spheres.len() > 1)
-                        .then(|| ShadowGrid::build(spheres, -l.direction_world))
+                    (l.shadows && spheres.len() > 1).then(|| match lazy && curve.is_none() {
+                        false => OnceLock::from(ShadowGrid::build(spheres, -l.direction_world)),
+                        true => OnceLock::new(),
+                    })
                 };
                 scene.lights.iter().map(grid).collect()
             },
@@ -141,6 +157,41 @@ impl<'a> SceneIndex<'a> {
             order,
             shadows,
         }
+    }
+
+    /// Whether any light casts shadows.
+    pub(super) fn casts_shadows(&self) -> bool {
+        self.shadows.iter().any(Option::is_some)
+    }
+
+    /// Light `n`'s shadow grid, built now (on the pool) if it is not yet; None when the light
+    /// casts no shadows.
+    pub(super) fn shadow_grid(&self, n: usize) -> Option<&ShadowGrid> {
+        let direction = self.scene.lights[n].direction_world;
+        let build = || ShadowGrid::build(self.spheres(), -direction);
+        self.shadows[n].as_ref().map(|grid| grid.get_or_init(build))
+    }
+
+    /// What light `n`'s shadow rays walk in place of its grid: the hierarchy; None when the
+    /// light casts no shadows.
+    pub(super) fn shadows_through_tree(&self, n: usize) -> Option<Casters<'_>> {
+        self.shadows[n].as_ref()?;
+        let (nodes, shapes, order) = self.tree();
+        let to_light = -self.scene.lights[n].direction_world;
+        Some(Casters::Hierarchy(Hierarchy {
+            nodes,
+            shapes,
+            order,
+            to_light,
+        }))
+    }
+
+    /// Whether every light's shadow grid is built: preparing a frame then builds none.
+    pub fn shadow_grids_built(&self) -> bool {
+        self.shadows
+            .iter()
+            .flatten()
+            .all(|grid| grid.get().is_some())
     }
 
     /// The spheres by rank.
@@ -389,18 +440,6 @@ impl Tree<'_> {
     }
 }
 
-/// A sphere in f32, 16 bytes: the centre rounded to nearest and a radius rounded up so that the
-/// ball holds the sphere (`[x, y, z, r]`). [`shape_inner`] gives a radius whose ball the
-/// sphere holds.
-pub(super) type Shape = [f32; 4];
-
-/// Relative rounding of f32, 2⁻²³ (an ulp at 1; half an ulp is the nearest rounding's error).
-const F32_EPS: f64 = f32::EPSILON as f64;
-
-/// The least f32 above 0, 2⁻¹⁴⁹: below f32's normal range a coordinate moves by up to half of
-/// it, whatever its size.
-const F32_TINY: f64 = 1.401298464324817e-45;
-
 /// `sphere`'s [`Shape`].
 fn shape_of((c, radius): (DVec3, f64)) -> Shape {
     let c32 = c.to_array().map(|v| v as f32);
@@ -415,15 +454,6 @@ fn shape_of((c, radius): (DVec3, f64)) -> Shape {
         c32[2],
         if r.is_finite() { r } else { f32::INFINITY },
     ]
-}
-
-/// A radius around a [`Shape`]'s centre whose ball lies inside the sphere (possibly
-/// negative, then no ball): the outer radius less twice every rounding it can hold.
-pub(super) fn shape_inner(shape: &Shape) -> f64 {
-    let c = shape.map(f64::from);
-    let r = c[3];
-    let scale = c[0].abs().max(c[1].abs()).max(c[2].abs()) + r;
-    r - 4.0 * F32_EPS * scale - 4.0 * F32_TINY
 }
 
 /// A leaf over `order` (at `start` of the whole order), with the box of its spheres.

@@ -14,8 +14,10 @@ use std::sync::Arc;
 
 use super::bins::{Bins, CellRect};
 use super::lanes::prefetch;
+use super::simd::Isa;
 use super::sort::{sort_by_high_bits, PARALLEL};
 
+use super::tree::{Node, Shape};
 use crate::camera::Camera;
 use crate::scene::{Slot, Spheres};
 
@@ -237,9 +239,32 @@ fn top_order(top: f32) -> u32 {
     }
 }
 
-/// One light's shadow rays in one frame: the scene's grid, the frame's camera, and the light
-/// and its always-tested spheres in view coordinates.
+/// Where a frame's shadow rays look for the spheres that may block them: the light's grid, or,
+/// before it is built, the scene's hierarchy ([`Hierarchy`]). Either way every sphere that blocks a
+/// ray is tested, so the answers are the same.
+#[derive(Clone, Copy)]
+pub enum Casters<'a> {
+    Grid(&'a ShadowGrid),
+    Hierarchy(Hierarchy<'a>),
+}
+
+/// The scene's hierarchy as a shadow packet walks it (`occlusion.rs`): its nodes (the root
+/// first), the spheres' shapes and ranks in its order, and the unit vector towards the light
+/// (world). A renderer's first frame takes its shadow rays through it, so that a scene too
+/// large for the copy along the curve shows its first frame without waiting for the grid
+/// (docs/performance.md).
+#[derive(Clone, Copy)]
+pub struct Hierarchy<'a> {
+    pub nodes: &'a [Node],
+    pub shapes: &'a [Shape],
+    pub order: &'a [u32],
+    pub to_light: DVec3,
+}
+
+/// One light's shadow rays in one frame: the scene's grid or hierarchy, the frame's camera, and
+/// the light and its always-tested spheres in view coordinates.
 pub struct FrameShadows<'a> {
+    /// The light's grid, or one of no cells when the hierarchy is walked instead (`tree`).
     grid: &'a ShadowGrid,
     camera: Camera,
     spheres: &'a Spheres,
@@ -250,10 +275,12 @@ pub struct FrameShadows<'a> {
     /// Every sphere's centre in view coordinates and r², when the frame computed them all
     /// (small scenes); otherwise each blocker is moved into view coordinates when tested.
     centers: Option<Arc<[(DVec3, f64)]>>,
-    /// The grid's projection from view coordinates: a point p falls at
-    /// (p·axes.0 + offset.x, p·axes.1 + offset.y) on the grid's plane, relative to its origin.
+    /// The light's plane (the grid's, or any orthogonal to the light for the hierarchy) from
+    /// view coordinates: a point p falls at (p·axes.0 + offset.x, p·axes.1 + offset.y) on it,
+    /// relative to the grid's origin (the world's for the hierarchy).
     axes: (DVec3, DVec3),
     offset: DVec2,
+
     /// The part of the rounding allowance that does not depend on the point.
     slack: f64,
     /// A view point p lies p·up + height towards the light, on the scale of the grid's tops:
@@ -262,6 +289,26 @@ pub struct FrameShadows<'a> {
     /// way (p − c)·to_light ≤ r.)
     up: DVec3,
     height: f64,
+    /// The hierarchy, when its walk stands for the grid's, and the instruction set it is run on.
+    tree: Option<(Hierarchy<'a>, Isa)>,
+    /// The light's plane's axes in world coordinates.
+    world_axes: (DVec3, DVec3),
+}
+
+/// A grid of no cells, for a frame whose shadow rays walk the hierarchy.
+fn no_grid() -> &'static ShadowGrid {
+    static NONE: std::sync::OnceLock<ShadowGrid> = std::sync::OnceLock::new();
+    NONE.get_or_init(|| ShadowGrid {
+        axes: (DVec3::X, DVec3::Y),
+        origin: DVec2::ZERO,
+        inv_cell: 0.0,
+        dims: (0, 0),
+        bins: Bins::empty(),
+        always: Vec::new(),
+        extent: 0.0,
+        to_light: DVec3::Z,
+        discs: Vec::new(),
+    })
 }
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame
@@ -286,32 +333,53 @@ pub fn view_center(camera: &Camera, (center, radius): (DVec3, f64)) -> (DVec3, f
 
 impl<'a> FrameShadows<'a> {
     pub fn new(
-        grid: &'a ShadowGrid,
+        isa: Isa,
+        casters: Casters<'a>,
         camera: &Camera,
         spheres: &'a Spheres,
         centers: Option<Arc<[(DVec3, f64)]>>,
         to_light: DVec3,
     ) -> FrameShadows<'a> {
+        // The plane's axes and origin, the extent of the scene (the largest |coordinate| +
+        // radius of a sphere, or of the hierarchy's root box), the light, the spheres tested
+        // for every ray.
+        let (world_axes, origin, extent, to_light_world, always) = match casters {
+            Casters::Grid(g) => (g.axes, g.origin, g.extent, g.to_light, &g.always[..]),
+            Casters::Hierarchy(t) => {
+                let extent = t.nodes.first().map_or(0.0, |root| {
+                    let [lo, hi] = root.bounds();
+                    lo.abs().max(hi.abs()).max_element()
+                });
+                let axes = t.to_light.any_orthonormal_pair();
+                (axes, DVec2::ZERO, extent, t.to_light, &[][..])
+            }
+        };
+        let (grid, tree) = match casters {
+            Casters::Grid(grid) => (grid, None),
+            Casters::Hierarchy(tree) => (no_grid(), Some((tree, isa))),
+        };
         let mut shadows = FrameShadows {
             grid,
+            tree,
             camera: *camera,
             spheres,
             to_light,
             always: Vec::new(),
             centers,
             axes: (
-                camera.basis.to_view(grid.axes.0),
-                camera.basis.to_view(grid.axes.1),
+                camera.basis.to_view(world_axes.0),
+                camera.basis.to_view(world_axes.1),
             ),
             offset: DVec2::new(
-                camera.vrp_world.dot(grid.axes.0),
-                camera.vrp_world.dot(grid.axes.1),
-            ) - grid.origin,
-            slack: camera.vrp_world.abs().max_element() + grid.extent,
-            up: camera.basis.to_view(grid.to_light),
-            height: camera.vrp_world.dot(grid.to_light),
+                camera.vrp_world.dot(world_axes.0),
+                camera.vrp_world.dot(world_axes.1),
+            ) - origin,
+            world_axes,
+            slack: camera.vrp_world.abs().max_element() + extent,
+            up: camera.basis.to_view(to_light_world),
+            height: camera.vrp_world.dot(to_light_world),
         };
-        shadows.always = grid.always.iter().map(|&k| shadows.blocker(k)).collect();
+        shadows.always = always.iter().map(|&k| shadows.blocker(k)).collect();
         shadows
     }
 

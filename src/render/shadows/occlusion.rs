@@ -1,9 +1,12 @@
 //! A packet's shadow rays: which of its lanes' points a light does not reach, through the
-//! frame's [`FrameShadows`] (the grid's cells under the points, a row's hint first).
+//! frame's [`FrameShadows`] (a row's hint first, then the grid's cells under the points, or
+//! the scene's hierarchy when the grid is not built).
+
+use glam::{DVec3, Vec4};
 
 use super::super::bins::CellRect;
-use super::super::lanes::{dot, splat3, Lanes, LANES};
-use super::{cell_key, cell_rect, FrameShadows, NO_HINT};
+use super::super::lanes::{dot, splat3, ForLanes, Lanes, LANES};
+use super::{cell_key, cell_rect, FrameShadows, Hierarchy, NO_HINT};
 
 impl FrameShadows<'_> {
     /// Whether the ray from each view point (on sphere `own`) towards the light meets another
@@ -36,6 +39,13 @@ impl FrameShadows<'_> {
             }
         }
         if sh.grid.dims.0 == 0 {
+            // No cells: nothing binned, or a frame whose shadow rays walk the hierarchy, out
+            // of line (`tree_shadows`), so that every other frame's rows keep their code.
+            if sh.tree.is_some() {
+                let point = [point[0].store(), point[1].store(), point[2].store()];
+                let own = V::index_store(own);
+                (blocked, *hint) = tree_shadows(sh, point, own, need, blocked, *hint);
+            }
             return blocked;
         }
         if *hint != NO_HINT {
@@ -49,22 +59,7 @@ impl FrameShadows<'_> {
                 return blocked;
             }
         }
-        // The square (in cells, unclamped) that each point stands for on the grid: its projection
-        // widened by the rounding allowance (1e-9 of the coordinates' scale, far above the rounding
-        // by which a view point reaches the grid in world coordinates), so a point on a cell's edge
-        // looks in both cells.
-        let (ax, ay) = sh.axes;
-        let q = [
-            dot(point, &splat3(tok, ax)).add(V::splat(tok, sh.offset.x)),
-            dot(point, &splat3(tok, ay)).add(V::splat(tok, sh.offset.y)),
-        ];
-        let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
-        let err = V::splat(tok, 1e-9).mul(V::splat(tok, sh.slack).add(size));
-        // How far each point lies towards the light, less the allowance (`FrameShadows::up`):
-        // a sphere whose top is below this cannot block the lane's ray.
-        let low = dot(point, &splat3(tok, sh.up))
-            .add(V::splat(tok, sh.height))
-            .sub(err);
+        let (low, q, err) = sh.on_plane(point);
         let inv = V::splat(tok, sh.grid.inv_cell);
         let lo = [q[0].sub(err).mul(inv), q[1].sub(err).mul(inv)];
         let hi = [q[0].add(err).mul(inv), q[1].add(err).mul(inv)];
@@ -131,6 +126,29 @@ impl FrameShadows<'_> {
     }
 }
 
+impl FrameShadows<'_> {
+    /// Each point on the light's plane, `q`, widened by the rounding allowance `err` (1e-9 of
+    /// the coordinates' scale, far above the rounding by which a view point reaches the grid in
+    /// world coordinates, so a point on a cell's edge looks in both cells), and how far it lies
+    /// towards the light less the allowance, `low` (`FrameShadows::up`): a sphere whose top is
+    /// below this cannot block the lane's ray.
+    #[inline(always)]
+    fn on_plane<V: Lanes>(&self, point: &[V; 3]) -> (V, [V; 2], V) {
+        let tok = point[0].token();
+        let (ax, ay) = self.axes;
+        let q = [
+            dot(point, &splat3(tok, ax)).add(V::splat(tok, self.offset.x)),
+            dot(point, &splat3(tok, ay)).add(V::splat(tok, self.offset.y)),
+        ];
+        let size = point[0].abs().max(point[1].abs()).max(point[2].abs());
+        let err = V::splat(tok, 1e-9).mul(V::splat(tok, self.slack).add(size));
+        let low = dot(point, &splat3(tok, self.up))
+            .add(V::splat(tok, self.height))
+            .sub(err);
+        (low, q, err)
+    }
+}
+
 /// `blocked` with the lanes in `lanes` that a sphere of grid cells `cells` blocks added, until
 /// every one of them is blocked, and the last sphere found blocking (or [`NO_HINT`]). A cell
 /// is read down to the first sphere whose top is below every open lane's `low`; a sphere whose
@@ -181,6 +199,203 @@ fn walk<V: Lanes>(
                 if lanes & !blocked == 0 {
                     return (blocked, last);
                 }
+            }
+        }
+    }
+    (blocked, last)
+}
+
+/// [`TreeShadows`] run on the frame's instruction set: the lanes blocked and the hint after
+/// it. Called from the rows' code, never inlined into it: the walk and its dispatch would
+/// change how the rows are compiled (small scenes' frames were 8–13% slower with it inlined).
+#[cold]
+#[inline(never)]
+fn tree_shadows(
+    sh: &FrameShadows,
+    point: [[f64; LANES]; 3],
+    own: [u64; LANES],
+    need: u8,
+    blocked: u8,
+    hint: u32,
+) -> (u8, u32) {
+    let Some((tree, isa)) = sh.tree else {
+        return (blocked, hint);
+    };
+    isa.run(TreeShadows {
+        sh,
+        tree,
+        point,
+        own,
+        need,
+        blocked,
+        hint,
+    })
+}
+
+/// A packet's shadow rays through the hierarchy, as work for `Isa::run`: its points, the
+/// spheres they lie on, the lanes to answer, those already blocked and the row's hint. Gives
+/// the lanes blocked and the hint after it: the hint first, as [`FrameShadows::occluded`]
+/// tests it, then [`tree_walk`].
+struct TreeShadows<'a, 'b> {
+    sh: &'a FrameShadows<'b>,
+    tree: Hierarchy<'b>,
+    point: [[f64; LANES]; 3],
+    own: [u64; LANES],
+    need: u8,
+    blocked: u8,
+    hint: u32,
+}
+
+impl ForLanes for TreeShadows<'_, '_> {
+    type Output = (u8, u32);
+
+    #[inline(always)]
+    fn run<V: Lanes>(self, tok: V::Token) -> (u8, u32) {
+        let TreeShadows {
+            sh,
+            tree,
+            need,
+            mut blocked,
+            mut hint,
+            ..
+        } = self;
+        let point = self.point.map(|a| V::load(tok, &a));
+        let mut own = V::index(tok, self.own[0]);
+        for (l, &k) in self.own.iter().enumerate().skip(1) {
+            own = V::index_blend(1 << l, own, V::index(tok, k));
+        }
+        if hint != NO_HINT {
+            let (k, c, r2) = sh.blocker(hint);
+            let found = need & !blocked & blocks(sh, &point, own, k, c, r2);
+            if found == 0 {
+                hint = NO_HINT;
+            }
+            blocked |= found;
+            if need & !blocked == 0 {
+                return (blocked, hint);
+            }
+        }
+        let plane = sh.on_plane(&point);
+        let (blocked, found) = tree_walk(sh, &tree, &point, own, plane, need & !blocked, blocked);
+        if found != NO_HINT {
+            hint = found;
+        }
+        (blocked, hint)
+    }
+}
+
+/// `blocked` with the lanes in `lanes` that a sphere of the scene's hierarchy blocks added,
+/// until every one of them is blocked, and the last sphere found blocking (or [`NO_HINT`]): the
+/// grid's walk ([`walk`]) over the hierarchy's boxes and shapes instead of its cells.
+///
+/// A sphere can block a lane's ray only if the lane's point `q` on the light's plane falls in
+/// its disc and the lane lies below its top (`low`, less the allowance `err`). The lanes' points,
+/// each widened by its allowance, make a rectangle on the plane: a node is passed when the
+/// projection of its box (its centre's, widened by the box's half sides along each axis) misses
+/// that rectangle or its top is below every lane, a shape when its disc (centre and radius in
+/// f32, holding the sphere) misses every open lane's point, or its top is below it. Both hold
+/// the exact sphere, and the allowances are those of the grid's walk, far above these sums'
+/// rounding. Every test is written to pass a node or shape only when it surely misses: a box
+/// or shape past f32's range (infinite or NaN sums) is walked or tested. The spheres left are
+/// tested exactly ([`blocks`]).
+#[inline(always)]
+fn tree_walk<V: Lanes>(
+    sh: &FrameShadows,
+    tree: &Hierarchy,
+    point: &[V; 3],
+    own: V::Index,
+    (low, q, err): (V, [V; 2], V),
+    lanes: u8,
+    mut blocked: u8,
+) -> (u8, u32) {
+    let tok = low.token();
+    let mut last = NO_HINT;
+    if tree.nodes.is_empty() {
+        return (blocked, last);
+    }
+    let (qx, qy, lows, errs) = (q[0].store(), q[1].store(), low.store(), err.store());
+    // The rectangle of the lanes' points with their allowances, and the lowest of them.
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    let mut lowest = f64::MAX;
+    for l in 0..LANES {
+        if lanes >> l & 1 == 1 {
+            x0 = x0.min(qx[l] - errs[l]);
+            x1 = x1.max(qx[l] + errs[l]);
+            y0 = y0.min(qy[l] - errs[l]);
+            y1 = y1.max(qy[l] + errs[l]);
+            lowest = lowest.min(lows[l]);
+        }
+    }
+    let (ax, ay) = sh.world_axes;
+    let up = tree.to_light;
+    // Where a box or ball of centre `c` and half sides (or radius along every axis) `h` lies
+    // on each axis of the plane and along the light: centre and half width.
+    let reach = |c: DVec3, h: DVec3| {
+        [
+            (c.dot(ax), h.dot(ax.abs())),
+            (c.dot(ay), h.dot(ay.abs())),
+            (c.dot(up), h.dot(up.abs())),
+        ]
+    };
+    // Whether it surely misses every lane: wholly beside the rectangle, or below every lane.
+    let misses = |[(px, ex), (py, ey), (pt, et)]: [(f64, f64); 3]| {
+        px + ex < x0 || px - ex > x1 || py + ey < y0 || py - ey > y1 || pt + et < lowest
+    };
+    // Each level halves its node's spheres: at most 32 levels for u32 ranks, and at most one
+    // node more waiting than levels walked.
+    let mut stack = [0u32; 64];
+    let mut depth = 1;
+    while depth > 0 {
+        depth -= 1;
+        let at = stack[depth];
+        let node = &tree.nodes[at as usize];
+        let [lo, hi] = node.bounds();
+        let [(px, ex), (py, ey), (pt, et)] = reach((lo + hi) * 0.5, (hi - lo) * 0.5);
+        if misses([(px, ex), (py, ey), (pt, et)]) {
+            continue;
+        }
+        // Lane by lane: an open lane whose point (within its allowance) may fall in the box's
+        // projection and lies below its top.
+        let within =
+            |q: V, p: f64, e: f64| !q.sub(V::splat(tok, p)).abs().gt(V::splat(tok, e).add(err));
+        let open = lanes & !blocked & within(q[0], px, ex) & within(q[1], py, ey);
+        if open & !V::splat(tok, pt + et).lt(low) == 0 {
+            continue;
+        }
+        if node.count == 0 {
+            // Both children; the one at `start` is walked second.
+            stack[depth] = node.start;
+            stack[depth + 1] = at + 1;
+            depth += 2;
+            continue;
+        }
+        let start = node.start as usize;
+        let end = start + node.count as usize;
+        for (shape, &k) in tree.shapes[start..end].iter().zip(&tree.order[start..end]) {
+            let s = Vec4::from(*shape).as_dvec4();
+            let (c, r) = (s.truncate(), s.w);
+            let [(px, _), (py, _), (pt, _)] = reach(c, DVec3::ZERO);
+            if misses([(px, r), (py, r), (pt, r)]) {
+                continue;
+            }
+            // The open lanes not below its top, whose point, within its allowance, may fall in
+            // its disc (NaN sums leave a lane open).
+            let dx = q[0].sub(V::splat(tok, px));
+            let dy = q[1].sub(V::splat(tok, py));
+            let rr = V::splat(tok, r).add(err);
+            let open = lanes & !blocked & !V::splat(tok, pt + r).lt(low);
+            let open = open & !dx.mul(dx).add(dy.mul(dy)).gt(rr.mul(rr));
+            if open == 0 {
+                continue;
+            }
+            let (k, c, r2) = sh.blocker(k);
+            let found = open & blocks(sh, point, own, k, c, r2);
+            if found != 0 {
+                last = k;
+            }
+            blocked |= found;
+            if lanes & !blocked == 0 {
+                return (blocked, last);
             }
         }
     }
@@ -247,11 +462,14 @@ fn blocks<V: Lanes>(
 mod tests {
     use super::super::super::lanes::Portable;
     use super::super::super::oracle::blocks_ray;
+    use super::super::super::simd::Isa;
+    use super::super::super::world::SceneIndex;
     use super::super::tests::{cluster, seeded_cluster};
+    use super::super::Casters;
     use super::super::{view_center, ShadowGrid};
     use super::*;
     use crate::camera::{Basis, Camera};
-    use crate::scene::{Sphere, Spheres};
+    use crate::scene::{Light, Scene, Sphere, Spheres};
     use glam::{DVec2, DVec3};
 
     /// Up to eight (view point, own sphere) pairs as a packet: the points, their spheres and
@@ -289,8 +507,14 @@ mod tests {
         let picked = [1, 7].map(|n| c.points.iter().step_by(n).copied().collect::<Vec<_>>());
         for light in &c.lights {
             for all in [None, Some(centers.clone())] {
-                let frame =
-                    FrameShadows::new(&light.grid, &c.camera, &c.spheres, all, light.to_light);
+                let frame = FrameShadows::new(
+                    Isa::Portable,
+                    Casters::Grid(&light.grid),
+                    &c.camera,
+                    &c.spheres,
+                    all,
+                    light.to_light,
+                );
                 let mut hint = NO_HINT;
                 let mut hinted = [0; 3];
                 for (p, lanes) in picked.iter().flat_map(|p| p.chunks(LANES)).enumerate() {
@@ -328,8 +552,14 @@ mod tests {
         for (seed, n) in [(3, 150), (5, 700), (7, 1500)] {
             let c = seeded_cluster(seed, n, 4);
             for light in &c.lights {
-                let frame =
-                    FrameShadows::new(&light.grid, &c.camera, &c.spheres, None, light.to_light);
+                let frame = FrameShadows::new(
+                    Isa::Portable,
+                    Casters::Grid(&light.grid),
+                    &c.camera,
+                    &c.spheres,
+                    None,
+                    light.to_light,
+                );
                 let mut hint = NO_HINT;
                 let mut shadowed = 0;
                 for (p, lanes) in c.points.chunks(LANES).enumerate() {
@@ -388,7 +618,22 @@ mod tests {
             };
             let grid = ShadowGrid::build(&spheres, -direction);
             let to_light = -camera.basis.to_view(direction);
-            let frame = FrameShadows::new(&grid, &camera, &spheres, None, to_light);
+            // The grid's walk, and the hierarchy's of the same spheres (not copied along the
+            // curve, so that ranks are the spheres' indices).
+            let scene = Scene {
+                background: DVec3::ZERO,
+                ambient: 0.0,
+                lights: vec![Light {
+                    direction_world: direction,
+                    color: DVec3::ONE,
+                    shadows: true,
+                }],
+                spheres: spheres.clone(),
+            };
+            let index = SceneIndex::building(&scene, 0, true);
+            let casters = [Casters::Grid(&grid), index.shadows_through_tree(0).unwrap()];
+            let frames = casters
+                .map(|c| FrameShadows::new(Isa::Portable, c, &camera, &spheres, None, to_light));
             let centers: Vec<(DVec3, f64)> = spheres
                 .iter()
                 .map(|s| view_center(&camera, s.ball()))
@@ -416,26 +661,28 @@ mod tests {
                     points.push((rim + to_light * along, spheres.len() as u32));
                 }
             }
-            let mut shadowed = 0;
-            for lanes in points.chunks(LANES) {
-                let (point, own, need) = packet(lanes);
-                let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
-                for (l, &(p, _)) in lanes.iter().enumerate() {
-                    let every = centers
-                        .iter()
-                        .any(|&(c, r2)| blocks_ray(c, r2, p, to_light));
-                    assert_eq!(
-                        got >> l & 1 == 1,
-                        every,
-                        "offset {offset:e}, spread {spread:e}, {p}"
-                    );
-                    shadowed += every as usize;
+            for (frame, through) in frames.iter().zip(["grid", "hierarchy"]) {
+                let mut shadowed = 0;
+                for lanes in points.chunks(LANES) {
+                    let (point, own, need) = packet(lanes);
+                    let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
+                    for (l, &(p, _)) in lanes.iter().enumerate() {
+                        let every = centers
+                            .iter()
+                            .any(|&(c, r2)| blocks_ray(c, r2, p, to_light));
+                        assert_eq!(
+                            got >> l & 1 == 1,
+                            every,
+                            "{through}: offset {offset:e}, spread {spread:e}, {p}"
+                        );
+                        shadowed += every as usize;
+                    }
                 }
+                assert!(
+                    shadowed > 100 && shadowed < points.len() - 100,
+                    "{shadowed}"
+                );
             }
-            assert!(
-                shadowed > 100 && shadowed < points.len() - 100,
-                "{shadowed}"
-            );
         }
     }
 
@@ -468,7 +715,14 @@ mod tests {
         };
         let grid = ShadowGrid::build(&spheres, to_light);
         let to_light_view = camera.basis.to_view(to_light);
-        let frame = FrameShadows::new(&grid, &camera, &spheres, None, to_light_view);
+        let frame = FrameShadows::new(
+            Isa::Portable,
+            Casters::Grid(&grid),
+            &camera,
+            &spheres,
+            None,
+            to_light_view,
+        );
         let (point, own, need) = packet(&[(camera.point_to_view(point_world), 1)]);
         let got = frame.occluded::<Portable>(&point, own, need, &mut NO_HINT.clone());
         assert_eq!(got, need);
