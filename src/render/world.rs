@@ -591,6 +591,39 @@ mod tests {
         }
     }
 
+    /// A run of one frame leaves the shadow grids unbuilt only in a scene past the copy along
+    /// the curve with at least [`SHADOW_WALK_RATIO`] spheres a ray; a frame's ask builds them.
+    #[test]
+    fn one_frame_leaves_the_grids_only_with_many_spheres_a_ray() {
+        let raster = |width, height, samples| Raster {
+            width,
+            height,
+            samples,
+            adaptive: false,
+        };
+        let lit = |mut scene: Scene| {
+            scene.lights = vec![Light {
+                direction_world: DVec3::new(-0.6, -1.0, 0.4).normalize(),
+                color: DVec3::ONE,
+                shadows: true,
+            }];
+            scene
+        };
+        let past = lit(scene(CURVE_COPY_MAX + 16));
+        let copied = lit(scene(CURVE_COPY_MAX));
+        // 2¹⁸ + 16 spheres: 16 a ray exactly at 145×113 (16,385 rays), fewer at 145×114, and
+        // at 73×57 with 2×2 samples.
+        let lazy = SceneIndex::for_one_frame(&past, raster(145, 113, 1));
+        assert!(!lazy.shadow_grids_built());
+        assert!(lazy.casts_shadows());
+        assert!(lazy.shadow_grid(0).is_some());
+        assert!(lazy.shadow_grids_built());
+        for r in [raster(145, 114, 1), raster(73, 57, 2)] {
+            assert!(SceneIndex::for_one_frame(&past, r).shadow_grids_built(), "{r:?}");
+        }
+        assert!(SceneIndex::for_one_frame(&copied, raster(1, 1, 1)).shadow_grids_built());
+    }
+
     #[test]
     fn every_sphere_is_in_one_leaf_inside_its_boxes() {
         let sizes = [
