@@ -619,7 +619,10 @@ mod tests {
         assert!(lazy.shadow_grid(0).is_some());
         assert!(lazy.shadow_grids_built());
         for r in [raster(145, 114, 1), raster(73, 57, 2)] {
-            assert!(SceneIndex::for_one_frame(&past, r).shadow_grids_built(), "{r:?}");
+            assert!(
+                SceneIndex::for_one_frame(&past, r).shadow_grids_built(),
+                "{r:?}"
+            );
         }
         assert!(SceneIndex::for_one_frame(&copied, raster(1, 1, 1)).shadow_grids_built());
     }

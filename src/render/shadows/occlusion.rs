@@ -190,12 +190,7 @@ fn walk<V: Lanes>(
                 if reach == 0 {
                     continue;
                 }
-                let (k, c, r2) = sh.blocker(k);
-                let found = reach & blocks(sh, point, own, k, c, r2);
-                if found != 0 {
-                    last = k;
-                }
-                blocked |= found;
+                blocked |= blocks_exactly(sh, point, own, k, reach, &mut last);
                 if lanes & !blocked == 0 {
                     return (blocked, last);
                 }
@@ -203,6 +198,25 @@ fn walk<V: Lanes>(
         }
     }
     (blocked, last)
+}
+
+/// The lanes of `lanes` whose rays sphere `k` blocks, tested exactly ([`blocks`]), with `last`
+/// set to `k` when it blocks any: both walks' last step.
+#[inline(always)]
+fn blocks_exactly<V: Lanes>(
+    sh: &FrameShadows,
+    point: &[V; 3],
+    own: V::Index,
+    k: u32,
+    lanes: u8,
+    last: &mut u32,
+) -> u8 {
+    let (k, c, r2) = sh.blocker(k);
+    let found = lanes & blocks(sh, point, own, k, c, r2);
+    if found != 0 {
+        *last = k;
+    }
+    found
 }
 
 /// [`TreeShadows`] run on the frame's instruction set: the lanes blocked and the hint after
@@ -388,12 +402,7 @@ fn tree_walk<V: Lanes>(
             if open == 0 {
                 continue;
             }
-            let (k, c, r2) = sh.blocker(k);
-            let found = open & blocks(sh, point, own, k, c, r2);
-            if found != 0 {
-                last = k;
-            }
-            blocked |= found;
+            blocked |= blocks_exactly(sh, point, own, k, open, &mut last);
             if lanes & !blocked == 0 {
                 return (blocked, last);
             }
