@@ -219,6 +219,15 @@ fn blocks_exactly<V: Lanes>(
     found
 }
 
+/// The lanes whose coordinate `q` may lie within `e` of `p`, widened by each lane's allowance
+/// `err` (NaN sums leave a lane in). A function, not a closure: a closure over lanes is not
+/// always inlined into the instruction path's code, and its intrinsics are then calls.
+#[inline(always)]
+fn within<V: Lanes>(q: V, p: f64, e: f64, err: V) -> u8 {
+    let tok = q.token();
+    !q.sub(V::splat(tok, p)).abs().gt(V::splat(tok, e).add(err))
+}
+
 /// [`TreeShadows`] run on the frame's instruction set: the lanes blocked and the hint after
 /// it. Called from the rows' code, never inlined into it: the walk and its dispatch would
 /// change how the rows are compiled (small scenes' frames were 8–13% slower with it inlined).
@@ -370,9 +379,7 @@ fn tree_walk<V: Lanes>(
         }
         // Lane by lane: an open lane whose point (within its allowance) may fall in the box's
         // projection and lies below its top.
-        let within =
-            |q: V, p: f64, e: f64| !q.sub(V::splat(tok, p)).abs().gt(V::splat(tok, e).add(err));
-        let open = lanes & !blocked & within(q[0], px, ex) & within(q[1], py, ey);
+        let open = lanes & !blocked & within(q[0], px, ex, err) & within(q[1], py, ey, err);
         if open & !V::splat(tok, pt + et).lt(low) == 0 {
             continue;
         }

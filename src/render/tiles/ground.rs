@@ -148,10 +148,15 @@ impl TileCone {
         // first and last.
         let (i0, i1) = samples(tx, raster.width, raster);
         let (j0, j1) = samples(ty, raster.height, raster);
-        let xs = [table.xs[i0], table.xs[i1]];
-        let ys = [table.ys[j0], table.ys[j1]];
-        let corners = [(0, 0), (1, 0), (0, 1), (1, 1)]
-            .map(|(x, y)| DVec3::new(xs[x], ys[y], table.dz).normalize());
+        let ([x0, x1], [y0, y1]) = ([table.xs[i0], table.xs[i1]], [table.ys[j0], table.ys[j1]]);
+        // Written out: `array::map` is not always inlined into the tiles' code (`.ci/run`).
+        let corner = |x: f64, y: f64| DVec3::new(x, y, table.dz).normalize();
+        let corners = [
+            corner(x0, y0),
+            corner(x1, y0),
+            corner(x0, y1),
+            corner(x1, y1),
+        ];
         let axis = (corners[0] + corners[1] + corners[2] + corners[3]).normalize();
         // Directions through the tile's rectangle of the view plane make a convex set, so every
         // one is within the largest angle to a corner.
