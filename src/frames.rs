@@ -191,10 +191,7 @@ fn run(
     // The key hashes every sphere while the index is built (38 ms of 0.2 s at a million).
     let (base, index) = rayon::join(
         || (keep == Keep::Frames).then(|| KeyBase::new(&doc.scene, doc.raster)),
-        || match set.count() {
-            1 => SceneIndex::for_one_frame(&doc.scene, doc.raster),
-            _ => SceneIndex::new(&doc.scene),
-        },
+        || SceneIndex::for_frames_of(&doc.scene, doc.raster),
     );
     let mut renderer = Renderer::new();
     let end = set.range.end;
@@ -390,7 +387,7 @@ pub fn hashes(doc: &Document, frames: Range<u64>) -> Result<Vec<(u64, FrameHash)
 /// time samples' renders).
 pub fn render_frame(doc: &Document, frame: u64) -> Result<Vec<u8>> {
     let exposure = doc.exposure(frame)?;
-    let index = SceneIndex::for_one_frame(&doc.scene, doc.raster);
+    let index = SceneIndex::for_frames_of(&doc.scene, doc.raster);
     let mut pixels = Vec::new();
     Renderer::new()
         .prepare_times(exposure.renders(), &index, doc.raster)

@@ -633,7 +633,7 @@ mod tests {
             // No copy along the curve: the index that holds the walk's shapes.
             let index = SceneIndex::copying_up_to(&scene, 0);
             assert!(index.can_cull());
-            // The same scene indexed for one frame: a renderer's first frame walks the
+            // The same scene with its grid left unbuilt: a renderer's first frame walks the
             // hierarchy for its shadow rays, until a second frame builds the grid.
             let waiting = SceneIndex::building(&scene, 0, true);
             for ((vrp, vpn), cop) in shots {
