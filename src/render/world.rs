@@ -69,9 +69,10 @@ pub struct SceneIndex<'a> {
     /// The ranks of the spheres in the hierarchy's order, which its leaves index.
     order: Vec<u32>,
     /// Per light: its shadow grid (of ranks), None when it casts no shadows (or nothing could
-    /// cast them). Built beside the hierarchy in a scene copied along its curve; in a larger
-    /// one, when a frame first asks for it ([`SceneIndex::shadow_grid`]): a renderer's first
-    /// frame takes its shadow rays through the hierarchy instead (`Renderer::prepare`).
+    /// cast them). Built beside the hierarchy, unless the index was made to wait
+    /// ([`SceneIndex::for_frames_of`]): then when a frame first asks for it
+    /// ([`SceneIndex::shadow_grid`]), a renderer's first frame taking its shadow rays through
+    /// the hierarchy instead (`Renderer::prepare`).
     shadows: Vec<Option<OnceLock<ShadowGrid>>>,
 }
 
