@@ -280,7 +280,6 @@ pub struct FrameShadows<'a> {
     /// relative to the grid's origin (the world's for the hierarchy).
     axes: (DVec3, DVec3),
     offset: DVec2,
-
     /// The part of the rounding allowance that does not depend on the point.
     slack: f64,
     /// A view point p lies p·up + height towards the light, on the scale of the grid's tops:
