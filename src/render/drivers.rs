@@ -221,6 +221,8 @@ impl<P: Pixel, const ONE: bool> ForLanes for RowWork<'_, '_, P, ONE> {
 }
 
 // A band's packets of one column lie in one tile, as do two packets side by side (`cast`).
+// Tiles of `DENSE_TILE` (tiles/mod.rs, which checks that a band's column lies in one) come only
+// at one sample a pixel: the drivers of several samples group the pixels of a `TILE`.
 const _: () = assert!(
     TILE.is_multiple_of(BAND) && TILE.is_multiple_of(2 * LANES) && BAND == 4 && LANES == 2 * HALF
 );

@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 
-use super::super::rays::{RayTable, TILE};
+use super::super::rays::RayTable;
 use super::super::view::Reach;
 use crate::raster::Raster;
 
@@ -24,10 +24,19 @@ pub(super) struct Wide {
     /// None when they cannot.
     columns: Vec<Option<f64>>,
     rows: Vec<Option<f64>>,
+    /// The tiles' side in pixels.
+    side: usize,
 }
 
 impl Wide {
-    pub(super) fn new(index: u32, s: &Reach, table: &RayTable, raster: Raster) -> Option<Wide> {
+    /// The sphere `index`, reaching as `s` does, in tiles of `side` pixels.
+    pub(super) fn new(
+        index: u32,
+        s: &Reach,
+        table: &RayTable,
+        raster: Raster,
+        side: usize,
+    ) -> Option<Wide> {
         let p = -s.f;
         let (d, r, dz) = (p.length(), s.radius, table.dz);
         if !(d > r && d.is_finite() && dz > 0.0) {
@@ -47,7 +56,8 @@ impl Wide {
             let h = (h - slack).clamp(0.0, r);
             Some(((d - h) * (d + h)).sqrt() - ((r - h) * (r + h)).sqrt() - slack)
         };
-        let edges = |n: u32| (0..(n as usize).div_ceil(TILE)).map(move |t| samples(t, n, raster));
+        let edges =
+            |n: u32| (0..(n as usize).div_ceil(side)).map(move |t| samples(t, n, raster, side));
         // A column's rays have x/z between its first and last samples' (xs grow); a row's
         // have y/z between its last and first samples' (ys shrink).
         let both = |a: Option<f64>, b: Option<f64>| Some(a?.max(b?));
@@ -77,6 +87,7 @@ impl Wide {
             min_dist: s.min_dist,
             columns,
             rows,
+            side,
         })
     }
 
@@ -92,7 +103,7 @@ impl Wide {
         raster: Raster,
     ) -> Option<f64> {
         let near = self.columns[tx]?.max(self.rows[ty]?).max(self.min_dist);
-        match cone.get_or_insert_with(|| TileCone::new(table, raster, tx, ty)) {
+        match cone.get_or_insert_with(|| TileCone::new(table, raster, self.side, tx, ty)) {
             Some(cone) => Some(near.max(self.in_cone(cone)?)),
             None => Some(near),
         }
@@ -127,10 +138,10 @@ impl Wide {
 }
 
 /// The first and last of the ray table's sample positions (in `xs` or `ys`) in tile column or
-/// row `t` of an image side of `n` pixels.
-fn samples(t: usize, n: u32, raster: Raster) -> (usize, usize) {
+/// row `t`, of `side` pixels, of an image side of `n` pixels.
+fn samples(t: usize, n: u32, raster: Raster, side: usize) -> (usize, usize) {
     let s = raster.samples as usize;
-    (t * TILE * s, ((t + 1) * TILE).min(n as usize) * s - 1)
+    (t * side * s, ((t + 1) * side).min(n as usize) * s - 1)
 }
 
 /// The directions of a tile's rays (every sample of its pixels, from the ray table), within a
@@ -142,12 +153,19 @@ pub(super) struct TileCone {
 }
 
 impl TileCone {
-    /// Tile (tx, ty)'s cone, or None when it is 90° wide or more (no bound then).
-    fn new(table: &RayTable, raster: Raster, tx: usize, ty: usize) -> Option<TileCone> {
+    /// Tile (tx, ty)'s cone, in tiles of `side` pixels, or None when it is 90° wide or more
+    /// (no bound then).
+    fn new(
+        table: &RayTable,
+        raster: Raster,
+        side: usize,
+        tx: usize,
+        ty: usize,
+    ) -> Option<TileCone> {
         // Sample positions grow along xs and shrink along ys, so the tile's are between its
         // first and last.
-        let (i0, i1) = samples(tx, raster.width, raster);
-        let (j0, j1) = samples(ty, raster.height, raster);
+        let (i0, i1) = samples(tx, raster.width, raster, side);
+        let (j0, j1) = samples(ty, raster.height, raster, side);
         let ([x0, x1], [y0, y1]) = ([table.xs[i0], table.xs[i1]], [table.ys[j0], table.ys[j1]]);
         // Written out: `array::map` is not always inlined into the tiles' code (`.ci/run`).
         let corner = |x: f64, y: f64| DVec3::new(x, y, table.dz).normalize();
@@ -169,6 +187,7 @@ impl TileCone {
 mod tests {
     use super::*;
     use crate::render::oracle::root;
+    use crate::render::tiles::{DENSE_TILE, TILE};
     use crate::render::view::ViewSphere;
     use glam::DVec2;
 
@@ -181,8 +200,9 @@ mod tests {
     fn a_tangent_ray_is_never_nearer_than_its_tiles_bound() {
         let cop = DVec3::new(0.0, 0.0, -1.0);
         let mut hits = 0;
-        for (w, h, side) in [(32, 32, 2.0), (40, 24, 1.6)] {
-            let window = DVec2::new(side, side * h as f64 / w as f64);
+        let cases = [(32, 32, 2.0), (40, 24, 1.6)];
+        for ((w, h, across), tile) in cases.into_iter().flat_map(|c| [(c, TILE), (c, DENSE_TILE)]) {
+            let window = DVec2::new(across, across * h as f64 / w as f64);
             let raster = Raster {
                 width: w,
                 height: h,
@@ -190,11 +210,11 @@ mod tests {
                 adaptive: false,
             };
             let table = RayTable::new(cop, window, raster);
-            for tx in 0..(w as usize).div_ceil(TILE) {
-                for ty in 0..(h as usize).div_ceil(TILE) {
-                    let cone = TileCone::new(&table, raster, tx, ty).unwrap();
-                    let (i0, i1) = (tx * TILE, ((tx + 1) * TILE).min(w as usize) - 1);
-                    let (j0, j1) = (ty * TILE, ((ty + 1) * TILE).min(h as usize) - 1);
+            for tx in 0..(w as usize).div_ceil(tile) {
+                for ty in 0..(h as usize).div_ceil(tile) {
+                    let cone = TileCone::new(&table, raster, tile, tx, ty).unwrap();
+                    let (i0, i1) = (tx * tile, ((tx + 1) * tile).min(w as usize) - 1);
+                    let (j0, j1) = (ty * tile, ((ty + 1) * tile).min(h as usize) - 1);
                     let mut dir = |(i, j): (usize, usize)| table.direction(i, j, 0);
                     let u = [(i0, j0), (i1, j0), (i0, j1), (i1, j1)]
                         .map(&mut dir)
@@ -216,7 +236,8 @@ mod tests {
                                     continue;
                                 };
                                 hits += 1;
-                                let wide = Wide::new(0, &sphere.reach(), &table, raster).unwrap();
+                                let reach = sphere.reach();
+                                let wide = Wide::new(0, &reach, &table, raster, tile).unwrap();
                                 let near = wide.nearest(tx, ty, &mut None, &table, raster);
                                 let near =
                                     near.expect("a tile whose ray meets the sphere keeps it");

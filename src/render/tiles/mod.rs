@@ -26,17 +26,47 @@ use order::search_order;
 
 pub use super::rays::TILE;
 
+/// Side in pixels of a tile at one sample a pixel from [`DENSE`] spheres a pixel: a packet
+/// reads its tile's list up to its hits, passing the spheres that do not cover it, and among
+/// many small spheres a quarter of the tile is a quarter of the list. Below that, the larger
+/// tile's fewer lists cost less to build than they save (docs/performance.md). A band's column
+/// of packets, [`HALF`](super::rays::HALF) pixels wide and four rows high, lies in one tile.
+pub const DENSE_TILE: usize = 8;
+
+/// Spheres a pixel (in the frame's columns) from which a frame at one sample a pixel takes
+/// [`DENSE_TILE`].
+const DENSE: usize = 4;
+
+const _: () = assert!(
+    TILE.is_multiple_of(DENSE_TILE)
+        && DENSE_TILE.is_multiple_of(4)
+        && DENSE_TILE.is_multiple_of(super::rays::HALF)
+);
+
 /// Per-tile sphere lists, nearest possible hit first, and each sphere's pixel rectangle.
 pub struct TileBins {
     bins: Bins,
     /// Per sphere, the inclusive pixel rectangle (i0, i1, j0, j1) its projection may cover
     /// (a side is at most `MAX_SIDE`, 16,384 pixels: 8 bytes a sphere).
     rects: Vec<[u16; 4]>,
+    /// log2 of the tiles' side in pixels ([`TILE`] or [`DENSE_TILE`]).
+    shift: u32,
+}
+
+/// The side of a frame's tiles: [`DENSE_TILE`] at one sample a pixel with at least a quarter
+/// of a sphere a pixel, [`TILE`] otherwise. Which it is changes no pixel: a ray takes its
+/// nearest sphere, ties by scene order, from whatever list holds it.
+pub fn tile_side(spheres: usize, raster: Raster) -> usize {
+    let pixels = raster.width as usize * raster.height as usize;
+    match raster.samples == 1 && spheres.saturating_mul(DENSE) >= pixels {
+        true => DENSE_TILE,
+        false => TILE,
+    }
 }
 
 impl TileBins {
     /// The tiles' lists of `spheres`, whose ranks `ranks` takes back to scene indices for the
-    /// ties.
+    /// ties, in tiles of [`tile_side`].
     pub fn build(
         isa: Isa,
         spheres: &ViewColumns,
@@ -44,9 +74,29 @@ impl TileBins {
         table: &RayTable,
         raster: Raster,
     ) -> TileBins {
+        let side = tile_side(spheres.len(), raster);
+        TileBins::build_in(isa, spheres, ranks, table, raster, side)
+    }
+
+    /// [`TileBins::build`] in tiles of `side` pixels, [`TILE`] or (at one sample a pixel)
+    /// [`DENSE_TILE`].
+    pub fn build_in(
+        isa: Isa,
+        spheres: &ViewColumns,
+        ranks: Ranks,
+        table: &RayTable,
+        raster: Raster,
+        side: usize,
+    ) -> TileBins {
+        assert!(
+            side == TILE || (side == DENSE_TILE && raster.samples == 1),
+            "tiles of {side} pixels at {} samples a side",
+            raster.samples
+        );
+        let shift = side.trailing_zeros();
         let (cop, window) = (table.cop_view, table.window);
-        let tiles_x = (raster.width as usize).div_ceil(TILE);
-        let tiles_y = (raster.height as usize).div_ceil(TILE);
+        let tiles_x = (raster.width as usize).div_ceil(side);
+        let tiles_y = (raster.height as usize).div_ceil(side);
         assert!(
             raster.width.max(raster.height) <= 1 << 16,
             "a raster side of at most 65,536 pixels"
@@ -77,12 +127,12 @@ impl TileBins {
         // meets them, and ordered by the nearest hit a ray of the tile can have.
         let wide: Vec<Wide> = unbounded
             .into_iter()
-            .filter_map(|k| Wide::new(k, &spheres.reach(k as usize), table, raster))
+            .filter_map(|k| Wide::new(k, &spheres.reach(k as usize), table, raster, side))
             .collect();
         let dims = (tiles_x, tiles_y);
         let cells = |rect: [u16; 4]| {
             let [i0, i1, j0, j1] = rect.map(|v| v as usize);
-            (i0 <= i1).then_some((i0 / TILE, i1 / TILE, j0 / TILE, j1 / TILE))
+            (i0 <= i1).then_some((i0 >> shift, i1 >> shift, j0 >> shift, j1 >> shift))
         };
         // Binned in the search order, every tile lists its spheres in it: no tile sorts.
         let mut bins = if n >= PARALLEL {
@@ -137,13 +187,19 @@ impl TileBins {
                 n
             });
         }
-        TileBins { bins, rects }
+        TileBins { bins, rects, shift }
+    }
+
+    /// The tiles' side in pixels.
+    #[cfg(test)]
+    pub fn side(&self) -> usize {
+        1 << self.shift
     }
 
     /// The spheres that can cover pixel (i, j), nearest first.
     #[inline]
     pub fn at(&self, i: usize, j: usize) -> &[u32] {
-        self.bins.cell(i / TILE, j / TILE)
+        self.bins.cell(i >> self.shift, j >> self.shift)
     }
 
     /// Whether sphere k's projection may cover a pixel of rows j0..=j1 in columns i0..=i1.
@@ -210,8 +266,8 @@ mod tests {
             let columns = ViewColumns::new(camera.cop_view, &view);
             let bins = TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
             let mut lists = Vec::new();
-            for j in (0..90).step_by(TILE) {
-                for i in (0..160).step_by(TILE) {
+            for j in (0..90).step_by(bins.side()) {
+                for i in (0..160).step_by(bins.side()) {
                     let list: Vec<(f64, u64)> = bins
                         .at(i, j)
                         .iter()
@@ -309,7 +365,7 @@ mod tests {
                     .collect();
                 let columns = ViewColumns::new(camera.cop_view, &view);
                 let shading = unlit(&columns);
-                for samples in [1, 3] {
+                for (samples, side) in [(1, TILE), (1, DENSE_TILE), (3, TILE)] {
                     let raster = Raster {
                         width: 96,
                         height: 72,
@@ -317,20 +373,22 @@ mod tests {
                         adaptive: false,
                     };
                     let table = RayTable::new(cop, camera.window, raster);
+                    let (ranks, reach) = (Ranks::SCENE, view[ground as usize].reach());
                     let bins =
-                        TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
-                    let wide = Wide::new(ground, &view[ground as usize].reach(), &table, raster);
+                        TileBins::build_in(Isa::Portable, &columns, ranks, &table, raster, side);
+                    let wide = Wide::new(ground, &reach, &table, raster, side);
                     let g = &view[ground as usize];
                     // Per tile, the ground's bound and its nearest hit by a sample.
-                    let mut bound = vec![(None, f64::INFINITY); 6 * 5];
+                    let across = 96usize.div_ceil(side);
+                    let mut bound = vec![(None, f64::INFINITY); across * 72usize.div_ceil(side)];
                     let s2 = (samples * samples) as usize;
                     for j in 0..72 {
                         for i in 0..96 {
                             let list = bins.at(i, j);
-                            let (tx, ty) = (i / TILE, j / TILE);
-                            let tile = &mut bound[ty * 6 + tx];
+                            let (tx, ty) = (i / side, j / side);
+                            let tile = &mut bound[ty * across + tx];
                             // With the COP inside the ground, it is in every tile.
-                            if i % TILE == 0 && j % TILE == 0 {
+                            if i % side == 0 && j % side == 0 {
                                 tile.0 = match &wide {
                                     Some(w) => w.nearest(tx, ty, &mut None, &table, raster),
                                     None => Some(g.min_dist),
@@ -341,7 +399,7 @@ mod tests {
                                     tile.1 = tile.1.min(t);
                                 }
                             }
-                            if i % TILE == 0 && j % TILE == 0 {
+                            if i % side == 0 && j % side == 0 {
                                 match list.iter().position(|&k| k == ground) {
                                     None => dropped += 1,
                                     Some(at) => after += (at > 0) as usize,
@@ -408,7 +466,7 @@ mod tests {
     fn a_grazing_hit_keeps_a_wide_sphere_in_its_tile() {
         let (cop, window) = (DVec3::new(0.2, -0.1, -1.0), DVec2::new(1.6, 1.0));
         let r = 1e4;
-        for samples in [1, 3] {
+        for (samples, side) in [(1, TILE), (1, DENSE_TILE), (3, TILE)] {
             let raster = Raster {
                 width: 40,
                 height: 24,
@@ -417,9 +475,10 @@ mod tests {
             };
             let table = RayTable::new(cop, window, raster);
             let s = samples as usize;
-            for (tx, ty) in (0..3).flat_map(|tx| (0..2).map(move |ty| (tx, ty))) {
-                let (i0, j0) = (tx * TILE, ty * TILE);
-                let (i1, j1) = (((tx + 1) * TILE).min(40) - 1, ((ty + 1) * TILE).min(24) - 1);
+            let (across, down) = (40usize.div_ceil(side), 24usize.div_ceil(side));
+            for (tx, ty) in (0..across).flat_map(|tx| (0..down).map(move |ty| (tx, ty))) {
+                let (i0, j0) = (tx * side, ty * side);
+                let (i1, j1) = (((tx + 1) * side).min(40) - 1, ((ty + 1) * side).min(24) - 1);
                 // The middle sample of each edge and each corner sample (samples are row-major
                 // in a pixel), and the way out of the tile there: columns grow along x, rows
                 // downwards.
@@ -445,8 +504,9 @@ mod tests {
                         Footprint::Everywhere
                     );
                     let columns = ViewColumns::new(cop, &view);
+                    let ranks = Ranks::SCENE;
                     let bins =
-                        TileBins::build(Isa::Portable, &columns, Ranks::SCENE, &table, raster);
+                        TileBins::build_in(Isa::Portable, &columns, ranks, &table, raster, side);
                     let shading = unlit(&columns);
                     let t = root(f, sphere.c(), sphere.radius * sphere.radius, d);
                     assert!(t.is_some(), "the ray meets the sphere");
@@ -479,7 +539,7 @@ mod tests {
         let ground = in_view(DVec3::new(0.0, -r - 3.0, 20.0), r, cop);
         let small = in_view(DVec3::new(0.0, -3.5, 10.0), 0.5, cop);
         let (tx, ty) = (1, 1);
-        let wide = Wide::new(0, &ground.reach(), &table, raster).expect("the COP is outside");
+        let wide = Wide::new(0, &ground.reach(), &table, raster, TILE).expect("the COP is outside");
         let bound = (wide.nearest(tx, ty, &mut None, &table, raster))
             .expect("the tile's rays meet the ground");
         for (ground_id, small_id) in [(0, 1), (1, 0)] {
