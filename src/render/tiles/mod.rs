@@ -26,20 +26,21 @@ use order::search_order;
 
 pub use super::rays::TILE;
 
-/// Side in pixels of a tile at one sample a pixel from [`DENSE`] spheres a pixel: a packet
-/// reads its tile's list up to its hits, passing the spheres that do not cover it, and among
-/// many small spheres a quarter of the tile is a quarter of the list. Below that, the larger
-/// tile's fewer lists cost less to build than they save (docs/performance.md). A band's column
-/// of packets, [`HALF`](super::rays::HALF) pixels wide and four rows high, lies in one tile.
+/// Side in pixels of a tile at one sample a pixel from a quarter of a sphere a pixel
+/// ([`DENSE`]): a packet reads its tile's list up to its hits, passing the spheres that do not
+/// cover it, and among many small spheres a quarter of the tile is a quarter of the list.
+/// Below that, the larger tile's fewer lists cost less to build than they save
+/// (docs/performance.md). A band's column of packets, [`HALF`](super::rays::HALF) pixels wide
+/// and four rows high, lies in one tile.
 pub const DENSE_TILE: usize = 8;
 
-/// Spheres a pixel (in the frame's columns) from which a frame at one sample a pixel takes
-/// [`DENSE_TILE`].
+/// Pixels a sphere of the frame's columns, at most, at which a frame at one sample a pixel
+/// takes [`DENSE_TILE`]: a quarter of a sphere a pixel, or more.
 const DENSE: usize = 4;
 
 const _: () = assert!(
     TILE.is_multiple_of(DENSE_TILE)
-        && DENSE_TILE.is_multiple_of(4)
+        && DENSE_TILE.is_multiple_of(4) // a band's rows (`BAND`, drivers.rs)
         && DENSE_TILE.is_multiple_of(super::rays::HALF)
 );
 
@@ -56,7 +57,7 @@ pub struct TileBins {
 /// The side of a frame's tiles: [`DENSE_TILE`] at one sample a pixel with at least a quarter
 /// of a sphere a pixel, [`TILE`] otherwise. Which it is changes no pixel: a ray takes its
 /// nearest sphere, ties by scene order, from whatever list holds it.
-pub fn tile_side(spheres: usize, raster: Raster) -> usize {
+fn tile_side(spheres: usize, raster: Raster) -> usize {
     let pixels = raster.width as usize * raster.height as usize;
     match raster.samples == 1 && spheres.saturating_mul(DENSE) >= pixels {
         true => DENSE_TILE,
@@ -80,7 +81,7 @@ impl TileBins {
 
     /// [`TileBins::build`] in tiles of `side` pixels, [`TILE`] or (at one sample a pixel)
     /// [`DENSE_TILE`].
-    pub fn build_in(
+    fn build_in(
         isa: Isa,
         spheres: &ViewColumns,
         ranks: Ranks,
