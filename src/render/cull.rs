@@ -39,11 +39,13 @@ use super::tree::{shape_inner, Shape};
 use super::world::SceneIndex;
 use crate::camera::Camera;
 
-/// Side in pixels of a culling tile: its pixels' bounds are its walk's state (32 KB, in the
-/// first-level cache). Each tile walks the hierarchy's upper levels again: tiles of 32 pixels
-/// culled ten million spheres at 640×360 in 170–195 ms a frame, of 64 in 130–160 ms, of 128
-/// (blocks of 8) in 155–195 ms.
-pub const CULL_TILE: usize = 64;
+/// Side in pixels of a culling tile: its pixels' bounds are its walk's state (192 KB, on the
+/// heap, in the second-level cache). Each tile walks the hierarchy's upper levels again, and
+/// starts from its own seeds: against tiles of 64, tiles of 128 culled ten million spheres at
+/// 640×360 in 141 ms a frame, not 151, and at 1080p in 514 ms, not 548; a million at 640×360
+/// in 52–55 ms, not 56–57, and at 1080p as fast (docs/performance.md). Tiles of 32 were slower
+/// everywhere.
+pub const CULL_TILE: usize = 128;
 
 /// Side in pixels of a block of a tile, whose largest bound the tests read.
 const BLOCK: usize = 4;
@@ -536,22 +538,28 @@ impl ForLanes for Walk<'_, '_> {
 /// pixels, which a rectangle's test reads.
 struct Bounds {
     tile: Rect,
-    far: [f64; CULL_TILE * CULL_TILE],
+    far: Box<[f64; CULL_TILE * CULL_TILE]>,
     block: [f64; BLOCKS * BLOCKS],
     /// Each pixel's bound's sphere (its position in the hierarchy's order), or [`NO_OWNER`].
-    owner: [u32; CULL_TILE * CULL_TILE],
+    owner: Box<[u32; CULL_TILE * CULL_TILE]>,
 }
 
 /// A bound no sphere set (+∞).
 const NO_OWNER: u32 = u32::MAX;
 
+/// An array of `value`s made on the heap, not on the walk's stack and then moved.
+fn filled<T: Copy, const N: usize>(value: T) -> Box<[T; N]> {
+    let all: Box<[T]> = vec![value; N].into_boxed_slice();
+    all.try_into().unwrap_or_else(|_| unreachable!("N values"))
+}
+
 impl Bounds {
     fn new(tile: Rect) -> Bounds {
         Bounds {
             tile,
-            far: [f64::INFINITY; CULL_TILE * CULL_TILE],
+            far: filled(f64::INFINITY),
             block: [f64::INFINITY; BLOCKS * BLOCKS],
-            owner: [NO_OWNER; CULL_TILE * CULL_TILE],
+            owner: filled(NO_OWNER),
         }
     }
 

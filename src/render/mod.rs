@@ -603,7 +603,7 @@ mod tests {
             (inside, DVec3::new(0.0, 0.0, -1.0)),
             (inside, DVec3::new(-0.3, 0.2, -0.4)),
         ];
-        let rasters = [(97, 61), (160, 90), (33, 17)].map(|(width, height)| Raster {
+        let rasters = [(97, 61), (200, 140), (33, 17)].map(|(width, height)| Raster {
             width,
             height,
             samples: 1,
