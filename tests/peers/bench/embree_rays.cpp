@@ -52,11 +52,28 @@ int main(int argc, char** argv) {
     perror(argv[1]);
     return 2;
   }
+  // The header `campath bench` writes, line for line but its comment and count: any other
+  // layout is refused rather than read as this one.
+  const char* want[] = {"ply", "format binary_little_endian 1.0", "element vertex",
+                        "property float x", "property float y", "property float z",
+                        "property float radius", "property uchar red", "property uchar green",
+                        "property uchar blue", "end_header"};
   char line[256];
-  long n = 0;
-  while (fgets(line, sizeof line, file)) {
-    sscanf(line, "element vertex %ld", &n);
-    if (!strncmp(line, "end_header", 10)) break;
+  long n = -1;
+  size_t at = 0;
+  while (at < sizeof want / sizeof *want && fgets(line, sizeof line, file)) {
+    line[strcspn(line, "\r\n")] = 0;
+    if (!strncmp(line, "comment", 7)) continue;
+    if (at == 2 ? sscanf(line, "element vertex %ld", &n) != 1 : strcmp(line, want[at]) != 0) {
+      fprintf(stderr, "%s: header line \"%s\", not \"%s\" (a PLY of campath bench's)\n",
+              argv[1], line, want[at]);
+      return 2;
+    }
+    at++;
+  }
+  if (at < sizeof want / sizeof *want || n < 0) {
+    fprintf(stderr, "%s: the header ends early\n", argv[1]);
+    return 2;
   }
   double t0 = now();
   // Each vertex: four floats (x, y, z, radius), Embree's own layout, and three colour bytes.
