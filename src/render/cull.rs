@@ -208,12 +208,12 @@ struct Found {
     /// Spheres that may be nearer than the leaf's bound, whose rectangle the lanes leave to
     /// [`View::rect`]: at or behind the COP's plane, or beyond f64.
     whole: u8,
-    /// Spheres that may be nearer than the leaf's bound and meet the tile, with the ends of
-    /// their pixel spans in the tile (`x`, `y`: least and most, not yet whole pixels).
+    /// Spheres that may be nearer than the leaf's bound and whose pixels in the tile are
+    /// `x` and `y` (first and last column, first and last row), at least one of each.
     open: u8,
     near: [f64; LANES],
-    x: [[f64; LANES]; 2],
-    y: [[f64; LANES]; 2],
+    x: [[i32; LANES]; 2],
+    y: [[i32; LANES]; 2],
 }
 
 /// A tile's view of the frame in lanes: [`View::measure`] and [`View::rect`] for eight spheres
@@ -313,11 +313,12 @@ impl<V: Lanes> Octet<V> {
             & finite(hi[2], zero);
         // The least of a / z over z in [lo.z, hi.z] (both > 0 where it counts) and the most of
         // b / z, in window units; then pixel positions less a half.
+        // Each end's divisor chosen first, then one division, as `View::rect`'s `span` does.
         let (lz, hz) = (lo[2], hi[2]);
-        let wx0 = V::blend(lo[0].ge(zero), lo[0].div(lz), lo[0].div(hz)).mul(self.dz);
-        let wy0 = V::blend(lo[1].ge(zero), lo[1].div(lz), lo[1].div(hz)).mul(self.dz);
-        let wx1 = V::blend(hi[0].ge(zero), hi[0].div(hz), hi[0].div(lz)).mul(self.dz);
-        let wy1 = V::blend(hi[1].ge(zero), hi[1].div(hz), hi[1].div(lz)).mul(self.dz);
+        let wx0 = lo[0].div(V::blend(lo[0].ge(zero), lz, hz)).mul(self.dz);
+        let wy0 = lo[1].div(V::blend(lo[1].ge(zero), lz, hz)).mul(self.dz);
+        let wx1 = hi[0].div(V::blend(hi[0].ge(zero), hz, lz)).mul(self.dz);
+        let wy1 = hi[1].div(V::blend(hi[1].ge(zero), hz, lz)).mul(self.dz);
         let half = V::splat(tok, 0.5);
         let [ppx, ppy] = self.px_per;
         let px0 = self.cop[0].add(wx0).add(self.half_w).mul(ppx).sub(half);
@@ -326,18 +327,51 @@ impl<V: Lanes> Octet<V> {
         let py1 = self.top.sub(wy0).mul(ppy).sub(half);
         let decided =
             ahead & finite(px0, zero) & finite(px1, zero) & finite(py0, zero) & finite(py1, zero);
-        let (ax, bx) = (px0.max(self.tile[0][0]), px1.min(self.tile[0][1]));
-        let (ay, by) = (py0.max(self.tile[1][0]), py1.min(self.tile[1][1]));
-        let over = ax.le(bx) & ay.le(by);
+        let [[tx0, tx1], [ty0, ty1]] = self.tile;
+        // The whole pixels from the least to the most, in the tile.
+        let (x0, x1) = (ceil(px0.max(tx0)), floor(px1.min(tx1)));
+        let (y0, y1) = (ceil(py0.max(ty0)), floor(py1.min(ty1)));
+        let over = x0.le(x1) & y0.le(y1);
         let kept = valid & !beyond;
+        // In the tile's range in every lane (a NaN gives the tile's end), as `to_i32` needs.
+        let whole = |v: V, t0: V, t1: V| v.max(t0).min(t1).to_i32(i32::MAX);
         Found {
             whole: kept & !decided,
             open: kept & decided & over,
             near: near.store(),
-            x: [ax.store(), bx.store()],
-            y: [ay.store(), by.store()],
+            x: [whole(x0, tx0, tx1), whole(x1, tx0, tx1)],
+            y: [whole(y0, ty0, ty1), whole(y1, ty0, ty1)],
         }
     }
+}
+
+/// 2⁵²: from it up, every f64 is a whole number.
+const WHOLE: f64 = 4_503_599_627_370_496.0;
+
+/// The least whole number not below each lane in [0, 2⁵¹] (without `f64::ceil`, a call into
+/// libm on the baseline path): the nearest, by adding and taking away 2⁵², and one more where
+/// that is below the lane.
+#[inline(always)]
+fn ceil<V: Lanes>(v: V) -> V {
+    let whole = V::splat(v.token(), WHOLE);
+    let nearest = v.add(whole).sub(whole);
+    V::blend(
+        nearest.lt(v),
+        nearest,
+        nearest.add(V::splat(v.token(), 1.0)),
+    )
+}
+
+/// The greatest whole number not above each lane in [0, 2⁵¹], as [`ceil`] finds the least.
+#[inline(always)]
+fn floor<V: Lanes>(v: V) -> V {
+    let whole = V::splat(v.token(), WHOLE);
+    let nearest = v.add(whole).sub(whole);
+    V::blend(
+        nearest.gt(v),
+        nearest,
+        nearest.sub(V::splat(v.token(), 1.0)),
+    )
 }
 
 /// Lanes holding a finite value (`zero` in every lane).
@@ -591,12 +625,8 @@ impl Bounds {
                 (rect, dist - r - slack)
             } else {
                 // Over the tile and perhaps nearer than the bound asked: its pixels.
-                let (Some((x0, x1)), Some((y0, y1))) = (
-                    whole_pixels(found.x[0][l], found.x[1][l]),
-                    whole_pixels(found.y[0][l], found.y[1][l]),
-                ) else {
-                    continue;
-                };
+                let pixels = |ends: &[[i32; LANES]; 2]| (ends[0][l] as usize, ends[1][l] as usize);
+                let ((x0, x1), (y0, y1)) = (pixels(&found.x), pixels(&found.y));
                 (Rect { x0, x1, y0, y1 }, found.near[l])
             };
             if near > self.most(rect) {
@@ -751,18 +781,60 @@ fn larger(m: u64, bound: f64) -> u64 {
     m.max(bound.to_bits())
 }
 
-/// The whole pixels from `a` up to `b`, both inside a tile's pixel range and `a` ≤ `b`
-/// (without `f64::floor`, a call into libm on the baseline path).
-fn whole_pixels(a: f64, b: f64) -> Option<(usize, usize)> {
-    let (i, j) = (a as usize, b as usize);
-    let i = if (i as f64) < a { i + 1 } else { i };
-    (i <= j).then_some((i, j))
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{larger, InnerBall};
+    use super::{ceil, floor, larger, InnerBall};
+    use crate::render::lanes::{ForLanes, Lanes, LANES};
+    use crate::render::simd::Simd;
     use glam::DVec3;
+
+    /// `ceil` and `floor` of eight values on a path's lanes.
+    struct Whole([f64; LANES]);
+
+    impl ForLanes for Whole {
+        type Output = ([f64; LANES], [f64; LANES]);
+        fn run<V: Lanes>(self, tok: V::Token) -> Self::Output {
+            let v = V::load(tok, &self.0);
+            (ceil(v).store(), floor(v).store())
+        }
+    }
+
+    /// On every path this CPU runs, `ceil` and `floor` are `f64::ceil` and `f64::floor` over
+    /// [0, 2⁵¹]: whole numbers, halves (which the nearest rounds to even), one f64 either side
+    /// of them, and fractions of every size.
+    #[test]
+    fn whole_pixels_in_lanes_are_ceil_and_floor() {
+        let mut values = vec![0.0, f64::from_bits(1), 0.5, 2f64.powi(51)];
+        for k in [
+            1.0,
+            2.0,
+            3.0,
+            127.0,
+            128.0,
+            1919.5,
+            1e6,
+            2f64.powi(40) + 0.5,
+        ] {
+            for v in [k, k + 0.5, k - 0.5, k + 0.25, k - 0.75] {
+                values.extend([v, v.next_up(), v.next_down()]);
+            }
+        }
+        let mut rng = crate::splitmix::SplitMix(0x00f1_00c5);
+        values.extend((0..4000).map(|k| rng.unit() * 10f64.powi(k % 13 - 4)));
+        values.retain(|&v| (0.0..=2f64.powi(51)).contains(&v));
+        for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+            let isa = simd.isa().expect("a supported path");
+            for chunk in values.chunks(LANES) {
+                let mut v = [0.0; LANES];
+                v[..chunk.len()].copy_from_slice(chunk);
+                let (up, down) = isa.run(Whole(v));
+                for l in 0..LANES {
+                    assert_eq!(up[l], v[l].ceil(), "{} ceil {}", simd.name(), v[l]);
+                    assert_eq!(down[l], v[l].floor(), "{} floor {}", simd.name(), v[l]);
+                }
+            }
+        }
+    }
 
     /// A pixel's bound lowered as before the early stop: every step worked out.
     fn lowers_in_full(s: &InnerBall, d: DVec3, far: f64) -> Option<f64> {
