@@ -574,6 +574,8 @@ struct Bounds {
     tile: Rect,
     far: Box<[f64; CULL_TILE * CULL_TILE]>,
     block: [f64; BLOCKS * BLOCKS],
+    /// Blocks to find their largest bound again, as bits: set and cleared within a `lower`.
+    stale: [u64; BLOCKS * BLOCKS / 64],
     /// Each pixel's bound's sphere (its position in the hierarchy's order), or [`NO_OWNER`].
     owner: Box<[u32; CULL_TILE * CULL_TILE]>,
 }
@@ -593,6 +595,7 @@ impl Bounds {
             tile,
             far: filled(f64::INFINITY),
             block: [f64::INFINITY; BLOCKS * BLOCKS],
+            stale: [0; BLOCKS * BLOCKS / 64],
             owner: filled(NO_OWNER),
         }
     }
@@ -696,37 +699,67 @@ impl Bounds {
             sure,
             slack,
         };
-        let mut lowered = false;
+        // A block whose largest bound a pixel held as it fell: only there can the largest
+        // have fallen too, and only those blocks are found again.
+        let mut stale = false;
+        let t = self.tile;
         for y in rect.y0..=rect.y1 {
             for x in rect.x0..=rect.x1 {
                 let pixel = self.at(x, y);
-                if let Some(bound) = ball.lowers(view.units[y * w + x], self.far[pixel]) {
+                let far = self.far[pixel];
+                if let Some(bound) = ball.lowers(view.units[y * w + x], far) {
                     debug_assert!(bound > 0.0, "a bound at or below zero");
                     self.far[pixel] = bound;
                     self.owner[pixel] = at;
-                    lowered = true;
+                    let b = (y - t.y0) / BLOCK * BLOCKS + (x - t.x0) / BLOCK;
+                    if far.to_bits() == self.block[b].to_bits() {
+                        self.stale[b / 64] |= 1 << (b % 64);
+                        stale = true;
+                    }
                 }
             }
         }
-        if lowered {
-            // The blocks the sphere's pixels lie in, found again: a block's largest bound can
-            // only have fallen.
-            let t = self.tile;
+        if stale {
             let (bx0, bx1, by0, by1) = self.blocks(rect);
             for by in by0..=by1 {
                 for bx in bx0..=bx1 {
-                    let (x0, y0) = (t.x0 + bx * BLOCK, t.y0 + by * BLOCK);
-                    let mut m = 0;
-                    for y in y0..(y0 + BLOCK).min(t.y1 + 1) {
-                        let row = self.at(x0, y);
-                        for &far in &self.far[row..row + (t.x1 + 1 - x0).min(BLOCK)] {
-                            m = larger(m, far);
-                        }
+                    let b = by * BLOCKS + bx;
+                    if self.stale[b / 64] & 1 << (b % 64) == 0 {
+                        continue;
                     }
-                    self.block[by * BLOCKS + bx] = f64::from_bits(m);
+                    self.stale[b / 64] &= !(1 << (b % 64));
+                    self.block[b] = f64::from_bits(self.largest_in_block(bx, by));
                 }
             }
         }
+        debug_assert!(
+            self.blocks_hold_their_largest(rect),
+            "a block's largest bound left stale"
+        );
+    }
+
+    /// Whether each block of `rect` holds the largest bound of its pixels (what `lower`
+    /// keeps, finding again only the blocks whose largest fell), bit for bit.
+    fn blocks_hold_their_largest(&self, rect: Rect) -> bool {
+        let (bx0, bx1, by0, by1) = self.blocks(rect);
+        (by0..=by1).all(|by| {
+            (bx0..=bx1)
+                .all(|bx| self.largest_in_block(bx, by) == self.block[by * BLOCKS + bx].to_bits())
+        })
+    }
+
+    /// The largest bound of the pixels of block (`bx`, `by`), as its bits.
+    fn largest_in_block(&self, bx: usize, by: usize) -> u64 {
+        let t = self.tile;
+        let (x0, y0) = (t.x0 + bx * BLOCK, t.y0 + by * BLOCK);
+        let mut m = 0;
+        for y in y0..(y0 + BLOCK).min(t.y1 + 1) {
+            let row = self.at(x0, y);
+            for &far in &self.far[row..row + (t.x1 + 1 - x0).min(BLOCK)] {
+                m = larger(m, far);
+            }
+        }
+        m
     }
 }
 
