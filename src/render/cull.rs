@@ -657,6 +657,26 @@ impl Bounds {
     /// their bits (see [`larger`]).
     #[inline(always)]
     fn most(&self, r: Rect) -> f64 {
+        if r.x1 - r.x0 < 2 && r.y1 - r.y0 < 2 {
+            // Up to 2 × 2 pixels: their corners, without a loop's branches.
+            let (a, b) = (self.at(r.x0, r.y0), self.at(r.x0, r.y1));
+            let (w, far) = (r.x1 - r.x0, &self.far);
+            let m = larger(larger(larger(0, far[a]), far[a + w]), far[b]);
+            return f64::from_bits(larger(m, far[b + w]));
+        }
+        if r.x1 - r.x0 < 4 && r.y1 - r.y0 < 4 {
+            // Up to 4 × 4 pixels: four rows of four, the last row and column read again
+            // where the rectangle is smaller, without a loop's branches.
+            let (w, h) = (r.x1 - r.x0, r.y1 - r.y0);
+            let mut m = 0;
+            for j in 0..4 {
+                let row = self.at(r.x0, r.y0 + j.min(h));
+                for i in 0..4 {
+                    m = larger(m, self.far[row + i.min(w)]);
+                }
+            }
+            return f64::from_bits(m);
+        }
         let mut m = 0;
         if (r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1) <= PIXELS_READ {
             for y in r.y0..=r.y1 {
@@ -816,7 +836,7 @@ fn larger(m: u64, bound: f64) -> u64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{ceil, floor, larger, InnerBall};
+    use super::{ceil, floor, larger, Bounds, InnerBall, Rect, BLOCK, BLOCKS, PIXELS_READ};
     use crate::render::lanes::{ForLanes, Lanes, LANES};
     use crate::render::simd::Simd;
     use glam::DVec3;
@@ -925,6 +945,59 @@ mod tests {
             }
         }
         assert!(lowered > 10_000, "{lowered} bounds lowered");
+    }
+
+    /// `Bounds::most` over every rectangle of up to 6 × 6 pixels of an edge tile (5 × 7
+    /// blocks, the last ones cut by the raster), at every offset in a block: the largest of
+    /// its pixels' bounds up to `PIXELS_READ` pixels, its blocks' beyond, whatever its shape.
+    #[test]
+    fn the_largest_bound_of_a_rectangle_is_its_pixels_or_its_blocks() {
+        let tile = Rect {
+            x0: 256,
+            x1: 256 + 17,
+            y0: 128,
+            y1: 128 + 26,
+        };
+        let mut bounds = Bounds::new(tile);
+        let mut rng = crate::splitmix::SplitMix(0x0b10c);
+        for y in tile.y0..=tile.y1 {
+            for x in tile.x0..=tile.x1 {
+                let at = bounds.at(x, y);
+                bounds.far[at] = match rng.unit() {
+                    u if u < 0.1 => f64::INFINITY,
+                    u => 1.0 + 100.0 * u,
+                };
+            }
+        }
+        let (bx1, by1) = ((tile.x1 - tile.x0) / BLOCK, (tile.y1 - tile.y0) / BLOCK);
+        for by in 0..=by1 {
+            for bx in 0..=bx1 {
+                bounds.block[by * BLOCKS + bx] = f64::from_bits(bounds.largest_in_block(bx, by));
+            }
+        }
+        let mut checked = 0;
+        for y0 in tile.y0..=tile.y1 {
+            for x0 in tile.x0..=tile.x1 {
+                for y1 in y0..=(y0 + 5).min(tile.y1) {
+                    for x1 in x0..=(x0 + 5).min(tile.x1) {
+                        let r = Rect { x0, x1, y0, y1 };
+                        let (mut pixels, mut blocks) = (0.0f64, 0.0f64);
+                        for y in y0..=y1 {
+                            for x in x0..=x1 {
+                                pixels = pixels.max(bounds.far[bounds.at(x, y)]);
+                                let b = (y - tile.y0) / BLOCK * BLOCKS + (x - tile.x0) / BLOCK;
+                                blocks = blocks.max(bounds.block[b]);
+                            }
+                        }
+                        let small = (x1 - x0 + 1) * (y1 - y0 + 1) <= PIXELS_READ;
+                        let want = if small { pixels } else { blocks };
+                        assert_eq!(bounds.most(r), want, "{x0}..={x1} × {y0}..={y1}");
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked} rectangles");
     }
 
     /// Over the bounds the walk holds (positive: subnormal, normal, the largest finite, +∞),
