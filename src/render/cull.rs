@@ -328,7 +328,8 @@ impl<V: Lanes> Octet<V> {
         let decided =
             ahead & finite(px0, zero) & finite(px1, zero) & finite(py0, zero) & finite(py1, zero);
         let [[tx0, tx1], [ty0, ty1]] = self.tile;
-        // The whole pixels from the least to the most, in the tile.
+        // The whole pixels from the least to the most, in the tile. `ceil` and `floor` hold
+        // for lanes in [0, 2⁵¹]; a lane beyond lies past the tile, and `over` leaves it closed.
         let (x0, x1) = (ceil(px0.max(tx0)), floor(px1.min(tx1)));
         let (y0, y1) = (ceil(py0.max(ty0)), floor(py1.min(ty1)));
         let over = x0.le(x1) & y0.le(y1);
