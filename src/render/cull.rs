@@ -349,30 +349,28 @@ impl<V: Lanes> Octet<V> {
 /// 2⁵²: from it up, every f64 is a whole number.
 const WHOLE: f64 = 4_503_599_627_370_496.0;
 
-/// The least whole number not below each lane in [0, 2⁵¹] (without `f64::ceil`, a call into
-/// libm on the baseline path): the nearest, by adding and taking away 2⁵², and one more where
-/// that is below the lane.
+/// The nearest whole number to each lane in [0, 2⁵¹], by adding and taking away 2⁵² (without
+/// `f64::round` and its kin, calls into libm on the baseline path).
 #[inline(always)]
-fn ceil<V: Lanes>(v: V) -> V {
+fn nearest<V: Lanes>(v: V) -> V {
     let whole = V::splat(v.token(), WHOLE);
-    let nearest = v.add(whole).sub(whole);
-    V::blend(
-        nearest.lt(v),
-        nearest,
-        nearest.add(V::splat(v.token(), 1.0)),
-    )
+    v.add(whole).sub(whole)
 }
 
-/// The greatest whole number not above each lane in [0, 2⁵¹], as [`ceil`] finds the least.
+/// The least whole number not below each lane in [0, 2⁵¹]: the nearest, one more where that
+/// is below the lane.
+#[inline(always)]
+fn ceil<V: Lanes>(v: V) -> V {
+    let n = nearest(v);
+    V::blend(n.lt(v), n, n.add(V::splat(v.token(), 1.0)))
+}
+
+/// The greatest whole number not above each lane in [0, 2⁵¹]: the nearest, one less where
+/// that is above the lane.
 #[inline(always)]
 fn floor<V: Lanes>(v: V) -> V {
-    let whole = V::splat(v.token(), WHOLE);
-    let nearest = v.add(whole).sub(whole);
-    V::blend(
-        nearest.gt(v),
-        nearest,
-        nearest.sub(V::splat(v.token(), 1.0)),
-    )
+    let n = nearest(v);
+    V::blend(n.gt(v), n, n.sub(V::splat(v.token(), 1.0)))
 }
 
 /// Lanes holding a finite value (`zero` in every lane).
