@@ -217,7 +217,8 @@ struct Found {
 }
 
 /// A tile's view of the frame in lanes: [`View::measure`] and [`View::rect`] for eight spheres
-/// at once, operation for operation, so each lane holds the very values the scalar code finds.
+/// at once, operation for operation (the whole pixels by `ceil` and `floor`, which give the
+/// scalar clip's), so each lane holds the very values the scalar code finds.
 struct Octet<V: Lanes> {
     tok: V::Token,
     vrp: [V; 3],
