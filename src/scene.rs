@@ -218,7 +218,12 @@ impl Packed {
     /// whole spheres of a small scene's copy belong inline there.
     #[inline(never)]
     fn color(&self, k: usize) -> DVec3 {
-        let code = self.colors[k];
+        self.decode(self.colors[k])
+    }
+
+    /// The colour of a colour code.
+    #[inline(never)]
+    fn decode(&self, code: u32) -> DVec3 {
         match code & PALETTE != 0 {
             true => self.palette[(code & !PALETTE) as usize],
             false => {
@@ -340,6 +345,28 @@ impl Spheres {
         match &self.0 {
             Store::Wide(v) => v[k].color,
             Store::Packed(p) => p.color(k),
+        }
+    }
+
+    /// Each sphere's colour code, where the spheres are packed: 4 bytes a sphere that a
+    /// frame's view keeps beside each sphere it sees ([`Spheres::color_of_code`]), so that
+    /// shading a hit reads no more of the scene. Whole spheres keep their colour beside their
+    /// centre, and have none.
+    #[inline]
+    pub fn color_codes(&self) -> Option<&[u32]> {
+        match &self.0 {
+            Store::Wide(_) => None,
+            Store::Packed(p) => Some(&p.colors),
+        }
+    }
+
+    /// The colour of one of [`Spheres::color_codes`]: the bits [`Spheres::color`] gives its
+    /// sphere. Panics where the spheres are whole (they have no codes).
+    #[inline]
+    pub fn color_of_code(&self, code: u32) -> DVec3 {
+        match &self.0 {
+            Store::Wide(_) => panic!("whole spheres have no colour codes"),
+            Store::Packed(p) => p.decode(code),
         }
     }
 
@@ -680,6 +707,13 @@ mod tests {
                     prop_assert_eq!(store.ball(k).1.to_bits(), bits(s)[3]);
                     prop_assert_eq!(&store.color(k).to_array().map(f64::to_bits)[..], &bits(s)[4..]);
                 }
+                // A packed sphere's colour code gives its colour to the bit, whatever kind.
+                let codes = store.color_codes().expect("fewer than WIDEN_FROM spheres pack");
+                prop_assert_eq!(codes.len(), spheres.len());
+                for (k, s) in spheres.iter().enumerate() {
+                    let color = store.color_of_code(codes[k]);
+                    prop_assert_eq!(&color.to_array().map(f64::to_bits)[..], &bits(s)[4..]);
+                }
                 let every: Vec<[u64; 7]> = store.iter().map(|s| bits(&s)).collect();
                 let want: Vec<[u64; 7]> = spheres.iter().map(bits).collect();
                 prop_assert_eq!(every, want);
@@ -689,6 +723,8 @@ mod tests {
                 let mut set = appended.clone();
                 set.set(k, sphere(over));
                 prop_assert_eq!(bits(&set.get(k)), bits(&sphere(over)));
+                let code = set.color_codes().expect("packed")[k];
+                prop_assert_eq!(bits(&sphere(over))[4..].to_vec(), set.color_of_code(code).to_array().map(f64::to_bits).to_vec());
                 for j in (0..spheres.len()).filter(|&j| j != k) {
                     prop_assert_eq!(bits(&set.get(j)), bits(&spheres[j]));
                 }
@@ -765,6 +801,10 @@ mod tests {
         let one_by_one: Spheres = spheres.iter().copied().collect();
         for mut store in [at_once, after_ground, one_by_one] {
             assert!(matches!(store.0, Store::Wide(_)));
+            assert!(
+                store.color_codes().is_none(),
+                "whole spheres keep their colours"
+            );
             store.shrink_to_fit();
             assert_eq!(store.bytes() / size_of::<Sphere>(), store.len());
             let skip = store.len() - n;

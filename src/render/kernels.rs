@@ -239,14 +239,13 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
         ]
     }
 
-    /// Each lane's sphere's colour, which the columns do not keep: read from the spheres by
-    /// rank.
+    /// Each lane's sphere's colour ([`ViewColumns::color`]).
     #[inline(always)]
     fn colors(&self, tok: V::Token, scene: &Spheres) -> [V; 3] {
         match *self {
-            SphereLanes::One(s, k) => splat3(tok, scene.color(s.id[k] as usize)),
+            SphereLanes::One(s, k) => splat3(tok, s.color(scene, k)),
             SphereLanes::Two(s, second, a, b) => {
-                let (a, b) = (scene.color(s.id[a] as usize), scene.color(s.id[b] as usize));
+                let (a, b) = (s.color(scene, a), s.color(scene, b));
                 [
                     V::blend(second, V::splat(tok, a.x), V::splat(tok, b.x)),
                     V::blend(second, V::splat(tok, a.y), V::splat(tok, b.y)),
@@ -254,10 +253,10 @@ impl<'a, V: Lanes> SphereLanes<'a, V> {
                 ]
             }
             SphereLanes::Each(s, own) => {
-                let ids = V::index_store(V::gather_index(&s.id, own));
+                let own = V::index_store(own.within(&s.id));
                 let mut lanes = [[0.0; LANES]; 3];
-                for (l, &id) in ids.iter().enumerate() {
-                    let color = scene.color(id as usize);
+                for (l, &k) in own.iter().enumerate() {
+                    let color = s.color(scene, k as usize);
                     (lanes[0][l], lanes[1][l], lanes[2][l]) = (color.x, color.y, color.z);
                 }
                 [

@@ -3,6 +3,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::lanes::prefetch;
 use super::shadows::{prefetch_sphere, FrameShadows};
 use super::sort::PARALLEL;
 use crate::camera::Camera;
@@ -79,6 +80,11 @@ pub(super) struct ViewColumns {
     pub(super) center: [Vec<f64>; 3],
     /// The spheres' ranks (see [`Ranks`]).
     pub(super) id: Vec<u64>,
+    /// Each sphere's colour code, when `coded` ([`Spheres::color_codes`]): a hit's colour is
+    /// found from it, not read from the scene by rank at random. Otherwise left unwritten.
+    pub(super) color: Vec<u32>,
+    /// Whether `color` holds the spheres' codes (packed spheres'), or colours are read by rank.
+    pub(super) coded: bool,
 }
 
 impl ViewColumns {
@@ -92,12 +98,16 @@ impl ViewColumns {
         };
         let mut id = vec![0; room.max(n)];
         id.truncate(n);
+        let mut color = vec![0; room.max(n)];
+        color.truncate(n);
         ViewColumns {
             cop: DVec3::ZERO,
             min_dist: column(),
             radius: column(),
             center: [column(), column(), column()],
             id,
+            color,
+            coded: false,
         }
     }
 
@@ -124,20 +134,28 @@ impl ViewColumns {
             _ => ViewColumns::zeroed(n, n + n / 4),
         };
         columns.cop = camera.cop_view;
-        let ([min_dist, radius, x0, x1, x2], id) = columns.columns_mut();
+        let codes = spheres.color_codes();
+        columns.coded = codes.is_some();
+        let ([min_dist, radius, x0, x1, x2], id, color) = columns.columns_mut();
         let fill = |ids: &[u32], out: Chunk| {
-            let (min_dist, radius, x0, x1, x2, id) = out;
+            let (min_dist, radius, x0, x1, x2, id, color) = out;
             for (i, &k) in ids.iter().enumerate() {
                 // The ids follow the hierarchy, not the scene's order: a sphere some way
                 // ahead is asked for now, so that its read overlaps this one's work.
                 if let Some(&ahead) = ids.get(i + PREFETCH_AHEAD) {
                     prefetch_sphere(spheres, ahead as usize);
+                    if let Some(codes) = codes {
+                        prefetch(&codes[ahead as usize]);
+                    }
                 }
                 let s = ViewSphere::new(camera, spheres.ball(k as usize), k);
                 min_dist[i] = s.min_dist;
                 radius[i] = s.radius;
                 (x0[i], x1[i], x2[i]) = (s.center.x, s.center.y, s.center.z);
                 id[i] = s.id as u64;
+                if let Some(codes) = codes {
+                    color[i] = codes[k as usize];
+                }
             }
         };
         if n >= PARALLEL {
@@ -148,37 +166,51 @@ impl ViewColumns {
                 x1.par_chunks_mut(PARALLEL),
                 x2.par_chunks_mut(PARALLEL),
                 id.par_chunks_mut(PARALLEL),
+                color.par_chunks_mut(PARALLEL),
                 ids.par_chunks(PARALLEL),
             )
                 .into_par_iter()
-                .for_each(|(a, b, c, d, e, id, ids)| fill(ids, (a, b, c, d, e, id)));
+                .for_each(|(a, b, c, d, e, id, color, ids)| fill(ids, (a, b, c, d, e, id, color)));
         } else {
-            fill(ids, (min_dist, radius, x0, x1, x2, id));
+            fill(ids, (min_dist, radius, x0, x1, x2, id, color));
         }
         columns
     }
 
     /// The five f64 columns in the order of the fields (the centre after the radius), and the
     /// ids.
-    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 5], &mut Vec<u64>) {
+    fn columns_mut(&mut self) -> ([&mut Vec<f64>; 5], &mut Vec<u64>, &mut Vec<u32>) {
         let ViewColumns {
             cop: _,
+            coded: _,
             min_dist,
             radius,
             center: [x0, x1, x2],
             id,
+            color,
         } = self;
-        ([min_dist, radius, x0, x1, x2], id)
+        ([min_dist, radius, x0, x1, x2], id, color)
     }
 
     /// Every column `n` long, in the room it has: the values kept are written over by
     /// [`ViewColumns::of`], any added are zeros.
     fn set_len(&mut self, n: usize) {
-        let (floats, id) = self.columns_mut();
+        let (floats, id, color) = self.columns_mut();
         for column in floats {
             column.resize(n, 0.0);
         }
         id.resize(n, 0);
+        color.resize(n, 0);
+    }
+
+    /// Sphere `k`'s colour, from its code or read from `scene` by its rank (`scene` is the
+    /// one the columns were made of).
+    #[inline(always)]
+    pub(super) fn color(&self, scene: &Spheres, k: usize) -> DVec3 {
+        match self.coded {
+            true => scene.color_of_code(self.color[k]),
+            false => scene.color(self.id[k] as usize),
+        }
     }
 
     /// What the tiles read of sphere `k`.
@@ -235,6 +267,7 @@ type Chunk<'a> = (
     &'a mut [f64],
     &'a mut [f64],
     &'a mut [u64],
+    &'a mut [u32],
 );
 
 /// A light in view coordinates.
@@ -289,6 +322,7 @@ mod tests {
                     self.center[a].push(s.center[a]);
                 }
                 self.id.push(s.id as u64);
+                self.color.push(0);
             }
         }
     }
