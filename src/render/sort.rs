@@ -361,17 +361,23 @@ mod tests {
                         value << low | k as u64 & ((1u64 << low) - 1)
                     })
                     .collect();
-                let mut want = keys.clone();
-                want.sort_by_key(|&x| x >> low);
-                for threads in 1..=3 {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
-                    let got = pool.install(|| sort_by_high_bits(keys.clone(), low));
-                    assert!(got == want, "{n} keys, low {low}, {threads} threads");
-                }
+                sorts_as_a_stable_sort(&keys, low, &format!("{n} keys, low {low}"));
             }
+        }
+    }
+
+    /// `sort_by_high_bits(keys, low)` on pools of one to three threads gives the standard
+    /// library's stable sort of the bits above `low`.
+    fn sorts_as_a_stable_sort(keys: &[u64], low: u32, what: &str) {
+        let mut want = keys.to_vec();
+        want.sort_by_key(|&x| x.checked_shr(low).unwrap_or(0));
+        for threads in 1..=3 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let got = pool.install(|| sort_by_high_bits(keys.to_vec(), low));
+            assert!(got == want, "{what}, {threads} threads");
         }
     }
 
@@ -411,16 +417,7 @@ mod tests {
                     v.checked_shl(low).unwrap_or(0) | index
                 })
                 .collect();
-            let mut want = keys.clone();
-            want.sort_by_key(|&x| x.checked_shr(low).unwrap_or(0));
-            for threads in 1..=3 {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
-                let got = pool.install(|| sort_by_high_bits(keys.clone(), low));
-                assert!(got == want, "low {low}, {bits} bits, {threads} threads");
-            }
+            sorts_as_a_stable_sort(&keys, low, &format!("low {low}, {bits} bits"));
         }
     }
 
