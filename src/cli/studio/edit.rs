@@ -14,7 +14,6 @@ use std::sync::Arc;
 
 use serde::Deserialize;
 
-use super::http::{json, Answer};
 use super::{load, Studio};
 use crate::format::splice::{self, KeyEdit};
 use crate::mode::Mode;
@@ -49,13 +48,14 @@ struct HistoryRequest {
 /// A refused edit: its status and why.
 type Refused = (u16, String);
 
-/// Applies the request at `path` to the file; answers with the new state's version, or 409
-/// (the file changed), or 422 (the edit cannot be made, or would make the file invalid).
-pub fn apply(studio: &Studio, path: &str, body: &str) -> Answer {
+/// Applies the request at `path` to the file. The answer's status and JSON body: the new
+/// state's version, or 409 (the file changed), or 422 (the edit cannot be made, or would make
+/// the file invalid).
+pub fn apply(studio: &Studio, path: &str, body: &str) -> (u16, String) {
     let _writing = studio.writing.lock().unwrap_or_else(|p| p.into_inner());
     match write(studio, path, body) {
-        Ok(what) => json(200, serde_json::json!({"done": what}).to_string()),
-        Err((status, why)) => json(status, serde_json::json!({"error": why}).to_string()),
+        Ok(what) => (200, serde_json::json!({"done": what}).to_string()),
+        Err((status, why)) => (status, serde_json::json!({"error": why}).to_string()),
     }
 }
 

@@ -192,7 +192,8 @@ fn route(studio: &Arc<Studio>, request: &mut Request) -> Answer {
             if studio.read_only {
                 return text(403, "read-only: this studio does not write the file");
             }
-            super::edit::apply(studio, path, &body)
+            let (status, body) = super::edit::apply(studio, path, &body);
+            json(status, body)
         }
         (
             _,
