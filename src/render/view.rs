@@ -66,9 +66,9 @@ pub(super) struct Reach {
 /// The frame's spheres in view coordinates, one slice per field, in the order of the spheres:
 /// the hit search reads a candidate's terms by its index, and a packet whose lanes hit several
 /// spheres gathers their fields lane by lane (`Lanes::gather`). Only what the search, the
-/// tiles and the shading read, 48 bytes a sphere: f (COP − centre), c = |f|² − r² and r² are
+/// tiles and the shading read, 52 bytes a sphere: f (COP − centre), c = |f|² − r² and r² are
 /// found where they are needed, by the operations [`ViewSphere::in_view`] does, and a hit
-/// sphere's colour comes from the scene by its index.
+/// sphere's colour from its code (packed spheres) or from the scene by its rank.
 pub(super) struct ViewColumns {
     /// The COP, in view coordinates: f = cop − centre.
     pub(super) cop: DVec3,
