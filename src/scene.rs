@@ -214,14 +214,13 @@ impl Packed {
         }
     }
 
-    /// Out of line: the shading's loops read colours through [`Spheres::color`], and only the
-    /// whole spheres of a small scene's copy belong inline there.
-    #[inline(never)]
     fn color(&self, k: usize) -> DVec3 {
         self.decode(self.colors[k])
     }
 
-    /// The colour of a colour code.
+    /// The colour of a colour code. Out of line: the shading's loops decode packed spheres'
+    /// codes ([`Spheres::color_of_code`]), and only the whole spheres of a small scene's copy
+    /// belong inline there.
     #[inline(never)]
     fn decode(&self, code: u32) -> DVec3 {
         match code & PALETTE != 0 {

@@ -177,8 +177,8 @@ impl ViewColumns {
         columns
     }
 
-    /// The five f64 columns in the order of the fields (the centre after the radius), and the
-    /// ids.
+    /// The five f64 columns in the order of the fields (the centre after the radius), the ids
+    /// and the colour codes.
     fn columns_mut(&mut self) -> ([&mut Vec<f64>; 5], &mut Vec<u64>, &mut Vec<u32>) {
         let ViewColumns {
             cop: _,
