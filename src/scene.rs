@@ -352,7 +352,7 @@ impl Spheres {
     /// shading a hit reads no more of the scene. Whole spheres keep their colour beside their
     /// centre, and have none.
     #[inline]
-    pub fn color_codes(&self) -> Option<&[u32]> {
+    pub(crate) fn color_codes(&self) -> Option<&[u32]> {
         match &self.0 {
             Store::Wide(_) => None,
             Store::Packed(p) => Some(&p.colors),
@@ -362,7 +362,7 @@ impl Spheres {
     /// The colour of one of [`Spheres::color_codes`]: the bits [`Spheres::color`] gives its
     /// sphere. Panics where the spheres are whole (they have no codes).
     #[inline]
-    pub fn color_of_code(&self, code: u32) -> DVec3 {
+    pub(crate) fn color_of_code(&self, code: u32) -> DVec3 {
         match &self.0 {
             Store::Wide(_) => panic!("whole spheres have no colour codes"),
             Store::Packed(p) => p.decode(code),
@@ -723,7 +723,8 @@ mod tests {
                 set.set(k, sphere(over));
                 prop_assert_eq!(bits(&set.get(k)), bits(&sphere(over)));
                 let code = set.color_codes().expect("packed")[k];
-                prop_assert_eq!(bits(&sphere(over))[4..].to_vec(), set.color_of_code(code).to_array().map(f64::to_bits).to_vec());
+                let color = set.color_of_code(code).to_array().map(f64::to_bits);
+                prop_assert_eq!(&color[..], &bits(&sphere(over))[4..]);
                 for j in (0..spheres.len()).filter(|&j| j != k) {
                     prop_assert_eq!(bits(&set.get(j)), bits(&spheres[j]));
                 }
