@@ -180,8 +180,9 @@ impl<'a> View<'a> {
         (center, r, f, dist, slack)
     }
 
-    /// `near_box` of node `j` of `index`'s hierarchy, whose own children (or spheres) are asked
-    /// for now: the walk is bound by their reads, and one of a node's two children is next.
+    /// `near_box` of node `j` of `index`'s hierarchy, whose own children (or every line of its
+    /// spheres' shapes) are asked for now: the walk is bound by their reads, and one of a
+    /// node's two children is next.
     fn near_child(&self, index: &SceneIndex, j: u32) -> f64 {
         let (nodes, shapes, _) = index.tree();
         let child = &nodes[j as usize];
@@ -189,7 +190,11 @@ impl<'a> View<'a> {
             prefetch(&nodes[j as usize + 1]);
             prefetch(&nodes[child.start as usize]);
         } else {
-            prefetch(&shapes[child.start as usize]);
+            // Four shapes a 64-byte line, and the last, which may begin another line.
+            let leaf = &shapes[child.start as usize..][..child.count as usize];
+            for shape in leaf.iter().step_by(4).chain(leaf.last()) {
+                prefetch(shape);
+            }
         }
         let [lo, hi] = child.bounds();
         self.near_box(lo, hi)
