@@ -63,9 +63,10 @@ struct View<'a> {
     camera: &'a Camera,
     cop_world: DVec3,
     table: &'a RayTable,
-    /// Each pixel's ray direction as a unit vector, row by row: `DVec3::normalize` of
-    /// (xs[x], ys[y], dz), found once a frame rather than once a sphere and pixel.
-    units: Vec<DVec3>,
+    /// Each pixel's ray direction as a unit vector, row by row, one column per coordinate:
+    /// `DVec3::normalize` of (xs[x], ys[y], dz), found once a frame rather than once a sphere
+    /// and pixel. [`LANES`] zeros follow the last pixel, so eight lanes load from any pixel.
+    units: [Vec<f64>; 3],
     /// Window width and height over the raster's, for window coordinates to pixels.
     px_per_x: f64,
     px_per_y: f64,
@@ -86,16 +87,18 @@ impl<'a> View<'a> {
     fn new(camera: &'a Camera, table: &'a RayTable) -> View<'a> {
         let cop_world = camera.cop_world();
         let raster = table.raster;
-        let units = table
-            .ys
-            .par_iter()
-            .flat_map_iter(|&y| {
-                table
-                    .xs
-                    .iter()
-                    .map(move |&x| DVec3::new(x, y, table.dz).normalize())
-            })
-            .collect();
+        // Filled row by row on the pool, each column in place.
+        let (w, dz) = (table.xs.len(), table.dz);
+        let mut units = [0; 3].map(|_| vec![0.0; w * table.ys.len() + LANES]);
+        let [ux, uy, uz] = &mut units;
+        let rows = ux.par_chunks_mut(w).zip(uy.par_chunks_mut(w));
+        let rows = rows.zip(uz.par_chunks_mut(w)).zip(&table.ys);
+        rows.for_each(|(((ux, uy), uz), &y)| {
+            for (i, &x) in table.xs.iter().enumerate() {
+                let d = DVec3::new(x, y, dz).normalize();
+                (ux[i], uy[i], uz[i]) = (d.x, d.y, d.z);
+            }
+        });
         View {
             camera,
             cop_world,
@@ -512,7 +515,7 @@ impl ForLanes for Walk<'_, '_> {
             }
             if n > 0 {
                 let found = lanes.test(&group[..n], f64::INFINITY);
-                bounds.take(view, tile, &group[..n], &found, |l| at[l]);
+                bounds.take::<V>(tok, view, tile, &group[..n], &found, |l| at[l]);
             }
         }
         let mut stack: Vec<(u32, f64)> = Vec::with_capacity(96);
@@ -555,7 +558,8 @@ impl ForLanes for Walk<'_, '_> {
             for (g, group) in leaf.chunks(LANES).enumerate() {
                 let base = first + g * LANES;
                 let found = lanes.test(group, bound);
-                let mut taken = bounds.take(view, tile, group, &found, |l| (base + l) as u32);
+                let at = |l| (base + l) as u32;
+                let mut taken = bounds.take::<V>(tok, view, tile, group, &found, at);
                 while taken != 0 {
                     kept.set(base + taken.trailing_zeros() as usize);
                     taken &= taken - 1;
@@ -577,7 +581,9 @@ impl ForLanes for Walk<'_, '_> {
 /// pixels, which a rectangle's test reads.
 struct Bounds {
     tile: Rect,
-    far: Box<[f64; CULL_TILE * CULL_TILE]>,
+    /// [`LANES`] more than the tile's pixels (at +∞, never lowered), so eight lanes load from
+    /// any pixel.
+    far: Box<[f64; CULL_TILE * CULL_TILE + LANES]>,
     block: [f64; BLOCKS * BLOCKS],
     /// Blocks to find their largest bound again, as bits: set and cleared within a `lower`.
     stale: [u64; BLOCKS * BLOCKS / 64],
@@ -609,8 +615,9 @@ impl Bounds {
     /// their pixels, as bits of lanes, each lowering the bounds (as sphere `at(lane)`) in the
     /// group's order, as one at a time: each lowers the bounds the next is tested against.
     #[inline(always)]
-    fn take(
+    fn take<V: Lanes>(
         &mut self,
+        tok: V::Token,
         view: &View,
         tile: Rect,
         group: &[Shape],
@@ -641,7 +648,7 @@ impl Bounds {
                 continue;
             }
             taken |= 1 << l;
-            self.lower(view, shape, rect, at(l));
+            self.lower::<V>(tok, view, shape, rect, at(l));
         }
         taken
     }
@@ -702,8 +709,10 @@ impl Bounds {
     }
 
     /// Where sphere `at` is met for sure by a ray of `rect`, that pixel's nearest hit made no
-    /// farther than the far end of where the hit can lie (and the sphere its bound's owner).
-    fn lower(&mut self, view: &View, shape: &Shape, rect: Rect, at: u32) {
+    /// farther than the far end of where the hit can lie (and the sphere its bound's owner):
+    /// eight pixels of a row at a time ([`InnerBall::lowers`]).
+    #[inline(always)]
+    fn lower<V: Lanes>(&mut self, tok: V::Token, view: &View, shape: &Shape, rect: Rect, at: u32) {
         let (_, r, f, dist, slack) = view.measure(shape);
         let inner = shape_inner(shape);
         let (r2, sure) = (
@@ -717,27 +726,40 @@ impl Bounds {
             return;
         }
         let w = view.table.raster.width as usize;
-        let ball = InnerBall {
-            f,
-            r2,
-            most_root: r2.sqrt(),
-            sure,
-            slack,
-        };
+        let ball = InnerBall::<V>::new(tok, f, r2, sure, slack);
         // A block whose largest bound a pixel held as it fell: only there can the largest
         // have fallen too, and only those blocks are found again.
         let mut stale = false;
         let t = self.tile;
+        let [ux, uy, uz] = &view.units;
         for y in rect.y0..=rect.y1 {
-            for x in rect.x0..=rect.x1 {
-                let pixel = self.at(x, y);
-                let far = self.far[pixel];
-                if let Some(bound) = ball.lowers(view.units[y * w + x], far) {
-                    debug_assert!(bound > 0.0, "a bound at or below zero");
-                    self.far[pixel] = bound;
-                    self.owner[pixel] = at;
-                    let b = (y - t.y0) / BLOCK * BLOCKS + (x - t.x0) / BLOCK;
-                    if far.to_bits() == self.block[b].to_bits() {
+            for x in (rect.x0..=rect.x1).step_by(LANES) {
+                let valid = (u16::MAX >> (16 - (rect.x1 + 1 - x).min(LANES))) as u8;
+                let (pixel, u) = (self.at(x, y), y * w + x);
+                let eight = |column: &[f64], at: usize| {
+                    let values: &[f64; LANES] = column[at..at + LANES].try_into().expect("8");
+                    V::load(tok, values)
+                };
+                let d = [eight(ux, u), eight(uy, u), eight(uz, u)];
+                let far = eight(&self.far[..], pixel);
+                let (mut lowered, bound) = ball.lowers(d, far);
+                lowered &= valid;
+                if lowered == 0 {
+                    continue;
+                }
+                // Written back as one row of eight (the rest as they were), which the next
+                // sphere's loads take from the store as it is.
+                let row: &mut [f64; LANES] =
+                    (&mut self.far[pixel..pixel + LANES]).try_into().expect("8");
+                *row = V::blend(lowered, far, bound).store();
+                let far = far.store();
+                while lowered != 0 {
+                    let l = lowered.trailing_zeros() as usize;
+                    lowered &= lowered - 1;
+                    debug_assert!(row[l] > 0.0, "a bound at or below zero");
+                    self.owner[pixel + l] = at;
+                    let b = (y - t.y0) / BLOCK * BLOCKS + (x + l - t.x0) / BLOCK;
+                    if far[l].to_bits() == self.block[b].to_bits() {
                         self.stale[b / 64] |= 1 << (b % 64);
                         stale = true;
                     }
@@ -788,45 +810,47 @@ impl Bounds {
     }
 }
 
-/// A sphere's inner ball as [`Bounds::lower`] meets it along a pixel's ray: `f`, the COP less
-/// its centre; `r2`, its radius squared, and `most_root`, that square's root; `sure`, the
-/// least discriminant of a sure hit; `slack`, the allowance at its distance.
-struct InnerBall {
-    f: DVec3,
-    r2: f64,
-    most_root: f64,
-    sure: f64,
-    slack: f64,
+/// A sphere's inner ball as [`Bounds::lower`] meets it along eight pixels' rays, in every
+/// lane: `f`, the COP less its centre; `r2`, its radius squared; `sure`, the least
+/// discriminant of a sure hit; `slack`, the allowance at its distance.
+struct InnerBall<V> {
+    f: [V; 3],
+    r2: V,
+    sure: V,
+    slack: V,
 }
 
-impl InnerBall {
-    /// The bound the ray along unit `d` gets from a sure hit (the far end of where it can
-    /// lie), if it is nearer than `far`, the pixel's bound. Positive, as `larger` needs.
+impl<V: Lanes> InnerBall<V> {
     #[inline(always)]
-    fn lowers(&self, d: DVec3, far: f64) -> Option<f64> {
-        let InnerBall {
-            f,
-            r2,
-            most_root,
-            sure,
-            slack,
-        } = *self;
-        let b = f.dot(d);
-        // The nearest the bound can come out, rounded as it is: the discriminant never
-        // exceeds r2 (r2 less a square, rounded), and rounding, the square root and the
-        // operations below keep their operands' order. At `far` or beyond, the rest is not
-        // worked out.
-        if -b - most_root + slack >= far {
-            return None;
+    fn new(tok: V::Token, f: DVec3, r2: f64, sure: f64, slack: f64) -> InnerBall<V> {
+        InnerBall {
+            f: splat3(tok, f),
+            r2: V::splat(tok, r2),
+            sure: V::splat(tok, sure),
+            slack: V::splat(tok, slack),
         }
-        let g = f - d * b;
-        let disc = r2 - g.length_squared();
-        if !(disc > sure) {
-            return None;
-        }
-        let t = -b - disc.sqrt();
-        // t > slack ≥ 0, so the bound is positive.
-        (t > slack && t + slack < far).then_some(t + slack)
+    }
+
+    /// The lanes whose ray, along unit `d`, gets from a sure hit a bound (the far end of where
+    /// the hit can lie) nearer than `far`, the pixel's bound; and those bounds, positive, as
+    /// `larger` needs. Each lane does the scalar steps in their order (glam's dot product, no
+    /// fused multiply-add), so its bound is the bits a one-ray form finds.
+    #[inline(always)]
+    fn lowers(&self, d: [V; 3], far: V) -> (u8, V) {
+        let b = dot(&self.f, &d);
+        // f − d·b, the ray's closest approach to the centre.
+        let g = [
+            self.f[0].sub(d[0].mul(b)),
+            self.f[1].sub(d[1].mul(b)),
+            self.f[2].sub(d[2].mul(b)),
+        ];
+        let disc = self.r2.sub(dot(&g, &g));
+        // A negative discriminant's root is NaN, in a lane `disc > sure` leaves. Where it is
+        // taken, t > slack ≥ 0, so the bound is positive.
+        let t = b.neg().sub(disc.sqrt());
+        let bound = t.add(self.slack);
+        let lowered = disc.gt(self.sure) & t.gt(self.slack) & bound.lt(far);
+        (lowered, bound)
     }
 }
 
@@ -894,8 +918,18 @@ mod tests {
         }
     }
 
-    /// A pixel's bound lowered as before the early stop: every step worked out.
-    fn lowers_in_full(s: &InnerBall, d: DVec3, far: f64) -> Option<f64> {
+    /// A sphere's inner ball and a pixel's ray as the one-ray form reads them.
+    #[derive(Clone, Copy, Debug)]
+    struct Ball {
+        f: DVec3,
+        r2: f64,
+        sure: f64,
+        slack: f64,
+    }
+
+    /// The bound a pixel's ray along unit `d` gets from a sure hit of `s`, if nearer than
+    /// `far`: the one-ray form, in glam's f64.
+    fn lowers_one(s: Ball, d: DVec3, far: f64) -> Option<f64> {
         let b = s.f.dot(d);
         let g = s.f - d * b;
         let disc = s.r2 - g.length_squared();
@@ -906,22 +940,39 @@ mod tests {
         (t > s.slack && t + s.slack < far).then_some(t + s.slack)
     }
 
-    /// The early stop changes no bound: seeded balls and rays, rays that meet a ball, graze
-    /// it and miss it, against bounds at +∞, at the bound the hit gives and one f64 either side
-    /// of it, at the early stop's threshold and either side of it, and anywhere.
+    /// Eight rays and their pixels' bounds against one ball, on a path's lanes: the bounds of
+    /// the lanes lowered, `None` elsewhere.
+    struct Lower(Ball, [DVec3; LANES], [f64; LANES]);
+
+    impl ForLanes for Lower {
+        type Output = [Option<f64>; LANES];
+        fn run<V: Lanes>(self, tok: V::Token) -> Self::Output {
+            let Lower(s, d, far) = self;
+            let ball = InnerBall::<V>::new(tok, s.f, s.r2, s.sure, s.slack);
+            let column = |k: usize| V::load(tok, &d.map(|d| d[k]));
+            let d = [column(0), column(1), column(2)];
+            let (lowered, bound) = ball.lowers(d, V::load(tok, &far));
+            let bound = bound.store();
+            std::array::from_fn(|l| (lowered & 1 << l != 0).then_some(bound[l]))
+        }
+    }
+
+    /// On every path this CPU runs, each lane lowers a pixel's bound to the very bits of the
+    /// one-ray form, or leaves it as that form does: seeded balls, and rays that meet a ball,
+    /// graze it and miss it, against bounds at +∞, at the bound the hit gives and one f64
+    /// either side of it, and anywhere.
     #[test]
-    fn the_early_stop_lowers_every_bound_as_working_it_out_does() {
+    fn the_lanes_lower_every_bound_as_one_ray_does() {
         let mut rng = crate::splitmix::SplitMix(0xb0d5);
-        let mut lowered = 0;
+        let mut cases = Vec::new();
         for _ in 0..20_000 {
             let dist = 1.0 + 1000.0 * rng.unit();
             let inner = dist * (0.001 + 0.5 * rng.unit());
             let toward = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5);
             let f = toward.normalize() * dist;
-            let s = InnerBall {
+            let s = Ball {
                 f,
                 r2: inner * inner,
-                most_root: (inner * inner).sqrt(),
                 sure: 1e-3 * inner * inner + 1e-12 * f.length_squared(),
                 slack: 1e-6 * dist * rng.unit(),
             };
@@ -930,26 +981,48 @@ mod tests {
             let spread = 2.0 * inner / dist * rng.unit();
             let turn = DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * spread;
             let d = (-f.normalize() + turn).normalize();
-            let threshold = -s.f.dot(d) - s.most_root + s.slack;
             let mut fars = vec![f64::INFINITY, 2.0 * dist * rng.unit()];
-            for v in [lowers_in_full(&s, d, f64::INFINITY), Some(threshold)]
-                .into_iter()
-                .flatten()
-            {
+            if let Some(v) = lowers_one(s, d, f64::INFINITY) {
                 fars.extend([v, v.next_up(), v.next_down()]);
             }
-            for far in fars {
-                let want = lowers_in_full(&s, d, far);
-                assert_eq!(
-                    s.lowers(d, far),
-                    want,
-                    "f {f}, r² {}, d {d}, far {far}",
-                    s.r2
-                );
-                lowered += usize::from(want.is_some());
-            }
+            cases.extend(fars.into_iter().map(|far| (s, d, far)));
         }
-        assert!(lowered > 10_000, "{lowered} bounds lowered");
+        let mut checked = 0;
+        for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+            let isa = simd.isa().expect("a supported path");
+            let (mut lowered, mut kept) = (0, 0);
+            // Eight pixels' rays and bounds a ball, each case in every lane in turn.
+            for (k, &(s, d, far)) in cases.iter().enumerate() {
+                let mut rays = [DVec3::ZERO; LANES];
+                let mut fars = [0.0; LANES];
+                for l in 0..LANES {
+                    let (_, d, far) = cases[(k + l * 7919) % cases.len()];
+                    (rays[l], fars[l]) = (d, far);
+                }
+                let l = k % LANES;
+                (rays[l], fars[l]) = (d, far);
+                let got = isa.run(Lower(s, rays, fars));
+                for l in 0..LANES {
+                    let want = lowers_one(s, rays[l], fars[l]);
+                    assert_eq!(
+                        got[l],
+                        want,
+                        "{}: {s:?} d {} far {}",
+                        simd.name(),
+                        rays[l],
+                        fars[l]
+                    );
+                    lowered += usize::from(want.is_some());
+                    kept += usize::from(want.is_none());
+                }
+                checked += 1;
+            }
+            assert!(
+                lowered > 10_000 && kept > 10_000,
+                "{lowered} lowered, {kept} kept"
+            );
+        }
+        assert!(checked >= 40_000, "{checked} cases");
     }
 
     /// `Bounds::most` over every rectangle of up to 6 × 6 pixels of an edge tile (5 × 7
