@@ -63,10 +63,8 @@ struct View<'a> {
     camera: &'a Camera,
     cop_world: DVec3,
     table: &'a RayTable,
-    /// Each pixel's ray direction as a unit vector, row by row, one column per coordinate:
-    /// `DVec3::normalize` of (xs[x], ys[y], dz), found once a frame rather than once a sphere
-    /// and pixel. [`LANES`] zeros follow the last pixel, so eight lanes load from any pixel.
-    units: [Vec<f64>; 3],
+    /// Each pixel's ray as a unit vector, one column per coordinate ([`RayTable::units`]).
+    units: &'a [Vec<f64>; 3],
     /// Window width and height over the raster's, for window coordinates to pixels.
     px_per_x: f64,
     px_per_y: f64,
@@ -87,23 +85,11 @@ impl<'a> View<'a> {
     fn new(camera: &'a Camera, table: &'a RayTable) -> View<'a> {
         let cop_world = camera.cop_world();
         let raster = table.raster;
-        // Filled row by row on the pool, each column in place.
-        let (w, dz) = (table.xs.len(), table.dz);
-        let mut units = [0; 3].map(|_| vec![0.0; w * table.ys.len() + LANES]);
-        let [ux, uy, uz] = &mut units;
-        let rows = ux.par_chunks_mut(w).zip(uy.par_chunks_mut(w));
-        let rows = rows.zip(uz.par_chunks_mut(w)).zip(&table.ys);
-        rows.for_each(|(((ux, uy), uz), &y)| {
-            for (i, &x) in table.xs.iter().enumerate() {
-                let d = DVec3::new(x, y, dz).normalize();
-                (ux[i], uy[i], uz[i]) = (d.x, d.y, d.z);
-            }
-        });
         View {
             camera,
             cop_world,
             table,
-            units,
+            units: table.units(),
             px_per_x: raster.width as f64 / camera.window.x,
             px_per_y: raster.height as f64 / camera.window.y,
             slack: SLACK
@@ -731,7 +717,7 @@ impl Bounds {
         // have fallen too, and only those blocks are found again.
         let mut stale = false;
         let t = self.tile;
-        let [ux, uy, uz] = &view.units;
+        let [ux, uy, uz] = view.units;
         for y in rect.y0..=rect.y1 {
             for x in (rect.x0..=rect.x1).step_by(LANES) {
                 let valid = (u16::MAX >> (16 - (rect.x1 + 1 - x).min(LANES))) as u8;

@@ -1,6 +1,8 @@
 //! Ray directions: the table of a frame's window offsets, and their unit vectors in packets.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
+use std::sync::OnceLock;
 
 use super::lanes::{Lanes, LANES};
 use crate::camera::window_point;
@@ -19,6 +21,9 @@ pub(super) struct RayTable {
     pub(super) packet_xs: Vec<[f64; LANES]>,
     pub(super) ys: Vec<f64>,
     pub(super) dz: f64,
+    /// At one sample a pixel, each pixel's ray as a unit vector (see [`RayTable::units`]),
+    /// made by the first frame that culls with this table and kept while the table is.
+    units: OnceLock<[Vec<f64>; 3]>,
 }
 
 impl RayTable {
@@ -46,7 +51,30 @@ impl RayTable {
             packet_xs,
             ys,
             dz: -cop_view.z,
+            units: OnceLock::new(),
         }
+    }
+
+    /// Each pixel's ray direction at one sample a pixel as a unit vector, row by row, one
+    /// column per coordinate: `DVec3::normalize` of (xs[x], ys[y], dz), what the walk of
+    /// hidden spheres (`cull.rs`) reads for every sphere and pixel. [`LANES`] zeros follow the
+    /// last pixel, so eight lanes load from any pixel. Made on the pool the first time it is
+    /// asked for, each column in place.
+    pub(super) fn units(&self) -> &[Vec<f64>; 3] {
+        self.units.get_or_init(|| {
+            let (w, dz) = (self.xs.len(), self.dz);
+            let mut units = [0; 3].map(|_| vec![0.0; w * self.ys.len() + LANES]);
+            let [ux, uy, uz] = &mut units;
+            let rows = ux.par_chunks_mut(w).zip(uy.par_chunks_mut(w));
+            let rows = rows.zip(uz.par_chunks_mut(w)).zip(&self.ys);
+            rows.for_each(|(((ux, uy), uz), &y)| {
+                for (i, &x) in self.xs.iter().enumerate() {
+                    let d = DVec3::new(x, y, dz).normalize();
+                    (ux[i], uy[i], uz[i]) = (d.x, d.y, d.z);
+                }
+            });
+            units
+        })
     }
 
     pub(super) fn fits(&self, cop_view: DVec3, window: DVec2, raster: Raster) -> bool {
