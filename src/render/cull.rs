@@ -977,7 +977,7 @@ mod tests {
         for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
             let isa = simd.isa().expect("a supported path");
             let (mut lowered, mut kept) = (0, 0);
-            // Eight pixels' rays and bounds a ball, each case in every lane in turn.
+            // Case k in lane k mod 8, the other lanes other cases' rays and bounds.
             for (k, &(s, d, far)) in cases.iter().enumerate() {
                 let mut rays = [DVec3::ZERO; LANES];
                 let mut fars = [0.0; LANES];
