@@ -40,11 +40,14 @@ pub const FIRST_CULL_RATIO: f64 = 4.5;
 /// Spheres per leaf, in a scene copied along its curve (see [`SceneIndex`]).
 const LEAF: usize = 4;
 
-/// Spheres per leaf in a larger scene: a quarter of the nodes of 8 a leaf, whose visits (a
-/// read from all over the tree each) cost the walk of hidden spheres (`cull.rs`) more than a
-/// leaf's shapes side by side. At ten million spheres and 640×360 a frame's walk took 296 ms
-/// with leaves of 4, 221 ms with 32, and the nodes 20 MB instead of 160.
-const LEAF_LARGE: usize = 32;
+/// Spheres per leaf in a larger scene, whose node visits (a read from all over the tree each,
+/// a rectangle and its largest bound) cost the walk of hidden spheres (`cull.rs`) more than a
+/// leaf's shapes side by side, tested eight at a time in lanes and every line asked for at
+/// once. At ten million spheres and 640×360 a frame's walk took 296 ms with leaves of 4, 221
+/// ms with 32 (the nodes 20 MB instead of 160); with the walk's lanes, frames of 128 against
+/// 32 took 87.0 against 94.1 ms there, 324 against 375 ms at 1080p, and a million's as long
+/// or shorter; 256 gained no more (docs/performance.md).
+const LEAF_LARGE: usize = 128;
 
 /// A scene ready to render: its spheres in a hierarchy and its lights' shadow grids.
 ///
