@@ -46,7 +46,7 @@ const LEAF: usize = 4;
 /// once. At ten million spheres and 640×360 a frame's walk took 296 ms with leaves of 4, 221
 /// ms with 32 (the nodes 20 MB instead of 160); with the walk's lanes, frames of 128 against
 /// 32 took 87.0 against 94.1 ms there, 324 against 375 ms at 1080p, a million's culled frames
-/// as long or shorter and its frames not culled within 4% (three runs of four longer); 256
+/// as long or shorter and its frames not culled within 4% (three runs of five longer); 256
 /// gained no more (docs/performance.md).
 const LEAF_LARGE: usize = 128;
 
