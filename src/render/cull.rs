@@ -258,20 +258,17 @@ impl<V: Lanes> Octet<V> {
     #[inline(always)]
     fn test(&self, group: &[Shape], bound: f64) -> Found {
         let tok = self.tok;
-        let mut s = [[0.0; LANES]; 4];
-        for (l, shape) in group.iter().enumerate() {
-            for k in 0..4 {
-                s[k][l] = f64::from(shape[k]);
+        let [x, y, z, r] = match <&[Shape; LANES]>::try_from(group) {
+            Ok(eight) => V::columns(tok, eight),
+            Err(_) => {
+                let mut some = [[0.0; 4]; LANES];
+                some[..group.len()].copy_from_slice(group);
+                V::columns(tok, &some)
             }
-        }
+        };
         let valid = (u16::MAX >> (16 - group.len())) as u8;
         let zero = V::splat(tok, 0.0);
-        let r = V::load(tok, &s[3]);
-        let world = [
-            V::load(tok, &s[0]).sub(self.vrp[0]),
-            V::load(tok, &s[1]).sub(self.vrp[1]),
-            V::load(tok, &s[2]).sub(self.vrp[2]),
-        ];
+        let world = [x.sub(self.vrp[0]), y.sub(self.vrp[1]), z.sub(self.vrp[2])];
         let c = [
             dot(&world, &self.basis[0]),
             dot(&world, &self.basis[1]),
@@ -522,7 +519,7 @@ impl ForLanes for Walk<'_, '_> {
             };
             // No pixel that can see into the box has a bound above this one, and bounds only
             // fall: a sphere of a leaf beyond it is passed without its own rectangle.
-            let bound = bounds.most(rect);
+            let bound = bounds.most::<V>(tok, rect);
             if near > bound {
                 continue;
             }
@@ -630,7 +627,7 @@ impl Bounds {
                 let ((x0, x1), (y0, y1)) = (pixels(&found.x), pixels(&found.y));
                 (Rect { x0, x1, y0, y1 }, found.near[l])
             };
-            if near > self.most(rect) {
+            if near > self.most::<V>(tok, rect) {
                 continue;
             }
             taken |= 1 << l;
@@ -654,7 +651,7 @@ impl Bounds {
     /// The largest bound over `r` (or over its blocks, not less). Bounds are compared as
     /// their bits (see [`larger`]).
     #[inline(always)]
-    fn most(&self, r: Rect) -> f64 {
+    fn most<V: Lanes>(&self, tok: V::Token, r: Rect) -> f64 {
         if r.x1 - r.x0 < 2 && r.y1 - r.y0 < 2 {
             // Up to 2 × 2 pixels: their corners, without a loop's branches.
             let (a, b) = (self.at(r.x0, r.y0), self.at(r.x0, r.y1));
@@ -663,16 +660,20 @@ impl Bounds {
             return f64::from_bits(larger(m, far[b + w]));
         }
         if r.x1 - r.x0 < 4 && r.y1 - r.y0 < 4 {
-            // Up to 4 × 4 pixels: four rows of four, the last row and column read again
-            // where the rectangle is smaller, without a loop's branches.
+            // Up to 4 × 4 pixels: a row's eight lanes from its first pixel, those past its
+            // last set to zero, four rows (the last read again where the rectangle is
+            // smaller), without a loop's branches. Bounds are positive and not NaN, so each
+            // lane's `max` is `larger`'s.
             let (w, h) = (r.x1 - r.x0, r.y1 - r.y0);
-            let mut m = 0;
+            let (zero, mut m) = (V::splat(tok, 0.0), V::splat(tok, 0.0));
+            let columns = (2u8 << w) - 1;
             for j in 0..4 {
                 let row = self.at(r.x0, r.y0 + j.min(h));
-                for i in 0..4 {
-                    m = larger(m, self.far[row + i.min(w)]);
-                }
+                let eight: &[f64; LANES] = self.far[row..row + LANES].try_into().expect("8");
+                m = m.max(V::blend(columns, zero, V::load(tok, eight)));
             }
+            let m = m.store();
+            let m = larger(larger(larger(larger(0, m[0]), m[1]), m[2]), m[3]);
             return f64::from_bits(m);
         }
         let mut m = 0;
@@ -1011,7 +1012,60 @@ mod tests {
         assert!(checked >= 40_000, "{checked} cases");
     }
 
-    /// `Bounds::most` over every rectangle of up to 6 × 6 pixels of an edge tile (5 × 7
+    /// Eight shapes as a path's lanes read them, one array per number.
+    struct Columns([[f32; 4]; LANES]);
+
+    impl ForLanes for Columns {
+        type Output = [[f64; LANES]; 4];
+        fn run<V: Lanes>(self, tok: V::Token) -> Self::Output {
+            let [x, y, z, r] = V::columns(tok, &self.0);
+            [x.store(), y.store(), z.store(), r.store()]
+        }
+    }
+
+    /// On every path this CPU runs, a group's shapes reach the lanes as each number converted
+    /// by itself: row l's kth in lane l of the kth, bit for bit (signed zeros, subnormals,
+    /// the largest f32, infinities).
+    #[test]
+    fn shapes_reach_the_lanes_as_each_number_converted() {
+        let mut rng = crate::splitmix::SplitMix(0xc01);
+        let special = [
+            0.0,
+            -0.0,
+            f32::from_bits(1),
+            -f32::MIN_POSITIVE,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for case in 0..1000 {
+            let mut rows = [[0.0f32; 4]; LANES];
+            for (i, v) in rows.iter_mut().flatten().enumerate() {
+                *v = match (i + case) % 11 {
+                    k if k < special.len() => special[k],
+                    _ => ((rng.unit() - 0.5) * 1e6) as f32,
+                };
+            }
+            let want: [[f64; LANES]; 4] = std::array::from_fn(|k| rows.map(|row| row[k].into()));
+            for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                let got = simd.isa().expect("a supported path").run(Columns(rows));
+                let bits = |c: [[f64; LANES]; 4]| c.map(|c| c.map(f64::to_bits));
+                assert_eq!(bits(got), bits(want), "{}: {rows:?}", simd.name());
+            }
+        }
+    }
+
+    /// `Bounds::most` of a rectangle on a path's lanes.
+    struct Most<'a>(&'a Bounds, Rect);
+
+    impl ForLanes for Most<'_> {
+        type Output = f64;
+        fn run<V: Lanes>(self, tok: V::Token) -> f64 {
+            self.0.most::<V>(tok, self.1)
+        }
+    }
+
+    /// On every path this CPU runs, `Bounds::most` over every rectangle of up to 6 × 6 pixels of an edge tile (5 × 7
     /// blocks, the last ones cut by the raster), at every offset in a block: the largest of
     /// its pixels' bounds up to `PIXELS_READ` pixels, its blocks' beyond, whatever its shape.
     #[test]
@@ -1055,8 +1109,13 @@ mod tests {
                         }
                         let small = (x1 - x0 + 1) * (y1 - y0 + 1) <= PIXELS_READ;
                         let want = if small { pixels } else { blocks };
-                        assert_eq!(bounds.most(r), want, "{x0}..={x1} × {y0}..={y1}");
-                        checked += 1;
+                        for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
+                            let isa = simd.isa().expect("a supported path");
+                            let got = isa.run(Most(&bounds, r));
+                            let name = simd.name();
+                            assert_eq!(got, want, "{name}: {x0}..={x1} × {y0}..={y1}");
+                            checked += 1;
+                        }
                     }
                 }
             }

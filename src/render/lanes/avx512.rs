@@ -178,6 +178,31 @@ impl Lanes for Zmm {
         )
     }
     #[inline(always)]
+    fn columns(t: Avx512, rows: &[[f32; 4]; LANES]) -> [Zmm; 4] {
+        let p = rows.as_ptr().cast::<f32>();
+        // SAFETY: `t` proves AVX-512F; `rows` holds the 32 f32 read, 16 from `p` and 16 on.
+        // Row l's kth number is f32 4l + k of the 32 (from 16 on, in `b`): each column's eight
+        // picked into the low half, then widened.
+        unsafe {
+            let (a, b) = (_mm512_loadu_ps(p), _mm512_loadu_ps(p.add(16)));
+            let x = _mm512_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28, 0, 0, 0, 0, 0, 0, 0, 0);
+            let one = _mm512_set1_epi32(1);
+            let y = _mm512_add_epi32(x, one);
+            let z = _mm512_add_epi32(y, one);
+            let r = _mm512_add_epi32(z, one);
+            let x = _mm512_castps512_ps256(_mm512_permutex2var_ps(a, x, b));
+            let y = _mm512_castps512_ps256(_mm512_permutex2var_ps(a, y, b));
+            let z = _mm512_castps512_ps256(_mm512_permutex2var_ps(a, z, b));
+            let r = _mm512_castps512_ps256(_mm512_permutex2var_ps(a, r, b));
+            [
+                Zmm(_mm512_cvtps_pd(x), t),
+                Zmm(_mm512_cvtps_pd(y), t),
+                Zmm(_mm512_cvtps_pd(z), t),
+                Zmm(_mm512_cvtps_pd(r), t),
+            ]
+        }
+    }
+    #[inline(always)]
     fn gather_index(field: &[u64], own: InBounds<ZmmIndex>) -> ZmmIndex {
         let own = own.within(field);
         // SAFETY: as `gather`: AVX-512F by `own`, indices checked, the scale a u64's.

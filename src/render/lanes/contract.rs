@@ -75,6 +75,23 @@ pub(in crate::render) trait Lanes: Copy + sealed::Sealed {
     fn gather(field: &[f64], own: InBounds<Self::Index>) -> Self;
     /// `field[own[l]]` in lane l.
     fn gather_index(field: &[u64], own: InBounds<Self::Index>) -> Self::Index;
+    /// Eight rows of four f32 as four values, the kth holding each row's kth number in its
+    /// lane (converted to f64, exactly).
+    #[inline(always)]
+    fn columns(t: Self::Token, rows: &[[f32; 4]; LANES]) -> [Self; 4] {
+        let mut s = [[0.0; LANES]; 4];
+        for (l, row) in rows.iter().enumerate() {
+            for k in 0..4 {
+                s[k][l] = f64::from(row[k]);
+            }
+        }
+        [
+            Self::load(t, &s[0]),
+            Self::load(t, &s[1]),
+            Self::load(t, &s[2]),
+            Self::load(t, &s[3]),
+        ]
+    }
 }
 
 /// (a·b for x and y) + z: glam's dot product order.
