@@ -212,6 +212,39 @@ impl Lanes for Ymm2 {
         Ymm2([half(0), half(1)], own.1)
     }
     #[inline(always)]
+    fn columns(t: Avx2, rows: &[[f32; 4]; LANES]) -> [Ymm2; 4] {
+        let p = rows.as_ptr().cast::<f32>();
+        // SAFETY: `t` proves AVX2; `rows` holds the 32 f32 read, four from each of `p`, `p` + 4,
+        // … `p` + 28. Rows 0–3 and 4–7 are each a 4 × 4 transpose: pairs of rows interleaved,
+        // then their halves joined, then widened.
+        unsafe {
+            let r = [
+                _mm_loadu_ps(p),
+                _mm_loadu_ps(p.add(4)),
+                _mm_loadu_ps(p.add(8)),
+                _mm_loadu_ps(p.add(12)),
+                _mm_loadu_ps(p.add(16)),
+                _mm_loadu_ps(p.add(20)),
+                _mm_loadu_ps(p.add(24)),
+                _mm_loadu_ps(p.add(28)),
+            ];
+            let (lo_a, lo_b) = (_mm_unpacklo_ps(r[0], r[1]), _mm_unpacklo_ps(r[2], r[3]));
+            let (hi_a, hi_b) = (_mm_unpackhi_ps(r[0], r[1]), _mm_unpackhi_ps(r[2], r[3]));
+            let (lo_c, lo_d) = (_mm_unpacklo_ps(r[4], r[5]), _mm_unpacklo_ps(r[6], r[7]));
+            let (hi_c, hi_d) = (_mm_unpackhi_ps(r[4], r[5]), _mm_unpackhi_ps(r[6], r[7]));
+            let x = [_mm_movelh_ps(lo_a, lo_b), _mm_movelh_ps(lo_c, lo_d)];
+            let y = [_mm_movehl_ps(lo_b, lo_a), _mm_movehl_ps(lo_d, lo_c)];
+            let z = [_mm_movelh_ps(hi_a, hi_b), _mm_movelh_ps(hi_c, hi_d)];
+            let w = [_mm_movehl_ps(hi_b, hi_a), _mm_movehl_ps(hi_d, hi_c)];
+            [
+                Ymm2([_mm256_cvtps_pd(x[0]), _mm256_cvtps_pd(x[1])], t),
+                Ymm2([_mm256_cvtps_pd(y[0]), _mm256_cvtps_pd(y[1])], t),
+                Ymm2([_mm256_cvtps_pd(z[0]), _mm256_cvtps_pd(z[1])], t),
+                Ymm2([_mm256_cvtps_pd(w[0]), _mm256_cvtps_pd(w[1])], t),
+            ]
+        }
+    }
+    #[inline(always)]
     fn gather_index(field: &[u64], own: InBounds<Ymm2Index>) -> Ymm2Index {
         let own = own.within(field);
         let half = |h: usize| {
