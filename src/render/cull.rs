@@ -1065,9 +1065,10 @@ mod tests {
         }
     }
 
-    /// On every path this CPU runs, `Bounds::most` over every rectangle of up to 6 × 6 pixels of an edge tile (5 × 7
-    /// blocks, the last ones cut by the raster), at every offset in a block: the largest of
-    /// its pixels' bounds up to `PIXELS_READ` pixels, its blocks' beyond, whatever its shape.
+    /// On every path this CPU runs, `Bounds::most` over every rectangle of up to 6 × 6 pixels
+    /// of an edge tile (5 × 7 blocks, the last ones cut by the raster), at every offset in a
+    /// block: the largest of its pixels' bounds up to `PIXELS_READ` pixels, its blocks' beyond,
+    /// whatever its shape.
     #[test]
     fn the_largest_bound_of_a_rectangle_is_its_pixels_or_its_blocks() {
         let tile = Rect {
