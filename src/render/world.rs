@@ -8,7 +8,7 @@
 //! every sphere.
 
 use glam::{DVec2, DVec3};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use super::shadows::{
     big_radius, f32_down, f32_up, prefetch_sphere, Casters, Hierarchy, ShadowGrid,
@@ -70,9 +70,10 @@ pub struct SceneIndex<'a> {
     /// culls (16 bytes a sphere, in a scene too large for the copy along the curve), so that
     /// a scene whose frames never cull does not pay for them.
     shapes: OnceLock<Vec<Shape>>,
-    /// The ranks of the spheres in the hierarchy's order, which its leaves index.
-    order: Vec<u32>,
-    /// Per light: its shadow grid (of ranks), None when it casts no shadows (or nothing could
+    /// The ranks of the spheres in the hierarchy's order, which its leaves index (and the
+    /// shadow grids' cells, by position).
+    order: Arc<Vec<u32>>,
+    /// Per light: its shadow grid (of positions in `order`), None when it casts no shadows (or nothing could
     /// cast them). Built beside the hierarchy, unless the index was made to wait
     /// ([`SceneIndex::for_frames_of`]): then when a frame first asks for it
     /// ([`SceneIndex::shadow_grid`]), a renderer's first frame taking its shadow rays through
@@ -93,9 +94,10 @@ pub const CURVE_COPY_MAX: usize = 1 << 18;
 
 impl<'a> SceneIndex<'a> {
     /// The hierarchy and, in a scene small enough for the copy along the curve, the shadow
-    /// grids, built side by side on the rayon pool (and the hierarchy's sort and large subtrees
-    /// too): the same index as built on one thread. In such a scene the curve's order comes
-    /// first, and the hierarchy and grids are built over the copy.
+    /// grids, built side by side on the rayon pool (and the large subtrees too) after the
+    /// hierarchy's order, by which both number the spheres: the same index as built on one
+    /// thread. In such a scene the curve's order is the copy's, and the hierarchy and grids
+    /// are built over the copy.
     pub fn new(scene: &'a Scene) -> SceneIndex<'a> {
         SceneIndex::copying_up_to(scene, CURVE_COPY_MAX)
     }
@@ -133,22 +135,27 @@ impl<'a> SceneIndex<'a> {
                 .collect();
             (Spheres::wide(copy), scene_index)
         });
-        // Over the copy, the hierarchy's order is the copy's own.
+        // Over the copy, the hierarchy's order is the copy's own. The grids number the
+        // spheres by it too, so it comes first.
         let spheres = curve.as_ref().map_or(&scene.spheres, |(copy, _)| copy);
-        let ((nodes, order), shadows) = rayon::join(
+        let order = Arc::new(if curve.is_some() {
+            (0..spheres.len() as u32).collect()
+        } else {
+            curve_order(spheres)
+        });
+        let (nodes, shadows) = rayon::join(
             || {
-                let order = if curve.is_some() {
-                    (0..spheres.len() as u32).collect()
-                } else {
-                    curve_order(spheres)
-                };
                 let leaf = if curve.is_some() { LEAF } else { LEAF_LARGE };
-                (hierarchy(spheres, &order, leaf), order)
+                hierarchy(spheres, &order, leaf)
             },
             || {
                 let grid = |l: &Light| {
                     (l.shadows && spheres.len() > 1).then(|| match lazy && curve.is_none() {
-                        false => OnceLock::from(ShadowGrid::build(spheres, -l.direction_world)),
+                        false => OnceLock::from(ShadowGrid::build(
+                            spheres,
+                            Arc::clone(&order),
+                            -l.direction_world,
+                        )),
                         true => OnceLock::new(),
                     })
                 };
@@ -174,7 +181,7 @@ impl<'a> SceneIndex<'a> {
     /// casts no shadows.
     pub(super) fn shadow_grid(&self, n: usize) -> Option<&ShadowGrid> {
         let direction = self.scene.lights[n].direction_world;
-        let build = || ShadowGrid::build(self.spheres(), -direction);
+        let build = || ShadowGrid::build(self.spheres(), Arc::clone(&self.order), -direction);
         self.shadows[n].as_ref().map(|grid| grid.get_or_init(build))
     }
 

@@ -38,7 +38,12 @@ pub struct ShadowGrid {
     extent: f64,
     /// Unit vector towards the light (world).
     to_light: DVec3,
-    /// Each sphere's top and its disc on the grid's plane ([`Disc`]), by the sphere's index.
+    /// The ranks of the spheres in the hierarchy's order: the grid numbers a sphere by its
+    /// *position* there, which its cells list and its discs are stored by, so that the discs a
+    /// cell lists (spheres near each other) lie near each other in memory, whatever the scene's
+    /// order.
+    order: Arc<Vec<u32>>,
+    /// Each sphere's top and its disc on the grid's plane ([`Disc`]), by position.
     discs: Vec<Disc>,
 }
 
@@ -87,8 +92,9 @@ impl Disc {
 }
 
 impl ShadowGrid {
-    /// Bins `spheres` for the light arriving from `to_light` (world, unit).
-    pub fn build(spheres: &Spheres, to_light: DVec3) -> ShadowGrid {
+    /// Bins `spheres` for the light arriving from `to_light` (world, unit), numbering them by
+    /// their positions in `order` (ranks, each once).
+    pub fn build(spheres: &Spheres, order: Arc<Vec<u32>>, to_light: DVec3) -> ShadowGrid {
         let axes = to_light.any_orthonormal_pair();
         let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
         let (big, median) = big_radius(spheres);
@@ -121,6 +127,7 @@ impl ShadowGrid {
             always,
             extent,
             to_light,
+            order,
             discs: Vec::new(),
         };
         if count == 0 {
@@ -128,42 +135,49 @@ impl ShadowGrid {
         }
         (grid.dims, grid.inv_cell) = grid_size(hi - lo, count, median);
         grid.origin = lo;
-        // Binned highest top first (equal tops by index), so every cell lists them so: one
-        // radix sort of 8 bytes a sphere, its top's order above its index ([`top_order`]),
-        // the keys made in index order (so equal tops stay in it). A sphere tested for every
+        // Binned highest top first (equal tops by position), so every cell lists them so: one
+        // radix sort of 8 bytes a sphere, its top's order above its position ([`top_order`]),
+        // the keys made in position order (so equal tops stay in it). A sphere tested for every
         // ray gets the largest key, and is cut off after the sort. Each binned disc's cells are
-        // found in index order and gathered into the sorted order, so that binning reads them
-        // in sequence, not the spheres at random.
-        let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = spheres
-            .par_balls()
+        // found in position order and gathered into the sorted order, so that binning reads
+        // them in sequence, not the spheres at random. The spheres are read in the hierarchy's
+        // order, the one GATHER_AHEAD places on asked for each time.
+        let disc_of = |p: usize, k: u32| {
+            if let Some(&ahead) = grid.order.get(p + GATHER_AHEAD) {
+                prefetch_sphere(spheres, ahead as usize);
+            }
+            let (center, radius) = spheres.ball(k as usize);
+            let top = center.dot(to_light) + radius;
+            let disc = Disc::new(project(center) - lo, radius, top);
+            if radius > big {
+                return (disc, (u64::MAX, u64::MAX));
+            }
+            let cells = cell_key(grid.cell_range(project(center), radius));
+            (
+                disc,
+                (cells, u64::from(!top_order(disc.top)) << 32 | p as u64),
+            )
+        };
+        let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = grid
+            .order
+            .par_iter()
             .enumerate()
             .with_min_len(PARALLEL)
-            .map(|(k, (center, radius))| {
-                let top = center.dot(to_light) + radius;
-                let disc = Disc::new(project(center) - lo, radius, top);
-                if radius > big {
-                    return (disc, (u64::MAX, u64::MAX));
-                }
-                let cells = cell_key(grid.cell_range(project(center), radius));
-                (
-                    disc,
-                    (cells, u64::from(!top_order(disc.top)) << 32 | k as u64),
-                )
-            })
+            .map(|(p, &k)| disc_of(p, k))
             .unzip();
         grid.discs = discs;
         let mut keys = sort_by_high_bits(keys, 32);
         keys.truncate(count);
-        let order: Vec<u32> = keys
+        let sorted_places: Vec<u32> = keys
             .par_iter()
             .with_min_len(PARALLEL)
             .map(|&key| key as u32)
             .collect();
         drop(keys);
-        let sorted: Vec<u64> = order
+        let sorted: Vec<u64> = sorted_places
             .par_iter()
             .with_min_len(PARALLEL)
-            .map(|&k| cells[k as usize])
+            .map(|&p| cells[p as usize])
             .collect();
         drop(cells);
         let rect_at = |i: usize| Some(cell_rect(sorted[i]));
@@ -173,9 +187,9 @@ impl ShadowGrid {
         // more cells than discs (small discs far apart) in bands.
         let (dims, chunk) = (grid.dims, count.div_ceil(4).max(PARALLEL));
         grid.bins = if dims.0 * dims.1 * count.div_ceil(chunk) <= count {
-            Bins::build(dims, &order, chunk, rect_at)
+            Bins::build(dims, &sorted_places, chunk, rect_at)
         } else {
-            Bins::build_in_bands(dims, &order, rect_at)
+            Bins::build_in_bands(dims, &sorted_places, rect_at)
         };
         grid
     }
@@ -306,9 +320,13 @@ fn no_grid() -> &'static ShadowGrid {
         always: Vec::new(),
         extent: 0.0,
         to_light: DVec3::Z,
+        order: Arc::new(Vec::new()),
         discs: Vec::new(),
     })
 }
+
+/// How many places on the grid's build asks for a sphere, reading them in the hierarchy's order.
+const GATHER_AHEAD: usize = 16;
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame
 /// for the shadow rays; larger ones move only the blockers they test, so that a frame's cost
@@ -392,11 +410,13 @@ impl<'a> FrameShadows<'a> {
         (k, c, r2)
     }
 
-    /// Asks for sphere k's disc and, as [`FrameShadows::blocker`] reads them, its centre and
-    /// radius: a hint ahead of its test, which changes no value.
+    /// Asks for the disc of the sphere at position `p` of the grid's order and, as
+    /// [`FrameShadows::blocker`] reads them, its centre and radius: a hint ahead of its test,
+    /// which changes no value.
     #[inline(always)]
-    fn prefetch_blocker(&self, k: u32) {
-        prefetch(&self.grid.discs[k as usize]);
+    fn prefetch_blocker(&self, p: u32) {
+        prefetch(&self.grid.discs[p as usize]);
+        let k = self.grid.order[p as usize];
         match &self.centers {
             Some(all) => prefetch(&all[k as usize]),
             None => prefetch_sphere(self.spheres, k as usize),
@@ -489,6 +509,11 @@ pub(super) mod tests {
         pub to_light: DVec3,
     }
 
+    /// The ranks 0..n last first: a grid's order in which no sphere's position is its rank.
+    pub(in crate::render) fn reversed(n: usize) -> Arc<Vec<u32>> {
+        Arc::new((0..n as u32).rev().collect())
+    }
+
     pub(in crate::render) fn cluster() -> Cluster {
         seeded_cluster(11, 300, 40)
     }
@@ -536,7 +561,7 @@ pub(super) mod tests {
                 let to_light = -direction.normalize();
                 ClusterLight {
                     direction,
-                    grid: ShadowGrid::build(&spheres, to_light),
+                    grid: ShadowGrid::build(&spheres, reversed(spheres.len()), to_light),
                     to_light: camera.basis.to_view(to_light),
                 }
             })
@@ -561,7 +586,8 @@ pub(super) mod tests {
                 color: DVec3::ONE,
             })
             .collect();
-        let grid = ShadowGrid::build(&spheres, DVec3::new(0.2, 1.0, -0.1).normalize());
+        let to_light = DVec3::new(0.2, 1.0, -0.1).normalize();
+        let grid = ShadowGrid::build(&spheres, reversed(spheres.len()), to_light);
         let (w, h) = grid.dims;
         assert!(w > 4 && h > 4, "{:?}", grid.dims);
         let cell = 1.0 / grid.inv_cell;
@@ -674,7 +700,8 @@ pub(super) mod tests {
             for light in &c.lights {
                 let grid = &light.grid;
                 let to_light = -light.direction.normalize();
-                for (s, &Disc { top, .. }) in c.spheres.iter().zip(&grid.discs) {
+                for (&k, &Disc { top, .. }) in grid.order.iter().zip(&grid.discs) {
+                    let s = c.spheres.get(k as usize);
                     assert!(top as f64 >= s.center_world.dot(to_light) + s.radius);
                 }
                 let mut listed = vec![false; c.spheres.len()];
@@ -683,7 +710,7 @@ pub(super) mod tests {
                         let cell = grid.bins.cell(x, y);
                         highest_top_first(grid, cell);
                         let (ax, ay) = grid.axes;
-                        for &k in cell {
+                        for &k in cell.iter().map(|&p| &grid.order[p as usize]) {
                             let p = c.spheres.get(k as usize).center_world;
                             let at =
                                 (DVec2::new(p.dot(ax), p.dot(ay)) - grid.origin) * grid.inv_cell;
@@ -700,7 +727,7 @@ pub(super) mod tests {
         }
     }
 
-    /// Asserts that `cell` lists its spheres highest top first, equal tops by index; returns
+    /// Asserts that `cell` lists its spheres highest top first, equal tops by position; returns
     /// how many equal tops it holds.
     fn highest_top_first(grid: &ShadowGrid, cell: &[u32]) -> usize {
         let mut ties = 0;
@@ -716,12 +743,13 @@ pub(super) mod tests {
     }
 
     /// Spheres with equal tops (a cluster's first 300 spheres, then all of them again) are
-    /// listed by index.
+    /// listed by their positions in the grid's order (here the ranks last first).
     #[test]
-    fn equal_tops_are_listed_by_index() {
+    fn equal_tops_are_listed_by_position() {
         let c = seeded_cluster(11, 300, 0);
         let spheres: Spheres = c.spheres.iter().take(300).chain(&c.spheres).collect();
-        let grid = ShadowGrid::build(&spheres, -DVec3::new(-0.6, -1.0, 0.4).normalize());
+        let to_light = -DVec3::new(-0.6, -1.0, 0.4).normalize();
+        let grid = ShadowGrid::build(&spheres, reversed(spheres.len()), to_light);
         let (w, h) = grid.dims;
         let ties: usize = (0..w * h)
             .map(|k| highest_top_first(&grid, grid.bins.cell(k % w, k / w)))

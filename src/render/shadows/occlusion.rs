@@ -167,17 +167,18 @@ fn walk<V: Lanes>(
 ) -> (u8, u32) {
     let tok = low.token();
     let mut last = NO_HINT;
-    let discs = &sh.grid.discs;
+    let (discs, order) = (&sh.grid.discs, &sh.grid.order);
     for y in y0..=y1 {
         for x in x0..=x1 {
             let cell = sh.grid.bins.cell(x, y);
-            for (i, &k) in cell.iter().enumerate() {
+            // A cell lists its spheres by their positions in the grid's order.
+            for (i, &p) in cell.iter().enumerate() {
                 // A cell's spheres lie anywhere in the scene's memory: the one BLOCKER_AHEAD
                 // entries on is asked for now, so that its reads overlap this one's test.
                 if let Some(&ahead) = cell.get(i + BLOCKER_AHEAD) {
                     sh.prefetch_blocker(ahead);
                 }
-                let disc = discs[k as usize];
+                let disc = discs[p as usize];
                 let reach = lanes & !blocked & V::splat(tok, disc.top as f64).ge(low);
                 if reach == 0 {
                     break;
@@ -190,6 +191,7 @@ fn walk<V: Lanes>(
                 if reach == 0 {
                     continue;
                 }
+                let k = order[p as usize];
                 blocked |= blocks_exactly(sh, point, own, k, reach, &mut last);
                 if lanes & !blocked == 0 {
                     return (blocked, last);
@@ -480,7 +482,7 @@ mod tests {
     use super::super::super::oracle::blocks_ray;
     use super::super::super::simd::Isa;
     use super::super::super::world::SceneIndex;
-    use super::super::tests::{cluster, seeded_cluster};
+    use super::super::tests::{cluster, reversed, seeded_cluster};
     use super::super::Casters;
     use super::super::{view_center, ShadowGrid};
     use super::*;
@@ -632,7 +634,7 @@ mod tests {
                 cop_view: DVec3::new(0.0, 0.0, -1.2),
                 window: DVec2::new(1.6, 0.9),
             };
-            let grid = ShadowGrid::build(&spheres, -direction);
+            let grid = ShadowGrid::build(&spheres, reversed(spheres.len()), -direction);
             let to_light = -camera.basis.to_view(direction);
             // The grid's walk, and the hierarchy's of the same spheres (not copied along the
             // curve, so that ranks are the spheres' indices).
@@ -729,7 +731,7 @@ mod tests {
             cop_view: DVec3::new(0.0, 0.0, -1.2),
             window: DVec2::new(1.6, 0.9),
         };
-        let grid = ShadowGrid::build(&spheres, to_light);
+        let grid = ShadowGrid::build(&spheres, reversed(spheres.len()), to_light);
         let to_light_view = camera.basis.to_view(to_light);
         let frame = FrameShadows::new(
             Isa::Portable,
