@@ -458,9 +458,15 @@ fn shape_of((c, radius): (DVec3, f64)) -> Shape {
     let c32 = c.to_array().map(|v| v as f32);
     // Each coordinate moved by at most half an ulp of itself (or half of F32_TINY), the centre
     // by at most √3 times that: less than `moved`. That, and the radius rounded up, hold the
-    // sphere.
+    // sphere; where the f64 sum lost some of `moved` (a centre far nearer the origin than the
+    // radius is long), one f32 step more.
     let moved = F32_EPS * c.abs().max_element() + F32_TINY;
     let r = f32_up(radius + moved);
+    let r = if (r as f64) - radius < moved {
+        r.next_up()
+    } else {
+        r
+    };
     [
         c32[0],
         c32[1],
@@ -569,6 +575,7 @@ impl Pyramid {
 
 #[cfg(test)]
 mod tests {
+    use super::super::tree::shape_inner;
     use super::*;
     use crate::camera::Basis;
     use crate::scene::Sphere;
@@ -825,6 +832,43 @@ mod tests {
             want.sort_by_key(|&k| (code(&spheres.get(k as usize)), k));
             assert!(curve_order(spheres) == want, "{n} spheres");
         }
+    }
+
+    /// A sphere's shape within f32's range holds it (its centre no farther from the sphere's
+    /// than its radius is beyond the sphere's, the distance in f64 taken 10⁻¹⁵ larger), and
+    /// the shape's inner ball lies inside the sphere: over centres of every size and sign, on
+    /// f32's values, subnormal and beyond its range, and radii from tiny to huge.
+    #[test]
+    fn a_shape_holds_its_sphere() {
+        let mut rng = SplitMix(0x5a9e);
+        let mut coordinate = |k: usize| match k % 5 {
+            0 => 0.0,
+            1 => (rng.unit() * 40.0 - 20.0) as f32 as f64,
+            2 => 1e-40 * (rng.unit() - 0.5),
+            3 => 1e39 * (rng.unit() - 0.5),
+            _ => (rng.unit() - 0.5) * 10f64.powf(rng.unit() * 24.0 - 8.0),
+        };
+        let mut held = 0;
+        for k in 0..50_000 {
+            let c = DVec3::new(coordinate(k), coordinate(k / 5), coordinate(k / 25));
+            let radius = [1e-30, 1e-6, 0.07, 3.0, 0.3f32 as f64, 1e300][k % 11 % 6];
+            let shape = shape_of((c, radius));
+            // A shape past f32's range holds nothing in particular: its readers test such a
+            // sphere by other means.
+            if !shape.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            let (centre, r) = (
+                DVec3::new(shape[0].into(), shape[1].into(), shape[2].into()),
+                f64::from(shape[3]),
+            );
+            let moved = (centre - c).length() * (1.0 + 1e-15);
+            assert!(moved <= r - radius, "{c} {radius}: {shape:?}");
+            let inside = shape_inner(&shape) <= radius - moved;
+            assert!(inside, "{c} {radius}: {shape:?}");
+            held += 1;
+        }
+        assert!(held > 30_000, "{held}");
     }
 
     #[test]
