@@ -575,6 +575,7 @@ impl Pyramid {
 
 #[cfg(test)]
 mod tests {
+    use super::super::shadows::tests::coordinate_of_kind;
     use super::super::tree::shape_inner;
     use super::*;
     use crate::camera::Basis;
@@ -841,13 +842,7 @@ mod tests {
     #[test]
     fn a_shape_holds_its_sphere() {
         let mut rng = SplitMix(0x5a9e);
-        let mut coordinate = |k: usize| match k % 5 {
-            0 => 0.0,
-            1 => (rng.unit() * 40.0 - 20.0) as f32 as f64,
-            2 => 1e-40 * (rng.unit() - 0.5),
-            3 => 1e39 * (rng.unit() - 0.5),
-            _ => (rng.unit() - 0.5) * 10f64.powf(rng.unit() * 24.0 - 8.0),
-        };
+        let mut coordinate = |k: usize| coordinate_of_kind(&mut rng, k);
         let mut held = 0;
         for k in 0..50_000 {
             let c = DVec3::new(coordinate(k), coordinate(k / 5), coordinate(k / 25));

@@ -509,6 +509,18 @@ pub(super) mod tests {
         pub to_light: DVec3,
     }
 
+    /// A coordinate of the kind `k % 5` picks, drawn from `gen`: zero, an f32's value, a
+    /// subnormal, one beyond f32's range, or one of any size from 10⁻⁸ to 10¹⁶, either sign.
+    pub(in crate::render) fn coordinate_of_kind(gen: &mut SplitMix, k: usize) -> f64 {
+        match k % 5 {
+            0 => 0.0,
+            1 => (gen.unit() * 40.0 - 20.0) as f32 as f64,
+            2 => 1e-40 * (gen.unit() - 0.5),
+            3 => 1e39 * (gen.unit() - 0.5),
+            _ => (gen.unit() - 0.5) * 10f64.powf(gen.unit() * 24.0 - 8.0),
+        }
+    }
+
     /// The ranks 0..n last first: a grid's order in which no sphere's position is its rank.
     pub(in crate::render) fn reversed(n: usize) -> Arc<Vec<u32>> {
         Arc::new((0..n as u32).rev().collect())
@@ -625,13 +637,7 @@ pub(super) mod tests {
     #[test]
     fn a_disc_holds_the_exact_disc() {
         let mut gen = SplitMix(0xd15c);
-        let mut coordinate = |k: usize| match k % 5 {
-            0 => 0.0,
-            1 => (gen.unit() * 40.0 - 20.0) as f32 as f64,
-            2 => 1e-40 * (gen.unit() - 0.5),
-            3 => 1e39 * (gen.unit() - 0.5),
-            _ => (gen.unit() - 0.5) * 10f64.powf(gen.unit() * 24.0 - 8.0),
-        };
+        let mut coordinate = |k: usize| coordinate_of_kind(&mut gen, k);
         let mut checked = [0; 2];
         for k in 0..50_000 {
             let c = DVec2::new(coordinate(k), coordinate(k / 5));
