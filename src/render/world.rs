@@ -73,8 +73,8 @@ pub struct SceneIndex<'a> {
     /// The ranks of the spheres in the hierarchy's order, which its leaves index (and the
     /// shadow grids' cells, by position).
     order: Arc<Vec<u32>>,
-    /// Per light: its shadow grid (of positions in `order`), None when it casts no shadows (or nothing could
-    /// cast them). Built beside the hierarchy, unless the index was made to wait
+    /// Per light: its shadow grid (of positions in `order`), None when it casts no shadows (or
+    /// nothing could cast them). Built beside the hierarchy, unless the index was made to wait
     /// ([`SceneIndex::for_frames_of`]): then when a frame first asks for it
     /// ([`SceneIndex::shadow_grid`]), a renderer's first frame taking its shadow rays through
     /// the hierarchy instead (`Renderer::prepare`).

@@ -95,6 +95,7 @@ impl ShadowGrid {
     /// Bins `spheres` for the light arriving from `to_light` (world, unit), numbering them by
     /// their positions in `order` (ranks, each once).
     pub fn build(spheres: &Spheres, order: Arc<Vec<u32>>, to_light: DVec3) -> ShadowGrid {
+        debug_assert_eq!(order.len(), spheres.len(), "a position for every sphere");
         let axes = to_light.any_orthonormal_pair();
         let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
         let (big, median) = big_radius(spheres);
@@ -325,7 +326,8 @@ fn no_grid() -> &'static ShadowGrid {
     })
 }
 
-/// How many places on the grid's build asks for a sphere, reading them in the hierarchy's order.
+/// How many places ahead the grid's build asks for a sphere, reading them in the hierarchy's
+/// order.
 const GATHER_AHEAD: usize = 16;
 
 /// Scenes up to this many spheres have every centre moved into view coordinates once per frame

@@ -173,8 +173,9 @@ fn walk<V: Lanes>(
             let cell = sh.grid.bins.cell(x, y);
             // A cell lists its spheres by their positions in the grid's order.
             for (i, &p) in cell.iter().enumerate() {
-                // A cell's spheres lie anywhere in the scene's memory: the one BLOCKER_AHEAD
-                // entries on is asked for now, so that its reads overlap this one's test.
+                // A cell's spheres lie anywhere in the scene's memory (their discs near each
+                // other): the one BLOCKER_AHEAD entries on is asked for now, so that its reads
+                // overlap this one's test.
                 if let Some(&ahead) = cell.get(i + BLOCKER_AHEAD) {
                     sh.prefetch_blocker(ahead);
                 }
