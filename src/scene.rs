@@ -517,6 +517,38 @@ impl Spheres {
         }
     }
 
+    /// Packed spheres taken in `order` (a permutation of their indices), still packed, made on
+    /// the rayon pool: the renderer's copy of a large scene along its curve, 20 bytes a sphere.
+    /// None where the spheres are whole.
+    pub(crate) fn packed_along(&self, order: &[u32]) -> Option<Spheres> {
+        let Store::Packed(p) = &self.0 else {
+            return None;
+        };
+        debug_assert_eq!(order.len(), p.balls.len(), "an index for every sphere");
+        // A ball that is not f32 values names its place in `wide`, which is kept whole.
+        let (balls, colors) = order
+            .par_iter()
+            .with_min_len(4096)
+            .map(|&k| (p.balls[k as usize], p.colors[k as usize]))
+            .unzip();
+        Some(Spheres(Store::Packed(Packed {
+            balls,
+            colors,
+            wide: p.wide.clone(),
+            palette: p.palette.clone(),
+            room: 0,
+        })))
+    }
+
+    /// Each sphere's centre and radius as f32 (`[x, y, z, r]`), where every one of them is
+    /// packed as f32 values.
+    pub(crate) fn f32_balls(&self) -> Option<&[[f32; 4]]> {
+        match &self.0 {
+            Store::Packed(p) if p.wide.is_empty() => Some(&p.balls),
+            _ => None,
+        }
+    }
+
     /// Each sphere, in order, on the rayon pool.
     pub fn par_iter(&self) -> impl IndexedParallelIterator<Item = Sphere> + '_ {
         (0..self.len()).into_par_iter().map(|k| self.get(k))

@@ -435,7 +435,7 @@ impl SceneIndex<'_> {
             let mut bits = word.load(Ordering::Relaxed);
             while bits != 0 {
                 let at = k * 64 + bits.trailing_zeros() as usize;
-                out.push(order[at]);
+                out.push(order.rank(at));
                 bits &= bits - 1;
             }
         }

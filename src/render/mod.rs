@@ -611,13 +611,26 @@ mod tests {
         });
         // Beside the everyday scales: f32's subnormals (the walk's shapes lose their digits)
         // and past f32's range (its shapes are infinite).
+        // Each scene's spheres as given (their colours not levels: kept whole, not copied
+        // along the curve); rounded to f32 values and levels (copied packed, each sphere its own
+        // shape); or so rounded but for the ground's radius (packed, the copy's shapes made).
+        #[derive(PartialEq)]
+        enum Form {
+            Given,
+            F32,
+            Mixed,
+        }
         let places = [
-            (1.0, DVec3::ZERO),
-            (1e-6, DVec3::ZERO),
-            (1e6, DVec3::ZERO),
-            (1.0, DVec3::new(1e6, -3e5, 2e6)),
-            (1e-41, DVec3::ZERO),
-            (1e40, DVec3::ZERO),
+            (1.0, DVec3::ZERO, Form::Given),
+            (1.0, DVec3::ZERO, Form::F32),
+            (1.0, DVec3::ZERO, Form::Mixed),
+            (1e-6, DVec3::ZERO, Form::Given),
+            (1e6, DVec3::ZERO, Form::Given),
+            (1.0, DVec3::new(1e6, -3e5, 2e6), Form::Given),
+            (1.0, DVec3::new(1e6, -3e5, 2e6), Form::Mixed),
+            (1e-41, DVec3::ZERO, Form::Given),
+            (1e-41, DVec3::ZERO, Form::F32),
+            (1e40, DVec3::ZERO, Form::Given),
         ];
         let mut culled = Vec::new();
         let mut seeded = Vec::new();
@@ -628,9 +641,25 @@ mod tests {
         for renderer in &mut culling {
             (renderer.cull_ratio, renderer.first_cull_ratio) = (0.0, 0.0);
         }
-        for (scale, offset) in places {
-            let scene = with_ground(&cluster, scale, offset);
-            // No copy along the curve: the index that holds the walk's shapes.
+        for (scale, offset, form) in places {
+            let mut scene = with_ground(&cluster, scale, offset);
+            if form != Form::Given {
+                let level = |c: DVec3| (c * 255.0).round() / 255.0;
+                let last = scene.spheres.len() - 1;
+                let rounded = scene.spheres.iter().enumerate().map(|(k, s)| Sphere {
+                    center_world: s.center_world.as_vec3().as_dvec3(),
+                    radius: match form == Form::Mixed && k == last {
+                        true => s.radius * (1.0 + 1e-12),
+                        false => f64::from(s.radius as f32),
+                    },
+                    color: level(s.color),
+                });
+                scene.spheres = rounded.collect();
+            }
+            let packed = scene.spheres.color_codes().is_some();
+            let f32s = scene.spheres.f32_balls().is_some();
+            assert_eq!((packed, f32s), (form != Form::Given, form == Form::F32));
+            // Past the copy of whole spheres: the index that culls.
             let index = SceneIndex::copying_up_to(&scene, 0);
             assert!(index.can_cull());
             // The same scene with its grid left unbuilt: a renderer's first frame walks the
@@ -658,7 +687,8 @@ mod tests {
                         };
                         let n = render(kept);
                         if vrp == outside.0 {
-                            let everyday = scale == 1.0 && offset == DVec3::ZERO;
+                            let everyday =
+                                scale == 1.0 && offset == DVec3::ZERO && form == Form::Given;
                             seeded.push((n, render(kept), everyday));
                         }
                         if scale == 1.0 && offset == DVec3::ZERO && vrp == outside.0 {

@@ -14,7 +14,7 @@ use super::shadows::{
     big_radius, f32_down, f32_up, prefetch_sphere, Casters, Hierarchy, ShadowGrid,
 };
 use super::sort::{index_bits, sort_by_high_bits, PARALLEL};
-use super::tree::{Node, Shape, F32_EPS, F32_TINY};
+use super::tree::{Node, Order, Shape, F32_EPS, F32_TINY};
 use super::view::{Ranks, PREFETCH_AHEAD};
 use crate::camera::Camera;
 use crate::raster::Raster;
@@ -64,6 +64,9 @@ pub struct SceneIndex<'a> {
     pub scene: &'a Scene,
     /// The spheres by rank when that is not the scene's order, with each one's scene index.
     curve: Option<(Spheres, Vec<u32>)>,
+    /// Whether the scene is past the copy of whole spheres (`CURVE_COPY_MAX`): its leaves are
+    /// larger, its frames may cull, and its shadow grids may wait.
+    large: bool,
     nodes: Vec<Node>,
     /// Each sphere in the hierarchy's order as f32 (see [`Shape`]): what the walk of hidden
     /// spheres (`cull.rs`) reads, a leaf's spheres side by side. Made by the first frame that
@@ -71,8 +74,8 @@ pub struct SceneIndex<'a> {
     /// a scene whose frames never cull does not pay for them.
     shapes: OnceLock<Vec<Shape>>,
     /// The ranks of the spheres in the hierarchy's order, which its leaves index (and the
-    /// shadow grids' cells, by position).
-    order: Arc<Vec<u32>>,
+    /// shadow grids' cells, by position): over a copy, the positions.
+    order: Order,
     /// Per light: its shadow grid (of positions in `order`), None when it casts no shadows (or
     /// nothing could cast them). Built beside the hierarchy, unless the index was made to wait
     /// ([`SceneIndex::for_frames_of`]): then when a frame first asks for it
@@ -126,34 +129,41 @@ impl<'a> SceneIndex<'a> {
     /// them, its shadow grids left for a frame to build when `lazy` and not copied.
     pub(super) fn building(scene: &'a Scene, copy_max: usize, lazy: bool) -> SceneIndex<'a> {
         use rayon::prelude::*;
-        let curve = (scene.spheres.len() <= copy_max).then(|| {
+        let large = scene.spheres.len() > copy_max;
+        let curve = if large {
+            // Packed spheres are copied packed; whole ones (a file of doubles) are not copied.
+            scene.spheres.color_codes().map(|_| {
+                let scene_index = curve_order(&scene.spheres);
+                let copy = scene.spheres.packed_along(&scene_index);
+                (copy.expect("packed spheres"), scene_index)
+            })
+        } else {
             let scene_index = curve_order(&scene.spheres);
             let copy: Vec<Sphere> = scene_index
                 .par_iter()
                 .with_min_len(PARALLEL)
                 .map(|&k| scene.spheres.get(k as usize))
                 .collect();
-            (Spheres::wide(copy), scene_index)
-        });
+            Some((Spheres::wide(copy), scene_index))
+        };
         // Over the copy, the hierarchy's order is the copy's own. The grids number the
         // spheres by it too, so it comes first.
         let spheres = curve.as_ref().map_or(&scene.spheres, |(copy, _)| copy);
-        let order = Arc::new(if curve.is_some() {
-            (0..spheres.len() as u32).collect()
-        } else {
-            curve_order(spheres)
-        });
+        let order = match curve {
+            Some(_) => Order::Positions(spheres.len()),
+            None => Order::Listed(Arc::new(curve_order(spheres))),
+        };
         let (nodes, shadows) = rayon::join(
             || {
-                let leaf = if curve.is_some() { LEAF } else { LEAF_LARGE };
+                let leaf = if large { LEAF_LARGE } else { LEAF };
                 hierarchy(spheres, &order, leaf)
             },
             || {
                 let grid = |l: &Light| {
-                    (l.shadows && spheres.len() > 1).then(|| match lazy && curve.is_none() {
+                    (l.shadows && spheres.len() > 1).then(|| match lazy && large {
                         false => OnceLock::from(ShadowGrid::build(
                             spheres,
-                            Arc::clone(&order),
+                            order.clone(),
                             -l.direction_world,
                         )),
                         true => OnceLock::new(),
@@ -165,6 +175,7 @@ impl<'a> SceneIndex<'a> {
         SceneIndex {
             scene,
             curve,
+            large,
             nodes,
             shapes: OnceLock::new(),
             order,
@@ -181,7 +192,7 @@ impl<'a> SceneIndex<'a> {
     /// casts no shadows.
     pub(super) fn shadow_grid(&self, n: usize) -> Option<&ShadowGrid> {
         let direction = self.scene.lights[n].direction_world;
-        let build = || ShadowGrid::build(self.spheres(), Arc::clone(&self.order), -direction);
+        let build = || ShadowGrid::build(self.spheres(), self.order.clone(), -direction);
         self.shadows[n].as_ref().map(|grid| grid.get_or_init(build))
     }
 
@@ -217,23 +228,28 @@ impl<'a> SceneIndex<'a> {
 
     /// The hierarchy's nodes (the root first), the spheres' shapes and their ranks, both in
     /// its order, which its leaves index. The first call makes the shapes, on the pool.
-    pub(super) fn tree(&self) -> (&[Node], &[Shape], &[u32]) {
+    pub(super) fn tree(&self) -> (&[Node], &[Shape], &Order) {
         use rayon::prelude::*;
+        // Spheres copied along the curve as f32 values are their own shapes.
+        if let Some(balls) = self.curve.as_ref().and_then(|(copy, _)| copy.f32_balls()) {
+            return (&self.nodes, balls, &self.order);
+        }
         let shapes = self.shapes.get_or_init(|| {
             let spheres = self.spheres();
             let order = &self.order;
-            let mut shapes = vec![[0.0; 4]; order.len()];
+            let n = order.len();
+            let mut shapes = vec![[0.0; 4]; n];
             shapes
                 .par_chunks_mut(PARALLEL)
-                .zip(order.par_chunks(PARALLEL))
-                .for_each(|(shapes, ranks)| {
-                    for (i, (shape, &k)) in shapes.iter_mut().zip(ranks).enumerate() {
+                .enumerate()
+                .for_each(|(c, shapes)| {
+                    for (p, shape) in (c * PARALLEL..).zip(shapes) {
                         // Ranks along the curve read the scene at random: the sphere some way
                         // ahead is asked for now.
-                        if let Some(&ahead) = ranks.get(i + PREFETCH_AHEAD) {
-                            prefetch_sphere(spheres, ahead as usize);
+                        if p + PREFETCH_AHEAD < n {
+                            prefetch_sphere(spheres, order.rank(p + PREFETCH_AHEAD) as usize);
                         }
-                        *shape = shape_of(spheres.ball(k as usize));
+                        *shape = shape_of(spheres.ball(order.rank(p) as usize));
                     }
                 });
             shapes
@@ -244,7 +260,7 @@ impl<'a> SceneIndex<'a> {
     /// Whether frames may cull hidden spheres ([`SceneIndex::unhidden`]): in a scene too
     /// large for the copy along the curve, where the spheres in view are many.
     pub(super) fn can_cull(&self) -> bool {
-        self.curve.is_none()
+        self.large
     }
 
     /// Whether a frame of `raster` culls hidden spheres: at one sample a pixel, where the index
@@ -287,12 +303,13 @@ impl<'a> SceneIndex<'a> {
                 }
             };
             if node.count > 0 {
-                let items = &self.order[node.start as usize..(node.start + node.count) as usize];
+                let at = node.start as usize..(node.start + node.count) as usize;
+                let items = at.map(|p| self.order.rank(p));
                 if inside {
-                    out.extend_from_slice(items);
+                    out.extend(items);
                 } else {
                     let spheres = self.spheres();
-                    out.extend(items.iter().filter(|&&i| {
+                    out.extend(items.filter(|&i| {
                         let (center, radius) = spheres.ball(i as usize);
                         planes.meets_sphere(center, radius)
                     }));
@@ -374,7 +391,7 @@ fn curve_order(spheres: &Spheres) -> Vec<u32> {
 
 /// The hierarchy's nodes (the root first) over `spheres` taken in `order` ([`curve_order`]),
 /// split at the median position, level after level, down to at most `leaf` spheres.
-fn hierarchy(spheres: &Spheres, order: &[u32], leaf: usize) -> Vec<Node> {
+fn hierarchy(spheres: &Spheres, order: &Order, leaf: usize) -> Vec<Node> {
     if spheres.is_empty() {
         return Vec::new();
     }
@@ -387,10 +404,10 @@ fn hierarchy(spheres: &Spheres, order: &[u32], leaf: usize) -> Vec<Node> {
     let mut nodes = vec![empty; node_count(order.len(), leaf)];
     let tree = Tree {
         spheres,
-        whole: order,
+        order,
         leaf,
     };
-    tree.build(&mut nodes, 0, order, 0);
+    tree.build(&mut nodes, 0, 0, order.len());
     nodes
 }
 
@@ -403,45 +420,42 @@ fn node_count(n: usize, leaf: usize) -> usize {
     }
 }
 
-/// What every subtree's build reads: the spheres, the whole order and the leaf size.
+/// What every subtree's build reads: the spheres, their order and the leaf size.
 struct Tree<'a> {
     spheres: &'a Spheres,
-    whole: &'a [u32],
+    order: &'a Order,
     leaf: usize,
 }
 
 impl Tree<'_> {
-    /// Builds the subtree of `order` (at `start..` of the whole order) into `nodes`, which has
-    /// exactly its [`node_count`] entries and begins at index `base` of the whole tree; large
-    /// subtrees build their halves in parallel.
-    fn build(&self, nodes: &mut [Node], base: usize, order: &[u32], start: usize) {
-        let (spheres, whole) = (self.spheres, self.whole);
-        if order.len() <= self.leaf {
-            // Leaves are made left to right, each reading its spheres from all over the scene: the
-            // ones a few leaves on are asked for now, so that their reads overlap this leaf's.
+    /// Builds the subtree of the `len` spheres at `start..` of the order into `nodes`, which
+    /// has exactly its [`node_count`] entries and begins at index `base` of the whole tree;
+    /// large subtrees build their halves in parallel.
+    fn build(&self, nodes: &mut [Node], base: usize, start: usize, len: usize) {
+        let (spheres, order) = (self.spheres, self.order);
+        if len <= self.leaf {
+            // Leaves are made left to right, each reading its spheres from all over the scene
+            // (unless they are a copy along the curve): the ones a few leaves on are asked for
+            // now, so that their reads overlap this leaf's.
             let ahead = start + PREFETCH_AHEAD;
-            for &k in whole
-                .get(ahead..(ahead + order.len()).min(whole.len()))
-                .unwrap_or(&[])
-            {
-                prefetch_sphere(spheres, k as usize);
+            for p in ahead..(ahead + len).min(order.len()) {
+                prefetch_sphere(spheres, order.rank(p) as usize);
             }
-            nodes[0] = leaf(spheres, order, start);
+            nodes[0] = leaf(spheres, order, start, len);
             return;
         }
-        let mid = order.len() / 2;
-        let (left, right) = order.split_at(mid);
+        let mid = len / 2;
         let (me, below) = nodes.split_at_mut(1);
         let (left_nodes, right_nodes) = below.split_at_mut(node_count(mid, self.leaf));
         let right_base = base + 1 + left_nodes.len();
-        if order.len() >= PARALLEL_BUILD {
+        if len >= PARALLEL_BUILD {
             rayon::join(
-                || self.build(left_nodes, base + 1, left, start),
-                || self.build(right_nodes, right_base, right, start + mid),
+                || self.build(left_nodes, base + 1, start, mid),
+                || self.build(right_nodes, right_base, start + mid, len - mid),
             );
         } else {
-            self.build(left_nodes, base + 1, left, start);
-            self.build(right_nodes, right_base, right, start + mid);
+            self.build(left_nodes, base + 1, start, mid);
+            self.build(right_nodes, right_base, start + mid, len - mid);
         }
         let (a, b) = (&left_nodes[0], &right_nodes[0]);
         me[0] = Node {
@@ -475,12 +489,12 @@ fn shape_of((c, radius): (DVec3, f64)) -> Shape {
     ]
 }
 
-/// A leaf over `order` (at `start` of the whole order), with the box of its spheres.
-fn leaf(spheres: &Spheres, order: &[u32], start: usize) -> Node {
+/// A leaf over the `len` spheres at `start..` of `order`, with the box of its spheres.
+fn leaf(spheres: &Spheres, order: &Order, start: usize, len: usize) -> Node {
     let mut lo = DVec3::INFINITY;
     let mut hi = DVec3::NEG_INFINITY;
-    for &i in order {
-        let (center, radius) = spheres.ball(i as usize);
+    for p in start..start + len {
+        let (center, radius) = spheres.ball(order.rank(p) as usize);
         lo = lo.min(center - radius);
         hi = hi.max(center + radius);
     }
@@ -488,7 +502,7 @@ fn leaf(spheres: &Spheres, order: &[u32], start: usize) -> Node {
         lo: lo.to_array().map(f32_down),
         hi: hi.to_array().map(f32_up),
         start: start as u32,
-        count: order.len() as u32,
+        count: len as u32,
     }
 }
 
@@ -663,7 +677,11 @@ mod tests {
         for (n, leaf) in sizes.into_iter().flat_map(|n| [(n, LEAF), (n, LEAF_LARGE)]) {
             let scene = scene(n);
             let order = curve_order(&scene.spheres);
-            let nodes = hierarchy(&scene.spheres, &order, leaf);
+            let nodes = hierarchy(
+                &scene.spheres,
+                &Order::Listed(Arc::new(order.clone())),
+                leaf,
+            );
             assert_eq!(nodes.len(), node_count(n, leaf));
             // The same tree on one thread.
             let pool = rayon::ThreadPoolBuilder::new()
@@ -672,7 +690,8 @@ mod tests {
                 .unwrap();
             let one = pool.install(|| {
                 let order = curve_order(&scene.spheres);
-                (hierarchy(&scene.spheres, &order, leaf), order)
+                let listed = Order::Listed(Arc::new(order.clone()));
+                (hierarchy(&scene.spheres, &listed, leaf), order)
             });
             assert!(one == (nodes.clone(), order.clone()));
             let mut seen = vec![0u32; n];
@@ -731,16 +750,22 @@ mod tests {
     fn culling_keeps_exactly_the_spheres_the_pyramid_meets() {
         let mut rng = SplitMix(7);
         let mut inside = 0;
-        for (n, copy_max) in [
-            (1, 0),
-            (5, 5),
-            (1000, 0),
-            (1000, 1000),
-            (20_000, CURVE_COPY_MAX),
+        // Past `copy_max`, packed spheres are copied packed and whole ones not at all.
+        for (n, copy_max, whole) in [
+            (1, 0, false),
+            (5, 5, false),
+            (1000, 0, false),
+            (1000, 0, true),
+            (1000, 1000, false),
+            (20_000, CURVE_COPY_MAX, false),
         ] {
-            let scene = scene(n);
+            let mut scene = scene(n);
+            if whole {
+                scene.spheres = Spheres::wide(scene.spheres.iter().collect());
+            }
             let index = SceneIndex::copying_up_to(&scene, copy_max);
-            assert_eq!(index.curve.is_some(), n <= copy_max);
+            assert_eq!(index.curve.is_some(), n <= copy_max || !whole);
+            assert_eq!(index.can_cull(), n > copy_max);
             for c in 0..12 {
                 let mut r = || rng.unit() * 2.0 - 1.0;
                 let far = if c % 3 == 0 { 300.0 } else { 30.0 };
@@ -769,7 +794,8 @@ mod tests {
                 assert_eq!(sorted, every, "{n} spheres, camera {c}");
                 // In the hierarchy's order, each once.
                 let mut at = vec![0; n];
-                for (p, &k) in index.order.iter().enumerate() {
+                for p in 0..n {
+                    let k = index.order.rank(p);
                     at[k as usize] = p;
                 }
                 assert!(got

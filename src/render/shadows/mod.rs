@@ -17,7 +17,7 @@ use super::lanes::prefetch;
 use super::simd::Isa;
 use super::sort::{sort_by_high_bits, PARALLEL};
 
-use super::tree::{Node, Shape};
+use super::tree::{Node, Order, Shape};
 use crate::camera::Camera;
 use crate::scene::{Slot, Spheres};
 
@@ -42,7 +42,7 @@ pub struct ShadowGrid {
     /// *position* there, which its cells list and its discs are stored by, so that the discs a
     /// cell lists (spheres near each other) lie near each other in memory, whatever the scene's
     /// order.
-    order: Arc<Vec<u32>>,
+    order: Order,
     /// Each sphere's top and its disc on the grid's plane ([`Disc`]), by position.
     discs: Vec<Disc>,
 }
@@ -94,7 +94,7 @@ impl Disc {
 impl ShadowGrid {
     /// Bins `spheres` for the light arriving from `to_light` (world, unit), numbering them by
     /// their positions in `order` (ranks, each once).
-    pub fn build(spheres: &Spheres, order: Arc<Vec<u32>>, to_light: DVec3) -> ShadowGrid {
+    pub fn build(spheres: &Spheres, order: Order, to_light: DVec3) -> ShadowGrid {
         debug_assert_eq!(order.len(), spheres.len(), "a position for every sphere");
         let axes = to_light.any_orthonormal_pair();
         let project = |c: DVec3| DVec2::new(c.dot(axes.0), c.dot(axes.1));
@@ -144,8 +144,8 @@ impl ShadowGrid {
         // them in sequence, not the spheres at random. The spheres are read in the hierarchy's
         // order, the one GATHER_AHEAD places on asked for each time.
         let disc_of = |p: usize, k: u32| {
-            if let Some(&ahead) = grid.order.get(p + GATHER_AHEAD) {
-                prefetch_sphere(spheres, ahead as usize);
+            if p + GATHER_AHEAD < grid.order.len() {
+                prefetch_sphere(spheres, grid.order.rank(p + GATHER_AHEAD) as usize);
             }
             let (center, radius) = spheres.ball(k as usize);
             let top = center.dot(to_light) + radius;
@@ -159,12 +159,10 @@ impl ShadowGrid {
                 (cells, u64::from(!top_order(disc.top)) << 32 | p as u64),
             )
         };
-        let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = grid
-            .order
-            .par_iter()
-            .enumerate()
+        let (discs, (cells, keys)): (Vec<Disc>, (Vec<u64>, Vec<u64>)) = (0..grid.order.len())
+            .into_par_iter()
             .with_min_len(PARALLEL)
-            .map(|(p, &k)| disc_of(p, k))
+            .map(|p| disc_of(p, grid.order.rank(p)))
             .unzip();
         grid.discs = discs;
         let mut keys = sort_by_high_bits(keys, 32);
@@ -272,7 +270,7 @@ pub enum Casters<'a> {
 pub struct Hierarchy<'a> {
     pub nodes: &'a [Node],
     pub shapes: &'a [Shape],
-    pub order: &'a [u32],
+    pub order: &'a Order,
     pub to_light: DVec3,
 }
 
@@ -321,7 +319,7 @@ fn no_grid() -> &'static ShadowGrid {
         always: Vec::new(),
         extent: 0.0,
         to_light: DVec3::Z,
-        order: Arc::new(Vec::new()),
+        order: Order::Positions(0),
         discs: Vec::new(),
     })
 }
@@ -418,7 +416,7 @@ impl<'a> FrameShadows<'a> {
     #[inline(always)]
     fn prefetch_blocker(&self, p: u32) {
         prefetch(&self.grid.discs[p as usize]);
-        let k = self.grid.order[p as usize];
+        let k = self.grid.order.rank(p as usize);
         match &self.centers {
             Some(all) => prefetch(&all[k as usize]),
             None => prefetch_sphere(self.spheres, k as usize),
@@ -524,8 +522,8 @@ pub(super) mod tests {
     }
 
     /// The ranks 0..n last first: a grid's order in which no sphere's position is its rank.
-    pub(in crate::render) fn reversed(n: usize) -> Arc<Vec<u32>> {
-        Arc::new((0..n as u32).rev().collect())
+    pub(in crate::render) fn reversed(n: usize) -> Order {
+        Order::Listed(Arc::new((0..n as u32).rev().collect()))
     }
 
     pub(in crate::render) fn cluster() -> Cluster {
@@ -708,8 +706,8 @@ pub(super) mod tests {
             for light in &c.lights {
                 let grid = &light.grid;
                 let to_light = -light.direction.normalize();
-                for (&k, &Disc { top, .. }) in grid.order.iter().zip(&grid.discs) {
-                    let s = c.spheres.get(k as usize);
+                for (p, &Disc { top, .. }) in grid.discs.iter().enumerate() {
+                    let s = c.spheres.get(grid.order.rank(p) as usize);
                     assert!(top as f64 >= s.center_world.dot(to_light) + s.radius);
                 }
                 let mut listed = vec![false; c.spheres.len()];
@@ -718,7 +716,7 @@ pub(super) mod tests {
                         let cell = grid.bins.cell(x, y);
                         highest_top_first(grid, cell);
                         let (ax, ay) = grid.axes;
-                        for &k in cell.iter().map(|&p| &grid.order[p as usize]) {
+                        for k in cell.iter().map(|&p| grid.order.rank(p as usize)) {
                             let p = c.spheres.get(k as usize).center_world;
                             let at =
                                 (DVec2::new(p.dot(ax), p.dot(ay)) - grid.origin) * grid.inv_cell;

@@ -192,7 +192,7 @@ fn walk<V: Lanes>(
                 if reach == 0 {
                     continue;
                 }
-                let k = order[p as usize];
+                let k = order.rank(p as usize);
                 blocked |= blocks_exactly(sh, point, own, k, reach, &mut last);
                 if lanes & !blocked == 0 {
                     return (blocked, last);
@@ -395,7 +395,8 @@ fn tree_walk<V: Lanes>(
         }
         let start = node.start as usize;
         let end = start + node.count as usize;
-        for (shape, &k) in tree.shapes[start..end].iter().zip(&tree.order[start..end]) {
+        for (p, shape) in (start..end).zip(&tree.shapes[start..end]) {
+            let k = tree.order.rank(p);
             let s = Vec4::from(*shape).as_dvec4();
             let (c, r) = (s.truncate(), s.w);
             let [(px, _), (py, _), (pt, _)] = reach(c, DVec3::ZERO);
@@ -637,8 +638,8 @@ mod tests {
             };
             let grid = ShadowGrid::build(&spheres, reversed(spheres.len()), -direction);
             let to_light = -camera.basis.to_view(direction);
-            // The grid's walk, and the hierarchy's of the same spheres (not copied along the
-            // curve, so that ranks are the spheres' indices).
+            // The grid's walk, and the hierarchy's of the same spheres (kept whole, not copied
+            // along the curve, so that ranks are the spheres' indices).
             let scene = Scene {
                 background: DVec3::ZERO,
                 ambient: 0.0,
@@ -647,7 +648,7 @@ mod tests {
                     color: DVec3::ONE,
                     shadows: true,
                 }],
-                spheres: spheres.clone(),
+                spheres: Spheres::wide(spheres.iter().collect()),
             };
             let index = SceneIndex::building(&scene, 0, true);
             let casters = [Casters::Grid(&grid), index.shadows_through_tree(0).unwrap()];
