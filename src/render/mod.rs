@@ -397,7 +397,7 @@ mod tests {
     use super::*;
     use crate::camera::Basis;
     use crate::scene::Light;
-    use crate::scene::Sphere;
+    use crate::scene::{Scene, Sphere, Spheres};
     use glam::DVec2;
 
     /// `spheres` under one shadowed light.
@@ -458,11 +458,12 @@ mod tests {
         }
     }
 
-    /// Spheres numbered along the index's curve (its copy, see `SceneIndex`) give the frames
-    /// of spheres numbered as in the scene, on every instruction path, and a ray that meets two
-    /// spheres at the same distance sees the one first in the scene, whichever comes first on
-    /// the curve: two equal spheres mirrored about the view axis meet the middle column's rays
-    /// at the same distance (where they overlap), listed in both orders; and a seeded cluster.
+    /// Spheres numbered along the index's curve (its copy, whole or packed, see `SceneIndex`)
+    /// give the frames of spheres numbered as in the scene, on every instruction path, and a
+    /// ray that meets two spheres at the same distance sees the one first in the scene,
+    /// whichever comes first on the curve: two equal spheres mirrored about the view axis meet
+    /// the middle column's rays at the same distance (where they overlap), listed in both
+    /// orders; and a seeded cluster.
     #[test]
     fn spheres_by_rank_render_the_frames_of_the_scenes_order() {
         let (red, green) = (DVec3::new(0.9, 0.1, 0.1), DVec3::new(0.1, 0.9, 0.1));
@@ -503,16 +504,29 @@ mod tests {
             adaptive: false,
         };
         for (spheres, first, reordered) in scenes {
-            let scene = lit(spheres);
+            let scene = lit(spheres.clone());
+            let whole = lit(Vec::new());
+            let whole = Scene {
+                spheres: Spheres::wide(spheres),
+                ..whole
+            };
+            // Copied whole, copied packed (past `copy_max`), and not copied (whole spheres past
+            // it: a rank is the scene index).
             let copied = SceneIndex::copying_up_to(&scene, usize::MAX);
-            let in_place = SceneIndex::copying_up_to(&scene, 0);
-            let ranks: Vec<u32> = (0..scene.spheres.len() as u32)
-                .map(|r| copied.ranks().scene_index(r))
-                .collect();
-            assert_eq!(ranks.windows(2).any(|w| w[0] > w[1]), reordered);
+            let packed = SceneIndex::copying_up_to(&scene, 0);
+            let in_place = SceneIndex::copying_up_to(&whole, 0);
+            let ranks = |index: &SceneIndex| -> Vec<u32> {
+                (0..scene.spheres.len() as u32)
+                    .map(|r| index.ranks().scene_index(r))
+                    .collect()
+            };
+            assert_eq!(ranks(&copied).windows(2).any(|w| w[0] > w[1]), reordered);
+            assert_eq!(ranks(&packed), ranks(&copied));
+            assert!(ranks(&in_place).windows(2).all(|w| w[0] < w[1]));
             for simd in Simd::ALL.into_iter().filter(|s| s.supported()) {
                 let mut r = Renderer::with_simd(simd).unwrap();
                 let frame = r.render_indexed(&camera, &copied, raster);
+                assert!(frame == r.render_indexed(&camera, &packed, raster));
                 assert!(frame == r.render_indexed(&camera, &in_place, raster));
                 if let Some(color) = first {
                     // The middle pixel is the first sphere's: its colour's strongest channel.

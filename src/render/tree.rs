@@ -1,13 +1,13 @@
 //! The sphere hierarchy's parts as its readers take them: a node's box, the spheres' order and
-//! a sphere's f32 shape. `world.rs` builds them; the walk of hidden spheres (`cull.rs`) and a frame's shadow
-//! rays before the light's grid is built (`shadows/`) read them.
+//! a sphere's f32 shape. `world.rs` builds them; the walk of hidden spheres (`cull.rs`) and a
+//! frame's shadow rays before the light's grid is built (`shadows/`) read them.
 
 use glam::{DVec3, Vec3, Vec4};
 use std::sync::Arc;
 
 /// A node's box, in f32 rounded outward from the spheres' f64 bounds; a leaf (`count` > 0)
-/// holds the spheres at positions `start..start + count` of the [`Order`], an inner node has its children at its own index + 1 and
-/// at `start`. 32 bytes.
+/// holds the spheres at positions `start..start + count` of the [`Order`], an inner node has
+/// its children at its own index + 1 and at `start`. 32 bytes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Node {
     pub(super) lo: [f32; 3],

@@ -20,9 +20,9 @@ use crate::camera::Camera;
 use crate::raster::Raster;
 use crate::scene::{Light, Scene, Sphere, Spheres};
 
-/// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's copy
-/// along the curve) from which a frame keeps only the spheres that may own a pixel, found by a
-/// walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
+/// Spheres a pixel (of a frame at one sample a pixel, of a scene larger than the index's whole
+/// copy along the curve) from which a frame keeps only the spheres that may own a pixel, found
+/// by a walk of the hierarchy per tile (`cull.rs`), instead of every sphere in view. The dense
 /// cluster, 2 cores, leaves of 32, median frames of five processes, not culled → culled: at 4.8
 /// a pixel (ten million at 1080p) 881 → 772 ms, and the peak 1638 → 1223 MB (the spheres in
 /// view are not all moved into columns). Since each tile's walk starts from the last frame's
@@ -37,7 +37,7 @@ pub const CULL_RATIO: f64 = 4.0;
 /// what the columns it spares save), and every later one with them.
 pub const FIRST_CULL_RATIO: f64 = 4.5;
 
-/// Spheres per leaf, in a scene copied along its curve (see [`SceneIndex`]).
+/// Spheres per leaf, in a scene copied whole along its curve (see [`SceneIndex`]).
 const LEAF: usize = 4;
 
 /// Spheres per leaf in a larger scene, whose node visits (a read from all over the tree each,
@@ -52,26 +52,27 @@ const LEAF_LARGE: usize = 128;
 
 /// A scene ready to render: its spheres in a hierarchy and its lights' shadow grids.
 ///
-/// The renderer numbers the spheres by their *rank*. In a scene of at most `CURVE_COPY_MAX`
-/// spheres, the index holds a copy of them along the hierarchy's Morton curve, and a rank is a
-/// place on it: a frame's reads of the spheres (into view coordinates, for shadow rays, for
-/// colours) then fall near each other in memory, not all over the scene. In a larger scene the
-/// copy would cost too much memory, and a rank is the scene index. Where the scene's order
-/// decides (which of two equally near spheres a ray sees), `Ranks::scene_index` gives it
-/// back.
+/// The renderer numbers the spheres by their *rank*. The index holds a copy of the spheres
+/// along the hierarchy's Morton curve, and a rank is a place on it: a frame's reads of the
+/// spheres (into view coordinates, for shadow rays, for colours, and of the walk's shapes)
+/// then fall near each other in memory, not all over the scene. Up to `CURVE_COPY_MAX` spheres
+/// the copy is whole (56 bytes a sphere, read without unpacking); past it, packed spheres are
+/// copied packed (20 bytes), and whole ones (a file of f64 values) are not copied, a rank then
+/// being the scene index. Where the scene's order decides (which of two equally near spheres a
+/// ray sees), `Ranks::scene_index` gives it back.
 pub struct SceneIndex<'a> {
     /// The scene indexed.
     pub scene: &'a Scene,
     /// The spheres by rank when that is not the scene's order, with each one's scene index.
     curve: Option<(Spheres, Vec<u32>)>,
     /// Whether the scene is past the copy of whole spheres (`CURVE_COPY_MAX`): its leaves are
-    /// larger, its frames may cull, and its shadow grids may wait.
+    /// larger, its frames may cull, and its shadow grids may wait for a frame.
     large: bool,
     nodes: Vec<Node>,
     /// Each sphere in the hierarchy's order as f32 (see [`Shape`]): what the walk of hidden
-    /// spheres (`cull.rs`) reads, a leaf's spheres side by side. Made by the first frame that
-    /// culls (16 bytes a sphere, in a scene too large for the copy along the curve), so that
-    /// a scene whose frames never cull does not pay for them.
+    /// spheres (`cull.rs`) reads, a leaf's spheres side by side. A copy whose every sphere is
+    /// f32 values is its own shapes; otherwise they are made by the first frame that culls (16
+    /// bytes a sphere), so that a scene whose frames never cull does not pay for them.
     shapes: OnceLock<Vec<Shape>>,
     /// The ranks of the spheres in the hierarchy's order, which its leaves index (and the
     /// shadow grids' cells, by position): over a copy, the positions.
@@ -91,28 +92,28 @@ pub struct SceneIndex<'a> {
 /// ray) 247 → 392 ms (docs/performance.md).
 pub const SHADOW_WALK_RATIO: f64 = 16.0;
 
-/// The most spheres a [`SceneIndex`] copies along its curve: 262,144 spheres take 15 MB more.
-/// A million would take 60 MB, past the peak a million spheres from PLY may use.
+/// The most spheres a [`SceneIndex`] copies whole along its curve: 262,144 spheres take 15 MB
+/// more. A million would take 56 MB; past it, packed spheres are copied packed (20 bytes a
+/// sphere, 200 MB at ten million, which then need no shapes made for the walk).
 pub const CURVE_COPY_MAX: usize = 1 << 18;
 
 impl<'a> SceneIndex<'a> {
-    /// The hierarchy and, in a scene small enough for the copy along the curve, the shadow
-    /// grids, built side by side on the rayon pool (and the large subtrees too) after the
-    /// hierarchy's order, by which both number the spheres: the same index as built on one
-    /// thread. In such a scene the curve's order is the copy's, and the hierarchy and grids
-    /// are built over the copy.
+    /// The hierarchy and the shadow grids, built side by side on the rayon pool (and the
+    /// large subtrees too) after the hierarchy's order, by which both number the spheres: the
+    /// same index as built on one thread. Over the copy along the curve, the curve's order is
+    /// the copy's, and the hierarchy and grids are built over the copy.
     pub fn new(scene: &'a Scene) -> SceneIndex<'a> {
         SceneIndex::copying_up_to(scene, CURVE_COPY_MAX)
     }
 
-    /// [`SceneIndex::new`], copying the spheres along the curve when there are at most
-    /// `copy_max` of them (the tests take both ways for the same scene).
+    /// [`SceneIndex::new`], copying the spheres whole along the curve when there are at most
+    /// `copy_max` of them (the tests take every way for the same scene).
     pub(super) fn copying_up_to(scene: &'a Scene, copy_max: usize) -> SceneIndex<'a> {
         SceneIndex::building(scene, copy_max, false)
     }
 
-    /// [`SceneIndex::new`] for frames of `raster`: in a scene too large for the copy along the
-    /// curve, of at least [`SHADOW_WALK_RATIO`] spheres a ray, the shadow grids are left for a
+    /// [`SceneIndex::new`] for frames of `raster`: in a scene past the copy of whole spheres,
+    /// of at least [`SHADOW_WALK_RATIO`] spheres a ray, the shadow grids are left for a
     /// second frame to build (if one comes), and the renderer's first frame walks the
     /// hierarchy for its shadow rays instead. The first frame comes sooner (ten million at
     /// 640×360: 1.9 → 1.2 s), a run of more frames takes about 0.2 s longer
@@ -125,8 +126,9 @@ impl<'a> SceneIndex<'a> {
         SceneIndex::building(scene, CURVE_COPY_MAX, lazy)
     }
 
-    /// The index, copying the spheres along the curve when there are at most `copy_max` of
-    /// them, its shadow grids left for a frame to build when `lazy` and not copied.
+    /// The index, copying the spheres whole along the curve when there are at most `copy_max`
+    /// of them, packed past it where they are packed; its shadow grids left for a frame to
+    /// build when `lazy` and past `copy_max`.
     pub(super) fn building(scene: &'a Scene, copy_max: usize, lazy: bool) -> SceneIndex<'a> {
         use rayon::prelude::*;
         let large = scene.spheres.len() > copy_max;
@@ -257,8 +259,8 @@ impl<'a> SceneIndex<'a> {
         (&self.nodes, shapes, &self.order)
     }
 
-    /// Whether frames may cull hidden spheres ([`SceneIndex::unhidden`]): in a scene too
-    /// large for the copy along the curve, where the spheres in view are many.
+    /// Whether frames may cull hidden spheres ([`SceneIndex::unhidden`]): in a scene past the
+    /// copy of whole spheres, where the spheres in view are many.
     pub(super) fn can_cull(&self) -> bool {
         self.large
     }
@@ -720,10 +722,10 @@ mod tests {
     }
 
     /// Frames cull hidden spheres from [`CULL_RATIO`] spheres a pixel up, at one sample a
-    /// pixel, in a scene not copied along its curve: over 200 pixels, the least whole number
-    /// of spheres at the ratio culls and one fewer does not.
+    /// pixel, in a scene past the copy of whole spheres: over 200 pixels, the least whole
+    /// number of spheres at the ratio culls and one fewer does not.
     #[test]
-    fn frames_cull_from_the_ratio_at_one_sample_in_a_scene_not_copied() {
+    fn frames_cull_from_the_ratio_at_one_sample_in_a_large_scene() {
         let raster = |samples| Raster {
             width: 20,
             height: 10,
@@ -732,15 +734,15 @@ mod tests {
         };
         let least = (200.0 * CULL_RATIO).ceil() as usize;
         let (at, below) = (scene(least), scene(least - 1));
-        let in_place = SceneIndex::copying_up_to(&at, 0);
+        let large = SceneIndex::copying_up_to(&at, 0);
         let copied = SceneIndex::copying_up_to(&at, CURVE_COPY_MAX);
-        assert!(in_place.culls(raster(1), CULL_RATIO));
+        assert!(large.culls(raster(1), CULL_RATIO));
         assert!(!SceneIndex::copying_up_to(&below, 0).culls(raster(1), CULL_RATIO));
-        assert!(!in_place.culls(raster(2), CULL_RATIO));
+        assert!(!large.culls(raster(2), CULL_RATIO));
         assert!(!copied.culls(raster(1), CULL_RATIO));
-        assert!(in_place.culls(raster(1), 0.0));
-        assert!(!in_place.culls(raster(1), f64::INFINITY));
-        assert!(!in_place.culls(raster(1), f64::NAN));
+        assert!(large.culls(raster(1), 0.0));
+        assert!(!large.culls(raster(1), f64::INFINITY));
+        assert!(!large.culls(raster(1), f64::NAN));
     }
 
     /// The culled list is exactly the spheres that pass the pyramid test one by one, for

@@ -263,8 +263,8 @@ pub enum Casters<'a> {
 
 /// The scene's hierarchy as a shadow packet walks it (`occlusion.rs`): its nodes (the root
 /// first), the spheres' shapes and ranks in its order, and the unit vector towards the light
-/// (world). A renderer's first frame takes its shadow rays through it, so that a scene too
-/// large for the copy along the curve shows its first frame without waiting for the grid
+/// (world). A renderer's first frame takes its shadow rays through it, so that a scene past the
+/// whole copy along the curve shows its first frame without waiting for the grid
 /// (docs/performance.md).
 #[derive(Clone, Copy)]
 pub struct Hierarchy<'a> {
