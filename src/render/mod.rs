@@ -544,7 +544,8 @@ mod tests {
     /// outside, from inside (spheres around, behind and holding the COP), through a shifted and
     /// a zoomed COP; twins at the same place (ties); the cluster a million times smaller, a
     /// million times larger, a million units from the origin, among f32's subnormals and past
-    /// f32's range; rasters whose tiles end inside them. Each path's culling renderer renders
+    /// f32's range; each kept whole or packed (copied along the curve, an f32 sphere its own
+    /// shape); rasters whose tiles end inside them. Each path's culling renderer renders
     /// them all in turn, so every walk starts from the seeds of another scene, camera or raster;
     /// each shot from outside is rendered twice, the second from its own seeds. And the walk
     /// does cull: outside the cluster it keeps a fraction, and from its own seeds fewer.
@@ -623,8 +624,6 @@ mod tests {
             samples: 1,
             adaptive: false,
         });
-        // Beside the everyday scales: f32's subnormals (the walk's shapes lose their digits)
-        // and past f32's range (its shapes are infinite).
         // Each scene's spheres as given (their colours not levels: kept whole, not copied
         // along the curve); rounded to f32 values and levels (copied packed, each sphere its own
         // shape); or so rounded but for the ground's radius (packed, the copy's shapes made).
@@ -634,6 +633,8 @@ mod tests {
             F32,
             Mixed,
         }
+        // Beside the everyday scales: f32's subnormals (the walk's shapes lose their digits)
+        // and past f32's range (its shapes are infinite).
         let places = [
             (1.0, DVec3::ZERO, Form::Given),
             (1.0, DVec3::ZERO, Form::F32),

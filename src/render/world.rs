@@ -863,6 +863,44 @@ mod tests {
         }
     }
 
+    /// Past `copy_max`, a packed copy of spheres that are all f32 values is its own shapes (no
+    /// more are made), each rank's shape its sphere's values; one f64 value among them, and
+    /// every sphere gets its made shape.
+    #[test]
+    fn a_copy_of_f32_spheres_is_its_own_shapes() {
+        let given = scene(3000);
+        let rounded: Spheres = given
+            .spheres
+            .iter()
+            .map(|s| Sphere {
+                center_world: s.center_world.as_vec3().as_dvec3(),
+                radius: f64::from(s.radius as f32),
+                color: s.color,
+            })
+            .collect();
+        let mut mixed: Vec<Sphere> = rounded.iter().collect();
+        mixed[1234].radius += 1e-12;
+        for (spheres, own) in [(rounded, true), (mixed.into(), false)] {
+            let scene = Scene {
+                spheres,
+                ..given.clone()
+            };
+            let index = SceneIndex::copying_up_to(&scene, 0);
+            let (_, shapes, order) = index.tree();
+            assert_eq!(index.shapes.get().is_none(), own);
+            let ranks = index.ranks();
+            for (p, shape) in shapes.iter().enumerate() {
+                let k = ranks.scene_index(order.rank(p)) as usize;
+                let ball = scene.spheres.ball(k);
+                let want = match own {
+                    true => [ball.0.x, ball.0.y, ball.0.z, ball.1].map(|v| v as f32),
+                    false => shape_of(ball),
+                };
+                assert_eq!(shape.map(f32::to_bits), want.map(f32::to_bits), "rank {p}");
+            }
+        }
+    }
+
     /// A sphere's shape within f32's range holds it (its centre no farther from the sphere's
     /// than its radius is beyond the sphere's, the distance in f64 taken 10⁻¹⁵ larger), and
     /// the shape's inner ball lies inside the sphere: over centres of every size and sign, on
