@@ -132,29 +132,27 @@ impl<'a> SceneIndex<'a> {
     pub(super) fn building(scene: &'a Scene, copy_max: usize, lazy: bool) -> SceneIndex<'a> {
         use rayon::prelude::*;
         let large = scene.spheres.len() > copy_max;
-        let curve = if large {
+        let scene_index = curve_order(&scene.spheres);
+        let copy = match large {
             // Packed spheres are copied packed; whole ones (a file of doubles) are not copied.
-            scene.spheres.color_codes().map(|_| {
-                let scene_index = curve_order(&scene.spheres);
-                let copy = scene.spheres.packed_along(&scene_index);
-                (copy.expect("packed spheres"), scene_index)
-            })
-        } else {
-            let scene_index = curve_order(&scene.spheres);
-            let copy: Vec<Sphere> = scene_index
-                .par_iter()
-                .with_min_len(PARALLEL)
-                .map(|&k| scene.spheres.get(k as usize))
-                .collect();
-            Some((Spheres::wide(copy), scene_index))
+            true => scene.spheres.packed_along(&scene_index),
+            false => {
+                let copy: Vec<Sphere> = scene_index
+                    .par_iter()
+                    .with_min_len(PARALLEL)
+                    .map(|&k| scene.spheres.get(k as usize))
+                    .collect();
+                Some(Spheres::wide(copy))
+            }
         };
-        // Over the copy, the hierarchy's order is the copy's own. The grids number the
-        // spheres by it too, so it comes first.
+        // Over the copy, the hierarchy's order is the copy's own; without one, the curve's
+        // over the scene. The grids number the spheres by it too, so it comes first.
+        let n = scene.spheres.len();
+        let (curve, order) = match copy {
+            Some(copy) => (Some((copy, scene_index)), Order::Positions(n)),
+            None => (None, Order::Listed(Arc::new(scene_index))),
+        };
         let spheres = curve.as_ref().map_or(&scene.spheres, |(copy, _)| copy);
-        let order = match curve {
-            Some(_) => Order::Positions(spheres.len()),
-            None => Order::Listed(Arc::new(curve_order(spheres))),
-        };
         let (nodes, shadows) = rayon::join(
             || {
                 let leaf = if large { LEAF_LARGE } else { LEAF };
@@ -229,7 +227,8 @@ impl<'a> SceneIndex<'a> {
     }
 
     /// The hierarchy's nodes (the root first), the spheres' shapes and their ranks, both in
-    /// its order, which its leaves index. The first call makes the shapes, on the pool.
+    /// its order, which its leaves index. Unless the copy is its own shapes, the first call
+    /// makes them, on the pool.
     pub(super) fn tree(&self) -> (&[Node], &[Shape], &Order) {
         use rayon::prelude::*;
         // Spheres copied along the curve as f32 values are their own shapes.
