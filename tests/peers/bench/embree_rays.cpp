@@ -13,6 +13,7 @@
 // rtcIntersect1 and rtcOccluded1 (packets of eight were no faster), on two threads taking
 // bands of four rows. Prints the time to read the file and build the scene, and the median
 // and least of seven frames. Only the rays: no shading, no pixels, no hashing, f32 throughout.
+// `tests/peers/embree_round.py` times it beside campath's frames of the same scenes, in rounds.
 #include <embree3/rtcore.h>
 
 #include <algorithm>
