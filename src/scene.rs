@@ -517,6 +517,49 @@ impl Spheres {
         }
     }
 
+    /// Appends `count` spheres of f32 centre and radius and byte levels (k / 255), `row(k)` the
+    /// k-th, made on the rayon pool: the store [`Spheres::extend_from_slice`] makes of the same
+    /// spheres, without making them. Whether it did: not where the spheres are whole, where
+    /// the first block would widen them, or where a row is None (then none is appended).
+    pub(crate) fn extend_plain(
+        &mut self,
+        count: usize,
+        row: impl Fn(usize) -> Option<([f32; 4], [u8; 3])> + Sync,
+    ) -> bool {
+        let Store::Packed(p) = &mut self.0 else {
+            return false;
+        };
+        // Such spheres add no f64 values and no palette entry, so the cost rises only where
+        // `extend_from_slice`'s first block would find it (the spheres before them costly).
+        if p.room > p.balls.capacity() && p.costly(count, 0, 0) {
+            return false;
+        }
+        let start = p.balls.len();
+        let room = p.room.max(start + count) - start;
+        p.balls.reserve(room);
+        p.colors.reserve(room);
+        let missing = AtomicBool::new(false);
+        let mut columns = (std::mem::take(&mut p.balls), std::mem::take(&mut p.colors));
+        let rows = (0..count).into_par_iter().with_min_len(4096);
+        columns.par_extend(rows.map(|k| match row(k) {
+            // `color_code` of (r, g, b) / 255: the levels themselves.
+            Some((ball, [r, g, b])) => {
+                (ball, u32::from(r) << 16 | u32::from(g) << 8 | u32::from(b))
+            }
+            None => {
+                missing.store(true, Ordering::Relaxed);
+                ([0.0; 4], UNCODED)
+            }
+        }));
+        (p.balls, p.colors) = columns;
+        if missing.into_inner() {
+            p.balls.truncate(start);
+            p.colors.truncate(start);
+            return false;
+        }
+        true
+    }
+
     /// Packed spheres taken in `order` (a permutation of their indices), still packed, made on
     /// the rayon pool: the renderer's copy of a large scene along its curve, 20 bytes a sphere.
     /// None where the spheres are whole.
@@ -806,6 +849,93 @@ mod tests {
         assert!(matches!(store.0, Store::Packed(_)));
         assert_eq!(store.bytes(), 20 * (n + 2) + 2 * 32 + 2 * 24);
         assert!(store.iter().skip(2).eq(one_colour));
+    }
+
+    /// Rows of f32 centres and radii and byte levels pack as the same spheres do, after
+    /// spheres of every kind, with and without room asked for; and are not taken where the
+    /// spheres are whole, where their first block widens them, or where a row is missing.
+    #[test]
+    fn plain_rows_pack_as_their_spheres_do() {
+        let mut gen = SplitMix(0x91a1);
+        let n = 9000;
+        let odd = [
+            -0.0,
+            0.0,
+            f32::from_bits(1),
+            f32::MAX,
+            -f32::MAX,
+            f32::MIN_POSITIVE,
+        ];
+        let rows: Vec<([f32; 4], [u8; 3])> = (0..n)
+            .map(|k| {
+                let mut ball = [0.0f32; 4].map(|_| (gen.unit() * 64.0 - 32.0) as f32);
+                ball[k % 3] = if k % 5 == 0 { odd[k % 6] } else { ball[k % 3] };
+                ball[3] = ball[3].abs() + f32::from_bits(1);
+                (ball, [0, 1, 2].map(|_| (gen.unit() * 256.0) as u8))
+            })
+            .collect();
+        let spheres: Vec<Sphere> = (rows.iter())
+            .map(|&(b, l)| Sphere {
+                center_world: DVec3::new(b[0].into(), b[1].into(), b[2].into()),
+                radius: b[3].into(),
+                color: DVec3::from_array(l.map(|k| f64::from(k) / 255.0)),
+            })
+            .collect();
+        let ground = Sphere {
+            center_world: DVec3::new(0.1, -1e5, 0.0),
+            radius: 1e5,
+            color: DVec3::new(0.55, 0.55, 0.5),
+        };
+        let befores = [vec![], vec![ground, ground], spheres[..100].to_vec()];
+        for (b, before) in befores.iter().enumerate() {
+            for room in [false, true] {
+                let mut want = Spheres::new();
+                for s in before {
+                    want.push(*s);
+                }
+                if room {
+                    want.reserve(n);
+                }
+                let mut got = want.clone();
+                want.extend_from_slice(&spheres);
+                assert!(got.extend_plain(n, |k| Some(rows[k])), "{b} {room}");
+                got.shrink_to_fit();
+                want.shrink_to_fit();
+                assert!(matches!(got.0, Store::Packed(_)), "{b} {room}");
+                assert_eq!((got.len(), got.bytes()), (want.len(), want.bytes()));
+                assert_eq!(got.color_codes(), want.color_codes(), "{b} {room}");
+                for k in 0..want.len() {
+                    assert_eq!(bits(&got.get(k)), bits(&want.get(k)), "{b} {room}: {k}");
+                }
+            }
+        }
+        let unchanged =
+            |mut store: Spheres,
+             count: usize,
+             row: &(dyn Fn(usize) -> Option<([f32; 4], [u8; 3])> + Sync)| {
+                let before: Vec<[u64; 7]> = store.iter().map(|s| bits(&s)).collect();
+                assert!(!store.extend_plain(count, row));
+                let after: Vec<[u64; 7]> = store.iter().map(|s| bits(&s)).collect();
+                assert_eq!(before, after);
+            };
+        // Whole spheres; a row missing; and spheres of f64 values whose first block of rows
+        // would widen them (as `extend_from_slice` does).
+        unchanged(Spheres::wide(spheres[..10].to_vec()), n, &|k| Some(rows[k]));
+        unchanged(Spheres::from(spheres[..10].to_vec()), n, &|k| {
+            (k != n - 1).then(|| rows[k])
+        });
+        let mut wide = Spheres::new();
+        for k in 0..4000 {
+            wide.push(Sphere {
+                radius: 0.1 + k as f64 * 1e-12,
+                ..ground
+            });
+        }
+        wide.reserve(200);
+        let mut widened = wide.clone();
+        widened.extend_from_slice(&spheres[..200]);
+        assert!(matches!(widened.0, Store::Wide(_)), "the case widens");
+        unchanged(wide, 200, &|k| Some(rows[k]));
     }
 
     /// Spheres of f64 values are kept whole, 56 bytes each (packed, each read would take a

@@ -15,7 +15,9 @@ use std::sync::{Mutex, PoisonError};
 use super::{Checker, SphereFile};
 use crate::format::sphere_files::Sink;
 use crate::format::sphere_files::{self, FileProblem, Listing};
-use crate::format::{self, ColorBySpec, LightSpec, Pair, RadiusBySpec, SphereFileSpec, SphereSpec};
+use crate::format::{
+    self, ColorBySpec, LightSpec, Pair, PlainSphere, RadiusBySpec, SphereFileSpec, SphereSpec,
+};
 use crate::scene::{Light, Scene, Sphere, Spheres};
 
 impl Checker {
@@ -211,6 +213,25 @@ impl Sink<Sphere> for Packing<'_> {
     fn put_all(&mut self, items: impl IndexedParallelIterator<Item = Sphere>) {
         self.0.par_extend(items, &mut self.1);
     }
+
+    /// A block of plain rows packed as they are read, where every one passes; else none is
+    /// taken, and each goes through the check, which names what is wrong.
+    fn put_plain(&mut self, count: usize, row: impl Fn(usize) -> PlainSphere + Sync) -> bool {
+        self.0.extend_plain(count, |k| {
+            let p = row(k);
+            plain_passing(&p).then_some((p.ball, p.levels))
+        })
+    }
+}
+
+/// Whether plain row `p` passes every test of [`passing`] (so its sphere is `p.spec()`'s, as
+/// [`Spheres::extend_plain`] packs it): an f32 value that is finite is within ±[`LARGEST`],
+/// and a level k / 255 is in [0, 1], so only finite values and a radius above 0 are asked.
+///
+/// [`LARGEST`]: super::LARGEST
+#[inline]
+fn plain_passing(p: &PlainSphere) -> bool {
+    p.ball.iter().all(|v| v.is_finite()) && p.ball[3] > 0.0
 }
 
 /// The spheres that failed their check, noted from the pool's tasks as they were checked.

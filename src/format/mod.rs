@@ -369,6 +369,31 @@ pub struct SphereSpec {
     pub color: Option<Triple>,
 }
 
+/// A sphere file's row in a float PLY's usual form, as read: a centre and radius of f32 values
+/// and a colour of three byte levels (k / 255). [`PlainSphere::spec`] is the [`SphereSpec`]
+/// the same row gives through the file's column rules.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlainSphere {
+    /// x, y, z and radius.
+    pub ball: [f32; 4],
+    /// Red, green and blue.
+    pub levels: [u8; 3],
+}
+
+impl PlainSphere {
+    /// The row as a sphere's spec: each value widened exactly, each level k as k / 255.
+    #[cfg(test)]
+    pub(crate) fn spec(&self) -> SphereSpec {
+        let [x, y, z, r] = self.ball.map(f64::from);
+        let [red, green, blue] = self.levels.map(|k| f64::from(k) / 255.0);
+        SphereSpec {
+            center: (x, y, z),
+            radius: r,
+            color: Some((red, green, blue)),
+        }
+    }
+}
+
 /// Parses RON text. Optional fields may be written bare (`tp: (0.0, 0.0, 0.0)`), without `Some`.
 /// A long `spheres` list is parsed in pieces in parallel (`pieces.rs`), its plain pieces
 /// without RON (`quick.rs`), on one thread as on several; the result, and any error, is the

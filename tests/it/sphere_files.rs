@@ -209,6 +209,73 @@ fn bad_vertices_across_binary_blocks_are_named_in_file_order() {
     assert!(named[3].contains(&want), "{want:?} in:\n{err}");
 }
 
+/// A float PLY (f32 centres and radii, byte colours: its blocks of good vertices are packed
+/// as they are read) hashes as the same values written as doubles, and its bad vertices are
+/// named as theirs are, in file order, wherever the blocks fall.
+#[test]
+fn a_float_ply_reads_as_the_same_values_in_doubles() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    // Three blocks of vertices of 4 floats and 3 bytes.
+    let n = 2 * campath::internals::BLOCK_BYTES / 19 + 1000;
+    let narrow = |v: f64| f64::from(v as f32);
+    let mut all: Vec<S> = (spheres(n).into_iter())
+        .map(|(c, r, rgb)| (c.map(narrow), narrow(r), rgb))
+        .collect();
+    let write = |all: &[S]| {
+        let floats =
+            "property float x\nproperty float y\nproperty float z\nproperty float radius\n";
+        let header = ply_header("binary_little_endian", all.len());
+        let mut binary = header
+            .replace(
+                "property double x\nproperty double y\nproperty double z\nproperty double radius\n",
+                floats,
+            )
+            .into_bytes();
+        for s in all {
+            let ([x, y, z], r, rgb) = *s;
+            for v in [x, y, z, r] {
+                binary.extend((v as f32).to_le_bytes());
+            }
+            binary.extend(rgb);
+        }
+        write_files(&t.join("doubles"), all);
+        std::fs::create_dir_all(t.join("floats/clouds")).unwrap();
+        std::fs::write(t.join("floats/clouds/b.ply"), binary).unwrap();
+        for side in ["doubles", "floats"] {
+            std::fs::write(t.join(side).join("b.ron"), shot("", &["clouds/b.ply"])).unwrap();
+        }
+    };
+    write(&all);
+    let floats = hash(&t.join("floats"), "b.ron");
+    assert_eq!(floats, hash(&t.join("doubles"), "b.ron"));
+    // The spheres moved by a third of a pixel hash otherwise: the comparison can fail.
+    let mut off = all.clone();
+    for s in &mut off {
+        s.0[0] += 0.05;
+    }
+    write_files(&t.join("doubles"), &off);
+    assert_ne!(floats, hash(&t.join("doubles"), "b.ron"));
+    all[7].1 = 0.0;
+    all[n / 2].0[0] = f64::NAN;
+    all[n / 2 + 1].0[2] = f64::INFINITY;
+    all[n - 2].1 = -0.5;
+    write(&all);
+    let named = |side: &str| {
+        let o = campath(&t.join(side), &["check", "b.ron"], &[]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        let err = stderr(&o);
+        let lines: Vec<String> = (err.lines())
+            .filter(|l| l.contains(": vertex "))
+            .map(str::to_string)
+            .collect();
+        lines
+    };
+    let want = named("doubles");
+    assert_eq!(want.len(), 4, "{want:?}");
+    assert_eq!(named("floats"), want);
+}
+
 /// Every problem of a file is named, in file order: rows that cannot be read do not hide the
 /// problems before or after them, in CSV and in ASCII PLY (whose vertices keep their numbers).
 #[test]

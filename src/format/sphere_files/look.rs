@@ -459,6 +459,14 @@ impl Layout {
         }
     }
 
+    /// Whether a row's sphere is its x, y, z and radius columns as they are and its colour
+    /// columns as bytes (each level k as k / 255), by no other rule: what a
+    /// [`crate::format::PlainSphere`] holds.
+    pub(super) fn plain(&self) -> bool {
+        matches!(self.radius, Radius::Column)
+            && matches!(self.color, Color::Columns { bytes: true })
+    }
+
     /// Reads the colour columns as bytes, each level k as k / 255.
     pub(super) fn color_bytes(&mut self) {
         if let Color::Columns { bytes } = &mut self.color {

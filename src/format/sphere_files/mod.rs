@@ -17,7 +17,7 @@ use std::path::Path;
 
 use rayon::iter::{IndexedParallelIterator, ParallelExtend};
 
-use super::{SphereFileSpec, SphereSpec};
+use super::{PlainSphere, SphereFileSpec, SphereSpec};
 
 mod csv;
 mod header;
@@ -44,6 +44,13 @@ pub trait Sink<T>: Send {
     fn put(&mut self, item: T);
     /// Appends `items`, in order, made on the rayon pool.
     fn put_all(&mut self, items: impl IndexedParallelIterator<Item = T>);
+    /// Appends `count` plain rows, `row(k)` the k-th, made on the rayon pool, where the sink
+    /// takes them as they are (a binary PLY's block whose rows are all [`PlainSphere`]s):
+    /// whether it did. Where not, it holds what it held, and the rows go through `make`.
+    fn put_plain(&mut self, count: usize, row: impl Fn(usize) -> PlainSphere + Sync) -> bool {
+        let _ = (count, row);
+        false
+    }
 }
 
 impl<T: Send> Sink<T> for Vec<T> {

@@ -9,13 +9,13 @@ use rayon::prelude::*;
 
 use super::header::quoted;
 use super::listing::{FileProblem, Listing, Location};
-use super::look::{Layout, SLOTS};
+use super::look::{Layout, BLUE, RADIUS, RED, SLOTS, X};
 use super::ply_header::{self, fixed_offsets, Element, Header, Property, Scalar};
 use super::text::{text_records, Rows};
 use super::{Sink, BLOCK_BYTES};
 use crate::error::PROBLEMS_SHOWN;
 use crate::format::blocks::{self, Blocks};
-use crate::format::{SphereFileSpec, SphereSpec};
+use crate::format::{PlainSphere, SphereFileSpec, SphereSpec};
 
 /// The fewest vertices a pool task parses: a small file stays one task.
 const TASK_VERTICES: usize = 4096;
@@ -55,7 +55,8 @@ pub(super) fn ply_from<T: Send>(
             // its place, named afterwards in file order; only the first ones named are kept
             // (the rest counted), so a million bad rows cost no message each.
             let unread = Mutex::new((BinaryHeap::new(), 0usize));
-            let read = fixed_vertices(&mut file, v.count, stride, out, |i, vertex| {
+            let plain = plain_offsets(layout, &at);
+            let read = fixed_vertices(&mut file, v.count, stride, plain, out, |i, vertex| {
                 let mut fields = [0.0; SLOTS];
                 for (f, at) in fields.iter_mut().zip(at) {
                     if let Some((o, t)) = at {
@@ -169,6 +170,7 @@ fn fixed_vertices<T: Send>(
     body: &mut (impl Read + Send),
     count: usize,
     stride: usize,
+    plain: Option<[usize; 7]>,
     out: &mut impl Sink<T>,
     vertex: impl Fn(usize, &[u8]) -> T + Sync,
 ) -> Result<(), FileProblem> {
@@ -185,7 +187,14 @@ fn fixed_vertices<T: Send>(
         let (first, got) = (b * per_block, blocks.this.len());
         let next = (b + 1 < n).then(|| want(b + 1));
         let parse = |block: &[u8]| {
-            let whole = block[..got - got % stride].par_chunks_exact(stride);
+            let block = &block[..got - got % stride];
+            if let Some(at) = plain {
+                let row = |k: usize| plain_row(&block[k * stride..][..stride], &at);
+                if out.put_plain(block.len() / stride, row) {
+                    return;
+                }
+            }
+            let whole = block.par_chunks_exact(stride);
             out.put_all(
                 (whole.with_min_len(TASK_VERTICES))
                     .enumerate()
@@ -199,6 +208,29 @@ fn fixed_vertices<T: Send>(
         read.map_err(FileProblem::io)?;
     }
     Ok(())
+}
+
+/// Where a vertex's x, y, z, radius, red, green and blue start, when it is a [`PlainSphere`]
+/// to `layout`'s rules: those seven columns f32 and bytes (`at`: each slot's offset and type),
+/// and no other slot read.
+fn plain_offsets(layout: &Layout, at: &[Option<(usize, Scalar)>; SLOTS]) -> Option<[usize; 7]> {
+    let want = |slot: usize| match slot {
+        X..=RADIUS => Some(Scalar::F32),
+        RED..=BLUE => Some(Scalar::U8),
+        _ => None,
+    };
+    let typed = (0..SLOTS).all(|k| at[k].map(|(_, t)| t) == want(k));
+    (layout.plain() && typed).then(|| std::array::from_fn(|k| at[k].map_or(0, |(o, _)| o)))
+}
+
+/// The [`PlainSphere`] of a vertex whose seven fields start at `at`.
+#[inline(always)]
+fn plain_row(vertex: &[u8], at: &[usize; 7]) -> PlainSphere {
+    let f = |k: usize| f32::from_le_bytes(std::array::from_fn(|b| vertex[at[k] + b]));
+    PlainSphere {
+        ball: [f(0), f(1), f(2), f(3)],
+        levels: [vertex[at[4]], vertex[at[5]], vertex[at[6]]],
+    }
 }
 
 /// Vertices with lists among their properties, one at a time.

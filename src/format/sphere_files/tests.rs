@@ -900,3 +900,164 @@ fn a_million_unknown_types_cost_no_message_each() {
         format!("and {more} more row(s) that cannot be read")
     );
 }
+
+/// A sink that takes every block of plain rows, keeping them; or (`take` false) none, so the
+/// rows go through `make`.
+struct Plain {
+    rows: Vec<PlainSphere>,
+    specs: Vec<SphereSpec>,
+    take: bool,
+    blocks: usize,
+}
+
+impl Sink<SphereSpec> for Plain {
+    fn count(&self) -> usize {
+        self.rows.len() + self.specs.len()
+    }
+
+    fn room(&mut self, _: usize) {}
+
+    fn put(&mut self, item: SphereSpec) {
+        self.specs.push(item);
+    }
+
+    fn put_all(&mut self, items: impl IndexedParallelIterator<Item = SphereSpec>) {
+        self.specs.par_extend(items);
+    }
+
+    fn put_plain(&mut self, count: usize, row: impl Fn(usize) -> PlainSphere + Sync) -> bool {
+        self.blocks += 1;
+        if self.take {
+            self.rows.extend((0..count).map(row));
+        }
+        self.take
+    }
+}
+
+/// The bits of a spec's numbers: NaN's too.
+fn spec_bits(s: &SphereSpec) -> [u64; 7] {
+    let (x, y, z) = s.center;
+    let (r, g, b) = s.color.expect("a colour");
+    [x, y, z, s.radius, r, g, b].map(f64::to_bits)
+}
+
+/// A binary PLY of f32 x, y, z and radius and byte colours (among other columns, read past)
+/// hands its vertices as plain rows, a block at a time, each row's spec the very spec (to the
+/// bit, NaN, −0, subnormals and the largest f32 among them) that the same vertex gives through
+/// the columns' rules; any other type or rule hands none.
+#[test]
+fn float_ply_vertices_are_plain_rows_of_the_same_specs() {
+    let props = "property float x\nproperty float y\nproperty int id\nproperty float z\nproperty float radius\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n";
+    let stride = 4 * 5 + 3;
+    let n = 2 * BLOCK_BYTES / stride + 777;
+    let odd = [
+        0.0,
+        -0.0,
+        f32::MIN_POSITIVE,
+        f32::from_bits(1),
+        f32::MAX,
+        -f32::MAX,
+        f32::NAN,
+        f32::INFINITY,
+        1.0e-3,
+        -7.25,
+    ];
+    let mut rng = crate::splitmix::SplitMix(0x9_1a1e);
+    let mut body = header("binary_little_endian", props, n);
+    for i in 0..n {
+        let mut f = [0.0f32; 4].map(|_| (rng.unit() * 200.0 - 100.0) as f32);
+        f[3] = f[3].abs();
+        if i % 97 == 0 {
+            f[i / 97 % 4] = odd[i / 97 % odd.len()];
+        }
+        let [x, y, z, r] = f;
+        for v in [x, y] {
+            body.extend(v.to_le_bytes());
+        }
+        body.extend((i as i32).to_le_bytes());
+        for v in [z, r] {
+            body.extend(v.to_le_bytes());
+        }
+        body.extend([0, 1, 2].map(|_| (rng.unit() * 256.0) as u8));
+    }
+    let read = |take: bool| {
+        let mut out = Plain {
+            rows: Vec::new(),
+            specs: Vec::new(),
+            take,
+            blocks: 0,
+        };
+        let len = body.len() as u64;
+        let spec = SphereFileSpec::default();
+        let make = |_: usize, s: &SphereSpec| s.clone();
+        let listing = listed(&mut out, |out, listing| {
+            ply_body::ply_from(&body[..], len, &spec, out, &make, listing)
+        });
+        assert!(listing.problems.is_empty(), "{:?}", listing.problems);
+        out
+    };
+    let (plain, made) = (read(true), read(false));
+    assert_eq!((plain.blocks, made.blocks), (3, 3), "a block at a time");
+    assert_eq!((plain.rows.len(), plain.specs.len()), (n, 0));
+    assert_eq!(made.specs.len(), n);
+    for (i, (row, spec)) in plain.rows.iter().zip(&made.specs).enumerate() {
+        assert_eq!(spec_bits(&row.spec()), spec_bits(spec), "vertex {i}");
+    }
+    // Not plain: a double, colours in floats, a rule for the radius; and (the control) the
+    // same columns as above.
+    let others = [
+        (
+            props.replace("float z", "double z"),
+            SphereFileSpec::default(),
+            0,
+        ),
+        (
+            props.replace("uchar", "float"),
+            SphereFileSpec::default(),
+            0,
+        ),
+        (
+            props.to_string(),
+            SphereFileSpec {
+                radius_by: Some(crate::format::RadiusBySpec::Range {
+                    column: "id".into(),
+                    range: (0.0, 10.0),
+                    radii: (1.0, 2.0),
+                }),
+                ..SphereFileSpec::default()
+            },
+            0,
+        ),
+        (props.to_string(), SphereFileSpec::default(), 1),
+    ];
+    for (props, spec, blocks) in others {
+        let mut body = header("binary_little_endian", &props, 5);
+        for i in 0..5u8 {
+            for line in props.lines() {
+                match line.split(' ').nth(1) {
+                    Some("float") => body.extend((f32::from(i) + 1.0).to_le_bytes()),
+                    Some("double") => body.extend((f64::from(i) + 1.0).to_le_bytes()),
+                    Some("int") => body.extend(i32::from(i).to_le_bytes()),
+                    _ => body.push(i),
+                }
+            }
+        }
+        let mut out = Plain {
+            rows: Vec::new(),
+            specs: Vec::new(),
+            take: true,
+            blocks: 0,
+        };
+        let len = body.len() as u64;
+        let make = |_: usize, s: &SphereSpec| s.clone();
+        let listing = listed(&mut out, |out, listing| {
+            ply_body::ply_from(&body[..], len, &spec, out, &make, listing)
+        });
+        assert!(
+            listing.problems.is_empty(),
+            "{props}: {:?}",
+            listing.problems
+        );
+        assert_eq!((out.blocks, out.count()), (blocks, 5), "{props}");
+    }
+}
