@@ -370,8 +370,8 @@ pub struct SphereSpec {
 }
 
 /// A sphere file's row in a float PLY's usual form, as read: a centre and radius of f32 values
-/// and a colour of three byte levels (k / 255). [`PlainSphere::spec`] is the [`SphereSpec`]
-/// the same row gives through the file's column rules.
+/// and a colour of three byte levels (k / 255). Its sphere is the one the same row gives
+/// through the file's column rules (`PlainSphere::spec`, in the tests, says which).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlainSphere {
     /// x, y, z and radius.
