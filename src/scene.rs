@@ -180,12 +180,18 @@ fn same(a: DVec3, b: DVec3) -> bool {
 fn color_code(c: DVec3) -> Option<u32> {
     let [r, g, b] = c.to_array();
     match (byte_level(r), byte_level(g), byte_level(b)) {
-        (Some(r), Some(g), Some(b)) => Some(r << 16 | g << 8 | b),
+        (Some(r), Some(g), Some(b)) => Some(levels_code([r, g, b])),
         _ => {
             let [r, g, b] = c.to_array().map(|v| level_in(srgb_levels(), v));
-            Some(SRGB | r? << 16 | g? << 8 | b?)
+            Some(SRGB | levels_code([r?, g?, b?]))
         }
     }
+}
+
+/// The code of three 8-bit levels, red highest ([`color_code`]'s, less its flags).
+#[inline]
+fn levels_code([r, g, b]: [u32; 3]) -> u32 {
+    r << 16 | g << 8 | b
 }
 
 /// A sphere's centre and radius as f32, when each is one (finite, and the same to the bit).
@@ -280,6 +286,16 @@ impl Packed {
         let n = self.balls.len() + more;
         let exceptions = (self.wide.len() + wide) * 32 + (self.palette.len() + colors) * 24;
         n >= WIDEN_FROM && exceptions > n * EXCEPTIONS_MAX
+    }
+
+    /// Room for `more` spheres, and the room asked for before ([`Spheres::reserve`]) where
+    /// that is more: where the next block's first sphere goes.
+    fn make_room(&mut self, more: usize) -> usize {
+        let start = self.balls.len();
+        let room = self.room.max(start + more) - start;
+        self.balls.reserve(room);
+        self.colors.reserve(room);
+        start
     }
 
     fn push(&mut self, s: &Sphere) {
@@ -481,10 +497,7 @@ impl Spheres {
         if first && costly(p, block) {
             return self.widen(block);
         }
-        let start = p.balls.len();
-        let room = p.room.max(start + block.len()) - start;
-        p.balls.reserve(room);
-        p.colors.reserve(room);
+        let start = p.make_room(block.len());
         // Each sphere packed where it can be, marked where not (a NaN ball, no colour code):
         // the wide values and the palette are then given in order, on this thread.
         let marked = AtomicBool::new(false);
@@ -534,18 +547,13 @@ impl Spheres {
         if p.room > p.balls.capacity() && p.costly(count, 0, 0) {
             return false;
         }
-        let start = p.balls.len();
-        let room = p.room.max(start + count) - start;
-        p.balls.reserve(room);
-        p.colors.reserve(room);
+        let start = p.make_room(count);
         let missing = AtomicBool::new(false);
         let mut columns = (std::mem::take(&mut p.balls), std::mem::take(&mut p.colors));
         let rows = (0..count).into_par_iter().with_min_len(4096);
         columns.par_extend(rows.map(|k| match row(k) {
             // `color_code` of (r, g, b) / 255: the levels themselves.
-            Some((ball, [r, g, b])) => {
-                (ball, u32::from(r) << 16 | u32::from(g) << 8 | u32::from(b))
-            }
+            Some((ball, levels)) => (ball, levels_code(levels.map(u32::from))),
             None => {
                 missing.store(true, Ordering::Relaxed);
                 ([0.0; 4], UNCODED)
